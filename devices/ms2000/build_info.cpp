@@ -1,0 +1,1 @@
+#include "devices/ms2000/build_info.hpp"

@@ -1,0 +1,78 @@
+#pragma once
+// Builds MS-2000 command lines. Pure: no I/O. The only place where wire text for commands is made.
+// Every argument is checked: no CR, LF or other control byte can reach the serial line, numbers
+// must be finite, axis letters must be letters. Positions are given in micrometres and sent in the
+// controller's unit, tenths of a micron ("M X=1234.5" moves X to 123.45 um).
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include <boost/system/result.hpp>
+
+namespace gw::devices::ms2000 {
+
+// The shape of reply a command expects; parse_reply() needs it because "/" answers "N"/"B".
+enum class reply_shape : std::uint8_t {
+    standard,   // ":A", ":A <values>", ":A X=..", ":X=.. A", "X=.. :A", or ":N-<code>"
+    status,     // "N" or "B" (STATUS, "/")
+    multiline,  // CR-separated lines ending CR LF (BUILD X, INFO, WHO); ":N-<code>" is still an error
+    two_phase,  // SAVESET "SS Z": ":" at once, "A" + CR LF when the flash write is done
+};
+
+struct command {
+    std::string verb;  // as sent, upper case: "W", "MOVE", "\\", "SS"
+    std::string wire;  // the exact bytes to write, ending with CR
+    reply_shape expect = reply_shape::standard;
+    bool is_halt = false;     // HALT jumps the driver's queue
+    bool long_reply = false;  // multiline or two_phase: the driver uses its longer timeout
+};
+
+// One argument: "X", "X=1.5", "X?", "X+", "X-". `axis` is any letter (axes X Y Z F, but also the
+// parameter letters of ARRAY, RM, SCANR, TTL, ...); it is sent upper case.
+struct argument {
+    enum class op : std::uint8_t { bare, set, query, plus, minus };
+    char axis = 'X';
+    op kind = op::bare;
+    double value = 0;  // for op::set; sent with up to `decimals` decimals, trailing zeros dropped
+    int decimals = 4;
+};
+
+struct axis_position {
+    char axis = 'X';
+    double micrometres = 0;
+};
+
+// Generic builder: "<VERB> <arg> <arg>\r". The verb must be 1..12 characters of [A-Z0-9] or one of
+// the single-character commands / \ ! @ ~; anything else is error::invalid_argument.
+boost::system::result<command> make_command(std::string_view verb, std::span<const argument> args,
+                                            reply_shape expect = reply_shape::standard);
+
+// One line typed by an expert ("W X Y"): printable ASCII only (0x20..0x7E), at most
+// max_raw_command_bytes, no CR/LF anywhere (a single trailing CR is not accepted either: the builder
+// adds it). The reply shape is inferred from the verb (/, STATUS -> status; BU X, INFO, WHO ->
+// multiline; SS Z -> two_phase).
+inline constexpr std::size_t max_raw_command_bytes = 256;
+boost::system::result<command> raw_command(std::string_view line);
+
+// Formats a number the way the controller reads it: fixed notation, at most `decimals` decimals,
+// trailing zeros and a trailing dot dropped, "-0" printed as "0". Empty result for NaN or infinity.
+std::string format_number(double value, int decimals);
+
+// Typed builders; the comment quotes the wire form.
+command status();                                                          // "/"
+command halt();                                                            // "\"
+command where(std::string_view axes);                                      // "W X Y Z"
+command version();                                                         // "V"
+command build_x();                                                         // "BU X"
+command who();                                                             // "WHO"
+command query(std::string_view verb, std::string_view axes);              // "CNTS X? Y?"
+boost::system::result<command> move(std::span<const axis_position> to);   // "M X=1234.5 Y=-10"
+boost::system::result<command> move_relative(std::span<const axis_position> by);  // "R X=10"
+boost::system::result<command> here(std::span<const axis_position> at);   // "H X=0 Y=0"
+command zero();                                                            // "Z"
+command home(std::string_view axes);                                       // "! X Y"
+command save_settings();                                                   // "SS Z" (two_phase)
+
+}  // namespace gw::devices::ms2000

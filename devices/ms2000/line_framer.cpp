@@ -1,0 +1,1 @@
+#include "devices/ms2000/line_framer.hpp"

@@ -1,0 +1,1 @@
+#include "devices/ms2000/report_frame.hpp"

@@ -1,0 +1,2 @@
+#include <cstdio>
+int main() { std::puts("ms2000-sim: not built yet"); return 1; }
