@@ -1,1 +1,239 @@
 #include "devices/ms2000/command.hpp"
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <utility>
+#include <vector>
+
+#include "devices/ms2000/error.hpp"
+
+namespace gw::devices::ms2000 {
+
+namespace {
+
+constexpr std::size_t max_verb_chars = 12;
+// Keeps the wire short and std::to_chars' fixed output small: no stage travels 10^12 tenths of a micron.
+constexpr double max_abs_value = 1e12;
+constexpr int max_decimals = 9;
+
+bool is_upper_alnum(char c) {
+    return (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9');
+}
+bool is_letter(char c) {
+    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z');
+}
+char to_upper(char c) {
+    return (c >= 'a' && c <= 'z') ? static_cast<char>(c - 'a' + 'A') : c;
+}
+bool is_single_char_verb(char c) {
+    return c == '/' || c == '\\' || c == '!' || c == '@' || c == '~';
+}
+
+std::string upper(std::string_view text) {
+    std::string out(text);
+    std::transform(out.begin(), out.end(), out.begin(), to_upper);
+    return out;
+}
+
+// The verb as sent (upper case), or empty when it is not a verb the controller could read.
+std::string checked_verb(std::string_view verb) {
+    if (verb.size() == 1 && is_single_char_verb(verb[0])) return std::string(verb);
+    if (verb.empty() || verb.size() > max_verb_chars) return {};
+    std::string out = upper(verb);
+    if (!std::all_of(out.begin(), out.end(), is_upper_alnum)) return {};
+    return out;
+}
+
+bool is_halt_verb(std::string_view verb) {
+    return verb == "\\" || verb == "HALT";
+}
+
+command finish(std::string verb, std::string wire, reply_shape expect) {
+    command c;
+    c.is_halt = is_halt_verb(verb);
+    c.verb = std::move(verb);
+    c.wire = std::move(wire);
+    c.wire.push_back('\r');
+    c.expect = expect;
+    c.long_reply = expect == reply_shape::multiline || expect == reply_shape::two_phase;
+    return c;
+}
+
+// "W X Y Z" from "XYZ" or "X Y Z": only letters are used, so nothing else can reach the wire.
+command verb_with_axes(std::string verb, std::string_view axes, std::string_view suffix,
+                       reply_shape expect = reply_shape::standard) {
+    std::string wire = verb;
+    for (char c : axes) {
+        if (!is_letter(c)) continue;
+        wire.push_back(' ');
+        wire.push_back(to_upper(c));
+        wire.append(suffix);
+    }
+    return finish(std::move(verb), std::move(wire), expect);
+}
+
+boost::system::result<command> positions(std::string_view verb, std::span<const axis_position> list) {
+    if (list.empty()) return make_error_code(error::invalid_argument);
+    std::vector<argument> args;
+    args.reserve(list.size());
+    for (const axis_position& p : list) {
+        const char axis = to_upper(p.axis);
+        for (const argument& earlier : args) {
+            if (earlier.axis == axis) return make_error_code(error::invalid_argument);  // "M X=1 X=2"
+        }
+        // Micrometres to the controller's tenths of a micron; 3 decimals is far below encoder resolution.
+        args.push_back({axis, argument::op::set, p.micrometres * 10.0, 3});
+    }
+    return make_command(verb, args);
+}
+
+// Upper-cased first word of `rest` and what follows it (leading spaces skipped).
+std::pair<std::string, std::string_view> next_word(std::string_view rest) {
+    const auto start = rest.find_first_not_of(' ');
+    if (start == std::string_view::npos) return {{}, {}};
+    rest.remove_prefix(start);
+    const auto end = std::min(rest.find(' '), rest.size());
+    return {upper(rest.substr(0, end)), rest.substr(end)};
+}
+
+reply_shape infer_shape(std::string_view verb, std::string_view args) {
+    const auto [first, after] = next_word(args);
+    if (verb == "/" || verb == "STATUS") return reply_shape::status;
+    // "BU" answers the bare build name, "BU X" the multi-line list; "BU Y?"/"BU Z?" answer ":A ..".
+    if ((verb == "BU" || verb == "BUILD") && (first.empty() || first == "X")) return reply_shape::multiline;
+    if (verb == "INFO" || verb == "I" || verb == "WHO" || verb == "N") return reply_shape::multiline;
+    if ((verb == "SS" || verb == "SAVESET") && first == "Z") return reply_shape::two_phase;
+    return reply_shape::standard;
+}
+
+}  // namespace
+
+std::string format_number(double value, int decimals) {
+    if (!std::isfinite(value)) return {};
+    decimals = std::clamp(decimals, 0, max_decimals);
+    // Fixed notation of a double needs at most 309 integer digits, the sign and the decimals.
+    std::array<char, 352> buffer{};
+    const auto [end, ec] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), value,
+                                         std::chars_format::fixed, decimals);
+    if (ec != std::errc{}) return {};
+    std::string text(buffer.data(), end);
+    if (text.find('.') != std::string::npos) {
+        while (text.back() == '0')
+            text.pop_back();
+        if (text.back() == '.') text.pop_back();
+    }
+    if (text == "-0") text = "0";
+    return text;
+}
+
+boost::system::result<command> make_command(std::string_view verb, std::span<const argument> args,
+                                            reply_shape expect) {
+    std::string checked = checked_verb(verb);
+    if (checked.empty()) return make_error_code(error::invalid_argument);
+    std::string wire = checked;
+    for (const argument& a : args) {
+        if (!is_letter(a.axis)) return make_error_code(error::invalid_argument);
+        wire.push_back(' ');
+        wire.push_back(to_upper(a.axis));
+        switch (a.kind) {
+            case argument::op::bare:
+                break;
+            case argument::op::query:
+                wire.push_back('?');
+                break;
+            case argument::op::plus:
+                wire.push_back('+');
+                break;
+            case argument::op::minus:
+                wire.push_back('-');
+                break;
+            case argument::op::set: {
+                if (!std::isfinite(a.value) || std::fabs(a.value) > max_abs_value || a.decimals < 0 ||
+                    a.decimals > max_decimals) {
+                    return make_error_code(error::invalid_argument);
+                }
+                wire.push_back('=');
+                wire += format_number(a.value, a.decimals);
+                break;
+            }
+            default:
+                return make_error_code(error::invalid_argument);
+        }
+    }
+    return finish(std::move(checked), std::move(wire), expect);
+}
+
+boost::system::result<command> raw_command(std::string_view line) {
+    if (line.empty() || line.size() > max_raw_command_bytes) return make_error_code(error::invalid_argument);
+    for (char c : line) {
+        const auto byte = static_cast<unsigned char>(c);
+        if (byte < 0x20 || byte > 0x7E) return make_error_code(error::invalid_argument);
+    }
+    const auto start = line.find_first_not_of(' ');
+    if (start == std::string_view::npos) return make_error_code(error::invalid_argument);
+    std::string_view rest = line.substr(start);
+    while (!rest.empty() && rest.back() == ' ')
+        rest.remove_suffix(1);
+
+    // "/" and "\" may be followed directly by arguments; other verbs end at the first space.
+    const std::size_t verb_end = is_single_char_verb(rest[0]) ? 1 : std::min(rest.find(' '), rest.size());
+    std::string verb = checked_verb(rest.substr(0, verb_end));
+    if (verb.empty()) return make_error_code(error::invalid_argument);
+    const std::string_view args = rest.substr(verb_end);
+    std::string wire = verb;
+    wire.append(args);
+    const reply_shape expect = infer_shape(verb, args);
+    return finish(std::move(verb), std::move(wire), expect);
+}
+
+command status() {
+    return finish("/", "/", reply_shape::status);
+}
+command halt() {
+    return finish("\\", "\\", reply_shape::standard);
+}
+command where(std::string_view axes) {
+    return verb_with_axes("W", axes, "");
+}
+command version() {
+    return finish("V", "V", reply_shape::standard);
+}
+command build_x() {
+    return finish("BU", "BU X", reply_shape::multiline);
+}
+command who() {
+    return finish("WHO", "WHO", reply_shape::multiline);
+}
+
+command query(std::string_view verb, std::string_view axes) {
+    // The verb comes from code, not from a user; characters that could not be a verb are dropped.
+    std::string checked;
+    for (char c : verb) {
+        if (is_upper_alnum(to_upper(c)) && checked.size() < max_verb_chars) checked.push_back(to_upper(c));
+    }
+    if (verb.size() == 1 && is_single_char_verb(verb[0])) checked.assign(verb);
+    return verb_with_axes(std::move(checked), axes, "?");
+}
+
+boost::system::result<command> move(std::span<const axis_position> to) {
+    return positions("M", to);
+}
+boost::system::result<command> move_relative(std::span<const axis_position> by) {
+    return positions("R", by);
+}
+boost::system::result<command> here(std::span<const axis_position> at) {
+    return positions("H", at);
+}
+command zero() {
+    return finish("Z", "Z", reply_shape::standard);
+}
+command home(std::string_view axes) {
+    return verb_with_axes("!", axes, "");
+}
+command save_settings() {
+    return finish("SS", "SS Z", reply_shape::two_phase);
+}
+
+}  // namespace gw::devices::ms2000

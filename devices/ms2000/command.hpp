@@ -61,18 +61,18 @@ boost::system::result<command> raw_command(std::string_view line);
 std::string format_number(double value, int decimals);
 
 // Typed builders; the comment quotes the wire form.
-command status();                                                          // "/"
-command halt();                                                            // "\"
-command where(std::string_view axes);                                      // "W X Y Z"
-command version();                                                         // "V"
-command build_x();                                                         // "BU X"
-command who();                                                             // "WHO"
-command query(std::string_view verb, std::string_view axes);              // "CNTS X? Y?"
-boost::system::result<command> move(std::span<const axis_position> to);   // "M X=1234.5 Y=-10"
+command status();                                                                 // "/"
+command halt();                                                                   // "\"
+command where(std::string_view axes);                                             // "W X Y Z"
+command version();                                                                // "V"
+command build_x();                                                                // "BU X"
+command who();                                                                    // "WHO"
+command query(std::string_view verb, std::string_view axes);                      // "CNTS X? Y?"
+boost::system::result<command> move(std::span<const axis_position> to);           // "M X=1234.5 Y=-10"
 boost::system::result<command> move_relative(std::span<const axis_position> by);  // "R X=10"
-boost::system::result<command> here(std::span<const axis_position> at);   // "H X=0 Y=0"
-command zero();                                                            // "Z"
-command home(std::string_view axes);                                       // "! X Y"
-command save_settings();                                                   // "SS Z" (two_phase)
+boost::system::result<command> here(std::span<const axis_position> at);           // "H X=0 Y=0"
+command zero();                                                                   // "Z"
+command home(std::string_view axes);                                              // "! X Y"
+command save_settings();                                                          // "SS Z" (two_phase)
 
 }  // namespace gw::devices::ms2000

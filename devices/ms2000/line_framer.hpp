@@ -14,7 +14,7 @@
 namespace gw::devices::ms2000 {
 
 class line_framer {
-public:
+  public:
     static constexpr std::size_t default_max_line_bytes = 8192;  // INFO is over 1023 characters
 
     explicit line_framer(std::size_t max_line_bytes = default_max_line_bytes);
@@ -31,10 +31,11 @@ public:
 
     std::uint64_t discarded_bytes() const { return discarded_bytes_; }
 
-private:
+  private:
     std::size_t max_line_bytes_;
     std::string partial_;
     bool overflowing_ = false;
+    bool overflow_cr_ = false;  // while overflowing: the last discarded byte was CR
     std::uint64_t discarded_bytes_ = 0;
 };
 

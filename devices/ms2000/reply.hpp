@@ -23,8 +23,8 @@
 namespace gw::devices::ms2000 {
 
 struct axis_value {
-    char axis = 'X';             // upper case
-    std::string text;            // as received: "7.500000", "N", "" for "X="
+    char axis = 'X';               // upper case
+    std::string text;              // as received: "7.500000", "N", "" for "X="
     std::optional<double> number;  // when text is a number
 };
 
@@ -39,7 +39,7 @@ struct reply {
     std::string raw;                  // the line as received
 
     std::optional<double> number(std::size_t index) const;  // values[index] as a number
-    const axis_value* axis(char letter) const;               // case-insensitive, nullptr if absent
+    const axis_value* axis(char letter) const;              // case-insensitive, nullptr if absent
 };
 
 // Returns error::unrecognized_reply for a line that fits no shape of `expected`.

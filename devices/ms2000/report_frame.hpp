@@ -34,7 +34,7 @@ std::uint8_t axis_id(char axis);     // 'X' -> 0x18; 0 if the letter has no id
 std::vector<std::uint8_t> encode_report(const report_frame& frame, report_format format);
 
 class report_decoder {
-public:
+  public:
     static constexpr std::size_t max_axes = last_axis_id - first_axis_id + 1;
 
     // expected_axes: the controller's motor axis count if known (frames of another size are
@@ -46,14 +46,30 @@ public:
 
     std::uint64_t frames_decoded() const { return frames_decoded_; }
     std::uint64_t bytes_skipped() const { return bytes_skipped_; }
+    // Bytes that went into decoded frames (ASCII: with their CR LF). Every byte fed is exactly one of
+    // consumed, skipped or buffered.
+    std::uint64_t bytes_consumed() const { return bytes_consumed_; }
+    std::size_t buffered() const { return pending_.size(); }
+    // Drops the buffered bytes (counted as skipped); the counters are kept.
     void reset();
 
-private:
+    // Longest ASCII frame accepted: 8 x "X=-2147483648 " and the CR LF fit comfortably.
+    static constexpr std::size_t max_ascii_line_bytes = 160;
+
+  private:
     report_format format_;
     std::size_t expected_axes_;
     std::vector<std::uint8_t> pending_;  // bytes of the frame being assembled (bounded)
     std::uint64_t frames_decoded_ = 0;
     std::uint64_t bytes_skipped_ = 0;
+    std::uint64_t bytes_consumed_ = 0;
+    // ASCII only: what the LF right after a CR belongs to.
+    enum class after_cr : std::uint8_t { nothing, frame, garbage } after_cr_ = after_cr::nothing;
+    bool discarding_ = false;  // ASCII only: inside an overlong line, skipping up to its end
+
+    void feed_binary(std::span<const std::uint8_t> bytes, std::vector<report_frame>& frames);
+    void feed_ascii(std::span<const std::uint8_t> bytes, std::vector<report_frame>& frames);
+    bool accept(const report_frame& frame, std::uint8_t last_id) const;
 };
 
 }  // namespace gw::devices::ms2000
