@@ -1,0 +1,192 @@
+#pragma once
+// One MS-2000 controller behind one serial port (plus its optional report port).
+//
+// Thread safety: every public member may be called from any thread; it posts to the controller's
+// own strand (made from the executor given to the constructor), where all state lives. Observer
+// callbacks run on that strand. Create it with std::make_shared; handlers keep it alive until
+// stop() has failed every pending command and its timers and reads have ended.
+//
+// Protocol discipline: exactly one command in flight; replies are matched to commands strictly in
+// order; stale input is discarded before each command; HALT jumps the queue; polls never pile up
+// (at most one poll round, and user commands go ahead of the poll's next step).
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <boost/asio/any_completion_handler.hpp>
+#include <boost/asio/any_io_executor.hpp>
+#include <boost/asio/async_result.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/system/error_code.hpp>
+
+#include "devices/ms2000/command.hpp"
+#include "devices/ms2000/line_framer.hpp"
+#include "devices/ms2000/reply.hpp"
+#include "devices/ms2000/report_frame.hpp"
+#include "devices/serial/controller_observer.hpp"
+#include "devices/serial/controller_settings.hpp"
+#include "devices/serial/controller_snapshot.hpp"
+#include "devices/serial/log_limiter.hpp"
+#include "devices/serial/serial_port.hpp"
+
+namespace spdlog {
+class logger;
+}
+
+namespace gw::devices {
+
+class controller : public std::enable_shared_from_this<controller> {
+  public:
+    using completion_signature = void(boost::system::error_code, ms2000::reply);
+    using completion_handler = boost::asio::any_completion_handler<completion_signature>;
+
+    controller(const boost::asio::any_io_executor& ex, controller_settings settings,
+               std::weak_ptr<controller_observer> observer = {});
+    ~controller();
+
+    controller(const controller&) = delete;
+    controller& operator=(const controller&) = delete;
+
+    // Opens the port and identifies the controller; reconnects by itself after a disconnect.
+    void start();
+    // Closes the ports and fails every pending command with error::cancelled.
+    void stop();
+    void set_observer(std::weak_ptr<controller_observer> observer);
+
+    const std::string& id() const { return settings_.id; }
+    const controller_settings& settings() const { return settings_; }
+
+    // Sends one command and completes with its parsed reply. Errors: error::not_connected,
+    // error::queue_full, error::timeout, error::disconnected, error::cancelled,
+    // error::unrecognized_reply, and error::controller_rejected with the parsed ":N-<code>" reply.
+    // HALT's ":N-21" completes with success. The completion runs on the handler's associated
+    // executor (the controller's strand if it has none). Works with callbacks, use_future and
+    // use_awaitable.
+    template <typename CompletionToken>
+    auto async_command(ms2000::command cmd, std::string request_id, CompletionToken&& token) {
+        return boost::asio::async_initiate<CompletionToken, completion_signature>(
+            [self = shared_from_this()](auto handler, ms2000::command c, std::string rid) {
+                self->submit(std::move(c), std::move(rid), completion_handler(std::move(handler)));
+            },
+            token, std::move(cmd), std::move(request_id));
+    }
+
+    // Delivers a copy of the current snapshot (from the strand) to `handler`, which runs on the strand.
+    void get_snapshot(std::function<void(controller_snapshot)> handler);
+
+  private:
+    using internal_handler = std::function<void(boost::system::error_code, const ms2000::reply&)>;
+
+    struct pending {
+        ms2000::command cmd;
+        std::string request_id;
+        completion_handler user;    // set for user commands
+        internal_handler internal;  // set for the driver's own (identify, poll)
+    };
+
+    struct in_flight {
+        pending job;
+        std::uint64_t sequence = 0;
+        bool written = false;  // lines before the write completed are stale
+        std::chrono::steady_clock::time_point started;
+    };
+
+    enum class poll_step : std::uint8_t { idle, where, status, axis_status };
+
+    void submit(ms2000::command cmd, std::string request_id, completion_handler handler);
+    void on_submit(pending job);
+
+    // Connection life cycle.
+    void do_connect();
+    void do_stop();
+    void schedule_reconnect();
+    void disconnect(boost::system::error_code ec, const char* what);
+    void fail_all(boost::system::error_code ec);
+    void arm_presence_check();
+
+    // Main port I/O.
+    void do_read(std::uint64_t generation);
+    void on_read(std::uint64_t generation, boost::system::error_code ec, std::size_t bytes);
+    void on_line(const std::string& line);
+    void pump();
+    std::optional<pending> take_next();
+    void on_write(std::uint64_t sequence, boost::system::error_code ec);
+    void on_timeout(std::uint64_t sequence);
+    void finish(boost::system::error_code ec, std::optional<ms2000::reply> reply, const std::string& raw);
+    void complete(pending& job, boost::system::error_code ec, ms2000::reply reply);
+
+    // Identification and polling.
+    void enqueue_internal(ms2000::command cmd, const char* tag, internal_handler handler);
+    void identify();
+    void on_identified();
+    void arm_poll_timer();
+    std::optional<pending> next_poll_command();
+    void on_poll_reply(poll_step step, std::size_t axis_index, boost::system::error_code ec,
+                       const ms2000::reply& reply);
+    std::string motor_axes() const;
+
+    // Report port.
+    void open_report_port();
+    void do_report_read(std::uint64_t generation);
+    void on_report_read(std::uint64_t generation, boost::system::error_code ec, std::size_t bytes);
+    void close_report_port();
+
+    // Events.
+    void publish_snapshot();
+    void note_error(int code, std::string name, std::string text);
+    void trace(const pending& job, std::chrono::microseconds latency, boost::system::error_code ec,
+               const std::optional<ms2000::reply>& reply, const std::string& raw);
+    void log_error(const char* what, boost::system::error_code ec);
+
+    controller_settings settings_;
+    boost::asio::strand<boost::asio::any_io_executor> strand_;
+    std::weak_ptr<controller_observer> observer_;
+    std::shared_ptr<spdlog::logger> log_;
+
+    serial_port port_;
+    std::uint64_t generation_ = 0;  // bumped on every close, so old read handlers are ignored
+    std::array<char, 512> read_buffer_{};
+    ms2000::line_framer framer_;
+    std::vector<std::string> lines_;
+
+    boost::asio::steady_timer command_timer_;
+    boost::asio::steady_timer resync_timer_;
+    boost::asio::steady_timer reconnect_timer_;
+    boost::asio::steady_timer poll_timer_;
+    boost::asio::steady_timer presence_timer_;
+    std::chrono::milliseconds backoff_;
+
+    std::optional<in_flight> in_flight_;
+    std::uint64_t next_sequence_ = 1;
+    bool resyncing_ = false;
+    std::deque<pending> halts_;
+    std::deque<pending> internal_queue_;
+    std::deque<pending> user_queue_;
+    poll_step poll_step_ = poll_step::idle;
+    bool poll_due_ = false;
+    std::size_t poll_axis_ = 0;
+
+    serial_port report_port_;
+    std::uint64_t report_generation_ = 0;
+    std::array<std::uint8_t, 512> report_buffer_{};
+    std::optional<ms2000::report_decoder> decoder_;
+    std::vector<ms2000::report_frame> frames_;
+    std::uint64_t report_sequence_ = 0;
+    std::uint64_t ttl_sequence_ = 0;
+
+    controller_snapshot snapshot_;
+    std::optional<controller_snapshot> published_;
+    log_limiter error_limiter_;
+    std::uint64_t stale_lines_ = 0;
+    bool stopped_ = false;
+};
+
+}  // namespace gw::devices

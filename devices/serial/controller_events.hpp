@@ -1,0 +1,58 @@
+#pragma once
+// Events a controller publishes besides its snapshot. Plain values.
+
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <boost/system/error_code.hpp>
+
+#include "devices/ms2000/reply.hpp"
+
+namespace gw::devices {
+
+// One encoder report frame from the TTL_REPORT module's SERIAL OUT port (one TTL trigger).
+struct report_event {
+    struct axis {
+        char letter = 'X';
+        std::int32_t counts = 0;
+        std::optional<double> position_um;  // counts / counts_per_mm * 1000, if CNTS is known
+    };
+    std::string controller_id;
+    std::uint64_t sequence = 0;  // 1, 2, 3 ... since the controller object was created
+    std::chrono::steady_clock::time_point steady_time;
+    std::chrono::system_clock::time_point system_time;
+    std::vector<axis> axes;
+    std::uint64_t bytes_skipped = 0;  // the decoder's running count of bytes that fit no frame
+};
+
+// An unsolicited serial position report on the main port (TTL IN0 mode 5 / RT M+):
+// "T:   400    0.0    0.1".
+struct ttl_event {
+    struct axis {
+        char letter = 'X';
+        double position_um = 0;
+    };
+    std::string controller_id;
+    std::uint64_t sequence = 0;
+    std::chrono::steady_clock::time_point steady_time;
+    std::chrono::system_clock::time_point system_time;
+    double controller_ms = 0;  // the controller's own time stamp
+    std::vector<axis> axes;    // letters assumed in hardware order (RM Y axis mask unknown to us)
+};
+
+// One finished command, user or internal (identify, poll).
+struct command_trace {
+    std::string controller_id;
+    std::string request_id;  // as given to async_command; "poll" / "identify" for the driver's own
+    bool internal = false;
+    std::string wire;       // escaped: "W X Y Z\r"
+    std::string raw_reply;  // escaped, empty if none arrived
+    boost::system::error_code error;
+    std::optional<ms2000::reply> reply;    // when a reply was parsed
+    std::chrono::microseconds latency{0};  // write start to completion
+};
+
+}  // namespace gw::devices

@@ -1,0 +1,31 @@
+#pragma once
+// Settings of one controller (one serial port). A plain value; gateway/config.cpp fills it.
+
+#include <chrono>
+#include <cstddef>
+#include <string>
+
+namespace gw::devices {
+
+struct controller_settings {
+    std::string id;           // "stage1": logger "ms2000.stage1", and the id in every event
+    std::string port;         // "/dev/ttyUSB0" or a stable symlink
+    unsigned baud = 9600;     // 9600, 19200, 28800, 38400, 57600, 115200
+    std::string report_port;  // optional SERIAL OUT port of the TTL_REPORT module ("" = none)
+
+    // Positions and busy state are polled at this interval; zero disables polling.
+    std::chrono::milliseconds poll_interval{100};
+    std::chrono::milliseconds command_timeout{1000};
+    std::chrono::milliseconds long_reply_timeout{5000};  // SS Z, BU X, INFO
+    // Quiet time after a timeout before the next command is written, so a late reply is discarded
+    // instead of being taken for the next command's reply.
+    std::chrono::milliseconds resync_delay{50};
+    std::size_t queue_limit = 64;  // user commands waiting (HALT and polls do not count)
+
+    std::chrono::milliseconds reconnect_min{100};
+    std::chrono::milliseconds reconnect_max{5000};
+    // The device node is checked this often, so a vanished adapter is seen even without I/O.
+    std::chrono::milliseconds presence_check{250};
+};
+
+}  // namespace gw::devices

@@ -1,0 +1,75 @@
+#pragma once
+// The typed state of one controller as the driver last saw it. A plain value, copied to observers.
+
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "devices/ms2000/build_info.hpp"
+
+namespace gw::devices {
+
+enum class connection_state : std::uint8_t {
+    stopped,       // stop() was called (or start() not yet)
+    disconnected,  // port closed; a reconnect is scheduled
+    identifying,   // port open, V / BU X / CNTS ... in progress
+    connected,     // identified; polling
+};
+std::string_view to_string(connection_state s);
+
+enum class report_port_state : std::uint8_t {
+    none,    // no report port configured
+    closed,  // configured but not open (controller not connected, or open failed)
+    open,
+};
+std::string_view to_string(report_port_state s);
+
+struct controller_identity {
+    std::string version;      // "9.52" (parse_version), or the raw reply text if it has another form
+    std::string version_raw;  // ":A Version: USB-9.52 "
+    ms2000::build_info build;
+};
+
+struct axis_state {
+    char axis = 'X';
+    std::optional<double> position_um;     // from W, tenths of a micron / 10
+    bool busy = false;                     // RS <axis>? while "/" says B
+    std::optional<double> counts_per_mm;   // CNTS <axis>?
+    std::optional<double> lower_limit_mm;  // SL <axis>?
+    std::optional<double> upper_limit_mm;  // SU <axis>?
+
+    bool operator==(const axis_state&) const = default;
+};
+
+struct controller_error_info {
+    int code = 0;      // the controller's signed code (-4) or 0 for a driver error
+    std::string name;  // "parameter_out_of_range", "timeout"
+    std::string text;  // human-readable
+    std::chrono::system_clock::time_point when;
+
+    bool operator==(const controller_error_info&) const = default;
+};
+
+struct controller_snapshot {
+    std::string id;
+    connection_state state = connection_state::stopped;
+    std::string port;
+    std::optional<controller_identity> identity;
+    std::vector<axis_state> axes;      // hardware order (BU X "Motor Axes:")
+    bool busy = false;                 // STATUS "/"
+    std::optional<int> ttl_in0_mode;   // TTL X?
+    std::optional<int> ttl_out0_mode;  // TTL Y?
+    std::optional<controller_error_info> last_error;
+    report_port_state report = report_port_state::none;
+    std::chrono::system_clock::time_point updated;  // last time anything above changed or was polled
+
+    const axis_state* axis(char letter) const;
+};
+
+// True when everything but `updated` is equal (snapshots are only published on a change).
+bool same_content(const controller_snapshot& a, const controller_snapshot& b);
+
+}  // namespace gw::devices

@@ -1,0 +1,98 @@
+#include "devices/serial/serial_port.hpp"
+
+#include <cerrno>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <termios.h>
+#include <unistd.h>
+
+namespace gw::devices {
+namespace {
+
+speed_t speed_constant(unsigned baud) {
+    switch (baud) {
+        case 9600:
+            return B9600;
+        case 19200:
+            return B19200;
+        case 38400:
+            return B38400;
+        case 57600:
+            return B57600;
+        case 115200:
+            return B115200;
+        case 230400:
+            return B230400;
+        default:
+            return B0;
+    }
+}
+
+boost::system::error_code last_errno() {
+    return {errno, boost::system::system_category()};
+}
+
+}  // namespace
+
+bool serial_port::supported_baud(unsigned baud) {
+    // 28800 (an MS-2000 DIP switch setting) has no Bxxx constant; Linux sets it through termios2.
+    return baud == 28800 || speed_constant(baud) != B0;
+}
+
+boost::system::error_code serial_port::open(const std::string& path, unsigned baud) {
+    close();
+    if (!supported_baud(baud))
+        return boost::system::errc::make_error_code(boost::system::errc::invalid_argument);
+
+    const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) return last_errno();
+
+    auto fail = [fd] {
+        auto ec = last_errno();
+        ::close(fd);
+        return ec;
+    };
+
+    termios tio{};
+    if (::tcgetattr(fd, &tio) != 0) return fail();
+    ::cfmakeraw(&tio);
+    tio.c_cflag &= ~static_cast<tcflag_t>(CSTOPB | PARENB | CSIZE | CRTSCTS);
+    tio.c_cflag |= CS8 | CLOCAL | CREAD;
+    tio.c_iflag &= ~static_cast<tcflag_t>(IXON | IXOFF | IXANY);
+    tio.c_cc[VMIN] = 1;
+    tio.c_cc[VTIME] = 0;
+    // 28800 is approximated by the nearest standard rate on drivers without arbitrary rates; USB
+    // bridges (CP210x) and ptys ignore the rate anyway.
+    const speed_t speed = baud == 28800 ? B38400 : speed_constant(baud);
+    if (::cfsetispeed(&tio, speed) != 0 || ::cfsetospeed(&tio, speed) != 0) return fail();
+    if (::tcsetattr(fd, TCSANOW, &tio) != 0) return fail();
+    ::tcflush(fd, TCIOFLUSH);
+
+    struct stat st {};
+    if (::fstat(fd, &st) == 0) {
+        device_ = st.st_rdev;
+        inode_ = st.st_ino;
+    }
+
+    boost::system::error_code ec;
+    stream_.assign(fd, ec);
+    if (ec) ::close(fd);
+    return ec;
+}
+
+void serial_port::close() {
+    boost::system::error_code ignored;
+    if (stream_.is_open()) stream_.close(ignored);
+}
+
+void serial_port::flush_input() {
+    if (stream_.is_open()) ::tcflush(stream_.native_handle(), TCIFLUSH);
+}
+
+bool serial_port::still_present(const std::string& path) const {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) return false;
+    return st.st_rdev == device_ && st.st_ino == inode_;
+}
+
+}  // namespace gw::devices
