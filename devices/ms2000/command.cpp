@@ -226,6 +226,15 @@ boost::system::result<command> move_relative(std::span<const axis_position> by) 
 boost::system::result<command> here(std::span<const axis_position> at) {
     return positions("H", at);
 }
+boost::system::result<command> move(std::initializer_list<axis_position> to) {
+    return positions("M", std::span<const axis_position>(to.begin(), to.size()));
+}
+boost::system::result<command> move_relative(std::initializer_list<axis_position> by) {
+    return positions("R", std::span<const axis_position>(by.begin(), by.size()));
+}
+boost::system::result<command> here(std::initializer_list<axis_position> at) {
+    return positions("H", std::span<const axis_position>(at.begin(), at.size()));
+}
 command zero() {
     return finish("Z", "Z", reply_shape::standard);
 }

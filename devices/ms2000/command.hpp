@@ -5,6 +5,7 @@
 // controller's unit, tenths of a micron ("M X=1234.5" moves X to 123.45 um).
 
 #include <cstdint>
+#include <initializer_list>
 #include <span>
 #include <string>
 #include <string_view>
@@ -71,8 +72,13 @@ command query(std::string_view verb, std::string_view axes);                    
 boost::system::result<command> move(std::span<const axis_position> to);           // "M X=1234.5 Y=-10"
 boost::system::result<command> move_relative(std::span<const axis_position> by);  // "R X=10"
 boost::system::result<command> here(std::span<const axis_position> at);           // "H X=0 Y=0"
-command zero();                                                                   // "Z"
-command home(std::string_view axes);                                              // "! X Y"
-command save_settings();                                                          // "SS Z" (two_phase)
+// The same with a braced list: move({{'X', 123.45}}). Call move() qualified (ms2000::move) when the
+// argument is a std::vector: argument-dependent lookup would otherwise find std::move.
+boost::system::result<command> move(std::initializer_list<axis_position> to);
+boost::system::result<command> move_relative(std::initializer_list<axis_position> by);
+boost::system::result<command> here(std::initializer_list<axis_position> at);
+command zero();                       // "Z"
+command home(std::string_view axes);  // "! X Y"
+command save_settings();              // "SS Z" (two_phase)
 
 }  // namespace gw::devices::ms2000

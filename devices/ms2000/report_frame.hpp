@@ -18,10 +18,14 @@ namespace gw::devices::ms2000 {
 struct axis_count {
     char axis = 'X';
     std::int32_t count = 0;  // encoder counts
+
+    bool operator==(const axis_count&) const = default;
 };
 
 struct report_frame {
     std::vector<axis_count> axes;  // wire order
+
+    bool operator==(const report_frame&) const = default;
 };
 
 enum class report_format : std::uint8_t { binary, ascii };
