@@ -1,2 +1,5 @@
 #include <cstdio>
-int main() { std::puts("ms2000-sim: not built yet"); return 1; }
+int main() {
+    std::puts("ms2000-sim: not built yet");
+    return 1;
+}
