@@ -144,10 +144,21 @@ void controller::pump() {
     const auto sequence = next_sequence_++;
     in_flight_.emplace(in_flight{std::move(*next), sequence, false, steady_clock::now()});
 
-    // Stale input (a late reply, noise) must not be taken for this command's reply.
+    // Stale input (a late reply, noise) must not be taken for this command's reply: drop what the
+    // kernel holds now, then let read completions that are already queued run (through the
+    // io_context queue and back to the strand) while the command is not yet accepting lines.
     framer_.reset();
     port_.flush_input();
+    net::post(strand_.get_inner_executor(), [self = shared_from_this(), sequence] {
+        net::post(self->strand_, [self, sequence] { self->do_write(sequence); });
+    });
+}
 
+void controller::do_write(std::uint64_t sequence) {
+    if (!in_flight_ || in_flight_->sequence != sequence || !port_.is_open()) return;
+    framer_.reset();
+    in_flight_->accepting = true;
+    in_flight_->started = steady_clock::now();
     auto wire = std::make_shared<std::string>(in_flight_->job.cmd.wire);
     if (log_->should_log(spdlog::level::trace)) log_->trace("TX {}", escape_control(*wire));
     net::async_write(
@@ -163,7 +174,6 @@ void controller::on_write(std::uint64_t sequence, error_code ec) {
         if (ec == net::error::operation_aborted) return;
         return disconnect(ec, "write");
     }
-    in_flight_->written = true;
     const auto timeout =
         in_flight_->job.cmd.long_reply ? settings_.long_reply_timeout : settings_.command_timeout;
     command_timer_.expires_after(timeout);
@@ -210,7 +220,7 @@ void controller::on_line(const std::string& line) {
         return;
     }
 
-    if (!in_flight_ || !in_flight_->written) {
+    if (!in_flight_ || !in_flight_->accepting) {
         ++stale_lines_;
         log_->debug("discarded stale line \"{}\" ({} so far)", escape_control(line), stale_lines_);
         return;

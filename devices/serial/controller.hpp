@@ -95,7 +95,7 @@ class controller : public std::enable_shared_from_this<controller> {
     struct in_flight {
         pending job;
         std::uint64_t sequence = 0;
-        bool written = false;  // lines before the write completed are stale
+        bool accepting = false;  // lines before the command is written are stale
         std::chrono::steady_clock::time_point started;
     };
 
@@ -118,6 +118,7 @@ class controller : public std::enable_shared_from_this<controller> {
     void on_line(const std::string& line);
     void pump();
     std::optional<pending> take_next();
+    void do_write(std::uint64_t sequence);
     void on_write(std::uint64_t sequence, boost::system::error_code ec);
     void on_timeout(std::uint64_t sequence);
     void finish(boost::system::error_code ec, std::optional<ms2000::reply> reply, const std::string& raw);
