@@ -80,7 +80,7 @@ void report_decoder::feed(std::span<const std::uint8_t> bytes, std::vector<repor
     }
 }
 
-bool report_decoder::accept(const report_frame& frame, std::uint8_t) const {
+bool report_decoder::accept(const report_frame& frame) const {
     if (frame.axes.empty() || frame.axes.size() > max_axes) return false;
     return expected_axes_ == 0 || frame.axes.size() == expected_axes_;
 }
@@ -198,7 +198,7 @@ void report_decoder::feed_ascii(std::span<const std::uint8_t> bytes, std::vector
         const auto frame = parse_ascii(line);
         const std::size_t size = pending_.size() + 1;
         pending_.clear();
-        if (frame && accept(*frame, 0)) {
+        if (frame && accept(*frame)) {
             frames.push_back(*frame);
             ++frames_decoded_;
             bytes_consumed_ += size;

@@ -73,7 +73,7 @@ class report_decoder {
 
     void feed_binary(std::span<const std::uint8_t> bytes, std::vector<report_frame>& frames);
     void feed_ascii(std::span<const std::uint8_t> bytes, std::vector<report_frame>& frames);
-    bool accept(const report_frame& frame, std::uint8_t last_id) const;
+    bool accept(const report_frame& frame) const;
 };
 
 }  // namespace gw::devices::ms2000

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Writes the seed corpus (tests/fuzz/corpus/<name>/) from the wire examples of the protocol doc.
+# printf keeps binary frames exact. Re-run after editing; the files are committed.
+set -euo pipefail
+cd "$(dirname "$0")/corpus"
+mkdir -p reply build_info report_decoder line_framer command
+
+# fuzz_reply: one framed reply line (no CR LF).
+printf ':A' > reply/ack
+printf ':A ' > reply/ack_space
+printf ':A 1234.5 432.1 0 ' > reply/where
+printf ':A X=7.500000 Y=7.5' > reply/speed
+printf ':X=50 Y=50 Z=50 A' > reply/accel
+printf 'X=10 Y=50 Z=50 F=0 :A' > reply/tgled
+printf ':N-21' > reply/halted
+printf 'B' > reply/busy
+printf ':A Version: USB-9.2p ' > reply/version
+printf 'STD_XYZ\rMotor Axes: X Y Z\rRING BUFFER 50' > reply/build
+printf 'T:   400    0.0    0.1' > reply/position_report
+printf ':A F' > reply/lock_state
+
+# fuzz_build_info: the BUILD X text without its final CR LF.
+printf 'STD_XYZ_SEQ\rMotor Axes: X Y Z\rCMDs: XYZFTR\rBootLdr V:1\rHdwr REV.E\rLL COMMANDS\rRING BUFFER\rSEARCH INDEX\rARRAY MODULE\rINO_INT\rDAC OUT\rSEQUENCER\rPLANAR CORRECTION' > build_info/manual
+printf 'STD_XYZ\rMotor Axes: X Y Z\rAxis Types: x x z\rRING BUFFER 50\rARRAY MODULE\rSCAN MODULE' > build_info/doc_example
+printf 'WK_XYZ_TRACER\rMotor Axes: X Y Z\rTTL_REPORT_INT\rSERIAL OUT\rBINARY_OUTPUT\rLED DIMMER\rCRISP' > build_info/tracer
+printf ':A STD_XY\r\nRING BUFFER 250\rDLED' > build_info/ack_prefix
+
+# fuzz_report_decoder: byte 0 = format bit | expected axes << 1, byte 1 = split seed, then the stream.
+printf '\x00\x07\x18\xd2\x04\x00\x00\x19\xfb\xff\xff\xff\x1a\x00\x00\x00\x00\x0d' > report_decoder/binary_xyz
+printf '\x06\x03\x18\x0d\x0d\x0d\x0d\x19\x18\x0d\x1a\x1a\x1a\x00\x00\x00\x80\x0d\x18\x01\x00\x00\x00\x19\x02\x00\x00\x00\x1a\x03\x00\x00\x00\x0d' > report_decoder/binary_cr_counts
+printf '\x00\x11\xff\x00\x18\x01\x02\x18\x05\x00\x00\x00\x0d\x1b\xff\xff\xff\x7f\x0d' > report_decoder/binary_garbage
+printf '\x00\x21\x18\x00\x00\x00\x00\x19\x00\x00\x00\x00\x1a\x00\x00\x00\x00\x1b\x00\x00\x00\x00\x1c\x00\x00\x00\x00\x1d\x00\x00\x00\x00\x1e\x00\x00\x00\x00\x1f\x01\x00\x00\x00\x0d' > report_decoder/binary_8_axes
+printf '\x01\x05X=1234 Y=-5 Z=0\r\nX=1 Y=2\rgarbage\r\nZ=-2147483648\n' > report_decoder/ascii
+printf '\x07\x09X=1 Y=2 Z=3\r\nX=1 Y=2\r\n' > report_decoder/ascii_expected_3
+
+# fuzz_line_framer: byte 0 = line bound (0 = default), byte 1 = split seed, then the bytes.
+printf '\x00\x01:A\r\n:A 1234.5 0 \r\nN\r\n' > line_framer/replies
+printf '\x00\x02STD_XYZ\rMotor Axes: X Y Z\rCRISP\r\n' > line_framer/multiline
+printf '\x08\x03\n:\rA\r\n0123456789abcdef\r\nB\r\n' > line_framer/overflow
+printf '\x00\x04:A\r\r\n\r\nX=1\n' > line_framer/odd_ends
+
+# fuzz_command: a raw command line (also read as a make_command program, see fuzz_command.cpp).
+printf 'W X Y Z' > command/where
+printf 'M X=1234.5 Y=-10' > command/move
+printf 'SS Z' > command/saveset
+printf 'BU X' > command/build
+printf '/' > command/status
+printf '\\' > command/halt
+printf 'X=1\rM Y=2' > command/injection
+printf 'INFO X' > command/info
+printf '\x03TTLX\x00\x04\x00\x00\x00\x00\x00\x00\xf8\x3fY\x01\x02\x00\x00\x00\x00\x00\x00\x00\x00' > command/make_command
