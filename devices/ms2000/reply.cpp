@@ -129,13 +129,18 @@ boost::system::result<reply> parse_multiline(std::string_view line) {
     std::string_view rest = line;
     while (!rest.empty()) {
         const auto end = std::min(rest.find('\r'), rest.size());
-        const std::string_view one = trim(rest.substr(0, end));
-        if (!one.empty()) lines.emplace_back(one);
+        // Leading spaces are kept: INFO is two columns split at character 33.
+        std::string_view one = rest.substr(0, end);
+        while (!one.empty() && one.back() == ' ')
+            one.remove_suffix(1);
+        if (!trim(one).empty()) lines.emplace_back(one);
         rest.remove_prefix(std::min(end + 1, rest.size()));
     }
     if (lines.empty()) return unrecognized();
     // A single ":A .." or ":N-1" line is a normal reply (the command was refused or is not multi-line).
-    if (lines.size() == 1 && lines.front().starts_with(":")) return parse_standard(lines.front(), line);
+    if (lines.size() == 1 && trim(lines.front()).starts_with(":")) {
+        return parse_standard(trim(lines.front()), line);
+    }
     reply r = make(reply::kind::text, line);
     r.lines = std::move(lines);
     return r;

@@ -35,6 +35,12 @@ INSTANTIATE_TEST_SUITE_P(table, format_number_test,
                                            number_case{1e6, 3, "1000000"}, number_case{10.0, 3, "10"},
                                            number_case{2.0000001, 4, "2"}));
 
+TEST(format_number, clamps_decimals) {
+    EXPECT_EQ(format_number(1.123456789123, 50), "1.123456789");
+    EXPECT_EQ(format_number(1.5, -3), "2");
+    EXPECT_EQ(format_number(-2.5, 0), "-2");  // to_chars rounds half to even
+}
+
 TEST(format_number, refuses_non_finite) {
     EXPECT_EQ(format_number(std::numeric_limits<double>::quiet_NaN(), 4), "");
     EXPECT_EQ(format_number(std::numeric_limits<double>::infinity(), 4), "");
