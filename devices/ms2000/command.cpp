@@ -4,7 +4,6 @@
 #include <array>
 #include <charconv>
 #include <cmath>
-#include <utility>
 #include <vector>
 
 #include "devices/ms2000/error.hpp"
@@ -89,17 +88,16 @@ boost::system::result<command> positions(std::string_view verb, std::span<const 
     return make_command(verb, args);
 }
 
-// Upper-cased first word of `rest` and what follows it (leading spaces skipped).
-std::pair<std::string, std::string_view> next_word(std::string_view rest) {
-    const auto start = rest.find_first_not_of(' ');
-    if (start == std::string_view::npos) return {{}, {}};
-    rest.remove_prefix(start);
-    const auto end = std::min(rest.find(' '), rest.size());
-    return {upper(rest.substr(0, end)), rest.substr(end)};
+// Upper-cased first word of the arguments ("x" of " x=1"), leading spaces skipped.
+std::string first_word(std::string_view args) {
+    const auto start = args.find_first_not_of(' ');
+    if (start == std::string_view::npos) return {};
+    args.remove_prefix(start);
+    return upper(args.substr(0, std::min(args.find(' '), args.size())));
 }
 
 reply_shape infer_shape(std::string_view verb, std::string_view args) {
-    const auto [first, after] = next_word(args);
+    const std::string first = first_word(args);
     if (verb == "/" || verb == "STATUS") return reply_shape::status;
     // "BU" answers the bare build name, "BU X" the multi-line list; "BU Y?"/"BU Z?" answer ":A ..".
     if ((verb == "BU" || verb == "BUILD") && (first.empty() || first == "X")) return reply_shape::multiline;

@@ -32,9 +32,13 @@ enum class report_format : std::uint8_t { binary, ascii };
 
 inline constexpr std::uint8_t first_axis_id = 0x18;
 inline constexpr std::uint8_t last_axis_id = 0x1F;
-char axis_from_id(std::uint8_t id);  // 0x18 -> 'X', ... ; '?' outside the known letters
-std::uint8_t axis_id(char axis);     // 'X' -> 0x18; 0 if the letter has no id
+// 0x18 X, 0x19 Y, 0x1A Z, 0x1B F (seed 003), 0x1C T, 0x1D R (CMDs order), 0x1E A, 0x1F B (our choice,
+// so that every AID has a letter); '?' outside 0x18..0x1F.
+char axis_from_id(std::uint8_t id);
+std::uint8_t axis_id(char axis);  // 'X' or 'x' -> 0x18; 0 if the letter has no id
 
+// Axes are written in the given order (the decoder only accepts strictly increasing AIDs, i.e. the
+// order X Y Z F T R A B); letters without an id are left out.
 std::vector<std::uint8_t> encode_report(const report_frame& frame, report_format format);
 
 class report_decoder {
