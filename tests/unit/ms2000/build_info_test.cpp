@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include "devices/ms2000/error.hpp"
+#include "devices/ms2000/line_framer.hpp"
+#include "devices/ms2000/reply.hpp"
 
 namespace gw::devices::ms2000 {
 namespace {
@@ -168,6 +170,25 @@ TEST(format_build_x, prints_modules_set_only_in_the_bitset) {
     ASSERT_TRUE(again.has_value());
     EXPECT_EQ(again->modules, b.modules);
     EXPECT_EQ(again->ring_buffer_size, 250);
+}
+
+// What the simulator sends and the driver reads: format, CR LF, framer, parse_reply, parse_build_x.
+TEST(format_build_x, survives_the_wire) {
+    const auto b = parse_build_x(seed_example);
+    ASSERT_TRUE(b.has_value());
+    line_framer framer;
+    std::vector<std::string> lines;
+    const std::string wire = format_build_x(*b) + "\r\n";
+    for (char c : wire)
+        framer.feed(std::string_view(&c, 1), lines);
+    ASSERT_EQ(lines.size(), 1u);
+    const auto r = parse_reply(reply_shape::multiline, lines[0]);
+    ASSERT_TRUE(r.has_value());
+    EXPECT_EQ(r->what, reply::kind::text);
+    EXPECT_EQ(r->lines.size(), 13u);
+    const auto again = parse_build_x(r->raw);
+    ASSERT_TRUE(again.has_value());
+    expect_equal(*b, *again);
 }
 
 TEST(module, ids_and_lines) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "devices/ms2000/error.hpp"
+#include "devices/ms2000/reply.hpp"
 
 namespace gw::devices::ms2000 {
 namespace {
@@ -121,6 +122,20 @@ TEST(line_framer, default_bound_holds_info) {
     EXPECT_FALSE(framer.feed(info + "\r\n", lines));
     ASSERT_EQ(lines.size(), 1u);
     EXPECT_EQ(lines[0], info);
+}
+
+// SAVESET: ":" when the flash write starts, "A" + CR LF when it is done.
+TEST(line_framer, saveset_two_phase_reply) {
+    line_framer framer;
+    lines_t lines;
+    framer.feed(":", lines);
+    EXPECT_TRUE(lines.empty());
+    EXPECT_EQ(framer.partial(), ":");
+    framer.feed("A\r\n", lines);
+    ASSERT_EQ(lines, lines_t{":A"});
+    const auto r = parse_reply(reply_shape::two_phase, lines[0]);
+    ASSERT_TRUE(r.has_value());
+    EXPECT_EQ(r->what, reply::kind::ack);
 }
 
 TEST(line_framer, reset_drops_the_partial_line) {
