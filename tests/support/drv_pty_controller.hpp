@@ -72,6 +72,11 @@ class drv_pty_controller {
         std::lock_guard lock(mu_);
         held_ = true;
     }
+    // Holds from the next arrival of `command` on (its own reply is the first one held).
+    void hold_on(std::string command) {
+        std::lock_guard lock(mu_);
+        hold_on_ = std::move(command);
+    }
     void release() {
         std::lock_guard lock(mu_);
         held_ = false;
@@ -97,6 +102,18 @@ class drv_pty_controller {
     bool wait_for_commands(std::size_t n, std::chrono::milliseconds timeout = std::chrono::seconds(10)) {
         std::unique_lock lock(mu_);
         return cv_.wait_for(lock, timeout, [&] { return commands_.size() >= n; });
+    }
+
+    // Replies waiting for release().
+    std::size_t deferred() const {
+        std::lock_guard lock(mu_);
+        return deferred_.size();
+    }
+
+    // Waits until `n` replies are held; false on timeout.
+    bool wait_deferred(std::size_t n, std::chrono::milliseconds timeout = std::chrono::seconds(20)) {
+        std::unique_lock lock(mu_);
+        return cv_.wait_for(lock, timeout, [&] { return deferred_.size() >= n; });
     }
 
     std::size_t count(const std::string& command) const {
@@ -194,10 +211,15 @@ class drv_pty_controller {
                 buffer_.clear();
                 commands_.push_back(command);
                 cv_.notify_all();
+                if (!hold_on_.empty() && command == hold_on_) {
+                    held_ = true;
+                    hold_on_.clear();
+                }
                 auto chunks = responder_ ? responder_(command) : default_reply(command);
-                if (held_)
+                if (held_) {
                     deferred_.push_back(std::move(chunks));
-                else
+                    cv_.notify_all();
+                } else
                     send(chunks, lock);
             }
         }
@@ -218,6 +240,7 @@ class drv_pty_controller {
     std::condition_variable cv_;
     responder responder_;
     bool held_ = false;
+    std::string hold_on_;
     std::deque<std::vector<std::string>> deferred_;
     std::vector<std::string> commands_;
     std::string buffer_;

@@ -355,18 +355,9 @@ TEST_F(controller_test, user_command_goes_ahead_of_the_next_poll_step) {
     start(s);
     ASSERT_TRUE(fake_.wait_for_commands(8));
     // Catch a W in flight, queue a user command, and check it is written right after the W.
-    fake_.hold();
-    std::size_t w_index = 0;
-    for (int tries = 0; tries < 200; ++tries) {
-        const auto cmds = fake_.commands();
-        if (!cmds.empty() && cmds.back() == "W X Y") {
-            w_index = cmds.size() - 1;
-            break;
-        }
-        fake_.release();
-        std::this_thread::sleep_for(2ms);
-        fake_.hold();
-    }
+    fake_.hold_on("W X Y");
+    ASSERT_TRUE(fake_.wait_deferred(1));
+    const std::size_t w_index = fake_.commands().size() - 1;
     ASSERT_GT(w_index, 0u) << "never caught a W in flight";
     auto user = submit(raw("USER"));
     std::promise<void> queued;

@@ -1,0 +1,252 @@
+// The serial driver against the in-process simulator: a real pty, the simulated firmware behind it.
+#include <cmath>
+#include <future>
+#include <memory>
+#include <string>
+#include <thread>
+#include <unistd.h>
+#include <vector>
+
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/io_context.hpp>
+#include <gtest/gtest.h>
+
+#include "devices/ms2000/error.hpp"
+#include "devices/serial/controller.hpp"
+#include "devices/sim/sim_config.hpp"
+#include "devices/sim/simulator.hpp"
+#include "tests/support/drv_recording_observer.hpp"
+
+namespace gw::devices {
+namespace {
+
+namespace net = boost::asio;
+using namespace std::chrono_literals;
+using boost::system::error_code;
+using result_pair = std::pair<error_code, ms2000::reply>;
+
+// One io_context with its own thread; the simulators and the driver each get one.
+struct io_thread {
+    net::io_context io;
+    net::executor_work_guard<net::io_context::executor_type> work = net::make_work_guard(io);
+    std::thread thread{[this] { io.run(); }};
+
+    ~io_thread() {
+        work.reset();
+        thread.join();
+    }
+};
+
+std::string unique_name(const std::string& base) {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    return "drv-" + base + "-" + info->name() + "-" + std::to_string(::getpid());
+}
+
+struct simulated_controller {
+    std::shared_ptr<sim::simulator> sim;
+    std::shared_ptr<test::drv_recording_observer> observer = std::make_shared<test::drv_recording_observer>();
+    std::shared_ptr<controller> ctl;
+
+    std::future<result_pair> submit(ms2000::command cmd) {
+        auto promise = std::make_shared<std::promise<result_pair>>();
+        auto future = promise->get_future();
+        ctl->async_command(std::move(cmd), "it", [promise](error_code ec, ms2000::reply r) {
+            promise->set_value({ec, std::move(r)});
+        });
+        return future;
+    }
+
+    result_pair call(ms2000::command cmd) {
+        auto f = submit(std::move(cmd));
+        if (f.wait_for(30s) != std::future_status::ready) {
+            ADD_FAILURE() << "no completion";
+            return {};
+        }
+        return f.get();
+    }
+};
+
+class controller_sim_test : public ::testing::Test {
+  protected:
+    simulated_controller make(const std::string& preset_name, double time_scale = 10,
+                              std::chrono::milliseconds poll = 20ms) {
+        auto config = sim::preset(preset_name).value();
+        config.name = unique_name(preset_name + std::to_string(count_++));
+        config.time_scale = time_scale;
+        simulated_controller c;
+        c.sim = std::make_shared<sim::simulator>(sim_io_.io.get_executor(), config);
+        c.sim->start();
+        controller_settings s;
+        s.id = config.name;
+        s.port = c.sim->port_path();
+        s.report_port = c.sim->report_port_path();
+        s.baud = config.baud;
+        s.poll_interval = poll;
+        s.command_timeout = 2000ms;
+        s.reconnect_min = 50ms;
+        s.reconnect_max = 500ms;
+        c.ctl = std::make_shared<controller>(drv_io_.io.get_executor(), s, c.observer);
+        c.ctl->start();
+        started_.push_back(c);
+        return c;
+    }
+
+    void TearDown() override {
+        for (auto& c : started_) {
+            c.ctl->stop();
+            EXPECT_TRUE(c.observer->wait_state(connection_state::stopped));
+            c.sim->stop();
+        }
+        started_.clear();
+    }
+
+    io_thread sim_io_;
+    io_thread drv_io_;
+    std::vector<simulated_controller> started_;
+    int count_ = 0;
+};
+
+TEST_F(controller_sim_test, identifies_a_full_and_a_plain_controller) {
+    auto full = make("full");
+    auto plain = make("plain");
+    ASSERT_TRUE(full.observer->wait_state(connection_state::connected));
+    ASSERT_TRUE(plain.observer->wait_state(connection_state::connected));
+
+    const auto f = full.observer->latest();
+    ASSERT_TRUE(f.identity);
+    EXPECT_EQ(f.identity->version, full.sim->config().version);
+    EXPECT_EQ(f.identity->build.name, "STD_XYZ_SCAN");
+    EXPECT_EQ(f.identity->build.motor_axes, "XYZ");
+    EXPECT_TRUE(f.identity->build.has(ms2000::module::ttl_report));
+    EXPECT_TRUE(f.identity->build.has(ms2000::module::ring_buffer));
+    ASSERT_EQ(f.axes.size(), 3u);
+    const auto screw = sim::lead_screw_for(full.sim->config().lead_screw).value();
+    ASSERT_TRUE(f.axes[0].counts_per_mm);
+    EXPECT_NEAR(*f.axes[0].counts_per_mm, screw.counts_per_mm, 0.01);
+    EXPECT_TRUE(f.axes[2].upper_limit_mm.has_value());
+    EXPECT_TRUE(f.ttl_in0_mode.has_value());
+    EXPECT_EQ(f.report, report_port_state::open);
+
+    const auto p = plain.observer->latest();
+    ASSERT_TRUE(p.identity);
+    EXPECT_EQ(p.identity->build.name, "STD_XYZ");
+    EXPECT_FALSE(p.identity->build.has(ms2000::module::ttl_report));
+    EXPECT_FALSE(p.identity->build.has(ms2000::module::ring_buffer));
+    EXPECT_EQ(p.report, report_port_state::none);
+}
+
+TEST_F(controller_sim_test, a_move_shows_in_snapshots_until_arrival) {
+    auto c = make("plain", 4);
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+    ASSERT_TRUE(
+        c.observer->wait([&] { return c.observer->snapshots.back().axes.at(0).position_um.has_value(); }));
+    const double start_um = *c.observer->latest().axes[0].position_um;
+    const double target_um = start_um + 20000;  // 20 mm: a few seconds of simulated travel
+
+    auto move = ms2000::move(std::vector<ms2000::axis_position>{{'X', target_um}}).value();
+    auto [ec, reply] = c.call(move);
+    ASSERT_FALSE(ec) << ec.message();
+
+    // Busy with X busy, somewhere between start and target, then idle at the target.
+    EXPECT_TRUE(c.observer->wait([&] {
+        const auto& s = c.observer->snapshots.back();
+        return s.busy && s.axes[0].busy;
+    }));
+    EXPECT_TRUE(c.observer->wait([&] {
+        const auto& x = c.observer->snapshots.back().axes[0];
+        return x.position_um && *x.position_um > start_um + 1 && *x.position_um < target_um - 1;
+    }));
+    ASSERT_TRUE(c.observer->wait(
+        [&] {
+            const auto& s = c.observer->snapshots.back();
+            return !s.busy && s.axes[0].position_um && std::abs(*s.axes[0].position_um - target_um) < 1.0;
+        },
+        60s));
+    EXPECT_FALSE(c.observer->latest().axes[0].busy);
+}
+
+TEST_F(controller_sim_test, unplug_fails_commands_then_replug_reconnects_and_reidentifies) {
+    auto c = make("plain", 4);
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+    auto move = ms2000::move(std::vector<ms2000::axis_position>{{'X', 30000}}).value();
+    ASSERT_FALSE(c.call(move).first);
+
+    // A command in flight when the cable goes.
+    c.sim->delay_next_reply(3000ms);
+    auto in_flight = c.submit(ms2000::where("XYZ"));
+    std::this_thread::sleep_for(100ms);  // let it reach the wire (not an assertion)
+    const auto unplugged_at = std::chrono::steady_clock::now();
+    c.sim->unplug();
+    ASSERT_EQ(in_flight.wait_for(30s), std::future_status::ready);
+    const auto failed_after = std::chrono::steady_clock::now() - unplugged_at;
+    const auto ec = in_flight.get().first;
+    EXPECT_TRUE(ec == ms2000::error::disconnected) << ec.message();
+    EXPECT_TRUE(c.observer->wait_state(connection_state::disconnected));
+    // Detection is meant to take well under a second; the bound here is loose for a loaded machine.
+    EXPECT_LT(failed_after, 5s);
+    const auto later = c.call(ms2000::where("XYZ")).first;
+    EXPECT_TRUE(later == ms2000::error::not_connected || later == ms2000::error::disconnected)
+        << later.message();
+
+    c.sim->replug();
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected, 30s));
+    EXPECT_TRUE(c.observer->latest().identity.has_value());
+    auto [ec2, reply] = c.call(ms2000::where("XYZ"));
+    EXPECT_FALSE(ec2) << ec2.message();
+    EXPECT_EQ(reply.values.size(), 3u);
+}
+
+TEST_F(controller_sim_test, a_report_train_yields_one_event_per_pulse) {
+    auto c = make("full", 10);
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+    ASSERT_EQ(c.observer->latest().report, report_port_state::open);
+
+    auto move = ms2000::move(std::vector<ms2000::axis_position>{{'X', 1000}, {'Y', -500}}).value();
+    ASSERT_FALSE(c.call(move).first);
+    ASSERT_TRUE(c.observer->wait(
+        [&] {
+            const auto& s = c.observer->snapshots.back();
+            return !s.busy && s.axes[0].position_um && std::abs(*s.axes[0].position_um - 1000) < 1.0;
+        },
+        60s));
+
+    const ms2000::argument ttl_on{'X', ms2000::argument::op::set, 1};
+    ASSERT_FALSE(c.call(ms2000::make_command("TTL", std::span(&ttl_on, 1)).value()).first);
+
+    constexpr std::size_t pulses = 25;
+    c.sim->ttl_pulse_train(pulses, 50);
+    ASSERT_TRUE(c.observer->wait([&] { return c.observer->reports.size() >= pulses; }, 60s));
+    std::this_thread::sleep_for(200ms);  // a stray extra frame would show up here (not an assertion)
+    const auto reports = c.observer->locked([&] { return c.observer->reports; });
+    EXPECT_EQ(reports.size(), pulses);
+    for (std::size_t i = 0; i < reports.size(); ++i) {
+        EXPECT_EQ(reports[i].sequence, i + 1);
+        ASSERT_EQ(reports[i].axes.size(), 3u);
+        ASSERT_TRUE(reports[i].axes[0].position_um);
+        EXPECT_NEAR(*reports[i].axes[0].position_um, 1000, 1.0);
+        EXPECT_NEAR(*reports[i].axes[1].position_um, -500, 1.0);
+        if (i > 0) EXPECT_GE(reports[i].steady_time, reports[i - 1].steady_time);
+    }
+    EXPECT_EQ(reports.back().bytes_skipped, 0u);
+}
+
+TEST_F(controller_sim_test, an_unplugged_controller_does_not_stop_the_other) {
+    auto a = make("plain", 10);
+    auto b = make("plain", 10);
+    ASSERT_TRUE(a.observer->wait_state(connection_state::connected));
+    ASSERT_TRUE(b.observer->wait_state(connection_state::connected));
+
+    a.sim->unplug();
+    ASSERT_TRUE(a.observer->wait_state(connection_state::disconnected));
+    for (int i = 0; i < 20; ++i) {
+        auto [ec, reply] = b.call(ms2000::where("XYZ"));
+        ASSERT_FALSE(ec) << ec.message();
+    }
+    EXPECT_EQ(b.observer->latest().state, connection_state::connected);
+    // A keeps trying in the background and comes back when replugged.
+    a.sim->replug();
+    EXPECT_TRUE(a.observer->wait_state(connection_state::connected, 30s));
+}
+
+}  // namespace
+}  // namespace gw::devices
