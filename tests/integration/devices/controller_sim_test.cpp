@@ -225,7 +225,9 @@ TEST_F(controller_sim_test, a_report_train_yields_one_event_per_pulse) {
         ASSERT_TRUE(reports[i].axes[0].position_um);
         EXPECT_NEAR(*reports[i].axes[0].position_um, 1000, 1.0);
         EXPECT_NEAR(*reports[i].axes[1].position_um, -500, 1.0);
-        if (i > 0) EXPECT_GE(reports[i].steady_time, reports[i - 1].steady_time);
+        if (i > 0) {
+            EXPECT_GE(reports[i].steady_time, reports[i - 1].steady_time);
+        }
     }
     EXPECT_EQ(reports.back().bytes_skipped, 0u);
 }
