@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 
@@ -496,10 +497,11 @@ std::string ms2000_model::cmd_rdstat(const command_line& cmd, sim_time now) {
             }
         }
     }
-    if (!chars.empty() && chars.back() == ' ' && chars.find_first_not_of(' ') != std::string::npos &&
-        std::isdigit(static_cast<unsigned char>(chars.front())))
+    // "RS X? Y?" -> ":A NB": characters adjacent and no trailing space (TASI reads them one by one,
+    // MM-Tiger looks at index 3).
+    while (!chars.empty() && chars.back() == ' ' && std::isdigit(static_cast<unsigned char>(chars.front())))
         chars.pop_back();
-    return values({chars});
+    return ":A " + chars + "\r\n";
 }
 
 std::string ms2000_model::cmd_axis_param(const command_line& cmd, sim_time now) {
