@@ -1,0 +1,81 @@
+#include "gateway/log_observer.hpp"
+
+#include <string>
+
+#include <spdlog/spdlog.h>
+
+#include "devices/ms2000/build_info.hpp"
+
+namespace gw {
+
+namespace {
+
+std::string describe_modules(const devices::ms2000::build_info& build) {
+    std::string out;
+    for (std::size_t i = 0; i < static_cast<std::size_t>(devices::ms2000::module::count_); ++i) {
+        auto m = static_cast<devices::ms2000::module>(i);
+        if (!build.has(m)) continue;
+        if (!out.empty()) out += ' ';
+        out += devices::ms2000::module_id(m);
+    }
+    return out.empty() ? "none" : out;
+}
+
+std::string describe_positions(const devices::controller_snapshot& s) {
+    std::string out;
+    for (const auto& a : s.axes) {
+        if (!out.empty()) out += ' ';
+        out += a.axis;
+        out += a.position_um ? fmt::format("={:.2f}um", *a.position_um) : "=?";
+        if (a.busy) out += "(busy)";
+    }
+    return out;
+}
+
+}  // namespace
+
+log_observer::log_observer() {
+    log_ = spdlog::get("gateway");
+    if (!log_) log_ = spdlog::default_logger()->clone("gateway");
+}
+
+void log_observer::on_snapshot(const devices::controller_snapshot& s) {
+    devices::controller_snapshot previous;
+    {
+        std::lock_guard lock(mutex_);
+        auto& slot = last_[s.id];
+        previous = slot;
+        slot = s;
+    }
+    if (s.state != previous.state) {
+        if (s.state == devices::connection_state::connected && s.identity) {
+            log_->info("{}: connected on {}: firmware {} build {} axes {} modules {}", s.id, s.port,
+                       s.identity->version, s.identity->build.name, s.identity->build.motor_axes,
+                       describe_modules(s.identity->build));
+        } else {
+            log_->info("{}: {}", s.id, devices::to_string(s.state));
+        }
+    }
+    if (s.last_error && s.last_error != previous.last_error) {
+        log_->warn("{}: {} ({})", s.id, s.last_error->text, s.last_error->name);
+    }
+    log_->debug("{}: {}{}", s.id, describe_positions(s), s.busy ? " busy" : "");
+}
+
+void log_observer::on_report(const devices::report_event& e) {
+    std::string axes;
+    for (const auto& a : e.axes)
+        axes += fmt::format(" {}={}", a.letter, a.counts);
+    log_->debug("{}: report #{}{}", e.controller_id, e.sequence, axes);
+}
+
+void log_observer::on_ttl(const devices::ttl_event& e) {
+    log_->debug("{}: position report #{} at {} ms", e.controller_id, e.sequence, e.controller_ms);
+}
+
+void log_observer::on_trace(const devices::command_trace& t) {
+    log_->trace("{} [{}] {} -> {} ({} us){}", t.controller_id, t.request_id, t.wire, t.raw_reply,
+                t.latency.count(), t.error ? " error: " + t.error.message() : "");
+}
+
+}  // namespace gw
