@@ -1,0 +1,248 @@
+// Motion and module behaviour of the pure model, stepped in simulated time.
+#include <gtest/gtest.h>
+
+#include "devices/ms2000/report_frame.hpp"
+#include "tests/unit/sim/model_test_util.hpp"
+
+namespace gw::devices::sim {
+namespace {
+
+using namespace test;
+using std::chrono::milliseconds;
+
+TEST(model_motion, halt_during_a_move_answers_n21_and_stops) {
+    ms2000_model m(config_for("plain"));
+    send(m, "M X=100000", sim_time{0});
+    EXPECT_EQ(send(m, "\\", milliseconds(500)), ":N-21\r\n");
+    EXPECT_EQ(send(m, "/", milliseconds(501)), "N\r\n");
+    const double stopped = m.position_units('X', milliseconds(501));
+    EXPECT_GT(stopped, 1000);
+    EXPECT_LT(stopped, 100000);
+    EXPECT_DOUBLE_EQ(m.position_units('X', milliseconds(5000)), stopped);
+    EXPECT_EQ(send(m, "HALT", milliseconds(600)), ":A\r\n");
+}
+
+TEST(model_motion, movrel_is_relative_to_the_target) {
+    ms2000_model m(config_for("plain"));
+    send(m, "M X=100000", sim_time{0});
+    send(m, "R X=-50000", milliseconds(100));  // the stage is still near 0; the target is 10 mm
+    const auto done = run_to_completion(m);
+    EXPECT_NEAR(m.position_units('X', done), 50000, 0.5);
+}
+
+TEST(model_motion, soft_limits_clamp_and_log_errors) {
+    ms2000_model m(config_for("plain"));
+    EXPECT_EQ(send(m, "SU X=1", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "M X=20000", sim_time{0}), ":A\r\n");
+    const auto done = run_to_completion(m);
+    EXPECT_NEAR(m.position_units('X', done), 10000, 0.5);
+    EXPECT_EQ(send(m, "RS X-", done), ":A U\r\n");
+    EXPECT_EQ(send(m, "DU Y", done), ":A 34 \r\n");
+    EXPECT_EQ(send(m, "DU X", done), ":A\r\n");
+    EXPECT_EQ(send(m, "DU Y", done), ":A \r\n");
+}
+
+TEST(model_motion, speed_is_clamped_to_the_lead_screw_maximum) {
+    ms2000_model m(config_for("plain", 'C'));
+    EXPECT_EQ(send(m, "S X=100000000", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "S X?", sim_time{0}), ":A X=13.500000 \r\n");
+}
+
+TEST(model_motion, here_zero_and_negative_unit_multiplier) {
+    ms2000_model m(config_for("plain"));
+    EXPECT_EQ(send(m, "H X=1234.5 Y", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "W X Y", sim_time{0}), ":A 1234.5 0.0 \r\n");
+    EXPECT_EQ(send(m, "Z", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "W X", sim_time{0}), ":A 0.0 \r\n");
+    EXPECT_EQ(send(m, "UM X=-10000", sim_time{0}), ":A\r\n");
+    send(m, "M X=10000", sim_time{0});
+    const auto done = run_to_completion(m);
+    EXPECT_NEAR(m.position_mm('X', done), -1.0, 1e-4);  // negative UM flips the axis
+    EXPECT_EQ(send(m, "W X", done), ":A 10000.1 \r\n");
+}
+
+TEST(model_motion, home_runs_to_the_upper_limit_and_is_busy) {
+    ms2000_model m(config_for("plain", 'D'));
+    send(m, "SU X=5", sim_time{0});
+    EXPECT_EQ(send(m, "! X", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "/", milliseconds(10)), "B\r\n");
+    const auto done = run_to_completion(m);
+    EXPECT_NEAR(m.position_mm('X', done), 5, 1e-4);
+}
+
+TEST(model_ring_buffer, load_step_and_overflow) {
+    ms2000_model m(config_for("full"));
+    EXPECT_EQ(send(m, "RM X=0", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "LD X=1000 Y=2000", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "LD X=3000 Y=4000", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "RM X?", sim_time{0}), ":A X=2 \r\n");
+    EXPECT_EQ(send(m, "RM Y?", sim_time{0}), ":A Y=3 \r\n");
+    EXPECT_EQ(send(m, "LD X?", sim_time{0}), ":A X=1000 \r\n");
+    EXPECT_EQ(send(m, "RM", sim_time{0}), ":A\r\n");  // like a pulse: first position
+    auto t = run_to_completion(m);
+    EXPECT_NEAR(m.position_units('X', t), 1000, 0.5);
+    EXPECT_NEAR(m.position_units('Y', t), 2000, 0.5);
+    send(m, "RM", t);
+    t = run_to_completion(m);
+    EXPECT_NEAR(m.position_units('X', t), 3000, 0.5);
+    send(m, "RM", t);  // wraps to the first
+    t = run_to_completion(m);
+    EXPECT_NEAR(m.position_units('X', t), 1000, 0.5);
+    for (int i = 2; i < 50; ++i)
+        ASSERT_EQ(send(m, "LD X=" + std::to_string(i), t), ":A\r\n");
+    EXPECT_EQ(send(m, "LD X=99", t), ":N-5\r\n");  // 50 slots, full
+}
+
+TEST(model_ring_buffer, ttl_mode_1_steps_on_pulses_on_a_build_without_ttl_report) {
+    ms2000_model m(config_for("planar"));
+    send(m, "LD X=5000", sim_time{0});
+    send(m, "LD X=-5000", sim_time{0});
+    send(m, "RM Y=1", sim_time{0});
+    send(m, "TTL X=1", sim_time{0});
+    EXPECT_FALSE(m.ttl_pulse(sim_time{0}));
+    auto t = run_to_completion(m);
+    EXPECT_NEAR(m.position_units('X', t), 5000, 0.5);
+    m.ttl_pulse(t);
+    t = run_to_completion(m);
+    EXPECT_NEAR(m.position_units('X', t), -5000, 0.5);
+}
+
+TEST(model_ring_buffer, autoplay_once_waits_rt_z_between_positions) {
+    ms2000_model m(config_for("full"));
+    send(m, "LD X=1000", sim_time{0});
+    send(m, "LD X=2000", sim_time{0});
+    send(m, "LD X=3000", sim_time{0});
+    send(m, "RT Z=500", sim_time{0});
+    send(m, "RM F=2", sim_time{0});
+    send(m, "RM", sim_time{0});
+    EXPECT_EQ(send(m, "RM F?", sim_time{1}), ":A F=130 \r\n");  // MSB set while autoplaying
+    const auto t = run_to_completion(m);
+    EXPECT_NEAR(m.position_units('X', t), 3000, 0.5);
+    EXPECT_GT(t, milliseconds(1000));  // two dwells of 500 ms
+    EXPECT_EQ(send(m, "RM F?", t), ":A F=2 \r\n");
+}
+
+TEST(model_array, aij_and_ttl_stepping_with_graceful_end) {
+    ms2000_model m(config_for("full"));
+    // The full preset has TTL_REPORT_INT, which disables other TTL input functions; use "planar".
+    ms2000_model p(config_for("planar"));
+    EXPECT_EQ(send(p, "ARRAY X=3 Y=2 Z=1 F=-1", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(p, "AIJ X=3 Y=2", sim_time{0}), ":A\r\n");
+    auto t = run_to_completion(p);
+    EXPECT_NEAR(p.position_mm('X', t), 2, 1e-4);
+    EXPECT_NEAR(p.position_mm('Y', t), -1, 1e-4);
+    EXPECT_EQ(send(p, "AIJ X=4 Y=1", t), ":N-4\r\n");
+    send(p, "TTL X=7", t);
+    EXPECT_EQ(send(p, "RM X=0", t), ":A\r\n");  // to (1,1), stepping stops after the last well
+    t = run_to_completion(p);
+    EXPECT_EQ(p.array_state(), 'A');
+    std::vector<std::pair<double, double>> visited{{p.position_mm('X', t), p.position_mm('Y', t)}};
+    for (int i = 0; i < 7; ++i) {
+        p.ttl_pulse(t);
+        t = run_to_completion(p);
+        visited.emplace_back(p.position_mm('X', t), p.position_mm('Y', t));
+    }
+    EXPECT_EQ(p.array_state(), 'C');
+    // Serpentine: (0,0) (1,0) (2,0) (2,-1) (1,-1) (0,-1), then the extra pulses are ignored.
+    const std::vector<std::pair<double, double>> expected{{0, 0},  {1, 0},  {2, 0},  {2, -1},
+                                                          {1, -1}, {0, -1}, {0, -1}, {0, -1}};
+    ASSERT_EQ(visited.size(), expected.size());
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+        EXPECT_NEAR(visited[i].first, expected[i].first, 1e-4) << i;
+        EXPECT_NEAR(visited[i].second, expected[i].second, 1e-4) << i;
+    }
+    (void)m;
+}
+
+TEST(model_array, self_scan_goes_through_states) {
+    ms2000_model m(config_for("full"));
+    send(m, "ARRAY X=2 Y=1 Z=1 F=-1", sim_time{0});
+    send(m, "RT Z=100", sim_time{0});
+    send(m, "M X=5000", sim_time{0});
+    EXPECT_EQ(send(m, "ARRAY", milliseconds(1)), ":A\r\n");
+    EXPECT_EQ(m.array_state(), 'M');
+    EXPECT_EQ(send(m, "/", milliseconds(2)), "B\r\n");
+    run_to_completion(m);
+    EXPECT_EQ(m.array_state(), 'C');
+}
+
+TEST(model_scan, raster_scan_runs_every_line) {
+    ms2000_model m(config_for("full", 'D'));
+    EXPECT_EQ(send(m, "SCANR X=0 Y=1 Z=24", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "SCANR F?", sim_time{0}), ":A F=472 \r\n");  // 11349.4 counts/mm x 1 mm / 24
+    EXPECT_EQ(send(m, "SCANV X=0 Y=0.5 Z=3", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "SCAN F=0", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "SCAN", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "SCAN X?", sim_time{1}), ":A X=S \r\n");
+    const auto t = run_to_completion(m);
+    EXPECT_EQ(send(m, "SCAN X?", t), ":A X=P \r\n");
+    EXPECT_NEAR(m.position_mm('X', t), 1, 1e-4);
+    EXPECT_NEAR(m.position_mm('Y', t), 0.5, 1e-4);
+    // 3 lines of 1 mm at 20 mm/s plus retraces: well over 3 x 50 ms.
+    EXPECT_GT(t, milliseconds(150));
+}
+
+TEST(model_ttl_report, frame_timing_and_overrun) {
+    ms2000_model m(config_for("full"));
+    EXPECT_FALSE(m.ttl_pulse(sim_time{0}));  // TTL X=0: interrupt disabled
+    send(m, "H X=10000 Y=-10000 Z=0", sim_time{0});
+    send(m, "TTL X=1", sim_time{0});
+    const auto frame = m.ttl_pulse(milliseconds(10));
+    ASSERT_TRUE(frame);
+    // td 5 us + 2 x ta 12 us + ts 200 us after the edge, inside the seed's ranges.
+    const auto delay = frame->at - milliseconds(10);
+    EXPECT_GE(delay.count(), 3 + 22 + 110);
+    EXPECT_LE(delay.count(), 10 + 26 + 500);
+    ms2000::report_decoder decoder(ms2000::report_format::binary, 3);
+    std::vector<ms2000::report_frame> frames;
+    decoder.feed(std::span(reinterpret_cast<const std::uint8_t*>(frame->bytes.data()), frame->bytes.size()),
+                 frames);
+    ASSERT_EQ(frames.size(), 1u);
+    EXPECT_EQ(frames[0].axes[0].count, 45398);
+    EXPECT_EQ(frames[0].axes[1].count, -45398);
+    // 16 bytes at 115200 baud = 1.39 ms on the wire: a pulse 1 ms later overruns (error 87).
+    EXPECT_FALSE(m.ttl_pulse(milliseconds(11)));
+    EXPECT_EQ(m.error_buffer(), std::vector<int>{87});
+    EXPECT_TRUE(m.ttl_pulse(milliseconds(12)));
+}
+
+TEST(model_saveset, second_phase_after_the_flash_write) {
+    ms2000_model m(config_for("plain"));
+    EXPECT_EQ(send(m, "SS Z", sim_time{0}), ":");
+    EXPECT_TRUE(m.take_output(milliseconds(100)).empty());
+    const auto out = m.take_output(milliseconds(400));
+    ASSERT_EQ(out.size(), 1u);
+    EXPECT_EQ(out[0].bytes, "A\r\n");
+    EXPECT_EQ(out[0].at, milliseconds(300));
+}
+
+TEST(model_planar, three_points_define_the_correction) {
+    ms2000_model m(config_for("planar"));
+    // Plane z = 0.01 x: points (0,0,0), (100000,0,1000), (0,100000,0) in tenths of a micron.
+    send(m, "CCB Z=1", sim_time{0});
+    send(m, "H X=100000 Z=1000", sim_time{0});
+    send(m, "CCB Z=2", sim_time{0});
+    send(m, "H X=0 Y=100000 Z=0", sim_time{0});
+    send(m, "CCB Z=3", sim_time{0});
+    EXPECT_EQ(send(m, "CCB Z=8", sim_time{0}), ":A G \r\n");
+    EXPECT_EQ(send(m, "CCB Z=4", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "CCB Z=8", sim_time{0}), ":A Z \r\n");
+    send(m, "H X=50000 Y=0 Z=0", sim_time{0});
+    EXPECT_EQ(send(m, "CCB Z=6", sim_time{0}), ":A Z=500 \r\n");
+    EXPECT_EQ(send(m, "CCB Z=7", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "CCB Z=8", sim_time{0}), ":A 1 \r\n");
+}
+
+TEST(model_crisp, lock_reaches_focus) {
+    ms2000_model m(config_for("crisp"));
+    EXPECT_EQ(send(m, "LK", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "LK X?", sim_time{0}), ":A R\r\n");
+    EXPECT_EQ(send(m, "LK F=83", sim_time{0}), ":A\r\n");  // 'S': lock
+    EXPECT_EQ(send(m, "LK X?", milliseconds(100)), ":A K\r\n");
+    EXPECT_EQ(send(m, "LK X?", milliseconds(600)), ":A F\r\n");
+    EXPECT_EQ(send(m, "LK F=85", milliseconds(700)), ":A\r\n");  // 'U': unlock
+    EXPECT_EQ(send(m, "LK X?", milliseconds(700)), ":A R\r\n");
+}
+
+}  // namespace
+}  // namespace gw::devices::sim
