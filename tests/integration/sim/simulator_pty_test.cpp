@@ -164,7 +164,8 @@ TEST_F(simulator_pty, report_port_delivers_decodable_frames) {
         const auto deadline = std::chrono::steady_clock::now() + 10s;
         while (frames.size() < want && std::chrono::steady_clock::now() < deadline) {
             const auto bytes = report.drain(100ms);
-            decoder.feed(std::span(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()), frames);
+            decoder.feed(std::span(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()),
+                         frames);
         }
     };
     sim->ttl_pulse_train(3, 50);  // 20 ms apart: slower than the 1.7 ms re-trigger time
