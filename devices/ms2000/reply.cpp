@@ -1,5 +1,6 @@
 #include "devices/ms2000/reply.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 

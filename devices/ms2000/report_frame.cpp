@@ -1,5 +1,6 @@
 #include "devices/ms2000/report_frame.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <optional>
 #include <string_view>

@@ -1,6 +1,7 @@
 // The command builders on arbitrary input: nothing but printable ASCII and the final CR may reach the
 // wire. Input: the whole of it as a raw command line; then, read as a little program, one
 // make_command() call and one format_number() call.
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstddef>

@@ -1,5 +1,6 @@
 // line_framer on arbitrary bytes cut at arbitrary points.
 // Input: byte 0 = line bound (0 -> default, else 1..255), byte 1 = seed of the split points, then bytes.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>

@@ -1,6 +1,7 @@
 // report_decoder on arbitrary bytes cut at arbitrary points.
 // Input: byte 0 = format (bit 0) and expected axis count ((byte >> 1) % 9), byte 1 = seed of the
 // split points, then the stream.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
