@@ -247,7 +247,7 @@ std::string ms2000_model::dispatch(const command_line& cmd, sim_time now) {
     if (v == "INFO") return cmd_info(cmd, now);
     if (v == "DUMP") return cmd_dump(cmd);
     if (v == "SAVESET") return cmd_saveset(cmd, now);
-    if (v == "RTIME") return cmd_rtime(cmd);
+    if (v == "RTIME") return cmd_rtime(cmd, now);
     if (v == "TTL") return cmd_ttl(cmd);
     if (v == "RDADC") {
         std::vector<std::string> vals;
@@ -278,8 +278,15 @@ std::string ms2000_model::dispatch(const command_line& cmd, sim_time now) {
         return q.empty() ? ack() : axes_a(q);
     }
     if (v == "JOYSTICK" || v == "AZERO" || v == "CUSTOMA" || v == "VB" || v == "SAVEPOS" || v == "UNITS" ||
-        v == "ZS" || v == "RESET")
+        v == "RESET") {
+        if (v == "RESET") {
+            // Power-up state: positions, settings and buffers as after switching on.
+            auto config = config_;
+            *this = ms2000_model(std::move(config));
+        }
         return ack();
+    }
+    if (v == "ZS") return cmd_zstack(cmd, now);
     if (v == "LOAD") return cmd_load(cmd, now);
     if (v == "RBMODE") return cmd_rbmode(cmd, now);
     if (v == "ARRAY") return cmd_array(cmd, now);
@@ -651,20 +658,30 @@ std::string ms2000_model::cmd_dump(const command_line& cmd) {
 std::string ms2000_model::cmd_saveset(const command_line& cmd, sim_time now) {
     if (cmd.find('Z')) {
         // ":" when the flash write starts, "A" when it ends (doc §1).
-        pending_.push_back({now + ms(static_cast<double>(config_.flash_write_time.count())), "A\r\n"});
+        queue_output(now + ms(static_cast<double>(config_.flash_write_time.count())), "A\r\n");
         return ":";
     }
     return ack();
 }
 
-std::string ms2000_model::cmd_rtime(const command_line& cmd) {
+std::string ms2000_model::cmd_rtime(const command_line& cmd, sim_time now) {
     std::vector<std::pair<char, std::string>> q;
     for (const auto& arg : cmd.args) {
         double* field = arg.letter == 'X'   ? &rt_report_ms_
                         : arg.letter == 'Z' ? &rt_dwell_ms_
                         : arg.letter == 'F' ? &rt_f_
                                             : nullptr;
-        if (arg.letter == 'M') continue;  // RT M+ / RT M-: position reports are not simulated yet
+        if (arg.letter == 'M') {  // "RT M+" starts serial position reports, "RT M-" stops them
+            if (arg.kind == op::plus) {
+                reporting_ = true;
+                report_start_ = now;
+                next_position_report_ = now;
+            } else if (arg.kind == op::minus) {
+                reporting_ = false;
+                next_position_report_.reset();
+            }
+            continue;
+        }
         if (!field) return error(ms2000::unrecognized_axis);
         if (arg.kind == op::query)
             q.emplace_back(arg.letter, trimmed(*field, 3));
@@ -729,6 +746,7 @@ std::optional<sim_time> ms2000_model::next_internal_event() const {
     if (scan_.running) consider(done);
     consider(crisp_lock_at_);
     consider(autofocus_done_at_);
+    consider(next_position_report_);
     return best;
 }
 
@@ -771,7 +789,101 @@ void ms2000_model::advance(sim_time now) {
             ring_next(at);
         }
         if (scan_.running && done <= at) scan_step(at);
+        if (next_position_report_ && *next_position_report_ <= at) {
+            queue_output(at, position_report_line(at));
+            next_position_report_ = at + ms(std::max(rt_report_ms_, 1.0));
+        }
     }
+}
+
+void ms2000_model::queue_output(sim_time at, std::string bytes) {
+    const auto it = std::upper_bound(pending_.begin(), pending_.end(), at,
+                                     [](sim_time t, const timed_output& o) { return t < o.at; });
+    pending_.insert(it, timed_output{at, std::move(bytes)});
+}
+
+std::string ms2000_model::position_report_line(sim_time at) const {
+    // "T:   400    0.0    0.1": time in ms since the start, then the axes of the RM Y mask.
+    const auto elapsed_ms = std::chrono::duration_cast<std::chrono::milliseconds>(at - report_start_).count();
+    auto pad = [](std::string text, std::size_t width) {
+        if (text.size() < width) text.insert(0, width - text.size(), ' ');
+        return text;
+    };
+    std::string line = "T:" + pad(std::to_string(elapsed_ms), 6);
+    for (std::size_t i = 0; i < axes_.size(); ++i)
+        if (ring_.axis_byte & (1 << i)) line += " " + pad(fixed(position_units(axes_[i].letter, at), 1), 6);
+    return line + "\r\n";
+}
+
+std::string ms2000_model::cmd_zstack(const command_line& cmd, sim_time now) {
+    std::vector<std::pair<char, std::string>> q;
+    for (const auto& arg : cmd.args) {
+        if (arg.kind == op::query) {
+            switch (arg.letter) {
+                case 'X':
+                    q.emplace_back('X', trimmed(zstack_.dz_units, 4));
+                    break;
+                case 'Y':
+                    q.emplace_back('Y', std::to_string(zstack_.slices));
+                    break;
+                case 'Z':
+                    q.emplace_back('Z', std::to_string(zstack_.mode));
+                    break;
+                case 'T':
+                    q.emplace_back('T', std::to_string(zstack_.index));
+                    break;
+                case 'M':
+                    q.emplace_back('M', std::to_string(!zstack_.active ? 0 : zstack_.direction > 0 ? 1 : 2));
+                    break;
+                default:
+                    return error(ms2000::unrecognized_axis);
+            }
+            continue;
+        }
+        switch (arg.letter) {
+            case 'X':
+                zstack_.dz_units = arg.value;
+                break;
+            case 'Y':
+                if (arg.value < 1 || arg.value > 32767) return error(ms2000::parameter_out_of_range);
+                zstack_.slices = static_cast<int>(arg.value);
+                break;
+            case 'Z':
+                if (arg.value != 0 && arg.value != 1) return error(ms2000::parameter_out_of_range);
+                zstack_.mode = static_cast<int>(arg.value);
+                break;
+            case 'F':
+                break;  // stack timeout: accepted
+            case 'M':
+                if (arg.value == 0) zstack_.active = false;  // "ZS M=0" aborts
+                break;
+            default:
+                return error(ms2000::unrecognized_axis);
+        }
+    }
+    (void)now;
+    return q.empty() ? ack() : axes_a(q);
+}
+
+void ms2000_model::zstack_pulse(sim_time now) {
+    auto* z = find_axis('Z');
+    if (!z) return;
+    if (!zstack_.active) {  // the first pulse starts the stack where Z is
+        zstack_ =
+            zstack_state{zstack_.dz_units, zstack_.slices, zstack_.mode, 0, 1, z->motion.target_mm(), true};
+        return;
+    }
+    if (zstack_.index + zstack_.direction >= zstack_.slices || zstack_.index + zstack_.direction < 0) {
+        if (zstack_.mode == 0) {
+            zstack_.index = 0;  // sawtooth: back to the first slice
+        } else {
+            zstack_.direction = -zstack_.direction;  // triangle: turn around
+            zstack_.index += zstack_.direction;
+        }
+    } else {
+        zstack_.index += zstack_.direction;
+    }
+    start_move(*z, zstack_.start_mm + zstack_.index * zstack_.dz_units / units_per_mm(*z), now);
 }
 
 std::vector<timed_output> ms2000_model::take_output(sim_time now) {
@@ -819,6 +931,18 @@ std::optional<timed_output> ms2000_model::ttl_pulse(sim_time now) {
         case 2:
             for (auto& a : axes_)
                 if (a.last_relative_mm != 0) start_move(a, a.motion.target_mm() + a.last_relative_mm, now);
+            break;
+        case 4:
+            zstack_pulse(now);
+            break;
+        case 5:  // TTL-started serial position reports: each edge toggles them
+            reporting_ = !reporting_;
+            if (reporting_) {
+                report_start_ = now;
+                next_position_report_ = now;
+            } else {
+                next_position_report_.reset();
+            }
             break;
         case 6:
             if (has_module(config_, module::scan) && !scan_.running) {

@@ -156,8 +156,12 @@ class ms2000_model {
     std::string cmd_info(const command_line& cmd, sim_time now);
     std::string cmd_dump(const command_line& cmd);
     std::string cmd_saveset(const command_line& cmd, sim_time now);
-    std::string cmd_rtime(const command_line& cmd);
+    std::string cmd_rtime(const command_line& cmd, sim_time now);
     std::string cmd_ttl(const command_line& cmd);
+    std::string cmd_zstack(const command_line& cmd, sim_time now);
+    void zstack_pulse(sim_time now);
+    void queue_output(sim_time at, std::string bytes);
+    std::string position_report_line(sim_time at) const;
 
     // Modules (ms2000_model_modules.cpp).
     std::string cmd_load(const command_line& cmd, sim_time now);
@@ -195,6 +199,17 @@ class ms2000_model {
     scan_state scan_;
     ttl_state ttl_;
     double rt_report_ms_ = 200, rt_dwell_ms_ = 0, rt_f_ = 1;
+    // Serial position reports ("RT M+", or TTL X=5 pulses): "T:   400    0.0    0.1" lines.
+    bool reporting_ = false;
+    sim_time report_start_{0};
+    std::optional<sim_time> next_position_report_;
+    // Z-stack (ZS, TTL X=4): each pulse steps Z by dz; sawtooth returns, triangle reverses.
+    struct zstack_state {
+        double dz_units = 0;
+        int slices = 1, mode = 0, index = 0, direction = 1;
+        double start_mm = 0;
+        bool active = false;
+    } zstack_;
     double dac_volts_ = 0;
     std::map<char, double> led_;
     // Planar correction: up to three points (units), plane z = a*x + b*y + c when enabled.
