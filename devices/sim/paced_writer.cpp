@@ -42,6 +42,10 @@ std::size_t paced_writer::queued_bytes() const {
 
 void paced_writer::enqueue(std::string bytes, clock::time_point not_before) {
     if (bytes.empty() || !stream_.is_open()) return;
+    if (queued_bytes() + bytes.size() > max_queued_bytes) {
+        dropped_bytes_ += bytes.size();
+        return;
+    }
     queue_.push_back({std::move(bytes), 0, not_before});
     pump();
 }

@@ -26,7 +26,11 @@ class paced_writer : public std::enable_shared_from_this<paced_writer> {
     void attach(int master_fd);  // takes a dup of the descriptor
     void detach();               // closes it, drops queued bytes, cancels the timer
 
+    // Bytes beyond max_queued_bytes are dropped (nobody is reading the port: a real UART would
+    // send them into the void) and counted in dropped_bytes().
+    static constexpr std::size_t max_queued_bytes = 64 * 1024;
     void enqueue(std::string bytes, clock::time_point not_before = clock::time_point{});
+    std::uint64_t dropped_bytes() const { return dropped_bytes_; }
     std::uint64_t bytes_written() const { return bytes_written_; }
     std::size_t queued_bytes() const;
 
@@ -49,6 +53,7 @@ class paced_writer : public std::enable_shared_from_this<paced_writer> {
     bool busy_ = false;
     std::uint64_t generation_ = 0;  // bumped by detach(); stale completions are ignored
     std::uint64_t bytes_written_ = 0;
+    std::uint64_t dropped_bytes_ = 0;
 };
 
 }  // namespace gw::devices::sim

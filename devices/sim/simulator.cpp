@@ -85,11 +85,8 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
     std::string state_json() const {
         std::lock_guard lock(mutex_);
         auto j = model_.state(sim_now());
-        j["port"] = {{"link", link_},
-                     {"device", main_device_},
-                     {"plugged", !unplugged_},
-                     {"bytes_in", bytes_in_},
-                     {"bytes_out", bytes_out_}};
+        j["port"] = {{"link", link_},         {"device", main_device_},  {"plugged", !unplugged_},
+                     {"bytes_in", bytes_in_}, {"bytes_out", bytes_out_}, {"bytes_dropped", main_dropped_}};
         if (!report_link_.empty()) j["report_port"] = {{"link", report_link_}, {"device", report_device_}};
         j["time_scale"] = config_.time_scale;
         j["baud"] = config_.baud;
@@ -240,6 +237,8 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
             bytes_out_ += bytes.size();
         }
         main_writer_->enqueue(std::move(bytes), not_before);
+        std::lock_guard lock(mutex_);
+        main_dropped_ = main_writer_->dropped_bytes();
     }
 
     void schedule_events() {
@@ -302,6 +301,7 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
     std::uint64_t main_generation_ = 0;
     std::uint64_t bytes_in_ = 0;
     std::uint64_t bytes_out_ = 0;
+    std::uint64_t main_dropped_ = 0;
     std::uint64_t rng_ = 0x9E3779B97F4A7C15ull;
 };
 
