@@ -111,6 +111,7 @@ void controller::on_submit(pending job) {
     if (stopped_) return complete(job, ms2000::error::cancelled, {});
     if (!port_.is_open()) return complete(job, ms2000::error::not_connected, {});
     if (job.cmd.is_halt) {
+        if (halts_.size() >= settings_.queue_limit) return complete(job, ms2000::error::queue_full, {});
         halts_.push_back(std::move(job));
     } else if (user_queue_.size() >= settings_.queue_limit) {
         return complete(job, ms2000::error::queue_full, {});

@@ -6,6 +6,8 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include "devices/serial/custom_baud.hpp"
+
 namespace gw::devices {
 namespace {
 
@@ -35,7 +37,7 @@ boost::system::error_code last_errno() {
 }  // namespace
 
 bool serial_port::supported_baud(unsigned baud) {
-    // 28800 (an MS-2000 DIP switch setting) has no Bxxx constant; Linux sets it through termios2.
+    // 28800 (an MS-2000 DIP switch setting) has no Bxxx constant; it is set through termios2.
     return baud == 28800 || speed_constant(baud) != B0;
 }
 
@@ -61,11 +63,16 @@ boost::system::error_code serial_port::open(const std::string& path, unsigned ba
     tio.c_iflag &= ~static_cast<tcflag_t>(IXON | IXOFF | IXANY);
     tio.c_cc[VMIN] = 1;
     tio.c_cc[VTIME] = 0;
-    // 28800 is approximated by the nearest standard rate on drivers without arbitrary rates; USB
-    // bridges (CP210x) and ptys ignore the rate anyway.
+    // 28800 has no Bxxx constant: set a standard rate first, then the real one through termios2.
     const speed_t speed = baud == 28800 ? B38400 : speed_constant(baud);
     if (::cfsetispeed(&tio, speed) != 0 || ::cfsetospeed(&tio, speed) != 0) return fail();
     if (::tcsetattr(fd, TCSANOW, &tio) != 0) return fail();
+    if (baud == 28800) {
+        if (const int err = set_custom_baud(fd, baud); err != 0) {
+            ::close(fd);
+            return {err, boost::system::system_category()};
+        }
+    }
     ::tcflush(fd, TCIOFLUSH);
 
     struct stat st {};
