@@ -50,7 +50,9 @@ TEST_P(serial_port_baud_test, opens_raw_8n1_without_flow_control) {
     EXPECT_EQ(tio.c_iflag & (IXON | IXOFF | ICRNL), 0u);
     EXPECT_EQ(tio.c_lflag & (ICANON | ECHO), 0u);
     EXPECT_EQ(tio.c_oflag & OPOST, 0u);
-    if (GetParam().constant != 0) EXPECT_EQ(::cfgetospeed(&tio), GetParam().constant);
+    if (GetParam().constant != 0) {
+        EXPECT_EQ(::cfgetospeed(&tio), GetParam().constant);
+    }
     const int flags = ::fcntl(port.stream().native_handle(), F_GETFL);
     EXPECT_TRUE(flags & O_NONBLOCK);
     EXPECT_TRUE(port.still_present(pty.slave));
