@@ -87,6 +87,11 @@ class drv_pty_controller {
         close_pair();
         std::filesystem::remove(link_);
     }
+    // The device node disappears but the pty stays open (no I/O error on the driver's side).
+    void remove_link() {
+        std::lock_guard lock(mu_);
+        std::filesystem::remove(link_);
+    }
     void replug() {
         std::lock_guard lock(mu_);
         close_pair();

@@ -10,6 +10,7 @@
 #include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "devices/ms2000/error.hpp"
 #include "devices/serial/controller.hpp"
@@ -234,6 +235,41 @@ TEST_F(controller_sim_test, a_report_train_yields_one_event_per_pulse) {
         }
     }
     EXPECT_EQ(reports.back().bytes_skipped, 0u);
+}
+
+TEST_F(controller_sim_test, recovers_from_dropped_corrupted_and_noisy_replies) {
+    auto c = make("plain", 10, 0ms);
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+
+    c.sim->drop_next_reply();
+    EXPECT_EQ(c.call(ms2000::where("XYZ")).first, ms2000::error::timeout);
+    auto [ec, reply] = c.call(ms2000::where("XYZ"));
+    EXPECT_FALSE(ec) << ec.message();
+    EXPECT_EQ(reply.values.size(), 3u);
+
+    c.sim->corrupt_next_reply();
+    EXPECT_TRUE(c.call(ms2000::status()).first);  // whatever the corruption made of it, not success
+    EXPECT_FALSE(c.call(ms2000::status()).first);
+
+    // Noise while idle (no CR or LF, so it would prefix the next reply if it were not discarded).
+    // The simulator counts it when queued and paces it out at the baud rate; noise that races a
+    // command on the wire cannot be told apart from the reply, so one failed command is tolerated.
+    const auto bytes_out = [&] {
+        return nlohmann::json::parse(c.sim->state_json())["port"]["bytes_out"].get<long>();
+    };
+    const auto before = bytes_out();
+    c.sim->emit_garbage(64);
+    for (int i = 0; i < 1000 && bytes_out() < before + 64; ++i)
+        std::this_thread::sleep_for(5ms);
+    ASSERT_GE(bytes_out(), before + 64);
+    std::this_thread::sleep_for(50ms);  // about ten times the 64 bytes' time on the wire
+    auto [ec2, reply2] = c.call(ms2000::where("XYZ"));
+    if (ec2) {
+        EXPECT_EQ(ec2, ms2000::error::unrecognized_reply);
+        std::tie(ec2, reply2) = c.call(ms2000::where("XYZ"));
+    }
+    EXPECT_FALSE(ec2) << ec2.message();
+    EXPECT_EQ(reply2.values.size(), 3u);
 }
 
 TEST_F(controller_sim_test, an_unplugged_controller_does_not_stop_the_other) {

@@ -388,6 +388,37 @@ TEST_F(controller_test, unplug_fails_commands_with_disconnected_and_replug_recon
     EXPECT_FALSE(call(raw("NUM 1")).first);
 }
 
+TEST_F(controller_test, a_vanished_device_node_is_a_disconnect) {
+    start(settings());
+    fake_.remove_link();
+    EXPECT_TRUE(observer_->wait_state(connection_state::disconnected));
+    EXPECT_EQ(observer_->latest().last_error->name, "disconnected");
+    fake_.replug();
+    EXPECT_TRUE(observer_->wait_state(connection_state::connected));
+}
+
+TEST_F(controller_test, snapshots_are_published_only_on_change) {
+    auto s = settings();
+    s.poll_interval = 5ms;
+    start(s);
+    const auto polls = [&] { return fake_.count("W X Y"); };
+    ASSERT_TRUE(
+        observer_->wait([&] { return observer_->snapshots.back().axes.at(0).position_um.has_value(); }));
+    const auto before = observer_->locked([&] { return observer_->snapshots.size(); });
+    const auto polled = polls();
+    // Twenty more identical poll rounds.
+    ASSERT_TRUE(fake_.wait_for_commands(fake_.commands().size() + 40));
+    EXPECT_GE(polls(), polled + 10);
+    EXPECT_EQ(observer_->locked([&] { return observer_->snapshots.size(); }), before);
+
+    // A changed position is published.
+    fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
+        if (c == "W X Y") return {":A 300.0 -20.0 \r\n"};
+        return test::drv_pty_controller::default_reply(c);
+    });
+    EXPECT_TRUE(observer_->wait([&] { return observer_->snapshots.back().axes.at(0).position_um == 30.0; }));
+}
+
 TEST_F(controller_test, unsolicited_position_report_becomes_a_ttl_event) {
     start(settings());
     fake_.write_raw("T:   400    12.0    -3.5\r\n");
