@@ -160,6 +160,16 @@ void controller::do_write(std::uint64_t sequence) {
     framer_.reset();
     in_flight_->accepting = true;
     in_flight_->started = steady_clock::now();
+
+    // The deadline covers the write too: a port that stops draining is caught as well.
+    const auto timeout =
+        in_flight_->job.cmd.long_reply ? settings_.long_reply_timeout : settings_.command_timeout;
+    command_timer_.expires_after(timeout);
+    command_timer_.async_wait([self = shared_from_this(), sequence](error_code ec) {
+        if (!ec) self->on_timeout(sequence);
+    });
+
+    // The buffer is shared with the handler: it outlives the command if the port is closed meanwhile.
     auto wire = std::make_shared<std::string>(in_flight_->job.cmd.wire);
     if (log_->should_log(spdlog::level::trace)) log_->trace("TX {}", escape_control(*wire));
     net::async_write(
@@ -170,22 +180,17 @@ void controller::do_write(std::uint64_t sequence) {
 }
 
 void controller::on_write(std::uint64_t sequence, error_code ec) {
-    if (!in_flight_ || in_flight_->sequence != sequence) return;
-    if (ec) {
-        if (ec == net::error::operation_aborted) return;
-        return disconnect(ec, "write");
-    }
-    const auto timeout =
-        in_flight_->job.cmd.long_reply ? settings_.long_reply_timeout : settings_.command_timeout;
-    command_timer_.expires_after(timeout);
-    command_timer_.async_wait([self = shared_from_this(), sequence](error_code ec) {
-        if (!ec) self->on_timeout(sequence);
-    });
+    if (ec && ec != net::error::operation_aborted) return disconnect(ec, "write");
+    if (in_flight_ && in_flight_->sequence == sequence) in_flight_->write_done = true;
 }
 
 void controller::on_timeout(std::uint64_t sequence) {
     // An expired timer cannot be cancelled: the sequence number tells a stale one apart.
     if (!in_flight_ || in_flight_->sequence != sequence) return;
+    if (!in_flight_->write_done) {
+        // Not even the command left: the port is stuck (a hung adapter). Start over.
+        return disconnect(ms2000::error::timeout, "write stalled");
+    }
     log_error("command timed out", ms2000::error::timeout);
 
     // Wait a moment before the next command so a late reply lands while nothing is in flight.

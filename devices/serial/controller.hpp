@@ -97,6 +97,7 @@ class controller : public std::enable_shared_from_this<controller> {
         std::uint64_t sequence = 0;
         bool accepting = false;  // lines before the command is written are stale
         std::chrono::steady_clock::time_point started;
+        bool write_done = false;  // the write completed (a reply may come first)
     };
 
     enum class poll_step : std::uint8_t { idle, where, status, axis_status };
