@@ -1,0 +1,113 @@
+#pragma once
+// The gateway's configuration: a JSON file parsed into plain structs. Constructors elsewhere take
+// these structs, never JSON. Every field has a safe default; every unknown key and every bad value is
+// refused with a message that names its JSON path ("controllers[1].baud: must be one of ...").
+//
+//   {"http": {"listen_address": "127.0.0.1", "port": 8080, "limits": {...}},
+//    "controllers": [{"id": "stage1", "port": "/dev/ttyUSB0", "baud": 115200}],
+//    "simulate": {"count": 0}, "storage": {"path": "..."}, "auth": {"tokens": [...]},
+//    "logging": {"level": "info", "format": "text", "levels": {"ms2000": "debug"}},
+//    "shutdown": {"halt_on_exit": true}}
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <iosfwd>
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <boost/system/result.hpp>
+
+#include "devices/serial/controller_settings.hpp"
+
+namespace gw {
+
+struct http_limits {
+    std::size_t max_header_bytes = 16 * 1024;
+    std::size_t max_body_bytes = 1024 * 1024;
+    std::chrono::milliseconds read_timeout{30000};
+    std::size_t max_websocket_message_bytes = 64 * 1024;
+    std::size_t max_connections = 256;
+};
+
+struct http_config {
+    std::string listen_address = "127.0.0.1";
+    std::uint16_t port = 8080;  // 0 = any free port (tests)
+    http_limits limits;
+};
+
+struct simulate_config {
+    std::size_t count = 0;    // simulated controllers "sim1".."simN" (presets cycle full, plain, planar)
+    double time_scale = 1.0;  // 1 = real time
+    std::string directory;    // where their port symlinks go; empty = /tmp/asi-gateway-<pid>
+};
+
+struct storage_config {
+    std::string path = "asi-gateway-data";
+};
+
+enum class role : std::uint8_t { viewer, operator_, admin };
+std::string_view to_string(role r);
+
+struct auth_token {
+    std::string name;
+    std::string token;
+    gw::role role = role::viewer;
+};
+
+struct auth_config {
+    std::vector<auth_token> tokens;  // none: the service may only listen on loopback
+};
+
+enum class log_level : std::uint8_t { trace, debug, info, warn, error, critical, off };
+enum class log_format : std::uint8_t { text, json };
+std::string_view to_string(log_level l);
+
+struct logging_config {
+    log_level level = log_level::info;
+    log_format format = log_format::text;
+    // Per-logger levels: "gateway", "api", "jobs", "mqtt", "ms2000" (every controller) or
+    // "ms2000.<id>" (one controller; wins over "ms2000").
+    std::map<std::string, log_level> levels;
+};
+
+struct shutdown_config {
+    bool halt_on_exit = true;  // HALT every connected controller before stopping
+};
+
+struct gateway_config {
+    http_config http;
+    std::vector<devices::controller_settings> controllers;
+    simulate_config simulate;
+    storage_config storage;
+    auth_config auth;
+    logging_config logging;
+    shutdown_config shutdown;
+};
+
+// Limits of the values the file may hold.
+inline constexpr unsigned supported_bauds[] = {9600, 19200, 28800, 38400, 57600, 115200};
+inline constexpr std::size_t max_simulated_controllers = 16;
+
+// The embedded default used without a file: three simulated controllers (`--simulate 3`).
+gateway_config default_config();
+
+// Parses and validates the text of a config file. Keys left out keep their default (simulate.count
+// is 0 in a file: a file describes its controllers). The error is one line naming the JSON path.
+boost::system::result<gateway_config, std::string> parse_config(std::string_view json_text);
+// Reads and parses a file; the error names the file when it cannot be read.
+boost::system::result<gateway_config, std::string> load_config_file(const std::string& path);
+// Checks what parse_config cannot see in isolation (e.g. after flags changed it): duplicate ids,
+// a non-loopback listen address without tokens. Empty when fine.
+std::string validate_config(const gateway_config& config);
+
+// `asi-gateway --check-config FILE`: prints "ok" to `out` and returns 0, or prints the error to `err`
+// and returns 2.
+int check_config_file(const std::string& path, std::ostream& out, std::ostream& err);
+
+// The loopback test behind the "no tokens, loopback only" rule.
+bool is_loopback_address(std::string_view address);
+
+}  // namespace gw

@@ -1,0 +1,49 @@
+#pragma once
+// Why a typed operation on a controller failed. A plain value with a stable kind that the api layer
+// maps to an HTTP status and a problem type; it knows nothing of HTTP itself.
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include <boost/system/error_code.hpp>
+#include <boost/system/result.hpp>
+
+namespace gw {
+
+enum class operation_error_kind : std::uint8_t {
+    unknown_controller,  // no controller with that id (404)
+    invalid_value,       // a value out of range or malformed; `field` names it (422)
+    missing_module,      // the firmware build lacks the module the operation needs (409)
+    busy,                // the stage is moving and the operation cannot run now (409)
+    leased,              // another client holds the controller (409; used by jobs)
+    not_connected,       // the controller is not connected or went away (503)
+    timeout,             // the controller did not answer, or did not arrive in time (504)
+    controller_error,    // the controller answered ":N-<code>" or an unparseable line (502)
+    queue_full,          // the controller's command queue is full (503)
+    internal,            // a bug or an unexpected condition (500)
+};
+
+// Stable snake_case name ("missing_module"), for problem types, logs and metrics.
+std::string_view to_string(operation_error_kind kind);
+
+struct operation_error {
+    operation_error_kind kind = operation_error_kind::internal;
+    std::string message;               // for humans: "axis Q is not a motor axis of stage1 (X Y Z)"
+    std::string field;                 // the offending request field ("axes.Q", "volts"), empty if none
+    int controller_code = 0;           // controller_error: the signed ":N-<code>" (-4)
+    std::string controller_code_name;  // controller_error: "parameter_out_of_range"
+
+    bool operator==(const operation_error&) const = default;
+};
+
+operation_error make_error(operation_error_kind kind, std::string message, std::string field = {});
+
+// Maps a driver completion error (gw::devices::ms2000::error) to an operation error. `code` is the
+// controller's ":N-<code>" when the error is controller_rejected.
+operation_error from_driver_error(boost::system::error_code ec, int code, std::string_view controller_id);
+
+template <typename T>
+using operation_result = boost::system::result<T, operation_error>;
+
+}  // namespace gw
