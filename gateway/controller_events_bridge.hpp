@@ -1,0 +1,47 @@
+#pragma once
+// Turns what controllers report into hub events:
+//   every snapshot                      -> "controllers/<id>/state"    (state_json)
+//   a snapshot whose positions/busy differ from the last published ones
+//                                       -> "controllers/<id>/position" (position_json)
+//   every report_event                  -> "controllers/<id>/reports"  (report_json)
+//   every ttl_event                     -> "controllers/<id>/ttl"      (ttl_json)
+// Event times: the snapshot's `updated` and the events' system_time (when the gateway received the
+// bytes), so a client can line encoder frames and TTL reports up on one clock.
+// Called on each controller's strand (several at once); serialises to JSON there and posts to the
+// hub. One bridge serves every controller; the registry owns it and holds it by shared_ptr.
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+
+#include <nlohmann/json.hpp>
+
+#include "devices/serial/controller_observer.hpp"
+
+namespace gw {
+
+class event_hub;
+
+// "controllers/<id>/<leaf>"
+std::string controller_topic(std::string_view id, std::string_view leaf);
+
+class controller_events_bridge final : public devices::controller_observer {
+  public:
+    explicit controller_events_bridge(std::shared_ptr<event_hub> hub);
+
+    void on_snapshot(const devices::controller_snapshot& snapshot) override;
+    void on_report(const devices::report_event& event) override;
+    void on_ttl(const devices::ttl_event& event) override;
+
+    // The controller was removed; a controller with this id later starts with a fresh position.
+    void forget(const std::string& id);
+
+  private:
+    std::shared_ptr<event_hub> hub_;
+    std::mutex mutex_;  // guards last_position_ (several controller strands call in); held to compare only
+    std::unordered_map<std::string, nlohmann::json> last_position_;
+};
+
+}  // namespace gw

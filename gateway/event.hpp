@@ -1,0 +1,41 @@
+#pragma once
+// One event as the hub hands it to subscribers: an immutable value shared by every subscriber.
+// `message` is the complete JSON text a transport sends as is (a WebSocket text frame, an MQTT
+// payload); it is serialised once, when the hub assigns the sequence number.
+//   data: {"type":"event","topic":"controllers/stage1/position","seq":12,
+//          "time":"2026-11-22T02:45:40.123Z","time_ms":1795322740123,"data":{...}}
+//   gap:  {"type":"gap","topic":"controllers/stage1/reports","missed":40,"from":101,"to":140,
+//          "time":"2026-11-22T02:45:40.456Z","time_ms":1795322740456}
+// A gap event tells one subscriber that the events from..to of that topic will not reach it (they
+// left the replay buffer, or its queue overflowed). Gap events are per subscriber, never replayed.
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace gw {
+
+enum class event_kind : std::uint8_t { data, gap };
+
+struct event {
+    event_kind kind = event_kind::data;
+    std::string topic;
+    std::uint64_t sequence = 0;  // data: 1, 2, 3 ... per topic; gap: 0
+    std::uint64_t gap_from = 0;  // gap: first missed sequence number
+    std::uint64_t gap_to = 0;    // gap: last missed sequence number
+    std::chrono::system_clock::time_point time;
+    std::shared_ptr<const std::string> data;     // data: the payload's JSON text
+    std::shared_ptr<const std::string> message;  // the whole JSON message (see above)
+
+    std::uint64_t missed() const { return kind == event_kind::gap ? gap_to - gap_from + 1 : 0; }
+};
+
+// `data` must be one valid JSON value (it is embedded as is, not re-parsed).
+std::shared_ptr<const event> make_data_event(std::string topic, std::uint64_t sequence,
+                                             std::chrono::system_clock::time_point time,
+                                             std::shared_ptr<const std::string> data);
+std::shared_ptr<const event> make_gap_event(std::string topic, std::uint64_t from, std::uint64_t to,
+                                            std::chrono::system_clock::time_point time);
+
+}  // namespace gw

@@ -1,0 +1,185 @@
+#pragma once
+// Fan-out of gateway events to subscribers (WebSocket sessions, the MQTT bridge), transport-agnostic.
+//
+// Threads: every public method may be called from any thread; it validates its arguments, posts to
+// the hub's strand and returns. All state lives on the strand. Sinks are called on the strand (see
+// event_sink.hpp for the credit-based flow control). Owned by the application as a shared_ptr;
+// stop() before the io_context goes away closes every subscriber.
+//
+// Topics and sequence numbers: each topic ("controllers/<id>/state|position|reports|ttl",
+// "jobs/<id>") numbers its events 1, 2, 3 ... without gaps and keeps the newest ones in a bounded
+// replay buffer (settings: stream_replay, latest_replay).
+//
+// Per subscriber, two kinds of pending state, both bounded:
+//  * latest-value topics (state, position): one slot per topic holding the newest undelivered event
+//    (a newer one replaces it: "coalesced"), delivered at most max_rate_hz times per second per
+//    topic. Sequence numbers seen by the client may skip here; that is the policy, not a loss.
+//  * stream topics (reports, ttl, jobs): a FIFO of at most queue_limit events. When it is full, new
+//    events are not queued and the subscriber later gets one gap event per topic
+//    {"type":"gap","missed":n,"from":a,"to":b} before that topic's next event. A subscriber that
+//    overflows again within overflow_window, or stays full/gapped longer than max_stall, is evicted:
+//    event_sink::close("too slow: ..."). Nothing else is ever dropped silently.
+// A subscriber that resumes reads the replay buffer lazily (as its queue has room), so a large
+// replay neither overflows it nor blocks live events of other topics; live events of a topic in
+// catch-up are taken from the buffer in order, so there are no duplicates and no holes between
+// replay and live. A subscriber never receives the same (topic, sequence) twice, even with
+// overlapping filters.
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <boost/asio/any_io_executor.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/system/error_code.hpp>
+#include <nlohmann/json_fwd.hpp>
+
+#include "gateway/event.hpp"
+#include "gateway/event_hub_settings.hpp"
+#include "gateway/event_sink.hpp"
+#include "gateway/topic.hpp"
+
+namespace gw {
+
+using subscriber_id = std::uint64_t;
+
+// For /metrics. Monotonic except `subscribers`.
+struct event_hub_counters {
+    std::uint64_t published = 0;    // events accepted by publish()
+    std::uint64_t delivered = 0;    // events handed to sinks (data and gap)
+    std::uint64_t replayed = 0;     // of those, data events taken from a replay buffer on resume
+    std::uint64_t coalesced = 0;    // latest-value events replaced by a newer one before delivery
+    std::uint64_t gap_events = 0;   // gap events created
+    std::uint64_t gapped = 0;       // events those gap events reported missing
+    std::uint64_t evicted = 0;      // subscribers closed for being too slow
+    std::uint64_t subscribers = 0;  // current
+};
+
+class event_hub : public std::enable_shared_from_this<event_hub> {
+  public:
+    static std::shared_ptr<event_hub> create(boost::asio::any_io_executor executor,
+                                             event_hub_settings settings = {}, event_clock clock = {});
+    ~event_hub();
+
+    // Publishes one event; `data` is serialised once here. `time` defaults to the clock's now.
+    // topic_error when `topic` is not a valid topic name (nothing is published).
+    boost::system::error_code publish(std::string topic, const nlohmann::json& data,
+                                      std::optional<std::chrono::system_clock::time_point> time = {});
+    // `data_json` must hold one valid JSON value.
+    boost::system::error_code publish(std::string topic, std::shared_ptr<const std::string> data_json,
+                                      std::optional<std::chrono::system_clock::time_point> time = {});
+
+    // Registers a sink; it receives nothing until it subscribes. settings default to the hub's.
+    subscriber_id add_subscriber(std::weak_ptr<event_sink> sink);
+    subscriber_id add_subscriber(std::weak_ptr<event_sink> sink, subscriber_settings settings);
+    void remove_subscriber(subscriber_id id);
+
+    // topic_error when the filter is invalid (nothing changes). Subscribing again to the same filter
+    // replaces its options (and resumes again if asked to). Latest-value topics that already have
+    // a value are delivered at once (the current state), stream topics from now on unless resumed.
+    boost::system::error_code subscribe(subscriber_id id, std::string filter,
+                                        subscription_options options = {});
+    void unsubscribe(subscriber_id id, std::string filter);
+
+    // The sink finished with its last batch and can take the next one.
+    void request_more(subscriber_id id);
+
+    // Re-evaluates time-based decisions (rate limits, stalls) now. The hub's own timer calls it;
+    // tests with a manual clock call it after moving the clock.
+    void tick();
+
+    // Closes every subscriber ("event hub stopped") and refuses further work.
+    void stop();
+
+    event_hub_counters counters() const;
+
+  private:
+    struct topic_state {
+        topic_class cls = topic_class::stream;
+        std::uint64_t last_seq = 0;
+        std::size_t capacity = 0;
+        std::deque<std::shared_ptr<const event>> replay;  // consecutive sequence numbers, newest last
+        std::uint64_t last_publish = 0;                   // publish_order_ when last published
+
+        std::uint64_t oldest() const { return replay.empty() ? last_seq + 1 : replay.front()->sequence; }
+    };
+    struct subscription {
+        std::string filter;
+        double max_rate_hz = 0;
+    };
+    struct latest_slot {
+        std::shared_ptr<const event> pending;
+        double max_rate_hz = 0;
+        std::optional<std::chrono::steady_clock::time_point> next_allowed;
+    };
+    struct gap_range {
+        std::uint64_t from = 0;
+        std::uint64_t to = 0;
+    };
+    struct subscriber {
+        subscriber_id id = 0;
+        std::weak_ptr<event_sink> sink;
+        subscriber_settings settings;
+        std::vector<subscription> subscriptions;
+        std::deque<std::shared_ptr<const event>> queue;  // stream and gap events; <= queue_limit
+        std::map<std::string, latest_slot> latest;       // latest-value topics
+        std::map<std::string, gap_range> gaps;           // stream events not queued (overflow)
+        std::map<std::string, std::uint64_t> catch_up;   // topic -> next sequence to read from replay
+        std::map<std::string, std::uint64_t> cursor;     // topic -> highest sequence taken (no duplicates)
+        bool in_flight = false;                          // a batch was delivered, not yet acknowledged
+        std::optional<std::chrono::steady_clock::time_point> stalled_since;  // full or gapped, no ack
+        std::optional<std::chrono::steady_clock::time_point> last_overflow;
+        std::optional<std::string> evict_reason;
+
+        std::size_t room() const {
+            return queue.size() >= settings.queue_limit ? 0 : settings.queue_limit - queue.size();
+        }
+    };
+
+    event_hub(boost::asio::any_io_executor executor, event_hub_settings settings, event_clock clock);
+
+    void on_publish(std::string topic, std::shared_ptr<const std::string> data,
+                    std::chrono::system_clock::time_point time);
+    void on_subscribe(subscriber_id id, std::string filter, subscription_options options);
+    void on_unsubscribe(subscriber_id id, const std::string& filter);
+    void on_request_more(subscriber_id id);
+    void on_tick();
+
+    topic_state& topic_for(const std::string& name);
+    void forget_oldest_topic();
+    const subscription* matching(const subscriber& s, const std::string& topic) const;
+    void offer(subscriber& s, const std::shared_ptr<const event>& e, const topic_state& t,
+               const subscription& sub);
+    void push_stream(subscriber& s, const std::shared_ptr<const event>& e);
+    void push_gap(subscriber& s, const std::string& topic, std::uint64_t from, std::uint64_t to);
+    void fill_catch_up(subscriber& s);
+    void flush_gaps(subscriber& s);
+    void pump(subscriber& s);
+    void settle(subscriber_id id);  // pump, then evict if it is too slow or its sink is gone
+    void evict(subscriber_id id, std::string reason, bool count);
+    void schedule_wake();
+    void on_wake(boost::system::error_code ec);
+
+    boost::asio::strand<boost::asio::any_io_executor> strand_;
+    event_hub_settings settings_;
+    event_clock clock_;
+    boost::asio::steady_timer wake_timer_;
+    std::optional<std::chrono::steady_clock::time_point> wake_at_;
+    bool stopped_ = false;
+    std::map<std::string, topic_state> topics_;
+    std::map<subscriber_id, std::unique_ptr<subscriber>> subscribers_;
+    std::uint64_t publish_order_ = 0;
+    std::atomic<subscriber_id> next_id_{1};
+
+    struct atomic_counters;
+    std::unique_ptr<atomic_counters> counters_;
+};
+
+}  // namespace gw

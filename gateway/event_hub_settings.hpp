@@ -1,0 +1,55 @@
+#pragma once
+// Settings of the event hub and of each subscriber. Plain values; config.cpp fills them.
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+
+namespace gw {
+
+struct subscriber_settings {
+    // Stream and gap events waiting for this subscriber (latest-value topics keep one slot per topic
+    // outside this bound). Overflow policy: new stream events are not queued; the subscriber gets one
+    // gap event per topic with the exact count once there is room again.
+    std::size_t queue_limit = 256;
+    std::size_t max_batch_events = 64;  // stream/gap events per deliver()
+    // Evicted (event_sink::close) when it overflows again within this window after an earlier
+    // overflow ...
+    std::chrono::milliseconds overflow_window{10'000};
+    // ... or when its queue stays full (or it has undelivered gaps) for longer than this.
+    std::chrono::milliseconds max_stall{5'000};
+};
+
+struct subscription_options {
+    // Latest-value topics: at most this many events per second per topic; the newest wins. 0: no
+    // rate limit (events still coalesce while the sink is busy).
+    double max_rate_hz = 0;
+    // Resume: topic name -> the last sequence number the client already has. Events after it that
+    // are still in the replay buffer come first, then live events; missing ones become a gap event.
+    // A number above the topic's newest sequence (the hub restarted) counts as 0.
+    std::map<std::string, std::uint64_t> resume;
+};
+
+// Injectable time sources so tests drive rate limits and eviction deterministically.
+struct event_clock {
+    std::function<std::chrono::steady_clock::time_point()> steady = [] {
+        return std::chrono::steady_clock::now();
+    };
+    std::function<std::chrono::system_clock::time_point()> system = [] {
+        return std::chrono::system_clock::now();
+    };
+};
+
+struct event_hub_settings {
+    std::size_t stream_replay = 1000;  // replay buffer per stream topic (reports, ttl, jobs/<id>)
+    std::size_t latest_replay = 8;     // replay buffer per latest-value topic (state, position)
+    // Distinct topics remembered; beyond it the topic published least recently is forgotten (its
+    // replay buffer and sequence counter; a later publish starts again at 1).
+    std::size_t max_topics = 4096;
+    subscriber_settings subscriber;  // defaults for add_subscriber()
+};
+
+}  // namespace gw

@@ -1,0 +1,52 @@
+#pragma once
+// Topic names and subscription filters of the event hub, MQTT style: levels separated by '/',
+// "+" matches exactly one level, "#" matches the rest (only as the last level; "a/#" also matches "a").
+//   names:   "controllers/stage1/position", "jobs/42"
+//   filters: "controllers/+/position", "controllers/stage1/#", "jobs/#", "#"
+// Pure functions: no I/O, no clock.
+
+#include <cstddef>
+#include <cstdint>
+#include <string_view>
+#include <type_traits>
+
+#include <boost/system/error_code.hpp>
+
+namespace gw {
+
+inline constexpr std::size_t max_topic_bytes = 256;
+inline constexpr std::size_t max_topic_levels = 16;
+
+enum class topic_error {
+    empty = 1,          // ""
+    too_long,           // more than max_topic_bytes
+    too_many_levels,    // more than max_topic_levels
+    empty_level,        // "a//b", "/a", "a/"
+    invalid_character,  // anything outside printable ASCII without space (0x21..0x7e)
+    hash_not_last,      // "#/a", "a/#/b"
+    wildcard_in_level,  // "+x", "a#", "x+y": a wildcard must be a whole level
+    wildcard_in_name,   // a published topic name contains "+" or "#"
+};
+
+const boost::system::error_category& topic_error_category() noexcept;
+boost::system::error_code make_error_code(topic_error e) noexcept;
+
+// A subscription filter; wildcards allowed. Empty error_code when valid.
+boost::system::error_code validate_topic_filter(std::string_view filter);
+// A concrete topic a publisher uses; no wildcards. Empty error_code when valid.
+boost::system::error_code validate_topic_name(std::string_view name);
+
+// Both arguments are assumed valid (validate first); false for anything else.
+bool topic_matches(std::string_view filter, std::string_view name);
+
+// How the hub treats a topic's events.
+enum class topic_class : std::uint8_t {
+    latest_value,  // "controllers/<id>/state", "controllers/<id>/position": newest wins, rate-limited
+    stream,        // everything else ("reports", "ttl", "jobs/<id>"): never dropped silently
+};
+topic_class classify_topic(std::string_view name);
+
+}  // namespace gw
+
+template <>
+struct boost::system::is_error_code_enum<gw::topic_error> : std::true_type {};
