@@ -145,7 +145,6 @@ TEST_F(controller_test, timeout_fails_the_command_and_the_next_one_succeeds) {
     auto s = settings();
     s.command_timeout = 300ms;
     start(s);
-    std::atomic<bool> late_sent{false};
     fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
         if (c == "DROP") return {};
         if (c == "NUM 2") return {":A 2\r\n"};
