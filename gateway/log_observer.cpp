@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include "devices/ms2000/build_info.hpp"
+#include "gateway/logging.hpp"
 
 namespace gw {
 
@@ -34,10 +35,7 @@ std::string describe_positions(const devices::controller_snapshot& s) {
 
 }  // namespace
 
-log_observer::log_observer() {
-    log_ = spdlog::get("gateway");
-    if (!log_) log_ = spdlog::default_logger()->clone("gateway");
-}
+log_observer::log_observer() : log_(get_logger("gateway")) {}
 
 void log_observer::on_snapshot(const devices::controller_snapshot& s) {
     devices::controller_snapshot previous;
@@ -57,7 +55,15 @@ void log_observer::on_snapshot(const devices::controller_snapshot& s) {
         }
     }
     if (s.last_error && s.last_error != previous.last_error) {
-        log_->warn("{}: {} ({})", s.id, s.last_error->text, s.last_error->name);
+        // A controller that keeps failing the same way says so once in a while, not on every poll.
+        std::uint64_t suppressed = 0;
+        if (limiter_.allow(s.id + "/" + s.last_error->name, suppressed)) {
+            if (suppressed > 0)
+                log_->warn("{}: {} ({}; {} similar messages suppressed)", s.id, s.last_error->text,
+                           s.last_error->name, suppressed);
+            else
+                log_->warn("{}: {} ({})", s.id, s.last_error->text, s.last_error->name);
+        }
     }
     log_->debug("{}: {}{}", s.id, describe_positions(s), s.busy ? " busy" : "");
 }
@@ -74,8 +80,12 @@ void log_observer::on_ttl(const devices::ttl_event& e) {
 }
 
 void log_observer::on_trace(const devices::command_trace& t) {
-    log_->trace("{} [{}] {} -> {} ({} us){}", t.controller_id, t.request_id, t.wire, t.raw_reply,
-                t.latency.count(), t.error ? " error: " + t.error.message() : "");
+    // Commands somebody asked for at debug, with the request id; the driver's own polls at trace.
+    const auto level = t.internal ? spdlog::level::trace : spdlog::level::debug;
+    const auto log = get_logger("ms2000." + t.controller_id);
+    if (!log->should_log(level)) return;
+    log->log(level, "[{}] {} -> {} ({} us){}", t.request_id, t.wire, t.raw_reply, t.latency.count(),
+             t.error ? " error: " + t.error.message() : "");
 }
 
 }  // namespace gw

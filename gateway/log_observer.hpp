@@ -1,7 +1,8 @@
 #pragma once
-// Writes what controllers report to the log: connection changes and errors at info/warn, positions
-// and report frames at debug, every serial command at trace. It is the only observer until the event
-// hub (issue 3) exists. Called on each controller's strand; spdlog loggers are thread-safe.
+// Writes what controllers report to the log: connection changes and errors at info/warn (repeated
+// errors rate-limited), positions and report frames at debug on "gateway"; every serial command on
+// "ms2000.<id>" with its request id: user commands at debug, the driver's polls at trace. Joins the
+// registry's observers. Called on each controller's strand; spdlog loggers are thread-safe.
 
 #include <memory>
 #include <mutex>
@@ -9,6 +10,7 @@
 #include <unordered_map>
 
 #include "devices/serial/controller_observer.hpp"
+#include "gateway/logging.hpp"
 
 namespace spdlog {
 class logger;
@@ -29,6 +31,7 @@ class log_observer final : public devices::controller_observer {
     std::shared_ptr<spdlog::logger> log_;
     std::mutex mutex_;  // guards last_ (several controller strands call in)
     std::unordered_map<std::string, devices::controller_snapshot> last_;
+    keyed_log_limiter limiter_;
 };
 
 }  // namespace gw

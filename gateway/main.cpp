@@ -1,14 +1,18 @@
 // asi-gateway: puts MS-2000 stage controllers behind one service.
-// Today it runs the devices layer: simulated (--simulate N) or real (--serial) controllers, each
-// driven by its own controller object, with what they report written to the log. The REST,
-// WebSocket and MQTT interfaces come with issues 3 and 6.
+// Reads a JSON config file (--config) or uses the embedded default (three simulated controllers),
+// lets flags override it, sets up logging, and runs the controller registry until SIGINT/SIGTERM,
+// when it HALTs connected controllers (shutdown.halt_on_exit) and stops. The REST and WebSocket
+// interfaces (api/) come on top of the registry.
 
+#include <chrono>
+#include <condition_variable>
 #include <csignal>
 #include <cstdlib>
+#include <iostream>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
-#include <unistd.h>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -16,92 +20,129 @@
 #include <boost/asio/signal_set.hpp>
 #include <spdlog/spdlog.h>
 
-#include "devices/serial/controller.hpp"
+#include "gateway/config.hpp"
+#include "gateway/controller_registry.hpp"
 #include "gateway/log_observer.hpp"
+#include "gateway/logging.hpp"
 #include "gateway/serial_spec.hpp"
-#include "gateway/simulated_fleet.hpp"
 
 namespace net = boost::asio;
 
 int main(int argc, char** argv) {
     CLI::App app{"asi-gateway: ASI MS-2000 stage controllers behind one service"};
+    std::string config_file;
+    std::string check_file;
     std::size_t simulate = 0;
     double time_scale = 1.0;
-    std::string sim_dir = "/tmp/asi-gateway-" + std::to_string(::getpid());
+    std::string sim_dir;
     std::vector<std::string> serial_specs;
-    std::string log_level = "info";
+    std::string log_level;
     int poll_ms = 100;
-    app.add_option("--simulate", simulate,
-                   "Start N simulated MS-2000 controllers in-process (builds cycle: full, plain, planar)")
-        ->check(CLI::Range(0, 16));
-    app.add_option("--time-scale", time_scale, "Speed-up of the simulated controllers (1 = real time)")
-        ->check(CLI::Range(0.01, 1000.0));
-    app.add_option("--sim-dir", sim_dir, "Directory for the simulated ports' symlinks");
+    app.add_option("--config", config_file, "JSON config file (without it: three simulated controllers)")
+        ->check(CLI::ExistingFile);
+    app.add_option("--check-config", check_file,
+                   "Validate a config file, print \"ok\" or the error, exit 0/2");
+    auto* simulate_opt =
+        app.add_option("--simulate", simulate,
+                       "Start N simulated MS-2000 controllers in-process (builds cycle: full, plain, planar)")
+            ->check(CLI::Range(std::size_t{0}, gw::max_simulated_controllers));
+    auto* time_scale_opt =
+        app.add_option("--time-scale", time_scale, "Speed-up of the simulated controllers (1 = real time)")
+            ->check(CLI::Range(0.01, 1000.0));
+    auto* sim_dir_opt = app.add_option("--sim-dir", sim_dir, "Directory for the simulated ports' symlinks");
     app.add_option("--serial", serial_specs,
                    "A real controller: ID=PATH[@BAUD][,report=PATH] (repeatable), e.g. "
                    "stage1=/dev/ttyUSB0@115200");
-    app.add_option("--poll-ms", poll_ms, "Position/status polling interval in ms (0 = off)")
-        ->check(CLI::Range(0, 60000));
+    auto* poll_opt = app.add_option("--poll-ms", poll_ms, "Position/status polling interval in ms (0 = off)")
+                         ->check(CLI::Range(0, 60000));
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
         ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
     CLI11_PARSE(app, argc, argv);
 
-    spdlog::set_level(spdlog::level::from_str(log_level));
-    auto log = spdlog::default_logger()->clone("gateway");
-    spdlog::register_logger(log);
+    if (!check_file.empty()) return gw::check_config_file(check_file, std::cout, std::cerr);
 
-    std::vector<gw::devices::controller_settings> settings;
+    // The file (or the embedded default), then the flags on top.
+    gw::gateway_config config = gw::default_config();
+    if (!config_file.empty()) {
+        auto loaded = gw::load_config_file(config_file);
+        if (!loaded) {
+            std::cerr << "asi-gateway: " << loaded.error() << '\n';
+            return 2;
+        }
+        config = std::move(*loaded);
+    } else if (!serial_specs.empty() && simulate_opt->count() == 0) {
+        config.simulate.count = 0;  // real controllers only
+    }
+    if (simulate_opt->count() > 0) config.simulate.count = simulate;
+    if (time_scale_opt->count() > 0) config.simulate.time_scale = time_scale;
+    if (sim_dir_opt->count() > 0) config.simulate.directory = sim_dir;
     for (const auto& spec : serial_specs) {
         auto parsed = gw::parse_serial_spec(spec);
         if (!parsed) {
-            log->error("--serial {}: {}", spec, parsed.error());
+            std::cerr << "asi-gateway: --serial " << spec << ": " << parsed.error() << '\n';
             return 2;
         }
-        settings.push_back(std::move(*parsed));
+        config.controllers.push_back(std::move(*parsed));
     }
-    if (simulate == 0 && settings.empty()) {
-        log->error("nothing to drive: give --simulate N and/or --serial ID=PATH (see --help)");
+    if (!log_level.empty()) {
+        for (auto level : {gw::log_level::trace, gw::log_level::debug, gw::log_level::info,
+                           gw::log_level::warn, gw::log_level::error})
+            if (gw::to_string(level) == log_level) config.logging.level = level;
+    }
+    auto options = gw::make_registry_options(config);
+    if (poll_opt->count() > 0) {
+        for (auto& c : options.controllers)
+            c.poll_interval = std::chrono::milliseconds(poll_ms);
+        options.simulated_poll_interval = std::chrono::milliseconds(poll_ms);
+    }
+    if (auto problem = gw::validate_config(config); !problem.empty()) {
+        std::cerr << "asi-gateway: " << problem << '\n';
         return 2;
     }
 
+    gw::setup_logging(config.logging);
+    auto log = gw::get_logger("gateway");
+    if (config.controllers.empty() && config.simulate.count == 0)
+        log->warn("no controllers configured: give --simulate N, --serial ID=PATH or a config file");
+    if (config.auth.tokens.empty())
+        log->info("no auth tokens configured: listening on loopback only ({})", config.http.listen_address);
+
     net::io_context ioc;
-    gw::simulated_fleet fleet(ioc.get_executor(), simulate, time_scale, sim_dir);
+    gw::controller_registry registry(ioc.get_executor(), std::move(options));
+    registry.add_observer(
+        std::shared_ptr<gw::devices::controller_observer>(std::make_shared<gw::log_observer>()));
     try {
-        fleet.start();
+        registry.start();
     } catch (const std::exception& e) {
         log->error("cannot start the simulated controllers: {}", e.what());
         return 1;
     }
-    for (auto& s : fleet.controller_settings())
-        settings.push_back(std::move(s));
-    for (const auto& sim : fleet.simulators()) {
-        log->info("simulated {} ({}) on {}{}", sim->config().name, sim->config().build_name, sim->port_path(),
-                  sim->report_port_path().empty() ? "" : ", reports on " + sim->report_port_path());
-    }
 
-    auto observer = std::make_shared<gw::log_observer>();
-    std::vector<std::shared_ptr<gw::devices::controller>> controllers;
-    for (auto& s : settings) {
-        s.poll_interval = std::chrono::milliseconds(poll_ms);
-        auto c = std::make_shared<gw::devices::controller>(ioc.get_executor(), s, observer);
-        c->start();
-        controllers.push_back(std::move(c));
-    }
-
+    // After shutdown, run() ends when the last handler has run; a watchdog (not a timer on ioc, which
+    // would itself keep run() going) stops it if something lingers.
+    std::mutex mutex;
+    std::condition_variable cv;
+    bool finished = false;
+    std::thread watchdog;
     net::signal_set signals(ioc, SIGINT, SIGTERM);
     signals.async_wait([&](boost::system::error_code ec, int signal) {
         if (ec) return;
         log->info("signal {}: stopping", signal);
-        for (auto& c : controllers)
-            c->stop();
-        fleet.stop();
-        // A watchdog, not a timer on ioc: a pending timer would itself keep run() going.
-        std::thread([&ioc] {
-            std::this_thread::sleep_for(std::chrono::seconds(2));
-            ioc.stop();
-        }).detach();
+        registry.async_shutdown([&] {
+            watchdog = std::thread([&] {
+                std::unique_lock lock(mutex);
+                if (!cv.wait_for(lock, std::chrono::seconds(2), [&] { return finished; })) ioc.stop();
+            });
+        });
     });
     ioc.run();
+    {
+        std::lock_guard lock(mutex);
+        finished = true;
+    }
+    cv.notify_all();
+    if (watchdog.joinable()) watchdog.join();
     log->info("stopped");
+    spdlog::shutdown();
     return EXIT_SUCCESS;
 }
