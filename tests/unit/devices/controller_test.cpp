@@ -465,6 +465,11 @@ TEST_F(controller_test, commands_before_start_and_after_stop_fail) {
     EXPECT_EQ(pending.get().first, ms2000::error::cancelled);
     EXPECT_EQ(call(raw("NUM 1")).first, ms2000::error::cancelled);
     fake_.release();
+
+    // And it can be started again.
+    ctl_->start();
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    EXPECT_FALSE(call(raw("NUM 1")).first);
 }
 
 // The report port: a second pty on which the test sends binary encoder frames.
