@@ -1,0 +1,301 @@
+#include "gateway/config.hpp"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+namespace gw {
+namespace {
+
+using namespace std::chrono_literals;
+
+TEST(config, empty_object_gives_the_safe_defaults) {
+    auto c = parse_config("{}");
+    ASSERT_TRUE(c) << c.error();
+    EXPECT_EQ(c->http.listen_address, "127.0.0.1");
+    EXPECT_EQ(c->http.port, 8080);
+    EXPECT_EQ(c->http.limits.max_header_bytes, 16u * 1024);
+    EXPECT_EQ(c->http.limits.max_body_bytes, 1024u * 1024);
+    EXPECT_EQ(c->http.limits.read_timeout, 30000ms);
+    EXPECT_EQ(c->http.limits.max_websocket_message_bytes, 64u * 1024);
+    EXPECT_EQ(c->http.limits.max_connections, 256u);
+    EXPECT_TRUE(c->controllers.empty());
+    EXPECT_EQ(c->simulate.count, 0u);
+    EXPECT_EQ(c->simulate.time_scale, 1.0);
+    EXPECT_EQ(c->storage.path, "asi-gateway-data");
+    EXPECT_TRUE(c->auth.tokens.empty());
+    EXPECT_EQ(c->logging.level, log_level::info);
+    EXPECT_EQ(c->logging.format, log_format::text);
+    EXPECT_TRUE(c->logging.levels.empty());
+    EXPECT_TRUE(c->shutdown.halt_on_exit);
+}
+
+TEST(config, embedded_default_simulates_three_controllers) {
+    const auto c = default_config();
+    EXPECT_EQ(c.simulate.count, 3u);
+    EXPECT_TRUE(c.controllers.empty());
+    EXPECT_EQ(c.http.listen_address, "127.0.0.1");
+    EXPECT_TRUE(validate_config(c).empty());
+}
+
+TEST(config, reads_every_key) {
+    auto c = parse_config(R"({
+      "http": {"listen_address": "0.0.0.0", "port": 9000,
+               "limits": {"max_header_bytes": 8192, "max_body_bytes": 4096, "read_timeout_ms": 5000,
+                          "max_websocket_message_bytes": 2048, "max_connections": 10}},
+      "controllers": [
+        {"id": "stage1", "port": "/dev/ttyUSB0", "baud": 115200, "report_port": "/dev/ttyUSB1",
+         "poll_ms": 50, "command_timeout_ms": 700},
+        {"id": "stage-2_b", "port": "/dev/serial/by-id/x"}
+      ],
+      "simulate": {"count": 2, "time_scale": 10.5, "directory": "/tmp/sims"},
+      "storage": {"path": "/var/lib/asi"},
+      "auth": {"tokens": [{"name": "dash", "token": "0123456789abcdef", "role": "viewer"},
+                          {"name": "ops", "token": "0123456789abcdeX", "role": "operator"},
+                          {"name": "root", "token": "0123456789abcdeY", "role": "admin"},
+                          {"name": "def", "token": "0123456789abcdeZ"}]},
+      "logging": {"level": "debug", "format": "json",
+                  "levels": {"api": "warn", "ms2000": "trace", "ms2000.stage1": "error"}},
+      "shutdown": {"halt_on_exit": false}
+    })");
+    ASSERT_TRUE(c) << c.error();
+    EXPECT_EQ(c->http.listen_address, "0.0.0.0");
+    EXPECT_EQ(c->http.port, 9000);
+    EXPECT_EQ(c->http.limits.max_header_bytes, 8192u);
+    EXPECT_EQ(c->http.limits.max_body_bytes, 4096u);
+    EXPECT_EQ(c->http.limits.read_timeout, 5000ms);
+    EXPECT_EQ(c->http.limits.max_websocket_message_bytes, 2048u);
+    EXPECT_EQ(c->http.limits.max_connections, 10u);
+    ASSERT_EQ(c->controllers.size(), 2u);
+    const auto& s = c->controllers[0];
+    EXPECT_EQ(s.id, "stage1");
+    EXPECT_EQ(s.port, "/dev/ttyUSB0");
+    EXPECT_EQ(s.baud, 115200u);
+    EXPECT_EQ(s.report_port, "/dev/ttyUSB1");
+    EXPECT_EQ(s.poll_interval, 50ms);
+    EXPECT_EQ(s.command_timeout, 700ms);
+    const auto& d = c->controllers[1];
+    EXPECT_EQ(d.id, "stage-2_b");
+    EXPECT_EQ(d.baud, 9600u);  // the controller's factory default
+    EXPECT_EQ(d.report_port, "");
+    EXPECT_EQ(d.poll_interval, 100ms);
+    EXPECT_EQ(d.command_timeout, 1000ms);
+    EXPECT_EQ(c->simulate.count, 2u);
+    EXPECT_EQ(c->simulate.time_scale, 10.5);
+    EXPECT_EQ(c->simulate.directory, "/tmp/sims");
+    EXPECT_EQ(c->storage.path, "/var/lib/asi");
+    ASSERT_EQ(c->auth.tokens.size(), 4u);
+    EXPECT_EQ(c->auth.tokens[0].role, role::viewer);
+    EXPECT_EQ(c->auth.tokens[1].role, role::operator_);
+    EXPECT_EQ(c->auth.tokens[2].role, role::admin);
+    EXPECT_EQ(c->auth.tokens[2].name, "root");
+    EXPECT_EQ(c->auth.tokens[3].role, role::viewer);  // the least privilege by default
+    EXPECT_EQ(c->logging.level, log_level::debug);
+    EXPECT_EQ(c->logging.format, log_format::json);
+    EXPECT_EQ(c->logging.levels.at("api"), log_level::warn);
+    EXPECT_EQ(c->logging.levels.at("ms2000"), log_level::trace);
+    EXPECT_EQ(c->logging.levels.at("ms2000.stage1"), log_level::error);
+    EXPECT_FALSE(c->shutdown.halt_on_exit);
+}
+
+TEST(config, every_supported_baud_is_accepted) {
+    for (unsigned baud : supported_bauds) {
+        auto c = parse_config(R"({"controllers": [{"id": "a", "port": "/dev/x", "baud": )" +
+                              std::to_string(baud) + "}]}");
+        ASSERT_TRUE(c) << baud << ": " << c.error();
+        EXPECT_EQ(c->controllers[0].baud, baud);
+    }
+}
+
+struct bad_case {
+    const char* json;
+    const char* error;  // the exact message
+};
+
+TEST(config, refuses_bad_values_naming_the_json_path) {
+    const bad_case cases[] = {
+        // Not JSON / wrong shapes.
+        {"[]", "(top level): must be an object"},
+        {R"({"http": 1})", "http: must be an object"},
+        {R"({"http": {"limits": []}})", "http.limits: must be an object"},
+        {R"({"controllers": {}})", "controllers: must be an array"},
+        {R"({"controllers": [1]})", "controllers[0]: must be an object"},
+        {R"({"simulate": "3"})", "simulate: must be an object"},
+        {R"({"storage": null})", "storage: must be an object"},
+        {R"({"auth": {"tokens": {}}})", "auth.tokens: must be an array"},
+        {R"({"logging": {"levels": []}})", "logging.levels: must be an object"},
+        {R"({"shutdown": true})", "shutdown: must be an object"},
+        // http
+        {R"({"http": {"listen_address": "localhost"}})",
+         "http.listen_address: must be an IPv4 or IPv6 address"},
+        {R"({"http": {"listen_address": ""}})", "http.listen_address: must not be empty"},
+        {R"({"http": {"listen_address": 127}})", "http.listen_address: must be a string"},
+        {R"({"http": {"port": 65536}})", "http.port: must be an integer from 0 to 65535"},
+        {R"({"http": {"port": -1}})", "http.port: must be an integer from 0 to 65535"},
+        {R"({"http": {"port": 80.5}})", "http.port: must be an integer from 0 to 65535"},
+        {R"({"http": {"port": "80"}})", "http.port: must be an integer from 0 to 65535"},
+        {R"({"http": {"limits": {"max_header_bytes": 10}}})",
+         "http.limits.max_header_bytes: must be an integer from 1024 to 1048576"},
+        {R"({"http": {"limits": {"max_body_bytes": 0}}})",
+         "http.limits.max_body_bytes: must be an integer from 1 to 67108864"},
+        {R"({"http": {"limits": {"read_timeout_ms": 99}}})",
+         "http.limits.read_timeout_ms: must be an integer from 100 to 600000"},
+        {R"({"http": {"limits": {"max_websocket_message_bytes": 1}}})",
+         "http.limits.max_websocket_message_bytes: must be an integer from 128 to 16777216"},
+        {R"({"http": {"limits": {"max_connections": 0}}})",
+         "http.limits.max_connections: must be an integer from 1 to 10000"},
+        // controllers
+        {R"({"controllers": [{"port": "/dev/x"}]})", "controllers[0].id: required"},
+        {R"({"controllers": [{"id": "a"}]})", "controllers[0].port: required"},
+        {R"({"controllers": [{"id": "a/b", "port": "/dev/x"}]})",
+         "controllers[0].id: must be 1-64 characters of letters, digits, '-' or '_'"},
+        {R"({"controllers": [{"id": "", "port": "/dev/x"}]})", "controllers[0].id: must not be empty"},
+        {R"({"controllers": [{"id": "a", "port": ""}]})", "controllers[0].port: must not be empty"},
+        {R"({"controllers": [{"id": "a", "port": "/dev/x"}, {"id": "b", "port": "/dev/y", "baud": 9601}]})",
+         "controllers[1].baud: must be one of 9600, 19200, 28800, 38400, 57600, 115200"},
+        {R"({"controllers": [{"id": "a", "port": "/dev/x", "baud": "9600"}]})",
+         "controllers[0].baud: must be one of 9600, 19200, 28800, 38400, 57600, 115200"},
+        {R"({"controllers": [{"id": "a", "port": "/dev/x", "report_port": 3}]})",
+         "controllers[0].report_port: must be a string"},
+        {R"({"controllers": [{"id": "a", "port": "/dev/x", "poll_ms": 60001}]})",
+         "controllers[0].poll_ms: must be an integer from 0 to 60000"},
+        {R"({"controllers": [{"id": "a", "port": "/dev/x", "command_timeout_ms": 5}]})",
+         "controllers[0].command_timeout_ms: must be an integer from 10 to 60000"},
+        {R"({"controllers": [{"id": "a", "port": "/dev/x"}, {"id": "a", "port": "/dev/y"}]})",
+         "controllers[1].id: duplicate id \"a\""},
+        {R"({"simulate": {"count": 2}, "controllers": [{"id": "sim2", "port": "/dev/y"}]})",
+         "controllers[0].id: duplicate id \"sim2\" (simulated controllers are named sim1..simN)"},
+        // simulate, storage
+        {R"({"simulate": {"count": 17}})", "simulate.count: must be an integer from 0 to 16"},
+        {R"({"simulate": {"time_scale": 0}})", "simulate.time_scale: must be a number from 0.01 to 1000"},
+        {R"({"simulate": {"time_scale": "fast"}})",
+         "simulate.time_scale: must be a number from 0.01 to 1000"},
+        {R"({"simulate": {"directory": ""}})", "simulate.directory: must not be empty"},
+        {R"({"storage": {"path": ""}})", "storage.path: must not be empty"},
+        // auth
+        {R"({"auth": {"tokens": [{"token": "0123456789abcdef"}]}})", "auth.tokens[0].name: required"},
+        {R"({"auth": {"tokens": [{"name": "a"}]}})", "auth.tokens[0].token: required"},
+        {R"({"auth": {"tokens": [{"name": "a", "token": "short"}]}})",
+         "auth.tokens[0].token: must be at least 16 characters"},
+        {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789 abcdef"}]}})",
+         "auth.tokens[0].token: must be printable ASCII without spaces"},
+        {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789abcdef", "role": "root"}]}})",
+         "auth.tokens[0].role: must be one of viewer, operator, admin"},
+        {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789abcdef"},
+                                  {"name": "a", "token": "0123456789abcdeX"}]}})",
+         "auth.tokens[1].name: duplicate name \"a\""},
+        {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789abcdef"},
+                                  {"name": "b", "token": "0123456789abcdef"}]}})",
+         "auth.tokens[1].token: the same token is given twice"},
+        {R"({"http": {"listen_address": "0.0.0.0"}})",
+         "http.listen_address: 0.0.0.0 is not a loopback address, which needs auth.tokens (no tokens: "
+         "loopback "
+         "only)"},
+        // logging, shutdown
+        {R"({"logging": {"level": "verbose"}})",
+         "logging.level: must be one of trace, debug, info, warn, error, critical, off"},
+        {R"({"logging": {"format": "xml"}})", "logging.format: must be one of text, json"},
+        {R"({"logging": {"levels": {"http": "debug"}}})",
+         "logging.levels.http: unknown logger (gateway, api, jobs, mqtt, ms2000 or ms2000.<id>)"},
+        {R"({"logging": {"levels": {"ms2000.": "debug"}}})",
+         "logging.levels.ms2000.: unknown logger (gateway, api, jobs, mqtt, ms2000 or ms2000.<id>)"},
+        {R"({"logging": {"levels": {"api": 3}}})",
+         "logging.levels.api: must be one of trace, debug, info, warn, error, critical, off"},
+        {R"({"shutdown": {"halt_on_exit": "yes"}})", "shutdown.halt_on_exit: must be true or false"},
+    };
+    for (const auto& c : cases) {
+        SCOPED_TRACE(c.json);
+        auto r = parse_config(c.json);
+        ASSERT_FALSE(r) << "accepted";
+        EXPECT_EQ(r.error(), c.error);
+    }
+}
+
+TEST(config, refuses_unknown_keys_at_every_level) {
+    const bad_case cases[] = {
+        {R"({"htp": {}})", "htp: unknown key"},
+        {R"({"http": {"prot": 80}})", "http.prot: unknown key"},
+        {R"({"http": {"limits": {"max_bytes": 1}}})", "http.limits.max_bytes: unknown key"},
+        {R"({"controllers": [{"id": "a", "port": "/dev/x"}, {"id": "b", "port": "/dev/y", "speed": 1}]})",
+         "controllers[1].speed: unknown key"},
+        {R"({"simulate": {"cont": 1}})", "simulate.cont: unknown key"},
+        {R"({"storage": {"dir": "x"}})", "storage.dir: unknown key"},
+        {R"({"auth": {"token": []}})", "auth.token: unknown key"},
+        {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789abcdef", "roles": "admin"}]}})",
+         "auth.tokens[0].roles: unknown key"},
+        {R"({"logging": {"lvl": "info"}})", "logging.lvl: unknown key"},
+        {R"({"shutdown": {"halt": true}})", "shutdown.halt: unknown key"},
+    };
+    for (const auto& c : cases) {
+        SCOPED_TRACE(c.json);
+        auto r = parse_config(c.json);
+        ASSERT_FALSE(r) << "accepted";
+        EXPECT_EQ(r.error(), c.error);
+    }
+}
+
+TEST(config, refuses_malformed_json_with_its_position) {
+    auto r = parse_config("{\"http\": {\"port\": 80,}}");
+    ASSERT_FALSE(r);
+    EXPECT_TRUE(r.error().starts_with("not valid JSON: ")) << r.error();
+    EXPECT_NE(r.error().find("line 1"), std::string::npos) << r.error();
+}
+
+TEST(config, non_loopback_address_is_fine_with_tokens_and_loopback_is_recognised) {
+    auto r = parse_config(
+        R"({"http": {"listen_address": "0.0.0.0"},
+            "auth": {"tokens": [{"name": "a", "token": "0123456789abcdef", "role": "admin"}]}})");
+    EXPECT_TRUE(r) << r.error();
+    EXPECT_TRUE(is_loopback_address("127.0.0.1"));
+    EXPECT_TRUE(is_loopback_address("127.1.2.3"));
+    EXPECT_TRUE(is_loopback_address("::1"));
+    EXPECT_FALSE(is_loopback_address("0.0.0.0"));
+    EXPECT_FALSE(is_loopback_address("::"));
+    EXPECT_FALSE(is_loopback_address("192.168.1.2"));
+    EXPECT_FALSE(is_loopback_address("localhost"));
+}
+
+class config_file_test : public ::testing::Test {
+  protected:
+    std::string write(const std::string& text) {
+        std::ofstream(path_) << text;
+        return path_;
+    }
+    void TearDown() override { std::filesystem::remove(path_); }
+
+    std::string path_ =
+        (std::filesystem::temp_directory_path() / ("gw-config-test-" + std::to_string(::getpid()) + ".json"))
+            .string();
+};
+
+TEST_F(config_file_test, check_config_prints_ok_and_returns_0) {
+    const auto path = write(R"({"controllers": [{"id": "stage1", "port": "/dev/ttyUSB0", "baud": 115200}]})");
+    std::ostringstream out, err;
+    EXPECT_EQ(check_config_file(path, out, err), 0);
+    EXPECT_EQ(out.str(), "ok\n");
+    EXPECT_EQ(err.str(), "");
+}
+
+TEST_F(config_file_test, check_config_prints_the_error_and_returns_2) {
+    const auto path = write(R"({"http": {"prot": 80}})");
+    std::ostringstream out, err;
+    EXPECT_EQ(check_config_file(path, out, err), 2);
+    EXPECT_EQ(out.str(), "");
+    EXPECT_EQ(err.str(), path + ": http.prot: unknown key\n");
+}
+
+TEST_F(config_file_test, a_missing_file_is_an_error) {
+    std::ostringstream out, err;
+    EXPECT_EQ(check_config_file(path_ + ".absent", out, err), 2);
+    EXPECT_EQ(err.str(), path_ + ".absent: cannot be read\n");
+    auto loaded = load_config_file(path_ + ".absent");
+    EXPECT_FALSE(loaded);
+}
+
+}  // namespace
+}  // namespace gw
