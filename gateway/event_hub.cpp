@@ -256,6 +256,11 @@ void event_hub::flush_gaps(subscriber& s) {
 }
 
 void event_hub::fill_catch_up(subscriber& s) {
+    // Replay may use only half of the queue: live events of other topics keep room while it catches up.
+    auto replay_room = [&] {
+        auto limit = std::max<std::size_t>(s.settings.queue_limit / 2, 1);
+        return s.queue.size() < limit;
+    };
     for (auto it = s.catch_up.begin(); it != s.catch_up.end();) {
         auto t = topics_.find(it->first);
         if (t == topics_.end()) {
@@ -264,7 +269,7 @@ void event_hub::fill_catch_up(subscriber& s) {
         }
         auto& next = it->second;
         const auto& topic = t->second;
-        while (s.room() > 0 && next <= topic.last_seq) {
+        while (replay_room() && next <= topic.last_seq) {
             auto oldest = topic.oldest();
             if (next < oldest) {  // already gone from the replay buffer
                 push_gap(s, it->first, next, oldest - 1);

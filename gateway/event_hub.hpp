@@ -19,7 +19,7 @@
 //    {"type":"gap","missed":n,"from":a,"to":b} before that topic's next event. A subscriber that
 //    overflows again within overflow_window, or stays full/gapped longer than max_stall, is evicted:
 //    event_sink::close("too slow: ..."). Nothing else is ever dropped silently.
-// A subscriber that resumes reads the replay buffer lazily (as its queue has room), so a large
+// A subscriber that resumes reads the replay buffer lazily (into at most half of its queue), so a large
 // replay neither overflows it nor blocks live events of other topics; live events of a topic in
 // catch-up are taken from the buffer in order, so there are no duplicates and no holes between
 // replay and live. A subscriber never receives the same (topic, sequence) twice, even with

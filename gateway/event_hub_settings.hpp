@@ -30,7 +30,7 @@ struct subscription_options {
     // Resume: topic name -> the last sequence number the client already has. Events after it that
     // are still in the replay buffer come first, then live events; missing ones become a gap event.
     // A number above the topic's newest sequence (the hub restarted) counts as 0.
-    std::map<std::string, std::uint64_t> resume;
+    std::map<std::string, std::uint64_t> resume{};
 };
 
 // Injectable time sources so tests drive rate limits and eviction deterministically.
@@ -49,7 +49,7 @@ struct event_hub_settings {
     // Distinct topics remembered; beyond it the topic published least recently is forgotten (its
     // replay buffer and sequence counter; a later publish starts again at 1).
     std::size_t max_topics = 4096;
-    subscriber_settings subscriber;  // defaults for add_subscriber()
+    subscriber_settings subscriber{};  // defaults for add_subscriber()
 };
 
 }  // namespace gw

@@ -1,0 +1,570 @@
+#include "gateway/event_hub.hpp"
+
+#include <chrono>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <boost/asio/io_context.hpp>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace {
+
+using namespace std::chrono_literals;
+using gw::event_kind;
+
+// Time the test moves by hand: rate limits and eviction are decided by this clock only.
+struct manual_clock {
+    std::chrono::steady_clock::time_point steady{std::chrono::hours(1000)};
+    std::chrono::system_clock::time_point system{std::chrono::milliseconds(1795322740000)};
+
+    void advance(std::chrono::milliseconds d) {
+        steady += d;
+        system += d;
+    }
+};
+
+// Records what it gets; acknowledges batches automatically or when the test says so.
+class recording_sink final : public gw::event_sink {
+  public:
+    void deliver(std::vector<std::shared_ptr<const gw::event>> batch) override {
+        ++batches;
+        last_batch_size = batch.size();
+        for (auto& e : batch)
+            events.push_back(std::move(e));
+        pending_ack = true;
+        if (auto_ack) ack();
+    }
+    void close(std::string reason) override { closed = std::move(reason); }
+
+    void ack() {
+        pending_ack = false;
+        hub->request_more(id);
+    }
+
+    // Sequence numbers of the data events of one topic, in arrival order.
+    std::vector<std::uint64_t> seqs(const std::string& topic) const {
+        std::vector<std::uint64_t> out;
+        for (const auto& e : events)
+            if (e->topic == topic && e->kind == event_kind::data) out.push_back(e->sequence);
+        return out;
+    }
+    std::vector<std::shared_ptr<const gw::event>> gaps() const {
+        std::vector<std::shared_ptr<const gw::event>> out;
+        for (const auto& e : events)
+            if (e->kind == event_kind::gap) out.push_back(e);
+        return out;
+    }
+
+    std::shared_ptr<gw::event_hub> hub;
+    gw::subscriber_id id = 0;
+    bool auto_ack = true;
+    bool pending_ack = false;
+    std::size_t batches = 0;
+    std::size_t last_batch_size = 0;
+    std::vector<std::shared_ptr<const gw::event>> events;
+    std::optional<std::string> closed;
+};
+
+std::vector<std::uint64_t> range(std::uint64_t from, std::uint64_t to) {
+    std::vector<std::uint64_t> out;
+    for (auto i = from; i <= to; ++i)
+        out.push_back(i);
+    return out;
+}
+
+class event_hub_test : public ::testing::Test {
+  protected:
+    void make_hub(gw::event_hub_settings settings = {}) {
+        gw::event_clock clock;
+        clock.steady = [c = clock_] { return c->steady; };
+        clock.system = [c = clock_] { return c->system; };
+        hub_ = gw::event_hub::create(ioc_.get_executor(), settings, clock);
+    }
+
+    std::shared_ptr<recording_sink> add_sink(std::optional<gw::subscriber_settings> settings = {}) {
+        auto sink = std::make_shared<recording_sink>();
+        sink->hub = hub_;
+        sink->id = settings ? hub_->add_subscriber(sink, *settings) : hub_->add_subscriber(sink);
+        return sink;
+    }
+
+    // Runs everything that is ready; never waits for timers (the manual clock decides time).
+    void run() {
+        ioc_.restart();
+        ioc_.poll();
+    }
+
+    void publish(const std::string& topic, int n = 1) {
+        for (int i = 0; i < n; ++i)
+            ASSERT_FALSE(hub_->publish(topic, nlohmann::json{{"i", i}}));
+        run();
+    }
+
+    boost::asio::io_context ioc_;
+    std::shared_ptr<manual_clock> clock_ = std::make_shared<manual_clock>();
+    std::shared_ptr<gw::event_hub> hub_;
+};
+
+const std::string reports = "controllers/stage1/reports";
+const std::string ttl = "controllers/stage1/ttl";
+const std::string position = "controllers/stage1/position";
+const std::string state = "controllers/stage1/state";
+
+TEST_F(event_hub_test, numbers_events_per_topic_and_stamps_them) {
+    make_hub();
+    auto sink = add_sink();
+    ASSERT_FALSE(hub_->subscribe(sink->id, "#"));
+    run();
+    ASSERT_FALSE(hub_->publish(reports, nlohmann::json{{"n", 1}}));
+    ASSERT_FALSE(hub_->publish("jobs/7", nlohmann::json{{"n", 2}}));
+    ASSERT_FALSE(hub_->publish(reports, nlohmann::json{{"n", 3}}));
+    clock_->advance(5ms);
+    ASSERT_FALSE(hub_->publish("jobs/7", nlohmann::json{{"n", 4}}));
+    ASSERT_FALSE(hub_->publish(reports, nlohmann::json{{"n", 5}},
+                               std::chrono::system_clock::time_point(std::chrono::milliseconds(1000))));
+    run();
+    EXPECT_EQ(sink->seqs(reports), range(1, 3));
+    EXPECT_EQ(sink->seqs("jobs/7"), range(1, 2));
+    ASSERT_EQ(sink->events.size(), 5u);
+
+    auto j = nlohmann::json::parse(*sink->events[3]->message);
+    EXPECT_EQ(j["type"], "event");
+    EXPECT_EQ(j["topic"], "jobs/7");
+    EXPECT_EQ(j["seq"], 2);
+    EXPECT_EQ(j["time"], "2026-11-22T04:45:40.005Z");
+    EXPECT_EQ(j["time_ms"], 1795322740005);
+    EXPECT_EQ(j["data"]["n"], 4);
+    EXPECT_EQ(nlohmann::json::parse(*sink->events[4]->message)["time"], "1970-01-01T00:00:01.000Z");
+    EXPECT_EQ(hub_->counters().published, 5u);
+    EXPECT_EQ(hub_->counters().delivered, 5u);
+}
+
+TEST_F(event_hub_test, refuses_bad_topics_and_filters) {
+    make_hub();
+    auto sink = add_sink();
+    EXPECT_EQ(hub_->publish("controllers/+/reports", nlohmann::json{}), gw::topic_error::wildcard_in_name);
+    EXPECT_EQ(hub_->publish("", nlohmann::json{}), gw::topic_error::empty);
+    EXPECT_EQ(hub_->subscribe(sink->id, "controllers/#/reports"), gw::topic_error::hash_not_last);
+    EXPECT_EQ(hub_->subscribe(sink->id, "a//b"), gw::topic_error::empty_level);
+    run();
+    EXPECT_EQ(hub_->counters().published, 0u);
+}
+
+TEST_F(event_hub_test, delivers_only_matching_topics) {
+    make_hub();
+    auto sink = add_sink();
+    ASSERT_FALSE(hub_->subscribe(sink->id, "controllers/+/reports"));
+    run();
+    publish(reports, 2);
+    publish(ttl, 2);
+    publish("controllers/stage2/reports", 1);
+    publish("jobs/1", 1);
+    EXPECT_EQ(sink->seqs(reports), range(1, 2));
+    EXPECT_EQ(sink->seqs("controllers/stage2/reports"), range(1, 1));
+    EXPECT_EQ(sink->events.size(), 3u);
+}
+
+TEST_F(event_hub_test, overlapping_filters_never_duplicate) {
+    make_hub();
+    auto sink = add_sink();
+    ASSERT_FALSE(hub_->subscribe(sink->id, "controllers/+/reports"));
+    ASSERT_FALSE(hub_->subscribe(sink->id, "#"));
+    ASSERT_FALSE(hub_->subscribe(sink->id, reports, {.resume = {{reports, 0}}}));
+    run();
+    publish(reports, 3);
+    EXPECT_EQ(sink->seqs(reports), range(1, 3));
+    // Resuming from before what it already has gives nothing twice.
+    ASSERT_FALSE(hub_->subscribe(sink->id, "controllers/#", {.resume = {{reports, 1}}}));
+    run();
+    publish(reports, 1);
+    EXPECT_EQ(sink->seqs(reports), range(1, 4));
+}
+
+TEST_F(event_hub_test, resume_replays_what_is_buffered_then_goes_live) {
+    make_hub();
+    publish(reports, 5);
+    publish(ttl, 3);
+    auto sink = add_sink();
+    ASSERT_FALSE(hub_->subscribe(sink->id, "controllers/stage1/#", {.resume = {{reports, 2}, {ttl, 3}}}));
+    run();
+    EXPECT_EQ(sink->seqs(reports), range(3, 5));
+    EXPECT_TRUE(sink->seqs(ttl).empty());  // it had everything
+    publish(reports, 2);
+    publish(ttl, 1);
+    EXPECT_EQ(sink->seqs(reports), range(3, 7));
+    EXPECT_EQ(sink->seqs(ttl), range(4, 4));
+    EXPECT_TRUE(sink->gaps().empty());
+    EXPECT_EQ(hub_->counters().replayed, 3u);
+}
+
+TEST_F(event_hub_test, resume_reports_a_gap_for_events_no_longer_buffered) {
+    make_hub({.stream_replay = 5});
+    publish(reports, 10);  // 6..10 still buffered
+    auto sink = add_sink();
+    ASSERT_FALSE(hub_->subscribe(sink->id, reports, {.resume = {{reports, 2}}}));
+    run();
+    publish(reports, 1);
+    ASSERT_EQ(sink->events.size(), 7u);
+    const auto& gap = *sink->events[0];
+    EXPECT_EQ(gap.kind, event_kind::gap);
+    EXPECT_EQ(gap.gap_from, 3u);
+    EXPECT_EQ(gap.gap_to, 5u);
+    auto j = nlohmann::json::parse(*gap.message);
+    EXPECT_EQ(j["type"], "gap");
+    EXPECT_EQ(j["topic"], reports);
+    EXPECT_EQ(j["missed"], 3);
+    EXPECT_EQ(j["from"], 3);
+    EXPECT_EQ(j["to"], 5);
+    EXPECT_EQ(sink->seqs(reports), range(6, 11));
+    EXPECT_EQ(hub_->counters().gapped, 3u);
+    EXPECT_EQ(hub_->counters().gap_events, 1u);
+}
+
+TEST_F(event_hub_test, resume_from_a_number_of_an_earlier_hub_replays_from_the_start) {
+    make_hub();
+    publish(reports, 3);
+    auto sink = add_sink();
+    ASSERT_FALSE(hub_->subscribe(sink->id, reports, {.resume = {{reports, 500}}}));
+    run();
+    EXPECT_EQ(sink->seqs(reports), range(1, 3));
+}
+
+TEST_F(event_hub_test, long_replay_goes_through_a_small_queue_interleaved_with_live_events) {
+    make_hub();
+    publish(reports, 50);
+    auto sink = add_sink(gw::subscriber_settings{.queue_limit = 4, .max_batch_events = 2});
+    sink->auto_ack = false;
+    ASSERT_FALSE(hub_->subscribe(sink->id, "controllers/stage1/#", {.resume = {{reports, 0}}}));
+    run();
+    // Live events of both topics arrive while it catches up, one acknowledged batch at a time.
+    std::uint64_t live_reports = 0;
+    std::uint64_t live_ttl = 0;
+    for (int round = 0; round < 100; ++round) {
+        if (round % 3 == 0) {
+            publish(reports, 1);
+            ++live_reports;
+        }
+        if (round % 5 == 0) {
+            publish(ttl, 1);
+            ++live_ttl;
+        }
+        if (sink->pending_ack) sink->ack();
+        run();
+        EXPECT_LE(sink->last_batch_size, 2u);
+    }
+    for (int i = 0; i < 100 && sink->pending_ack; ++i) {
+        sink->ack();
+        run();
+    }
+    EXPECT_EQ(sink->seqs(reports), range(1, 50 + live_reports));
+    EXPECT_EQ(sink->seqs(ttl), range(1, live_ttl));
+    EXPECT_TRUE(sink->gaps().empty());
+    EXPECT_FALSE(sink->closed);
+}
+
+TEST_F(event_hub_test, a_stalled_subscriber_does_not_hold_up_a_healthy_one) {
+    make_hub();
+    auto healthy = add_sink();
+    auto stalled = add_sink(gw::subscriber_settings{.queue_limit = 16, .max_batch_events = 8});
+    stalled->auto_ack = false;  // takes one batch and never asks for more
+    ASSERT_FALSE(hub_->subscribe(healthy->id, "controllers/+/reports"));
+    ASSERT_FALSE(hub_->subscribe(stalled->id, "controllers/+/reports"));
+    run();
+    // The healthy one acknowledges as it goes (the io_context runs every few events).
+    for (int i = 0; i < 1000; ++i) {
+        ASSERT_FALSE(hub_->publish(reports, nlohmann::json{{"i", i}}));
+        if (i % 10 == 0) run();
+    }
+    run();
+    EXPECT_EQ(healthy->seqs(reports), range(1, 1000));
+    EXPECT_FALSE(healthy->closed);
+    EXPECT_EQ(stalled->batches, 1u);
+    EXPECT_EQ(stalled->seqs(reports), range(1, 1));
+    auto c = hub_->counters();
+    EXPECT_EQ(c.published, 1000u);
+    EXPECT_EQ(c.delivered, 1001u);
+}
+
+TEST_F(event_hub_test, overflow_gap_counts_exactly) {
+    make_hub();
+    auto sink = add_sink(gw::subscriber_settings{.queue_limit = 4, .max_batch_events = 2});
+    sink->auto_ack = false;
+    ASSERT_FALSE(hub_->subscribe(sink->id, "controllers/stage1/#"));
+    run();
+    publish(reports, 1);  // delivered at once: 1
+    publish(reports, 4);  // queued: 2..5
+    publish(reports, 5);  // 6..10 do not fit
+    publish(ttl, 2);      // ttl 1..2 do not fit either
+    EXPECT_EQ(sink->seqs(reports), range(1, 1));
+    sink->ack();
+    run();  // 2, 3
+    sink->ack();
+    run();  // 4, 5
+    sink->ack();
+    run();  // the two gap events
+    publish(reports, 1);
+    sink->ack();
+    run();
+    publish(ttl, 1);
+    sink->ack();
+    run();
+    EXPECT_EQ(sink->seqs(reports), (std::vector<std::uint64_t>{1, 2, 3, 4, 5, 11}));
+    EXPECT_EQ(sink->seqs(ttl), range(3, 3));
+    auto gaps = sink->gaps();
+    ASSERT_EQ(gaps.size(), 2u);
+    for (const auto& g : gaps) {
+        if (g->topic == reports) {
+            EXPECT_EQ(g->gap_from, 6u);
+            EXPECT_EQ(g->gap_to, 10u);
+            EXPECT_EQ(nlohmann::json::parse(*g->message)["missed"], 5);
+        } else {
+            EXPECT_EQ(g->topic, ttl);
+            EXPECT_EQ(g->gap_from, 1u);
+            EXPECT_EQ(g->gap_to, 2u);
+        }
+    }
+    // Each gap comes after what was queued before it and before its topic's next event.
+    auto index_of = [&](const std::shared_ptr<const gw::event>& e) {
+        return std::find(sink->events.begin(), sink->events.end(), e) - sink->events.begin();
+    };
+    EXPECT_GT(index_of(gaps[0]), 4);
+    EXPECT_EQ(hub_->counters().gapped, 7u);
+    EXPECT_EQ(hub_->counters().gap_events, 2u);
+    EXPECT_FALSE(sink->closed);
+}
+
+TEST_F(event_hub_test, a_second_overflow_within_the_window_evicts) {
+    make_hub();
+    gw::subscriber_settings settings{.queue_limit = 2, .max_batch_events = 2, .overflow_window = 10s};
+    auto sink = add_sink(settings);
+    sink->auto_ack = false;
+    ASSERT_FALSE(hub_->subscribe(sink->id, reports));
+    run();
+    publish(reports, 4);  // 1 delivered, 2..3 queued, 4 overflows
+    sink->ack();
+    run();
+    sink->ack();
+    run();  // the gap
+    ASSERT_EQ(sink->gaps().size(), 1u);
+    EXPECT_FALSE(sink->closed);
+
+    clock_->advance(11s);  // outside the window: a new overflow is forgiven once
+    publish(reports, 4);   // 5 delivered, 6..7 queued, 8 overflows
+    EXPECT_FALSE(sink->closed);
+    sink->ack();
+    run();
+    sink->ack();
+    run();
+    EXPECT_EQ(sink->gaps().size(), 2u);
+
+    clock_->advance(1s);  // inside the window
+    publish(reports, 4);
+    ASSERT_TRUE(sink->closed);
+    EXPECT_NE(sink->closed->find("too slow"), std::string::npos) << *sink->closed;
+    EXPECT_EQ(hub_->counters().evicted, 1u);
+    EXPECT_EQ(hub_->counters().subscribers, 0u);
+    auto delivered = sink->events.size();
+    sink->ack();
+    publish(reports, 3);
+    EXPECT_EQ(sink->events.size(), delivered);
+}
+
+TEST_F(event_hub_test, a_subscriber_full_for_too_long_is_evicted) {
+    make_hub();
+    gw::subscriber_settings settings{.queue_limit = 4, .max_batch_events = 2, .max_stall = 5s};
+    auto stalled = add_sink(settings);
+    stalled->auto_ack = false;
+    auto healthy = add_sink();
+    ASSERT_FALSE(hub_->subscribe(stalled->id, "#"));
+    ASSERT_FALSE(hub_->subscribe(healthy->id, "#"));
+    run();
+    publish(reports, 10);
+    clock_->advance(4s);
+    hub_->tick();
+    run();
+    EXPECT_FALSE(stalled->closed);
+    clock_->advance(1001ms);
+    hub_->tick();
+    run();
+    ASSERT_TRUE(stalled->closed);
+    EXPECT_EQ(*stalled->closed, "too slow: send queue full for more than 5000 ms");
+    EXPECT_FALSE(healthy->closed);
+    EXPECT_EQ(healthy->seqs(reports), range(1, 10));
+    EXPECT_EQ(hub_->counters().evicted, 1u);
+}
+
+TEST_F(event_hub_test, latest_value_topics_coalesce_to_the_newest) {
+    make_hub();
+    auto sink = add_sink();
+    sink->auto_ack = false;
+    ASSERT_FALSE(hub_->subscribe(sink->id, "controllers/+/position"));
+    ASSERT_FALSE(hub_->subscribe(sink->id, "controllers/+/state"));
+    run();
+    publish(position, 1);  // delivered at once
+    publish(position, 3);  // 2, 3, 4 while busy
+    publish(state, 2);
+    EXPECT_EQ(sink->seqs(position), range(1, 1));
+    sink->ack();
+    run();
+    EXPECT_EQ(sink->seqs(position), (std::vector<std::uint64_t>{1, 4}));
+    EXPECT_EQ(sink->seqs(state), range(2, 2));
+    EXPECT_EQ(hub_->counters().coalesced, 3u);
+    EXPECT_TRUE(sink->gaps().empty());  // coalescing is the policy here, not a loss
+    // Never evicted for being slow on latest-value topics, however much it misses.
+    publish(position, 5000);
+    clock_->advance(60s);
+    hub_->tick();
+    run();
+    EXPECT_FALSE(sink->closed);
+    sink->ack();
+    run();
+    EXPECT_EQ(sink->seqs(position), (std::vector<std::uint64_t>{1, 4, 5004}));
+}
+
+TEST_F(event_hub_test, latest_value_rate_limit_per_subscription) {
+    make_hub();
+    auto limited = add_sink();
+    auto unlimited = add_sink();
+    ASSERT_FALSE(hub_->subscribe(limited->id, "controllers/+/position", {.max_rate_hz = 10}));  // 100 ms
+    ASSERT_FALSE(hub_->subscribe(unlimited->id, "controllers/+/position"));
+    run();
+    publish(position, 1);
+    EXPECT_EQ(limited->seqs(position), range(1, 1));
+    clock_->advance(50ms);
+    publish(position, 1);
+    clock_->advance(40ms);
+    publish(position, 1);
+    hub_->tick();
+    run();
+    EXPECT_EQ(limited->seqs(position), range(1, 1));
+    clock_->advance(10ms);  // 100 ms after the first
+    hub_->tick();
+    run();
+    EXPECT_EQ(limited->seqs(position), (std::vector<std::uint64_t>{1, 3}));
+    EXPECT_EQ(unlimited->seqs(position), range(1, 3));
+    // 40 events in 2 s at 20 Hz: at most one per 100 ms, the newest each time.
+    for (int i = 0; i < 40; ++i) {
+        clock_->advance(50ms);
+        publish(position, 1);
+        hub_->tick();
+        run();
+    }
+    EXPECT_EQ(limited->seqs(position).size(), 2u + 20u);
+    EXPECT_EQ(limited->seqs(position).back(), 43u);
+    EXPECT_EQ(unlimited->seqs(position).size(), 43u);
+}
+
+TEST_F(event_hub_test, rate_limited_value_arrives_by_the_hubs_own_timer) {
+    // Real clocks here: only that the held-back value arrives, never how fast.
+    hub_ = gw::event_hub::create(ioc_.get_executor());
+    auto sink = std::make_shared<recording_sink>();
+    sink->hub = hub_;
+    sink->id = hub_->add_subscriber(sink);
+    ASSERT_FALSE(hub_->subscribe(sink->id, position, {.max_rate_hz = 50}));
+    ASSERT_FALSE(hub_->publish(position, nlohmann::json{{"i", 1}}));
+    ASSERT_FALSE(hub_->publish(position, nlohmann::json{{"i", 2}}));
+    ioc_.restart();
+    auto deadline = std::chrono::steady_clock::now() + 30s;
+    while (sink->seqs(position).size() < 2 && std::chrono::steady_clock::now() < deadline)
+        ioc_.run_one_for(100ms);
+    EXPECT_EQ(sink->seqs(position), range(1, 2));
+}
+
+TEST_F(event_hub_test, a_new_subscriber_gets_the_current_value_of_latest_topics) {
+    make_hub();
+    publish(state, 3);
+    publish(position, 2);
+    publish(reports, 2);
+    auto sink = add_sink();
+    ASSERT_FALSE(hub_->subscribe(sink->id, "controllers/stage1/#"));
+    run();
+    EXPECT_EQ(sink->seqs(state), range(3, 3));
+    EXPECT_EQ(sink->seqs(position), range(2, 2));
+    EXPECT_TRUE(sink->seqs(reports).empty());  // streams: live only unless resumed
+}
+
+TEST_F(event_hub_test, resume_on_a_latest_value_topic_replays_its_small_buffer_in_order) {
+    make_hub({.latest_replay = 4});
+    publish(position, 6);  // 3..6 buffered
+    auto sink = add_sink(gw::subscriber_settings{.queue_limit = 2, .max_batch_events = 1});
+    ASSERT_FALSE(hub_->subscribe(sink->id, position, {.resume = {{position, 1}}}));
+    run();
+    publish(position, 1);
+    ASSERT_EQ(sink->gaps().size(), 1u);
+    EXPECT_EQ(sink->gaps()[0]->gap_from, 2u);
+    EXPECT_EQ(sink->gaps()[0]->gap_to, 2u);
+    EXPECT_EQ(sink->seqs(position), range(3, 7));
+}
+
+TEST_F(event_hub_test, unsubscribe_stops_delivery_of_that_filter_only) {
+    make_hub();
+    auto sink = add_sink();
+    ASSERT_FALSE(hub_->subscribe(sink->id, "controllers/+/reports"));
+    ASSERT_FALSE(hub_->subscribe(sink->id, "controllers/+/ttl"));
+    run();
+    publish(reports, 1);
+    publish(ttl, 1);
+    hub_->unsubscribe(sink->id, "controllers/+/reports");
+    run();
+    publish(reports, 1);
+    publish(ttl, 1);
+    EXPECT_EQ(sink->seqs(reports), range(1, 1));
+    EXPECT_EQ(sink->seqs(ttl), range(1, 2));
+}
+
+TEST_F(event_hub_test, forgets_destroyed_sinks_and_removed_subscribers) {
+    make_hub();
+    auto a = add_sink();
+    auto b = add_sink();
+    ASSERT_FALSE(hub_->subscribe(a->id, "#"));
+    ASSERT_FALSE(hub_->subscribe(b->id, "#"));
+    run();
+    EXPECT_EQ(hub_->counters().subscribers, 2u);
+    a.reset();
+    publish(reports, 1);
+    EXPECT_EQ(hub_->counters().subscribers, 1u);
+    hub_->remove_subscriber(b->id);
+    run();
+    EXPECT_EQ(hub_->counters().subscribers, 0u);
+    publish(reports, 1);
+    EXPECT_EQ(b->seqs(reports), range(1, 1));
+    EXPECT_EQ(hub_->counters().evicted, 0u);
+}
+
+TEST_F(event_hub_test, forgets_the_least_recently_published_topic_beyond_the_limit) {
+    make_hub({.max_topics = 2});
+    auto sink = add_sink();
+    ASSERT_FALSE(hub_->subscribe(sink->id, "jobs/#"));
+    run();
+    publish("jobs/1", 2);
+    publish("jobs/2", 1);
+    publish("jobs/1", 1);
+    publish("jobs/3", 1);  // forgets jobs/2
+    publish("jobs/2", 1);  // starts again at 1; forgets jobs/1
+    publish("jobs/3", 1);
+    EXPECT_EQ(sink->seqs("jobs/1"), range(1, 3));
+    EXPECT_EQ(sink->seqs("jobs/2"), (std::vector<std::uint64_t>{1, 1}));
+    EXPECT_EQ(sink->seqs("jobs/3"), range(1, 2));
+}
+
+TEST_F(event_hub_test, stop_closes_every_subscriber) {
+    make_hub();
+    auto a = add_sink();
+    ASSERT_FALSE(hub_->subscribe(a->id, "#"));
+    run();
+    hub_->stop();
+    run();
+    ASSERT_TRUE(a->closed);
+    EXPECT_EQ(*a->closed, "event hub stopped");
+    publish(reports, 1);
+    EXPECT_TRUE(a->events.empty());
+    auto late = add_sink();
+    run();
+    EXPECT_TRUE(late->closed);
+    EXPECT_EQ(hub_->counters().evicted, 0u);
+}
+
+}  // namespace
