@@ -344,7 +344,12 @@ void ms2000_model::start_move(axis& a, double target_mm, sim_time now, bool comm
     target_mm = std::round(target_mm * counts) / counts;
     const double from = a.motion.position_mm(now);
     const double speed = speed_override > 0 ? speed_override : a.params["SPEED"];
-    a.motion = axis_motion(from, target_mm, speed, a.params["ACCEL"], screw_.settle_ms, now);
+    // A wider finish error (PC) lets the servo stop hunting sooner (seed: "Opening up the Finish
+    // Error to about 10 rotary encoder counts allows the move to complete quickly").
+    const double default_pc = screw_.encoder_nm / 1e6;
+    const double pc = std::max(a.params["PCROS"], 1e-9);
+    const double settle = screw_.settle_ms * std::clamp(std::sqrt(default_pc / pc), 0.1, 3.0);
+    a.motion = axis_motion(from, target_mm, speed, a.params["ACCEL"], settle, now);
     a.commanded = commanded;
 }
 

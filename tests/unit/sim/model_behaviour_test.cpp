@@ -246,3 +246,55 @@ TEST(model_crisp, lock_reaches_focus) {
 
 }  // namespace
 }  // namespace gw::devices::sim
+
+namespace gw::devices::sim {
+namespace {
+
+TEST(model_motion, wider_finish_error_settles_sooner) {
+    ms2000_model tight(test::config_for("plain", 'A'));
+    ms2000_model loose(test::config_for("plain", 'A'));
+    EXPECT_EQ(test::send(loose, "PC X=0.000055", sim_time{0}), ":A\r\n");  // 10 encoder counts
+    test::send(tight, "M X=2000", sim_time{0});
+    test::send(loose, "M X=2000", sim_time{0});
+    EXPECT_LT(test::run_to_completion(loose) + std::chrono::milliseconds(30), test::run_to_completion(tight));
+}
+
+TEST(model_ring_buffer, repeating_autoplay_wraps_until_halt) {
+    ms2000_model m(test::config_for("full"));
+    test::send(m, "LD X=1000", sim_time{0});
+    test::send(m, "LD X=2000", sim_time{0});
+    test::send(m, "RM F=3", sim_time{0});
+    test::send(m, "RT Z=100", sim_time{0});  // a dwell at each position, so arrivals are visible
+    test::send(m, "RM", sim_time{0});
+    sim_time t{0};
+    std::vector<double> seen;
+    for (int guard = 0; guard < 1000 && seen.size() < 5; ++guard) {
+        const auto next = m.next_event();
+        ASSERT_TRUE(next);
+        m.take_output(*next);
+        t = *next;
+        if (!m.busy(t)) seen.push_back(m.position_units('X', t));
+    }
+    EXPECT_EQ(test::send(m, "\\", t), ":N-21\r\n");  // autoplay counts as a running move
+    EXPECT_FALSE(m.next_event());
+    bool saw_first = false, saw_second = false;
+    for (const double x : seen) {
+        saw_first |= std::abs(x - 1000) < 1;
+        saw_second |= std::abs(x - 2000) < 1;
+    }
+    EXPECT_TRUE(saw_first && saw_second);
+}
+
+TEST(model_ttl_report, ascii_frames_when_configured) {
+    auto config = test::config_for("full");
+    config.report_format = ms2000::report_format::ascii;
+    ms2000_model m(config);
+    test::send(m, "H X=10000", sim_time{0});
+    test::send(m, "TTL X=1", sim_time{0});
+    const auto frame = m.ttl_pulse(sim_time{0});
+    ASSERT_TRUE(frame);
+    EXPECT_EQ(frame->bytes, "X=45398 Y=0 Z=0\r\n");
+}
+
+}  // namespace
+}  // namespace gw::devices::sim
