@@ -1,0 +1,35 @@
+#pragma once
+// What every HTTP and WebSocket session shares: the registry, the event hub, the metrics, the HTTP
+// limits and the auth tokens. Created once by main before the listener starts, held by shared_ptr
+// by every session; immutable after creation (the objects it points to are thread-safe).
+
+#include <memory>
+#include <string>
+
+#include <boost/asio/any_io_executor.hpp>
+
+#include "gateway/config.hpp"
+
+namespace spdlog {
+class logger;
+}
+
+namespace gw {
+class controller_registry;
+class event_hub;
+class metrics;
+}  // namespace gw
+
+namespace gw::api {
+
+struct api_context {
+    boost::asio::any_io_executor executor;  // the io_context's; sessions make their own strands
+    controller_registry& registry;          // outlives every session (main keeps it)
+    std::shared_ptr<event_hub> hub;
+    std::shared_ptr<gw::metrics> metrics;
+    http_limits limits;
+    auth_config auth;  // no tokens: every client is admin, and the listener is loopback-only
+    std::shared_ptr<spdlog::logger> log;  // "api"
+};
+
+}  // namespace gw::api

@@ -1,0 +1,55 @@
+#pragma once
+// The ONE place where a JSON body for a named operation becomes a gateway request struct, runs
+// through the controller registry and becomes a JSON result or a problem. REST
+// (POST /api/v1/controllers/{id}/{operation}) and WebSocket ({"op":"command", ...}) both call it.
+//
+// Bodies (unknown fields -> 422 invalid_value naming the field; wrong types -> 422):
+//   move    {"axes":{"X":1000.0,"Y":-5}, "mode":"absolute"|"relative", "wait":false,
+//            "timeout_ms":60000}
+//   halt    {}                       zero {}
+//   home    {"axes":["X","Y"]}       (absent: every motor axis)
+//   here    {"axes":{"X":0}}
+//   speed   {"axes":{"X":2.5}}       (mm/s)
+//   ttl     {"in0_mode":1, "out0_mode":0, "output_high":true}
+//   dac     {"volts":2.5}
+//   led     {"percent":50, "channel":"X"}
+//   command {"command":"W X Y"}      (admin)
+// Results:
+//   {"id":"sim1","operation":"halt","request_id":"...","latency_us":812}
+//   move:    + "waited":true, "positions":[{"axis":"X","position_um":1000.0}]
+//   command: + "command":"W X Y", "raw_reply":":A 0 0", "reply":{"kind":"ack","values":[...],...}
+
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include <boost/asio/any_completion_handler.hpp>
+#include <nlohmann/json.hpp>
+
+#include "api/api_context.hpp"
+#include "api/problem.hpp"
+#include "gateway/config.hpp"
+
+namespace gw::api {
+
+struct operation_outcome {
+    std::optional<problem> error;  // set on failure (request_id filled in, instance left empty)
+    nlohmann::json result;         // on success
+};
+
+using operation_handler = boost::asio::any_completion_handler<void(operation_outcome)>;
+
+// "move", "halt", ..., "command", in the order of the REST paths.
+std::span<const std::string_view> operation_names();
+bool is_operation(std::string_view name);
+// operator for the typed operations, admin for "command".
+gw::role required_role(std::string_view operation);
+
+// Checks the role, parses `body` (a JSON object; null counts as {}), runs the operation and calls
+// `handler` once, on its associated executor (default: ctx.executor), never inline.
+void run_operation(api_context& ctx, std::string_view controller_id, std::string_view operation,
+                   const nlohmann::json& body, std::string request_id, gw::role role,
+                   operation_handler handler);
+
+}  // namespace gw::api
