@@ -225,12 +225,9 @@ std::string ms2000_model::dispatch(const command_line& cmd, sim_time now) {
     if (v == "WHERE") return cmd_where(cmd, now);
     if (v == "HERE") return cmd_here(cmd, now);
     if (v == "ZERO") {
-        for (auto& a : axes_) {
-            a.motion.stop(now);
-            a.position_mm = 0;
+        // Zeroes every axis where it stands (a running move ends there).
+        for (auto& a : axes_)
             a.motion = axis_motion(0, 0, 1, 0, 0, now);
-            a.motion.stop(now);
-        }
         return ack();
     }
     if (v == "HOME") return cmd_home(cmd, now);

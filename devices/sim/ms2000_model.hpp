@@ -82,7 +82,6 @@ class ms2000_model {
   private:
     struct axis {
         char letter = 'X';
-        double position_mm = 0;  // where the last motion left it (when idle)
         axis_motion motion;      // current or last motion
         bool commanded = false;  // the running motion came from a serial command (STATUS 'B')
         std::map<std::string, double, std::less<>> params;  // SPEED, ACCEL, PCROS, ...

@@ -2,8 +2,9 @@
 // A simulated MS-2000 controller exposed on a pseudo-terminal, for users without hardware and for
 // every test. One simulator = one main port (pty + stable symlink) and optionally one SERIAL OUT
 // report port. All state lives on one strand of the caller's executor; the public methods may be
-// called from any thread (they post to the strand), except start(), which runs in the caller's
-// thread before any I/O is started.
+// called from any thread (they post to the strand), except start() and stop(), which must not race
+// with other calls on the same object: call start() before handing the simulator to other threads,
+// and stop() (or destroy it) after they are done, while its io_context still exists.
 //
 //   auto sim = std::make_shared<simulator>(io.get_executor(), preset("full").value());
 //   sim->start();                       // throws std::system_error if the pty cannot be opened
