@@ -1,0 +1,269 @@
+#include "api/websocket_protocol.hpp"
+
+#include <cmath>
+#include <initializer_list>
+#include <optional>
+#include <utility>
+
+#include "api/operation_requests.hpp"
+#include "gateway/operation_error.hpp"
+#include "gateway/topic.hpp"
+
+namespace gw::api {
+
+using nlohmann::json;
+
+namespace {
+
+ws_protocol_error invalid(json id, std::string field, std::string detail) {
+    auto p =
+        make_problem(make_error(operation_error_kind::invalid_value, std::move(detail), std::move(field)));
+    p.instance = std::string(websocket_path);
+    return {std::move(id), std::move(p)};
+}
+
+// Strings in messages come from parsed JSON (valid UTF-8), but a text frame must never make dump() throw.
+std::string text(const json& j) {
+    return j.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+std::string_view type_name(const json& v) {
+    if (v.is_number()) return "a number";
+    return v.type_name();
+}
+
+bool printable(std::string_view s) {
+    for (unsigned char c : s)
+        if (c < 0x20 || c > 0x7e) return false;
+    return true;
+}
+
+// A valid client id, or the reason it is not one.
+std::optional<std::string> id_problem(const json& id) {
+    if (id.is_number_integer()) return std::nullopt;
+    if (id.is_string()) {
+        const auto& s = id.get_ref<const std::string&>();
+        if (s.empty() || s.size() > ws_max_client_id_bytes || !printable(s))
+            return "\"id\" must be 1.." + std::to_string(ws_max_client_id_bytes) +
+                   " printable ASCII characters";
+        return std::nullopt;
+    }
+    return std::string("\"id\" must be a string or an integer, not ") + std::string(type_name(id));
+}
+
+std::string known_list(std::initializer_list<std::string_view> known) {
+    std::string list;
+    for (auto k : known)
+        list += (list.empty() ? "" : ", ") + std::string(k);
+    return list;
+}
+
+// The first key of `msg` that is not in `known`, if any.
+std::optional<std::string> unknown_key(const json& msg, std::initializer_list<std::string_view> known) {
+    for (const auto& [key, value] : msg.items()) {
+        bool ok = false;
+        for (auto k : known)
+            ok = ok || k == key;
+        if (!ok) return key;
+    }
+    return std::nullopt;
+}
+
+// "topics": a non-empty array of valid filters.
+boost::system::result<std::vector<std::string>, ws_protocol_error> read_topics(const json& msg,
+                                                                               const json& id) {
+    auto it = msg.find("topics");
+    if (it == msg.end()) return invalid(id, "topics", "\"topics\" is required (an array of topic filters)");
+    if (!it->is_array() || it->empty())
+        return invalid(id, "topics", "\"topics\" must be a non-empty array of topic filters");
+    if (it->size() > ws_max_topics_per_message)
+        return invalid(id, "topics",
+                       "at most " + std::to_string(ws_max_topics_per_message) + " topics per message");
+    std::vector<std::string> topics;
+    for (std::size_t i = 0; i < it->size(); ++i) {
+        const auto& t = (*it)[i];
+        const auto field = "topics[" + std::to_string(i) + "]";
+        if (!t.is_string())
+            return invalid(id, field, field + " must be a string, not " + std::string(type_name(t)));
+        const auto& s = t.get_ref<const std::string&>();
+        if (auto ec = validate_topic_filter(s))
+            return invalid(
+                id, field,
+                "invalid topic filter \"" + (printable(s) ? s : std::string("...")) + "\": " + ec.message());
+        topics.push_back(s);
+    }
+    return {boost::system::in_place_value, std::move(topics)};
+}
+
+boost::system::result<ws_client_message, ws_protocol_error> parse_subscribe(const json& msg, json id) {
+    if (auto key = unknown_key(msg, {"op", "id", "topics", "resume", "max_rate_hz"}))
+        return invalid(id, *key,
+                       "unknown field \"" + *key + "\" (known: op, id, topics, resume, max_rate_hz)");
+    auto topics = read_topics(msg, id);
+    if (!topics) return topics.error();
+    ws_subscribe s{.id = id, .topics = std::move(*topics), .resume = {}, .max_rate_hz = 0};
+    if (auto it = msg.find("max_rate_hz"); it != msg.end()) {
+        if (!it->is_number())
+            return invalid(id, "max_rate_hz",
+                           "\"max_rate_hz\" must be a number, not " + std::string(type_name(*it)));
+        const double hz = it->get<double>();
+        if (!std::isfinite(hz) || hz < 0 || hz > ws_max_rate_hz)
+            return invalid(id, "max_rate_hz", "\"max_rate_hz\" must be between 0 (no limit) and 1000");
+        s.max_rate_hz = hz;
+    }
+    if (auto it = msg.find("resume"); it != msg.end()) {
+        if (!it->is_object())
+            return invalid(id, "resume", "\"resume\" must be an object {\"<topic>\": <sequence number>}");
+        for (const auto& [topic, seq] : it->items()) {
+            const auto field = "resume." + (printable(topic) ? topic : std::string("..."));
+            if (auto ec = validate_topic_name(topic))
+                return invalid(id, field,
+                               "\"resume\" keys must be topic names without wildcards: " + ec.message());
+            if (!seq.is_number_unsigned() && !(seq.is_number_integer() && seq.get<std::int64_t>() >= 0))
+                return invalid(id, field, field + " must be a sequence number (an integer >= 0)");
+            bool covered = false;
+            for (const auto& f : s.topics)
+                covered = covered || topic_matches(f, topic);
+            if (!covered) return invalid(id, field, "\"" + topic + "\" matches none of the topics");
+            s.resume.emplace(topic, seq.get<std::uint64_t>());
+        }
+    }
+    return s;
+}
+
+boost::system::result<ws_client_message, ws_protocol_error> parse_unsubscribe(const json& msg, json id) {
+    if (auto key = unknown_key(msg, {"op", "id", "topics"}))
+        return invalid(id, *key, "unknown field \"" + *key + "\" (known: op, id, topics)");
+    auto topics = read_topics(msg, id);
+    if (!topics) return topics.error();
+    return ws_unsubscribe{.id = std::move(id), .topics = std::move(*topics)};
+}
+
+boost::system::result<ws_client_message, ws_protocol_error> parse_command(const json& msg, json id) {
+    if (auto key = unknown_key(msg, {"op", "id", "controller", "operation", "args"}))
+        return invalid(id, *key,
+                       "unknown field \"" + *key + "\" (known: op, id, controller, operation, args)");
+    if (id.is_null()) return invalid(id, "id", "a command needs an \"id\" (echoed in its answer)");
+    auto controller = msg.find("controller");
+    if (controller == msg.end() || !controller->is_string() ||
+        controller->get_ref<const std::string&>().empty())
+        return invalid(id, "controller", "\"controller\" must be a controller id (a non-empty string)");
+    auto operation = msg.find("operation");
+    if (operation == msg.end() || !operation->is_string())
+        return invalid(
+            id, "operation", "\"operation\" must be one of: " + [] {
+                std::string list;
+                for (auto n : operation_names())
+                    list += (list.empty() ? "" : ", ") + std::string(n);
+                return list;
+            }());
+    const auto& op = operation->get_ref<const std::string&>();
+    if (!is_operation(op)) {
+        std::string list;
+        for (auto n : operation_names())
+            list += (list.empty() ? "" : ", ") + std::string(n);
+        return invalid(
+            id, "operation",
+            "unknown operation \"" + (printable(op) ? op : std::string("...")) + "\" (one of: " + list + ")");
+    }
+    json args = json::object();
+    if (auto it = msg.find("args"); it != msg.end() && !it->is_null()) {
+        if (!it->is_object())
+            return invalid(id, "args", "\"args\" must be an object, not " + std::string(type_name(*it)));
+        args = *it;
+    }
+    return ws_command{.id = std::move(id),
+                      .controller = controller->get<std::string>(),
+                      .operation = op,
+                      .args = std::move(args)};
+}
+
+}  // namespace
+
+boost::system::result<ws_client_message, ws_protocol_error> parse_client_message(std::string_view text) {
+    json msg = json::parse(text, nullptr, /*allow_exceptions=*/false);
+    if (msg.is_discarded()) {
+        auto p = make_problem(http_error::malformed_json, "the message is not valid JSON");
+        p.instance = std::string(websocket_path);
+        return ws_protocol_error{json(), std::move(p)};
+    }
+    if (!msg.is_object()) {
+        auto p = make_problem(http_error::malformed_json, "a message must be a JSON object");
+        p.instance = std::string(websocket_path);
+        return ws_protocol_error{json(), std::move(p)};
+    }
+    // The id first, so that every later error can be matched to the message.
+    json id;
+    if (auto it = msg.find("id"); it != msg.end() && !it->is_null()) {
+        if (auto why = id_problem(*it)) return invalid(json(), "id", *why);
+        id = *it;
+    }
+    auto op = msg.find("op");
+    if (op == msg.end() || !op->is_string())
+        return invalid(id, "op", "\"op\" must be one of: subscribe, unsubscribe, command, ping");
+    const auto& name = op->get_ref<const std::string&>();
+    if (name == "subscribe") return parse_subscribe(msg, std::move(id));
+    if (name == "unsubscribe") return parse_unsubscribe(msg, std::move(id));
+    if (name == "command") return parse_command(msg, std::move(id));
+    if (name == "ping") {
+        if (auto key = unknown_key(msg, {"op", "id"}))
+            return invalid(id, *key,
+                           "unknown field \"" + *key + "\" (known: " + known_list({"op", "id"}) + ")");
+        return ws_ping{std::move(id)};
+    }
+    return invalid(id, "op",
+                   "unknown op \"" + (printable(name) ? name : std::string("...")) +
+                       "\" (one of: subscribe, unsubscribe, command, ping)");
+}
+
+ws_protocol_error binary_frame_error() {
+    auto p =
+        make_problem(http_error::malformed_json, "binary frames are not accepted: send JSON text frames");
+    p.instance = std::string(websocket_path);
+    return {json(), std::move(p)};
+}
+
+std::string ws_request_id(std::string_view connection, const json& client_id) {
+    std::string id(connection);
+    id += '.';
+    id += client_id.is_string() ? client_id.get<std::string>() : client_id.dump();
+    return id;
+}
+
+std::string ws_hello_message(std::string_view connection, std::string_view user, std::string_view role,
+                             std::size_t max_message_bytes) {
+    return text(json{{"type", "hello"},
+                     {"connection", connection},
+                     {"user", user},
+                     {"role", role},
+                     {"max_message_bytes", max_message_bytes}});
+}
+
+std::string ws_subscribed_message(const ws_subscribe& request) {
+    json resume = json::object();
+    for (const auto& [topic, seq] : request.resume)
+        resume[topic] = seq;
+    return text(json{{"type", "subscribed"},
+                     {"id", request.id},
+                     {"topics", request.topics},
+                     {"resume", std::move(resume)},
+                     {"max_rate_hz", request.max_rate_hz}});
+}
+
+std::string ws_unsubscribed_message(const ws_unsubscribe& request) {
+    return text(json{{"type", "unsubscribed"}, {"id", request.id}, {"topics", request.topics}});
+}
+
+std::string ws_result_message(const json& id, const json& result) {
+    return text(json{{"type", "result"}, {"id", id}, {"result", result}});
+}
+
+std::string ws_error_message(const json& id, const problem& error) {
+    return text(json{{"type", "error"}, {"id", id}, {"problem", error.to_json()}});
+}
+
+std::string ws_pong_message(const json& id) {
+    return text(json{{"type", "pong"}, {"id", id}});
+}
+
+}  // namespace gw::api

@@ -1,0 +1,93 @@
+#pragma once
+// The JSON messages of /api/v1/ws: parsing and validating what a client sends, building what the
+// server answers. Events themselves are not built here: the hub serialises each one once
+// (gateway/event.hpp) and every session sends that text as is. Pure: no I/O, no clock, no logging.
+//
+// Client -> server (one JSON object per text frame; "id" is optional except for commands: a string
+// of 1..128 printable characters or an integer, echoed in the answer):
+//   {"op":"subscribe","id":1,"topics":["controllers/+/position","jobs/#"],
+//    "resume":{"controllers/sim1/reports":41},"max_rate_hz":10}
+//   {"op":"unsubscribe","id":2,"topics":["jobs/#"]}
+//   {"op":"command","id":"c7","controller":"sim1","operation":"move",
+//    "args":{"axes":{"X":1000},"mode":"absolute"}}
+//   {"op":"ping","id":3}
+// Server -> client:
+//   {"type":"hello","connection":"ws-5","user":"anonymous","role":"admin","max_message_bytes":65536}
+//   {"type":"subscribed","id":1,"topics":[...],"resume":{...},"max_rate_hz":10}
+//   {"type":"unsubscribed","id":2,"topics":[...]}
+//   {"type":"result","id":"c7","result":{...the REST result body...}}
+//   {"type":"error","id":"c7"|null,"problem":{...the application/problem+json body...}}
+//   {"type":"pong","id":3}
+//   {"type":"event",...} and {"type":"gap",...} exactly as in gateway/event.hpp.
+// A message that cannot be used (malformed JSON, unknown op or field, wrong type, bad topic filter)
+// is answered with an error message; the connection stays open.
+
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include <boost/system/result.hpp>
+#include <nlohmann/json.hpp>
+
+#include "api/problem.hpp"
+
+namespace gw::api {
+
+inline constexpr std::string_view websocket_path = "/api/v1/ws";
+inline constexpr std::size_t ws_max_topics_per_message = 64;
+inline constexpr std::size_t ws_max_client_id_bytes = 128;
+inline constexpr double ws_max_rate_hz = 1000;
+
+struct ws_subscribe {
+    nlohmann::json id;  // null when absent
+    std::vector<std::string> topics;
+    std::map<std::string, std::uint64_t> resume;  // topic name -> last sequence number the client has
+    double max_rate_hz = 0;                       // 0: no limit (latest-value topics still coalesce)
+};
+
+struct ws_unsubscribe {
+    nlohmann::json id;
+    std::vector<std::string> topics;
+};
+
+struct ws_command {
+    nlohmann::json id;  // never null
+    std::string controller;
+    std::string operation;  // one of operation_names()
+    nlohmann::json args;    // an object ({} when absent)
+};
+
+struct ws_ping {
+    nlohmann::json id;
+};
+
+using ws_client_message = std::variant<ws_subscribe, ws_unsubscribe, ws_command, ws_ping>;
+
+// Why a client message was refused; `id` is the message's id when it had a valid one, else null.
+struct ws_protocol_error {
+    nlohmann::json id;
+    problem error;  // 400 malformed_json, or 422 invalid_value with `field`
+};
+
+boost::system::result<ws_client_message, ws_protocol_error> parse_client_message(std::string_view text);
+
+// A binary frame (the protocol is text only).
+ws_protocol_error binary_frame_error();
+
+// The request id of a command: "<connection>.<client id>" ("ws-5.c7", "ws-5.42"), so that logs and
+// serial traces of a WebSocket command lead back to the connection and the client's message.
+std::string ws_request_id(std::string_view connection, const nlohmann::json& client_id);
+
+std::string ws_hello_message(std::string_view connection, std::string_view user, std::string_view role,
+                             std::size_t max_message_bytes);
+std::string ws_subscribed_message(const ws_subscribe& request);
+std::string ws_unsubscribed_message(const ws_unsubscribe& request);
+std::string ws_result_message(const nlohmann::json& id, const nlohmann::json& result);
+std::string ws_error_message(const nlohmann::json& id, const problem& error);
+std::string ws_pong_message(const nlohmann::json& id);
+
+}  // namespace gw::api
