@@ -20,10 +20,14 @@
 #include <boost/asio/signal_set.hpp>
 #include <spdlog/spdlog.h>
 
+#include "api/server.hpp"
 #include "gateway/config.hpp"
+#include "gateway/controller_events_bridge.hpp"
 #include "gateway/controller_registry.hpp"
+#include "gateway/event_hub.hpp"
 #include "gateway/log_observer.hpp"
 #include "gateway/logging.hpp"
+#include "gateway/metrics.hpp"
 #include "gateway/serial_spec.hpp"
 
 namespace net = boost::asio;
@@ -111,10 +115,26 @@ int main(int argc, char** argv) {
     gw::controller_registry registry(ioc.get_executor(), std::move(options));
     registry.add_observer(
         std::shared_ptr<gw::devices::controller_observer>(std::make_shared<gw::log_observer>()));
+    // The API (observers added before start, so nothing is missed): metrics, the event hub fed by every
+    // controller, the HTTP/WebSocket server.
+    auto metrics = std::make_shared<gw::metrics>();
+    auto hub = gw::event_hub::create(ioc.get_executor());
+    registry.add_observer(std::shared_ptr<gw::devices::controller_observer>(
+        std::make_shared<gw::controller_events_bridge>(hub)));
+    gw::api::server http_server(ioc.get_executor(), config, registry, hub, metrics);
     try {
         registry.start();
     } catch (const std::exception& e) {
         log->error("cannot start the simulated controllers: {}", e.what());
+        return 1;
+    }
+
+    try {
+        http_server.start();
+    } catch (const std::exception& e) {
+        log->error("{}", e.what());
+        registry.stop();
+        hub->stop();
         return 1;
     }
 
@@ -128,6 +148,8 @@ int main(int argc, char** argv) {
     signals.async_wait([&](boost::system::error_code ec, int signal) {
         if (ec) return;
         log->info("signal {}: stopping", signal);
+        http_server.stop();  // stop accepting, close connections
+        hub->stop();
         registry.async_shutdown([&] {
             watchdog = std::thread([&] {
                 std::unique_lock lock(mutex);
