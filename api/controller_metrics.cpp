@@ -1,0 +1,110 @@
+#include "api/controller_metrics.hpp"
+
+#include "devices/ms2000/error.hpp"
+
+namespace gw::api {
+
+namespace {
+
+std::string error_label(const boost::system::error_code& ec) {
+    if (ec.category() != devices::ms2000::error_category()) return "io_error";
+    using devices::ms2000::error;
+    switch (static_cast<error>(ec.value())) {
+        case error::timeout:
+            return "timeout";
+        case error::unrecognized_reply:
+            return "unrecognized_reply";
+        case error::line_too_long:
+            return "line_too_long";
+        case error::controller_rejected:
+            return "controller_rejected";
+        case error::invalid_argument:
+            return "invalid_argument";
+        case error::queue_full:
+            return "queue_full";
+        case error::not_connected:
+            return "not_connected";
+        case error::disconnected:
+            return "disconnected";
+        case error::cancelled:
+            return "cancelled";
+    }
+    return "other";
+}
+
+}  // namespace
+
+controller_metrics::controller_metrics(std::shared_ptr<gw::metrics> m) : metrics_(std::move(m)) {
+    describe(*metrics_);
+}
+
+void controller_metrics::describe(gw::metrics& m) {
+    using enum metric_type;
+    m.describe("gw_controller_command_duration_seconds", histogram,
+               "Serial command latency (write start to reply), every command incl. polls",
+               default_latency_buckets());
+    m.describe("gw_controller_commands_total", counter,
+               "Serial commands finished, by origin (user, internal)");
+    m.describe("gw_controller_command_errors_total", counter, "Serial commands that failed, by error");
+    m.describe("gw_controller_command_timeouts_total", counter, "Serial commands without a reply in time");
+    m.describe("gw_controller_reconnects_total", counter,
+               "Times a controller connected again after losing it");
+    m.describe("gw_controller_connected", gauge, "1 when the controller is connected and identified");
+    m.describe("gw_controller_report_frames_total", counter,
+               "Encoder report frames decoded (TTL_REPORT port)");
+    m.describe("gw_controller_report_bytes_skipped_total", counter,
+               "Bytes on the report port that fit no frame");
+    m.describe("gw_http_requests_total", counter, "HTTP requests by route, method and status");
+    m.describe("gw_http_request_duration_seconds", histogram, "HTTP request handling time by route",
+               default_latency_buckets());
+    m.describe("gw_http_connections", gauge,
+               "Open HTTP connections (WebSocket ones included until upgraded)");
+    m.describe("gw_websocket_clients", gauge, "Connected WebSocket clients");
+    m.describe("gw_events_published_total", counter, "Events published to the event hub");
+    m.describe("gw_events_delivered_total", counter, "Events handed to subscribers (data and gap)");
+    m.describe("gw_events_coalesced_total", counter,
+               "Latest-value events replaced by a newer one before delivery (by policy)");
+    m.describe("gw_events_gap_events_total", counter, "Gap events sent to subscribers that fell behind");
+    m.describe("gw_events_gapped_total", counter, "Stream events reported missing by gap events (dropped)");
+    m.describe("gw_events_evicted_subscribers_total", counter, "Subscribers disconnected for being too slow");
+    m.describe("gw_event_subscribers", gauge, "Current event hub subscribers (WebSocket, MQTT)");
+}
+
+void controller_metrics::on_snapshot(const devices::controller_snapshot& s) {
+    const bool connected = s.state == devices::connection_state::connected;
+    bool reconnected = false;
+    {
+        std::lock_guard lock(mutex_);
+        auto& st = state_[s.id];
+        reconnected = connected && !st.was_connected && st.ever_connected;
+        st.ever_connected = st.ever_connected || connected;
+        st.was_connected = connected;
+    }
+    metrics_->set("gw_controller_connected", {{"controller", s.id}}, connected ? 1 : 0);
+    // Incremented by 0 first so the series exists from the start.
+    metrics_->increment("gw_controller_reconnects_total", {{"controller", s.id}}, reconnected ? 1 : 0);
+}
+
+void controller_metrics::on_report(const devices::report_event& e) {
+    metrics_->increment("gw_controller_report_frames_total", {{"controller", e.controller_id}});
+    // bytes_skipped is the decoder's running count: mirror it.
+    metrics_->set("gw_controller_report_bytes_skipped_total", {{"controller", e.controller_id}},
+                  static_cast<double>(e.bytes_skipped));
+}
+
+void controller_metrics::on_trace(const devices::command_trace& t) {
+    const metric_labels controller = {{"controller", t.controller_id}};
+    metrics_->increment("gw_controller_commands_total",
+                        {{"controller", t.controller_id}, {"origin", t.internal ? "internal" : "user"}});
+    if (t.error) {
+        metrics_->increment("gw_controller_command_errors_total",
+                            {{"controller", t.controller_id}, {"error", error_label(t.error)}});
+        if (t.error == devices::ms2000::error::timeout)
+            metrics_->increment("gw_controller_command_timeouts_total", controller);
+        return;
+    }
+    metrics_->observe("gw_controller_command_duration_seconds", controller,
+                      std::chrono::duration<double>(t.latency).count());
+}
+
+}  // namespace gw::api

@@ -1,0 +1,82 @@
+#include "api/listener.hpp"
+
+#include <spdlog/logger.h>
+
+#include "api/http_session.hpp"
+
+namespace gw::api {
+
+listener::listener(net::any_io_executor executor, net::ip::tcp::endpoint endpoint,
+                   std::shared_ptr<api_context> ctx)
+    : executor_(executor), strand_(net::make_strand(executor)), acceptor_(strand_), ctx_(std::move(ctx)) {
+    acceptor_.open(endpoint.protocol());
+    acceptor_.set_option(net::socket_base::reuse_address(true));
+    acceptor_.bind(endpoint);
+    acceptor_.listen(net::socket_base::max_listen_connections);
+    endpoint_ = acceptor_.local_endpoint();
+}
+
+void listener::run() {
+    net::dispatch(strand_, [self = shared_from_this()] { self->do_accept(); });
+}
+
+void listener::stop() {
+    std::vector<std::weak_ptr<http_session>> sessions;
+    {
+        std::lock_guard lock(mutex_);
+        stopped_ = true;
+        for (const auto& [id, s] : sessions_)
+            sessions.push_back(s);
+    }
+    // Stop accepting first, then close every open connection.
+    net::dispatch(strand_, [self = shared_from_this()] {
+        beast::error_code ignored;
+        self->acceptor_.close(ignored);
+    });
+    for (auto& w : sessions)
+        if (auto s = w.lock()) s->close();
+}
+
+std::size_t listener::open_sessions() const {
+    std::lock_guard lock(mutex_);
+    return sessions_.size();
+}
+
+std::uint64_t listener::add(const std::shared_ptr<http_session>& s) {
+    std::lock_guard lock(mutex_);
+    auto id = next_id_++;
+    sessions_.emplace(id, s);
+    return id;
+}
+
+void listener::remove(std::uint64_t id) {
+    std::lock_guard lock(mutex_);
+    sessions_.erase(id);
+}
+
+void listener::do_accept() {
+    // Each connection gets its own strand.
+    acceptor_.async_accept(net::make_strand(executor_),
+                           beast::bind_front_handler(&listener::on_accept, shared_from_this()));
+}
+
+void listener::on_accept(beast::error_code ec, net::ip::tcp::socket socket) {
+    if (ec == net::error::operation_aborted || !acceptor_.is_open()) return;
+    if (ec) {
+        // EMFILE and friends: keep accepting (a busy loop is avoided by the error being transient).
+        ctx_->log->warn("accept: {}", ec.message());
+        return do_accept();
+    }
+    bool reject = false;
+    {
+        std::lock_guard lock(mutex_);
+        if (stopped_) return;
+        reject = sessions_.size() >= ctx_->limits.max_connections;
+    }
+    auto session = std::make_shared<http_session>(std::move(socket), ctx_, weak_from_this(), reject);
+    if (!reject) session->set_id(add(session));
+    session->run();
+    do_accept();
+}
+
+}  // namespace gw::api

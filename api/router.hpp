@@ -1,0 +1,51 @@
+#pragma once
+// Maps one HTTP request to one response: the REST routes under /api/v1, auth, request ids and the
+// problem+json errors. Transport-free: http_session reads and writes, the router decides.
+//
+//   GET  /api/v1/health                      liveness, public
+//   GET  /api/v1/ready                       200 when every controller is identified, else 503; public
+//   GET  /api/v1/controllers                 viewer
+//   GET  /api/v1/controllers/{id}            viewer
+//   POST /api/v1/controllers/{id}/{op}       operator (op: move halt home zero here speed ttl dac led)
+//   POST /api/v1/controllers/{id}/command    admin
+//   GET  /api/v1/metrics                     viewer; Prometheus text
+//   GET  /api/v1/openapi.yaml, /openapi.yaml public
+// Thread safety: handle() may be called from any session strand; `done` is called exactly once, on
+// `session_executor` (immediately, inside handle(), for everything but the controller operations).
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "api/api_context.hpp"
+#include "api/auth.hpp"
+#include "api/net.hpp"
+#include "api/problem.hpp"
+
+namespace gw::api {
+
+using string_request = http::request<http::string_body>;
+using string_response = http::response<http::string_body>;
+
+struct routed_response {
+    string_response response;
+    std::string route;  // the route template for metrics ("/api/v1/controllers/{id}/move"), or "unmatched"
+};
+
+using response_handler = std::function<void(routed_response)>;
+
+// The path of a target without its query string.
+std::string_view target_path(std::string_view target);
+
+// A problem+json response (status, body, X-Request-Id) for `request`.
+string_response problem_response(problem p, const string_request& request, const std::string& request_id);
+string_response problem_response(problem p, unsigned version, bool keep_alive, std::string_view target,
+                                 const std::string& request_id);
+
+// Resolves the Authorization header, or fills `error` (401).
+std::optional<auth_identity> identify(const api_context& ctx, const string_request& request, problem& error);
+
+void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& request, std::string request_id,
+                    net::any_io_executor session_executor, response_handler done);
+
+}  // namespace gw::api

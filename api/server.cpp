@@ -1,0 +1,61 @@
+#include "api/server.hpp"
+
+#include <stdexcept>
+
+#include <spdlog/logger.h>
+
+#include "api/controller_metrics.hpp"
+#include "api/listener.hpp"
+#include "gateway/controller_registry.hpp"
+#include "gateway/logging.hpp"
+#include "gateway/metrics.hpp"
+
+namespace gw::api {
+
+server::server(net::any_io_executor executor, const gateway_config& config, controller_registry& registry,
+               std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics)
+    : http_(config.http),
+      ctx_(std::make_shared<api_context>(api_context{executor, registry, std::move(hub), std::move(metrics),
+                                                     config.http.limits, config.auth, get_logger("api")})) {
+    controller_metrics::describe(*ctx_->metrics);
+    registry.add_observer(
+        std::shared_ptr<devices::controller_observer>(std::make_shared<controller_metrics>(ctx_->metrics)));
+}
+
+server::~server() {
+    stop();
+}
+
+void server::start() {
+    if (ctx_->auth.tokens.empty() && !is_loopback_address(http_.listen_address))
+        throw std::runtime_error("refusing to listen on " + http_.listen_address +
+                                 " without auth tokens: configure auth.tokens or listen on 127.0.0.1");
+    beast::error_code ec;
+    auto address = net::ip::make_address(http_.listen_address, ec);
+    if (ec) throw std::runtime_error("http.listen_address \"" + http_.listen_address + "\": " + ec.message());
+    try {
+        listener_ =
+            std::make_shared<listener>(ctx_->executor, net::ip::tcp::endpoint(address, http_.port), ctx_);
+    } catch (const boost::system::system_error& e) {
+        throw std::runtime_error("cannot listen on " + http_.listen_address + ":" +
+                                 std::to_string(http_.port) + ": " + e.code().message());
+    }
+    listener_->run();
+    auto ep = listener_->local_endpoint();
+    if (ctx_->auth.tokens.empty())
+        ctx_->log->info("listening on http://{}:{} (no auth tokens: loopback only, every client is admin)",
+                        ep.address().to_string(), ep.port());
+    else
+        ctx_->log->info("listening on http://{}:{} ({} auth tokens)", ep.address().to_string(), ep.port(),
+                        ctx_->auth.tokens.size());
+}
+
+void server::stop() {
+    if (listener_) listener_->stop();
+}
+
+net::ip::tcp::endpoint server::local_endpoint() const {
+    return listener_ ? listener_->local_endpoint() : net::ip::tcp::endpoint{};
+}
+
+}  // namespace gw::api

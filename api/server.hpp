@@ -1,0 +1,40 @@
+#pragma once
+// The HTTP/WebSocket server as main sees it: checks the "no tokens, loopback only" rule, declares
+// the metrics, attaches the controller metrics observer, binds the listener and stops it.
+//
+//   auto server = gw::api::server::create(ioc.get_executor(), config, registry, hub, metrics);
+//   server->start();           // throws std::runtime_error with a message for the log
+//   ...
+//   server->stop();            // stop accepting, close sockets
+// Methods are called from main's thread (start) and the signal handler (stop).
+
+#include <memory>
+
+#include "api/api_context.hpp"
+#include "api/net.hpp"
+#include "gateway/config.hpp"
+
+namespace gw::api {
+
+class listener;
+
+class server {
+  public:
+    server(net::any_io_executor executor, const gateway_config& config, controller_registry& registry,
+           std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics);
+    ~server();
+
+    // Binds http.listen_address:http.port. Throws std::runtime_error (refused address, port in use).
+    void start();
+    void stop();
+
+    net::ip::tcp::endpoint local_endpoint() const;
+    const std::shared_ptr<api_context>& context() const { return ctx_; }
+
+  private:
+    http_config http_;
+    std::shared_ptr<api_context> ctx_;
+    std::shared_ptr<listener> listener_;
+};
+
+}  // namespace gw::api
