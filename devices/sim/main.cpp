@@ -63,6 +63,7 @@ int main(int argc, char** argv) {
     bool report_port = false;
     bool no_report_port = false;
     int flash_ms = -1;
+    int where_decimals = 1;
     int count = 1;
 
     std::string presets;
@@ -95,6 +96,9 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     app.add_flag("--ack-space", ack_space, "answer \":A \" (with a trailing space) instead of \":A\"");
     app.add_flag("--no-value-space", no_value_space, "no trailing space after values (\":A 1.0 2.0\")");
+    app.add_option("--where-decimals", where_decimals, "decimals of WHERE values (\":A 1234.5\")")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 6));
     app.add_option("--flash-ms", flash_ms, "SS Z flash-write time in ms (default 300)");
     app.add_option("--count", count, "run COUNT controllers: <name>-1 .. <name>-COUNT")
         ->check(CLI::Range(1, 64));
@@ -149,6 +153,7 @@ int main(int argc, char** argv) {
         empty_line == "error" ? sim::empty_line_reply::unknown_command : sim::empty_line_reply::ignore;
     config.ack_trailing_space = ack_space;
     config.value_trailing_space = !no_value_space;
+    config.where_decimals = where_decimals;
     if (flash_ms >= 0) config.flash_write_time = std::chrono::milliseconds(flash_ms);
 
     boost::asio::io_context io;
