@@ -231,15 +231,15 @@ void event_hub::push_stream(subscriber& s, const std::shared_ptr<const event>& e
         return;
     }
     // Overflow: the event is not queued; the subscriber hears about it through a gap event.
-    auto now = clock_.steady();
-    if (s.gaps.empty()) {
-        if (s.last_overflow && now - *s.last_overflow < s.settings.overflow_window) {
-            s.evict_reason =
-                "too slow: send queue overflowed twice within " + millis(s.settings.overflow_window);
-        }
-        s.last_overflow = now;
-    }
+    if (s.gaps.empty()) note_overflow(s);
     s.gaps.emplace(e->topic, gap_range{e->sequence, e->sequence});
+}
+
+void event_hub::note_overflow(subscriber& s) {
+    auto now = clock_.steady();
+    if (s.last_overflow && now - *s.last_overflow < s.settings.overflow_window)
+        s.evict_reason = "too slow: send queue overflowed twice within " + millis(s.settings.overflow_window);
+    s.last_overflow = now;
 }
 
 void event_hub::push_gap(subscriber& s, const std::string& topic, std::uint64_t from, std::uint64_t to) {
@@ -267,19 +267,23 @@ void event_hub::fill_catch_up(subscriber& s) {
             it = s.catch_up.erase(it);
             continue;
         }
-        auto& next = it->second;
+        auto& [next, reading] = it->second;
         const auto& topic = t->second;
         while (replay_room() && next <= topic.last_seq) {
             auto oldest = topic.oldest();
             if (next < oldest) {  // already gone from the replay buffer
+                // Gone before it was asked for: a plain gap. Gone while it read: it is too slow.
+                if (reading) note_overflow(s);
                 push_gap(s, it->first, next, oldest - 1);
                 next = oldest;
+                reading = true;
                 continue;
             }
             s.queue.push_back(topic.replay[next - oldest]);
             add(counters_->replayed);
             s.cursor[it->first] = next;
             ++next;
+            reading = true;
         }
         if (next > topic.last_seq)
             it = s.catch_up.erase(it);  // caught up: live from now on
@@ -377,8 +381,8 @@ void event_hub::on_subscribe(subscriber_id id, std::string filter, subscription_
             auto from = resume->second > t.last_seq ? 0 : resume->second;  // a cursor of an earlier hub
             auto next = std::max(from, cursor) + 1;
             if (next > t.last_seq) continue;
-            auto [pos, inserted] = s.catch_up.emplace(name, next);
-            if (!inserted) pos->second = std::min(pos->second, next);
+            auto [pos, inserted] = s.catch_up.emplace(name, catch_up_state{next});
+            if (!inserted) pos->second.next = std::min(pos->second.next, next);
             if (auto slot = s.latest.find(name); slot != s.latest.end()) slot->second.pending.reset();
             continue;
         }

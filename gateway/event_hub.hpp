@@ -18,7 +18,9 @@
 //    events are not queued and the subscriber later gets one gap event per topic
 //    {"type":"gap","missed":n,"from":a,"to":b} before that topic's next event. A subscriber that
 //    overflows again within overflow_window, or stays full/gapped longer than max_stall, is evicted:
-//    event_sink::close("too slow: ..."). Nothing else is ever dropped silently.
+//    event_sink::close("too slow: ..."). Nothing else is ever dropped silently. A resuming subscriber
+//    that falls behind its topic's replay buffer while reading it gets a gap event and counts as
+//    having overflowed.
 // A subscriber that resumes reads the replay buffer lazily (into at most half of its queue), so a large
 // replay neither overflows it nor blocks live events of other topics; live events of a topic in
 // catch-up are taken from the buffer in order, so there are no duplicates and no holes between
@@ -123,6 +125,10 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
         std::uint64_t from = 0;
         std::uint64_t to = 0;
     };
+    struct catch_up_state {
+        std::uint64_t next = 0;  // next sequence to read from the topic's replay buffer
+        bool reading = false;    // read at least once (a gap now means it fell behind the buffer)
+    };
     struct subscriber {
         subscriber_id id = 0;
         std::weak_ptr<event_sink> sink;
@@ -131,7 +137,7 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
         std::deque<std::shared_ptr<const event>> queue;  // stream and gap events; <= queue_limit
         std::map<std::string, latest_slot> latest;       // latest-value topics
         std::map<std::string, gap_range> gaps;           // stream events not queued (overflow)
-        std::map<std::string, std::uint64_t> catch_up;   // topic -> next sequence to read from replay
+        std::map<std::string, catch_up_state> catch_up;  // resumed topics still reading their replay
         std::map<std::string, std::uint64_t> cursor;     // topic -> highest sequence taken (no duplicates)
         bool in_flight = false;                          // a batch was delivered, not yet acknowledged
         std::optional<std::chrono::steady_clock::time_point> stalled_since;  // full or gapped, no ack
@@ -158,6 +164,7 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     void offer(subscriber& s, const std::shared_ptr<const event>& e, const topic_state& t,
                const subscription& sub);
     void push_stream(subscriber& s, const std::shared_ptr<const event>& e);
+    void note_overflow(subscriber& s);  // marks it for eviction when it overflows twice within the window
     void push_gap(subscriber& s, const std::string& topic, std::uint64_t from, std::uint64_t to);
     void fill_catch_up(subscriber& s);
     void flush_gaps(subscriber& s);

@@ -265,6 +265,29 @@ TEST_F(event_hub_test, long_replay_goes_through_a_small_queue_interleaved_with_l
     EXPECT_FALSE(sink->closed);
 }
 
+TEST_F(event_hub_test, falling_behind_the_replay_buffer_while_resuming_counts_as_overflow) {
+    make_hub({.stream_replay = 6});
+    publish(reports, 6);
+    auto sink = add_sink(gw::subscriber_settings{.queue_limit = 4, .max_batch_events = 2});
+    sink->auto_ack = false;
+    ASSERT_FALSE(hub_->subscribe(sink->id, reports, {.resume = {{reports, 0}}}));
+    run();                 // 1, 2 delivered; 3, 4 queued
+    publish(reports, 10);  // 5..14: the buffer now holds 11..14
+    for (int i = 0; i < 10 && sink->pending_ack; ++i) {
+        sink->ack();
+        run();
+    }
+    EXPECT_EQ(sink->seqs(reports), (std::vector<std::uint64_t>{1, 2, 3, 4, 11, 12, 13, 14, 15, 16}));
+    ASSERT_EQ(sink->gaps().size(), 1u);
+    EXPECT_EQ(sink->gaps()[0]->gap_from, 5u);
+    EXPECT_EQ(sink->gaps()[0]->gap_to, 10u);
+    EXPECT_FALSE(sink->closed);
+    // Live now; overflowing within the window of that lapse is the second strike.
+    publish(reports, 6);
+    ASSERT_TRUE(sink->closed);
+    EXPECT_EQ(hub_->counters().evicted, 1u);
+}
+
 TEST_F(event_hub_test, a_stalled_subscriber_does_not_hold_up_a_healthy_one) {
     make_hub();
     auto healthy = add_sink();
