@@ -1,6 +1,7 @@
 // The control channel on a real Unix socket, acting on a simulator on a real pty.
 #include "devices/sim/control_channel.hpp"
 
+#include <filesystem>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <thread>
@@ -103,6 +104,7 @@ TEST(control_channel, commands_act_on_the_simulator) {
     work.reset();
     io.stop();
     runner.join();
+    std::filesystem::remove_all(dir);
 }
 
 }  // namespace

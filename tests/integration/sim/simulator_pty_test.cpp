@@ -27,6 +27,7 @@ class simulator_pty : public ::testing::Test {
         work_.reset();
         io_.stop();
         if (thread_.joinable()) thread_.join();
+        if (!dir_.empty()) std::filesystem::remove_all(dir_);
     }
 
     std::shared_ptr<simulator> make(const char* preset_name, double time_scale = 1.0,
@@ -34,6 +35,7 @@ class simulator_pty : public ::testing::Test {
         auto config = preset(preset_name).value();
         const auto dir = "/tmp/ms2000-sim-test-" + std::to_string(::getpid()) + "-" +
                          ::testing::UnitTest::GetInstance()->current_test_info()->name();
+        dir_ = dir;
         config.name = "t";
         config.link_path = dir + "/port";
         config.report_link_path = dir + "/report";
@@ -50,6 +52,7 @@ class simulator_pty : public ::testing::Test {
         boost::asio::make_work_guard(io_)};
     std::thread thread_;
     std::shared_ptr<simulator> sim_;
+    std::string dir_;
 };
 
 TEST_F(simulator_pty, answers_like_a_controller) {
