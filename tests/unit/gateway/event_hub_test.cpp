@@ -4,8 +4,10 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -571,6 +573,53 @@ TEST_F(event_hub_test, forgets_the_least_recently_published_topic_beyond_the_lim
     EXPECT_EQ(sink->seqs("jobs/1"), range(1, 3));
     EXPECT_EQ(sink->seqs("jobs/2"), (std::vector<std::uint64_t>{1, 1}));
     EXPECT_EQ(sink->seqs("jobs/3"), range(1, 2));
+}
+
+TEST(event_hub, publishers_on_many_threads_keep_every_topic_in_order) {
+    // Real threads on both sides: four publishers, the io_context on two threads.
+    boost::asio::io_context ioc;
+    auto work = boost::asio::make_work_guard(ioc);
+    auto hub = gw::event_hub::create(ioc.get_executor());
+    auto sink = std::make_shared<recording_sink>();  // touched on the hub's strand only, read after join
+    sink->hub = hub;
+    sink->id = hub->add_subscriber(sink, gw::subscriber_settings{.queue_limit = 100'000});
+    ASSERT_FALSE(hub->subscribe(sink->id, "jobs/#"));
+    std::vector<std::thread> runners;
+    for (int i = 0; i < 2; ++i)
+        runners.emplace_back([&] { ioc.run(); });
+    constexpr int per_thread = 500;
+    std::vector<std::thread> publishers;
+    for (int t = 0; t < 4; ++t) {
+        publishers.emplace_back([&, t] {
+            for (int i = 0; i < per_thread; ++i)
+                EXPECT_FALSE(
+                    hub->publish("jobs/" + std::to_string(t % 2), nlohmann::json{{"t", t}, {"i", i}}));
+        });
+    }
+    for (auto& p : publishers)
+        p.join();
+    auto deadline = std::chrono::steady_clock::now() + 60s;
+    while (hub->counters().delivered < 4 * per_thread && std::chrono::steady_clock::now() < deadline)
+        std::this_thread::sleep_for(5ms);
+    hub->stop();
+    work.reset();
+    for (auto& r : runners)
+        r.join();
+    EXPECT_EQ(sink->seqs("jobs/0"), range(1, 2 * per_thread));
+    EXPECT_EQ(sink->seqs("jobs/1"), range(1, 2 * per_thread));
+    // Each publisher's own events keep their order within the topic.
+    for (int t = 0; t < 4; ++t) {
+        int expected = 0;
+        for (const auto& e : sink->events) {
+            auto j = nlohmann::json::parse(*e->data);
+            if (j["t"] == t) {
+                EXPECT_EQ(j["i"], expected);
+                ++expected;
+            }
+        }
+        EXPECT_EQ(expected, per_thread);
+    }
+    EXPECT_EQ(*sink->closed, "event hub stopped");
 }
 
 TEST_F(event_hub_test, stop_closes_every_subscriber) {
