@@ -1,0 +1,591 @@
+#!/usr/bin/python3
+"""End-to-end test of the REST API: starts the real asi-gateway (three simulated controllers
+in-process plus one external ms2000-sim with a control socket for unplug/timeouts) on a free
+loopback port, talks to it with real HTTP clients, and checks every endpoint, every error kind,
+auth roles, request ids and limits. It validates openapi/openapi.yaml structurally (every $ref
+resolves, every operation has responses, every schema compiles as JSON Schema 2020-12, every
+example matches its schema) and validates every real response body against the schema the
+document gives for its path, method, status and content type.
+
+Run by ctest with Debian's /usr/bin/python3 (python3-yaml, python3-jsonschema).
+Exit code 0 when every check passed; the failures are listed otherwise.
+"""
+
+import argparse
+import http.client
+import json
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import traceback
+
+import jsonschema
+import yaml
+
+TOKENS = {
+    "viewer": "viewer-token-0123456789",
+    "operator": "operator-token-0123456789",
+    "admin": "admin-token-0123456789abc",
+}
+WAIT = 60.0  # generous: a loaded 2-core machine
+
+
+class Failure(Exception):
+    pass
+
+
+def check(cond, message):
+    if not cond:
+        raise Failure(message)
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+# --------------------------------------------------------------------------------------------
+# The OpenAPI document
+
+
+def resolve_pointer(doc, ref):
+    check(ref.startswith("#/"), f"only local $refs are used: {ref}")
+    node = doc
+    for part in ref[2:].split("/"):
+        part = part.replace("~1", "/").replace("~0", "~")
+        check(isinstance(node, dict) and part in node, f"$ref {ref} does not resolve")
+        node = node[part]
+    return node
+
+
+def walk(node, path=""):
+    if isinstance(node, dict):
+        yield path, node
+        for k, v in node.items():
+            yield from walk(v, f"{path}/{k}")
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            yield from walk(v, f"{path}/{i}")
+
+
+class Contract:
+    def __init__(self, text):
+        self.doc = yaml.safe_load(text)
+        self.resolver = jsonschema.RefResolver(base_uri="", referrer=self.doc)
+        self.covered = set()  # (template, method, status) seen in real responses
+
+    def validator(self, schema):
+        return jsonschema.Draft202012Validator(schema, resolver=self.resolver)
+
+    def deref(self, node):
+        while isinstance(node, dict) and "$ref" in node and len(node) == 1:
+            node = resolve_pointer(self.doc, node["$ref"])
+        return node
+
+    def check_structure(self):
+        d = self.doc
+        check(d.get("openapi", "").startswith("3.1"), "openapi must be 3.1.x")
+        check("paths" in d and d["paths"], "no paths")
+        for where, node in walk(d):
+            if "$ref" in node and isinstance(node["$ref"], str):
+                resolve_pointer(d, node["$ref"])
+        methods = {"get", "put", "post", "delete", "patch", "head", "options"}
+        for p, item in d["paths"].items():
+            for m, op in item.items():
+                if m not in methods:
+                    continue
+                check(op.get("responses"), f"{m.upper()} {p} has no responses")
+                check(op.get("operationId"), f"{m.upper()} {p} has no operationId")
+        for name, schema in d["components"]["schemas"].items():
+            jsonschema.Draft202012Validator.check_schema(schema)
+        # Every example matches the schema next to it.
+        n = 0
+        for where, node in walk(d):
+            if "schema" in node and isinstance(node["schema"], dict):
+                examples = []
+                if "example" in node:
+                    examples.append(node["example"])
+                for ex in (node.get("examples") or {}).values():
+                    examples.append(self.deref(ex)["value"])
+                for ex in examples:
+                    errors = list(self.validator(node["schema"]).iter_errors(ex))
+                    check(not errors, f"example at {where} does not match its schema: {errors[:1]}")
+                    n += 1
+        check(n >= 10, f"only {n} examples were checked")
+
+    def template_for(self, path):
+        for template in self.doc["paths"]:
+            pattern = "^" + re.sub(r"\{[^}]+\}", "[^/]+", template) + "$"
+            if re.match(pattern, path):
+                return template
+        return None
+
+    def validate_response(self, method, path, status, content_type, body):
+        template = self.template_for(path)
+        check(template is not None, f"{path} is not in the document")
+        op = self.doc["paths"][template].get(method.lower())
+        if op is None and status == 405:
+            # A method the path does not have: the generic problem.
+            self.covered.add((template, method, status))
+            errors = list(self.validator({"$ref": "#/components/schemas/Problem"}).iter_errors(json.loads(body)))
+            check(not errors, f"{method} {path} 405: {[e.message for e in errors[:3]]}")
+            return
+        check(op is not None, f"{method} {template} is not in the document")
+        responses = op["responses"]
+        check(str(status) in responses, f"{method} {template}: status {status} is not documented")
+        self.covered.add((template, method, status))
+        response = self.deref(responses[str(status)])
+        media = (content_type or "").split(";")[0].strip()
+        content = response.get("content", {})
+        check(media in content, f"{method} {template} {status}: content type {media} is not documented")
+        schema = content[media].get("schema")
+        if schema is None:
+            return
+        value = body
+        if media.endswith("json"):
+            value = json.loads(body)
+        errors = list(self.validator(schema).iter_errors(value))
+        check(not errors, f"{method} {path} {status}: body does not match the schema: "
+                          f"{[e.message for e in errors[:3]]}\nbody: {body[:400]!r}")
+
+
+# --------------------------------------------------------------------------------------------
+# HTTP
+
+
+class Response:
+    def __init__(self, status, headers, body):
+        self.status = status
+        self.headers = headers
+        self.body = body
+
+    def json(self):
+        return json.loads(self.body)
+
+    def header(self, name):
+        for k, v in self.headers:
+            if k.lower() == name.lower():
+                return v
+        return None
+
+
+class Client:
+    def __init__(self, port, contract):
+        self.port = port
+        self.contract = contract
+
+    def request(self, method, path, body=None, token=None, headers=None, validate=True, raw_body=None):
+        h = dict(headers or {})
+        if token:
+            h["Authorization"] = f"Bearer {token}"
+        data = raw_body
+        if body is not None:
+            data = json.dumps(body).encode()
+            h["Content-Type"] = "application/json"
+        conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=WAIT)
+        try:
+            conn.request(method, path, body=data, headers=h)
+            r = conn.getresponse()
+            res = Response(r.status, r.getheaders(), r.read().decode("utf-8", "replace"))
+        finally:
+            conn.close()
+        check(res.header("X-Request-Id"), f"{method} {path}: no X-Request-Id in the response")
+        if validate:
+            self.contract.validate_response(method, path.split("?")[0], res.status,
+                                            res.header("Content-Type"), res.body)
+        return res
+
+    def problem(self, method, path, status, kind, **kw):
+        r = self.request(method, path, **kw)
+        check(r.status == status, f"{method} {path}: expected {status}, got {r.status}: {r.body[:300]}")
+        check(r.header("Content-Type") == "application/problem+json",
+              f"{method} {path}: problem content type is {r.header('Content-Type')}")
+        p = r.json()
+        check(p["type"] == "https://asi-gateway.dev/problems/" + kind,
+              f"{method} {path}: expected problem type {kind}, got {p['type']}")
+        check(p["status"] == status, "problem status differs from the HTTP status")
+        check(p.get("request_id") == r.header("X-Request-Id"), "problem request_id differs from the header")
+        return p
+
+
+def wait_until(what, fn, timeout=WAIT):
+    deadline = time.monotonic() + timeout
+    last = None
+    while time.monotonic() < deadline:
+        try:
+            last = fn()
+            if last:
+                return last
+        except (OSError, http.client.HTTPException) as e:
+            last = e
+        time.sleep(0.1)
+    raise Failure(f"timed out waiting for {what} (last: {last!r})")
+
+
+# --------------------------------------------------------------------------------------------
+# The tests
+
+
+def test_public_endpoints(c):
+    r = c.request("GET", "/api/v1/health")
+    check(r.status == 200 and r.json() == {"status": "ok"}, f"health: {r.status} {r.body}")
+    r = c.request("GET", "/api/v1/ready")
+    check(r.status == 200 and r.json()["ready"] is True, f"ready: {r.status} {r.body}")
+    ids = [x["id"] for x in r.json()["controllers"]]
+    check(ids == ["ext1", "sim1", "sim2", "sim3"], f"ready lists {ids}")
+    for path in ("/api/v1/openapi.yaml", "/openapi.yaml"):
+        r = c.request("GET", path)
+        check(r.status == 200, f"{path}: {r.status}")
+        check(yaml.safe_load(r.body) == c.contract.doc, f"{path} differs from openapi/openapi.yaml")
+
+
+def test_controllers(c):
+    r = c.request("GET", "/api/v1/controllers", token=TOKENS["viewer"])
+    check(r.status == 200, f"list: {r.status}")
+    by_id = {x["id"]: x for x in r.json()["controllers"]}
+    check(set(by_id) == {"ext1", "sim1", "sim2", "sim3"}, f"ids {sorted(by_id)}")
+    full = by_id["sim1"]["identity"]["modules"]
+    check({"array", "ring_buffer", "scan", "ttl_report"} <= set(full), f"sim1 modules {full}")
+    check(by_id["sim1"]["report_port"] == "open", f"sim1 report port {by_id['sim1']['report_port']}")
+    planar = by_id["sim3"]["identity"]["modules"]
+    check({"planar_correction", "dac_out", "led_dimmer"} <= set(planar), f"sim3 modules {planar}")
+    r = c.request("GET", "/api/v1/controllers/sim2", token=TOKENS["viewer"])
+    check(r.status == 200 and r.json()["id"] == "sim2", f"get sim2: {r.status}")
+    check([a["axis"] for a in r.json()["axes"]] == ["X", "Y", "Z"], "sim2 axes")
+    c.problem("GET", "/api/v1/controllers/nope", 404, "unknown-controller", token=TOKENS["viewer"])
+
+
+def test_operations(c):
+    t = TOKENS["operator"]
+    base = "/api/v1/controllers/sim1"
+    r = c.request("POST", base + "/move", {"axes": {"X": 1500.0, "Y": -200}, "wait": True}, token=t)
+    check(r.status == 200, f"move: {r.status} {r.body}")
+    pos = {p["axis"]: p["position_um"] for p in r.json()["positions"]}
+    check(r.json()["waited"] and abs(pos["X"] - 1500) < 1 and abs(pos["Y"] + 200) < 1, f"move positions {pos}")
+    r = c.request("POST", base + "/move", {"axes": {"X": -500}, "mode": "relative", "wait": True,
+                                          "timeout_ms": 30000}, token=t)
+    check(r.status == 200, f"relative move: {r.status} {r.body}")
+    pos = {p["axis"]: p["position_um"] for p in r.json()["positions"]}
+    check(abs(pos["X"] - 1000) < 1, f"relative move ended at {pos}")
+    # The snapshot follows (polling).
+    wait_until("sim1 X near 1000 in GET", lambda: abs(
+        c.request("GET", base, token=t).json()["axes"][0]["position_um"] - 1000) < 1)
+    for op, body in [("halt", None), ("halt", {}), ("zero", {}), ("home", {"axes": ["X"]}),
+                     ("here", {"axes": {"X": 10}}), ("speed", {"axes": {"X": 2.5}}),
+                     ("ttl", {"in0_mode": 1, "out0_mode": 0})]:
+        r = c.request("POST", f"{base}/{op}", body, token=t)
+        check(r.status == 200, f"{op}: {r.status} {r.body}")
+        check(r.json()["operation"] == op and r.json()["id"] == "sim1", f"{op}: {r.body}")
+    r = c.request("POST", "/api/v1/controllers/sim3/dac", {"volts": 2.5}, token=t)
+    check(r.status == 200, f"dac on sim3: {r.status} {r.body}")
+    r = c.request("POST", "/api/v1/controllers/sim3/led", {"percent": 40, "channel": "X"}, token=t)
+    check(r.status == 200, f"led on sim3: {r.status} {r.body}")
+    r = c.request("POST", base + "/halt", token=t)  # no body at all
+    check(r.status == 200, f"halt without body: {r.status}")
+
+
+def test_raw_command(c):
+    base = "/api/v1/controllers/sim2/command"
+    r = c.request("POST", base, {"command": "W X Y"}, token=TOKENS["admin"])
+    check(r.status == 200, f"command: {r.status} {r.body}")
+    j = r.json()
+    check(j["reply"]["kind"] == "ack" and j["raw_reply"].startswith(":A"), f"W X Y reply {j}")
+    r = c.request("POST", base, {"command": "NOSUCH"}, token=TOKENS["admin"])
+    check(r.status == 200 and r.json()["reply"]["kind"] == "error", f"unknown command: {r.body}")
+    check(r.json()["reply"]["error_code"] == -1, f"unknown command code: {r.body}")
+    p = c.problem("POST", base, 422, "invalid-value", body={"command": "W X\nY"}, token=TOKENS["admin"])
+    p = c.problem("POST", base, 403, "forbidden", body={"command": "W X"}, token=TOKENS["operator"])
+
+
+def test_errors(c):
+    t = TOKENS["operator"]
+    base = "/api/v1/controllers/sim1"
+    c.problem("POST", base + "/move", 400, "malformed-json", raw_body=b'{"axes": ', token=t,
+              headers={"Content-Type": "application/json"})
+    p = c.problem("POST", base + "/move", 422, "invalid-value", body={"axes": {"X": 1}, "speed": 3}, token=t)
+    check(p.get("field") == "speed", f"unknown field problem names {p.get('field')}")
+    p = c.problem("POST", base + "/move", 422, "invalid-value", body={"axes": {"X": "far"}}, token=t)
+    check(p.get("field") == "axes.X", f"wrong type names {p.get('field')}")
+    p = c.problem("POST", base + "/move", 422, "invalid-value", body={"axes": {"X": 5e6}}, token=t)
+    check(p.get("field") == "axes.X", f"out of range names {p.get('field')}")
+    c.problem("POST", base + "/move", 422, "invalid-value", body={"axes": {"Q": 1}}, token=t)
+    c.problem("POST", base + "/move", 422, "invalid-value", body=[1, 2], token=t)
+    c.problem("POST", base + "/speed", 422, "invalid-value", body={"axes": {"X": 500}}, token=t)
+    c.problem("POST", base + "/halt", 422, "invalid-value", body={"now": True}, token=t)
+    c.problem("POST", base + "/ttl", 422, "invalid-value", body={"in0_mode": 99}, token=t)
+    c.problem("POST", "/api/v1/controllers/sim2/dac", 409, "missing-module", body={"volts": 1}, token=t)
+    c.problem("POST", "/api/v1/controllers/sim1/led", 409, "missing-module", body={"percent": 1}, token=t)
+    c.problem("POST", "/api/v1/controllers/nope/halt", 404, "unknown-controller", token=t)
+    c.problem("GET", "/api/v1/nothing", 404, "not-found", token=t, validate=False)
+    c.problem("GET", "/api/v1/controllers/sim1/frobnicate", 404, "not-found", token=t, validate=False)
+    c.problem("GET", base + "/halt", 405, "method-not-allowed", token=t)
+    c.problem("DELETE", base, 405, "method-not-allowed", token=t)
+    c.problem("POST", "/api/v1/health", 405, "method-not-allowed")
+    big = b'{"axes": {"X": 1}, "pad": "' + b"x" * 20000 + b'"}'
+    c.problem("POST", base + "/move", 413, "payload-too-large", raw_body=big, token=t,
+              headers={"Content-Type": "application/json"})
+    c.problem("GET", "/api/v1/controllers", 431, "header-too-large", token=TOKENS["viewer"],
+              headers={"X-Padding": "p" * 9000}, validate=False)
+
+
+def test_auth(c):
+    c.problem("GET", "/api/v1/controllers", 401, "unauthorized")
+    c.problem("GET", "/api/v1/controllers", 401, "unauthorized", token="not-a-token-0123456789")
+    c.problem("GET", "/api/v1/controllers", 401, "unauthorized", headers={"Authorization": "Basic abc"})
+    c.problem("GET", "/api/v1/metrics", 401, "unauthorized")
+    c.problem("POST", "/api/v1/controllers/sim1/halt", 403, "forbidden", token=TOKENS["viewer"])
+    c.problem("POST", "/api/v1/controllers/sim1/command", 403, "forbidden", body={"command": "W X"},
+              token=TOKENS["viewer"])
+    r = c.request("GET", "/api/v1/controllers", token=TOKENS["admin"])
+    check(r.status == 200, "admin may read")
+    r = c.request("POST", "/api/v1/controllers/sim1/halt", token=TOKENS["admin"])
+    check(r.status == 200, "admin may operate")
+    r = c.request("GET", "/api/v1/health")
+    check(r.status == 200, "health is public")
+
+
+def test_request_ids(c):
+    r = c.request("POST", "/api/v1/controllers/sim2/halt", token=TOKENS["operator"],
+                  headers={"X-Request-Id": "client-id-42"})
+    check(r.header("X-Request-Id") == "client-id-42", f"request id not honoured: {r.header('X-Request-Id')}")
+    check(r.json()["request_id"] == "client-id-42", "result request_id")
+    p = c.problem("POST", "/api/v1/controllers/sim2/dac", 409, "missing-module", body={"volts": 1},
+                  token=TOKENS["operator"], headers={"X-Request-Id": "client-id-43"})
+    check(p["request_id"] == "client-id-43", "problem request_id")
+    a = c.request("GET", "/api/v1/health").header("X-Request-Id")
+    b = c.request("GET", "/api/v1/health").header("X-Request-Id")
+    check(a != b and len(a) >= 8, f"generated ids {a} {b}")
+    bad = c.request("GET", "/api/v1/health", headers={"X-Request-Id": "has space"}).header("X-Request-Id")
+    check(bad != "has space", "an invalid request id must be replaced")
+
+
+def test_unplug_and_timeout(c, control):
+    t = TOKENS["operator"]
+    base = "/api/v1/controllers/ext1"
+    wait_until("ext1 connected", lambda: c.request("GET", base, token=t).json()["state"] == "connected")
+    # 504: the controller does not answer (the simulator drops the reply; ext1 does not poll).
+    check(control("drop-next") == "ok", "drop-next")
+    p = c.problem("POST", base + "/zero", 504, "timeout", token=t)
+    wait_until("ext1 answers again", lambda: c.request("POST", base + "/halt", token=t).status == 200)
+    # 503: unplugged while clients watch.
+    check(control("unplug") == "ok", "unplug")
+    wait_until("ext1 not connected", lambda: c.request("GET", base, token=t).json()["state"] != "connected")
+    c.problem("POST", base + "/halt", 503, "not-connected", token=t)
+    r = c.request("GET", "/api/v1/ready")
+    check(r.status == 503 and r.json()["ready"] is False, f"ready while unplugged: {r.status}")
+    # The other controllers are not affected.
+    r = c.request("POST", "/api/v1/controllers/sim2/halt", token=t)
+    check(r.status == 200, f"sim2 while ext1 is unplugged: {r.status}")
+    check(control("replug") == "ok", "replug")
+    wait_until("ext1 connected again", lambda: c.request("GET", base, token=t).json()["state"] == "connected")
+    wait_until("ready again", lambda: c.request("GET", "/api/v1/ready").status == 200)
+
+
+def parse_metrics(text):
+    out = {}
+    for line in text.splitlines():
+        if not line or line.startswith("#"):
+            continue
+        name, value = line.rsplit(" ", 1)
+        out[name] = float(value)
+    return out
+
+
+def test_metrics(c):
+    r = c.request("GET", "/api/v1/metrics", token=TOKENS["viewer"])
+    check(r.status == 200 and r.header("Content-Type").startswith("text/plain"), f"metrics: {r.status}")
+    m = parse_metrics(r.body)
+    for needed in ['gw_controller_command_duration_seconds_count{controller="sim1"}',
+                   'gw_controller_commands_total{controller="sim1",origin="user"}',
+                   'gw_controller_command_timeouts_total{controller="ext1"}',
+                   'gw_controller_reconnects_total{controller="ext1"}',
+                   'gw_controller_connected{controller="sim2"}',
+                   'gw_http_requests_total{method="POST",route="/api/v1/controllers/{id}/move",status="200"}',
+                   'gw_events_published_total', 'gw_event_subscribers']:
+        key = needed
+        if needed.startswith("gw_http_requests_total"):
+            key = 'gw_http_requests_total{route="/api/v1/controllers/{id}/move",method="POST",status="200"}'
+        check(key in m, f"metric {key} missing")
+    check(m['gw_controller_command_timeouts_total{controller="ext1"}'] >= 1, "timeouts counted")
+    check(m['gw_controller_reconnects_total{controller="ext1"}'] >= 1, "reconnects counted")
+    check(m['gw_controller_connected{controller="sim2"}'] == 1, "sim2 connected gauge")
+    check(any(k.startswith('gw_http_requests_total{route="/api/v1/controllers/{id}/move",method="POST",status="422"')
+              for k in m), "422s counted by route")
+    # Prometheus text format: every sample line is "name{labels} value".
+    for line in r.body.splitlines():
+        if line and not line.startswith("#"):
+            check(re.match(r'^[a-zA-Z_:][a-zA-Z0-9_:]*(\{.*\})? [-+0-9.eEInfNa]+$', line), f"bad line {line!r}")
+
+
+def test_websocket_route(c):
+    # Without upgrade headers /api/v1/ws is not a REST route.
+    c.problem("GET", "/api/v1/ws", 404, "not-found", token=TOKENS["viewer"], validate=False)
+
+
+def test_limits(c, port, max_connections):
+    # Read timeout: a client that sends half a request is disconnected.
+    s = socket.create_connection(("127.0.0.1", port), timeout=WAIT)
+    s.sendall(b"GET /api/v1/health HTTP/1.1\r\nHost: x\r\n")
+    data = s.recv(4096)
+    check(data == b"", f"a stalled request should be closed, got {data[:80]!r}")
+    s.close()
+    # Connection limit: with max_connections open, one more is answered 503 and closed.
+    held = []
+    try:
+        for _ in range(max_connections):
+            held.append(socket.create_connection(("127.0.0.1", port), timeout=WAIT))
+        extra = socket.create_connection(("127.0.0.1", port), timeout=WAIT)
+        data = b""
+        while True:
+            chunk = extra.recv(4096)
+            if not chunk:
+                break
+            data += chunk
+        extra.close()
+        check(data.startswith(b"HTTP/1.1 503"), f"over the limit: {data[:120]!r}")
+        check(b"too-many-connections" in data, "problem type too-many-connections")
+    finally:
+        for h in held:
+            h.close()
+    wait_until("connections free again", lambda: c.request("GET", "/api/v1/health").status == 200)
+    # Keep-alive: two requests on one connection.
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=WAIT)
+    for _ in range(2):
+        conn.request("GET", "/api/v1/health")
+        r = conn.getresponse()
+        r.read()
+        check(r.status == 200, "keep-alive request")
+    conn.close()
+
+
+def test_refuses_public_address_without_tokens(gateway, tmp):
+    cfg = os.path.join(tmp, "public.json")
+    with open(cfg, "w") as f:
+        json.dump({"http": {"listen_address": "0.0.0.0", "port": free_port()}, "simulate": {"count": 0}}, f)
+    p = subprocess.run([gateway, "--config", cfg], capture_output=True, text=True, timeout=WAIT)
+    check(p.returncode != 0, "binding 0.0.0.0 without tokens must be refused")
+    check("token" in (p.stderr + p.stdout).lower(), f"the refusal should mention tokens: {p.stderr}")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--gateway", required=True)
+    ap.add_argument("--sim", required=True)
+    ap.add_argument("--openapi", required=True)
+    args = ap.parse_args()
+
+    contract = Contract(open(args.openapi).read())
+    failures = []
+    passed = []
+
+    def run(name, fn, *a):
+        try:
+            fn(*a)
+            passed.append(name)
+            print(f"[ OK ] {name}", flush=True)
+        except Exception as e:  # noqa: BLE001 - every failure is reported, then the next test runs
+            failures.append((name, e))
+            print(f"[FAIL] {name}: {e}", flush=True)
+            if not isinstance(e, Failure):
+                traceback.print_exc()
+
+    run("openapi document structure", contract.check_structure)
+
+    tmp = tempfile.mkdtemp(prefix="gw-api-test-")
+    procs = []
+    try:
+        control_path = os.path.join(tmp, "control.sock")
+        ext_link = os.path.join(tmp, "ext1", "port")
+        sim = subprocess.Popen([args.sim, "--preset", "plain", "--name", "ext1", "--link", ext_link,
+                                "--no-report-port", "--time-scale", "20", "--control", control_path],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+        procs.append(sim)
+        wait_until("ms2000-sim", lambda: os.path.exists(ext_link) and os.path.exists(control_path))
+
+        def control(line):
+            with socket.socket(socket.AF_UNIX) as s:
+                s.settimeout(WAIT)
+                s.connect(control_path)
+                s.sendall(line.encode() + b"\n")
+                data = b""
+                while not data.endswith(b"\n"):
+                    chunk = s.recv(4096)
+                    if not chunk:
+                        break
+                    data += chunk
+                return data.decode().strip()
+
+        port = free_port()
+        max_connections = 6
+        config = {
+            "http": {"listen_address": "127.0.0.1", "port": port,
+                     "limits": {"max_body_bytes": 8192, "max_header_bytes": 4096,
+                                "read_timeout_ms": 1500, "max_connections": max_connections}},
+            "controllers": [{"id": "ext1", "port": ext_link, "baud": 115200, "poll_ms": 0,
+                             "command_timeout_ms": 500}],
+            "simulate": {"count": 3, "time_scale": 20, "directory": os.path.join(tmp, "sim")},
+            "auth": {"tokens": [{"name": role + "1", "token": tok, "role": role} for role, tok in TOKENS.items()]},
+            "logging": {"level": "info"},
+        }
+        cfg = os.path.join(tmp, "gateway.json")
+        with open(cfg, "w") as f:
+            json.dump(config, f)
+        log_path = os.path.join(tmp, "gateway.log")
+        log = open(log_path, "w")
+        gw = subprocess.Popen([args.gateway, "--config", cfg], stdout=log, stderr=subprocess.STDOUT)
+        procs.append(gw)
+        c = Client(port, contract)
+        wait_until("gateway ready", lambda: c.request("GET", "/api/v1/ready", validate=False).status == 200)
+
+        run("public endpoints", test_public_endpoints, c)
+        run("controllers", test_controllers, c)
+        run("typed operations", test_operations, c)
+        run("raw command", test_raw_command, c)
+        run("error kinds", test_errors, c)
+        run("auth roles", test_auth, c)
+        run("request ids", test_request_ids, c)
+        run("unplug (503) and timeout (504)", test_unplug_and_timeout, c, control)
+        run("metrics", test_metrics, c)
+        run("websocket route", test_websocket_route, c)
+        run("limits", test_limits, c, port, max_connections)
+        run("public address without tokens refused", test_refuses_public_address_without_tokens, args.gateway, tmp)
+
+        # Graceful stop: SIGTERM -> exit 0.
+        gw.terminate()
+        try:
+            code = gw.wait(timeout=WAIT)
+        except subprocess.TimeoutExpired:
+            code = None
+        if code == 0:
+            passed.append("SIGTERM exits 0")
+            print("[ OK ] SIGTERM exits 0")
+        else:
+            failures.append(("SIGTERM exits 0", Failure(f"exit code {code}")))
+            print(f"[FAIL] SIGTERM exits 0: exit code {code}")
+        log.close()
+        if failures:
+            print("---- gateway log (tail) ----")
+            with open(log_path) as f:
+                print("".join(f.readlines()[-60:]))
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+        shutil.rmtree(tmp, ignore_errors=True)
+
+    print(f"\n{len(passed)} passed, {len(failures)} failed; "
+          f"{len(contract.covered)} (path, method, status) combinations validated against the schema")
+    for name, e in failures:
+        print(f"FAILED: {name}: {e}")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
