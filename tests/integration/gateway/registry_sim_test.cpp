@@ -10,6 +10,7 @@
 
 #include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/asio/use_future.hpp>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -435,14 +436,18 @@ TEST_F(registry_sim_test, shutdown_leaves_stages_moving_when_configured) {
 TEST_F(registry_sim_test, completions_never_run_inside_the_initiating_call) {
     add_sim("p1", "plain");
     start();
+    // Initiated on the registry's own (single) io thread: an inline completion would run before the
+    // initiating lambda returns, a posted one only after it.
     std::promise<operation_result<operation_done>> p;
     std::atomic<bool> returned{false};
     std::atomic<bool> ran_before_return{false};
-    registry_->async_halt("ghost", "x", [&](operation_result<operation_done> r) {
-        if (!returned) ran_before_return = true;
-        p.set_value(std::move(r));
+    net::post(gw_io_.io, [&] {
+        registry_->async_halt("ghost", "x", [&](operation_result<operation_done> r) {
+            if (!returned) ran_before_return = true;
+            p.set_value(std::move(r));
+        });
+        returned = true;
     });
-    returned = true;
     auto r = await(p.get_future());
     EXPECT_FALSE(ran_before_return.load());
     EXPECT_FALSE(r);
