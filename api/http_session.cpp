@@ -155,8 +155,30 @@ void http_session::do_write(string_response res, std::string route, bool close_a
 void http_session::on_write(bool close_after, beast::error_code ec, std::size_t) {
     response_.reset();
     if (ec) return fail(ec, "write");
-    if (close_after) return do_close();
+    if (close_after) return do_linger();
     do_read();
+}
+
+// Closing a socket with unread input sends RST, which can destroy the response we just sent (a 413
+// while the client is still sending its body). So: half-close, then read and discard what is left,
+// bounded in bytes and time, then close.
+void http_session::do_linger() {
+    beast::error_code ignored;
+    stream_.socket().shutdown(net::ip::tcp::socket::shutdown_send, ignored);
+    stream_.expires_after(std::chrono::seconds(2));
+    buffer_.clear();
+    stream_.async_read_some(buffer_.prepare(16 * 1024),
+                            beast::bind_front_handler(&http_session::on_linger, shared_from_this()));
+}
+
+void http_session::on_linger(beast::error_code ec, std::size_t bytes) {
+    lingered_ += bytes;
+    if (ec || lingered_ > 4 * 1024 * 1024) {
+        stream_.close();
+        return;
+    }
+    stream_.async_read_some(buffer_.prepare(16 * 1024),
+                            beast::bind_front_handler(&http_session::on_linger, shared_from_this()));
 }
 
 void http_session::do_close() {

@@ -38,6 +38,8 @@ class http_session : public std::enable_shared_from_this<http_session> {
     void do_write(string_response res, std::string route, bool close_after);
     void on_write(bool close_after, beast::error_code ec, std::size_t bytes);
     void do_close();
+    void do_linger();
+    void on_linger(beast::error_code ec, std::size_t bytes);
     void fail(beast::error_code ec, const char* what);
 
     beast::tcp_stream stream_;
@@ -47,7 +49,9 @@ class http_session : public std::enable_shared_from_this<http_session> {
     bool reject_;
     std::uint64_t id_ = 0;  // in the listener's table; 0 = not tracked
     std::optional<http::request_parser<http::string_body>> parser_;
-    std::shared_ptr<void> response_;  // the message being written (kept alive during async_write)
+    std::shared_ptr<void> response_;
+    std::size_t lingered_ = 0;  // bytes discarded after the response, before closing  // the message being
+                                // written (kept alive during async_write)
     std::string request_id_;
     std::string method_;
     std::chrono::steady_clock::time_point started_;

@@ -8,7 +8,11 @@ namespace gw::api {
 
 listener::listener(net::any_io_executor executor, net::ip::tcp::endpoint endpoint,
                    std::shared_ptr<api_context> ctx)
-    : executor_(executor), strand_(net::make_strand(executor)), acceptor_(strand_), ctx_(std::move(ctx)) {
+    : executor_(executor),
+      strand_(net::make_strand(executor)),
+      acceptor_(strand_),
+      retry_timer_(strand_),
+      ctx_(std::move(ctx)) {
     acceptor_.open(endpoint.protocol());
     acceptor_.set_option(net::socket_base::reuse_address(true));
     acceptor_.bind(endpoint);
@@ -32,6 +36,7 @@ void listener::stop() {
     net::dispatch(strand_, [self = shared_from_this()] {
         beast::error_code ignored;
         self->acceptor_.close(ignored);
+        self->retry_timer_.cancel();
     });
     for (auto& w : sessions)
         if (auto s = w.lock()) s->close();
@@ -63,9 +68,13 @@ void listener::do_accept() {
 void listener::on_accept(beast::error_code ec, net::ip::tcp::socket socket) {
     if (ec == net::error::operation_aborted || !acceptor_.is_open()) return;
     if (ec) {
-        // EMFILE and friends: keep accepting (a busy loop is avoided by the error being transient).
+        // EMFILE and friends: the pending connection stays queued; try again shortly instead of
+        // spinning.
         ctx_->log->warn("accept: {}", ec.message());
-        return do_accept();
+        retry_timer_.expires_after(std::chrono::milliseconds(100));
+        return retry_timer_.async_wait([self = shared_from_this()](beast::error_code e) {
+            if (!e && self->acceptor_.is_open()) self->do_accept();
+        });
     }
     bool reject = false;
     {

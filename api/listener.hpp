@@ -38,6 +38,7 @@ class listener : public std::enable_shared_from_this<listener> {
     net::any_io_executor executor_;
     net::strand<net::any_io_executor> strand_;  // the acceptor's
     net::ip::tcp::acceptor acceptor_;
+    net::steady_timer retry_timer_;  // after an accept error (EMFILE), retry a little later
     net::ip::tcp::endpoint endpoint_;
     std::shared_ptr<api_context> ctx_;
     mutable std::mutex mutex_;  // guards the fields below: held only to copy/insert/erase
