@@ -6,6 +6,8 @@
 #include <boost/asio/post.hpp>
 #include <nlohmann/json.hpp>
 
+#include "gateway/timestamp.hpp"
+
 namespace gw {
 
 namespace net = boost::asio;
@@ -45,7 +47,9 @@ event_hub::event_hub(net::any_io_executor executor, event_hub_settings settings,
       settings_(std::move(settings)),
       clock_(std::move(clock)),
       wake_timer_(strand_),
-      counters_(std::make_unique<atomic_counters>()) {}
+      counters_(std::make_unique<atomic_counters>()) {
+    epoch_ = static_cast<std::uint64_t>(std::max<std::int64_t>(epoch_ms(clock_.system()), 0));
+}
 
 event_hub::~event_hub() = default;
 
@@ -378,7 +382,9 @@ void event_hub::on_subscribe(subscriber_id id, std::string filter, subscription_
         if (!topic_matches(filter, name)) continue;
         auto& cursor = s.cursor[name];
         if (auto resume = options.resume.find(name); resume != options.resume.end()) {
-            auto from = resume->second > t.last_seq ? 0 : resume->second;  // a cursor of an earlier hub
+            bool same_epoch = !options.resume_epoch || *options.resume_epoch == epoch_;
+            // A number of an earlier hub: everything still buffered is new to this client.
+            auto from = !same_epoch || resume->second > t.last_seq ? 0 : resume->second;
             auto next = std::max(from, cursor) + 1;
             if (next > t.last_seq) continue;
             auto [pos, inserted] = s.catch_up.emplace(name, catch_up_state{next});

@@ -102,6 +102,10 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
 
     event_hub_counters counters() const;
 
+    // Identifies this hub instance (its creation time, epoch milliseconds): sequence numbers are
+    // only comparable within one epoch. See subscription_options::resume_epoch.
+    std::uint64_t epoch() const { return epoch_; }
+
   private:
     struct topic_state {
         topic_class cls = topic_class::stream;
@@ -179,6 +183,7 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     event_clock clock_;
     boost::asio::steady_timer wake_timer_;
     std::optional<std::chrono::steady_clock::time_point> wake_at_;
+    std::uint64_t epoch_ = 0;
     bool stopped_ = false;
     std::map<std::string, topic_state> topics_;
     std::map<subscriber_id, std::unique_ptr<subscriber>> subscribers_;

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 
 namespace gw {
@@ -31,6 +32,9 @@ struct subscription_options {
     // are still in the replay buffer come first, then live events; missing ones become a gap event.
     // A number above the topic's newest sequence (the hub restarted) counts as 0.
     std::map<std::string, std::uint64_t> resume{};
+    // The event_hub::epoch() the client's numbers come from (the session tells clients the epoch
+    // when they connect). When it differs, the hub was restarted: every resume number counts as 0.
+    std::optional<std::uint64_t> resume_epoch{};
 };
 
 // Injectable time sources so tests drive rate limits and eviction deterministically.

@@ -234,6 +234,20 @@ TEST_F(event_hub_test, resume_from_a_number_of_an_earlier_hub_replays_from_the_s
     EXPECT_EQ(sink->seqs(reports), range(1, 3));
 }
 
+TEST_F(event_hub_test, resume_numbers_of_another_epoch_count_as_zero) {
+    make_hub();
+    EXPECT_EQ(hub_->epoch(), 1795322740000u);  // creation time on the hub's clock
+    publish(reports, 4);
+    auto same = add_sink();
+    auto other = add_sink();
+    ASSERT_FALSE(
+        hub_->subscribe(same->id, reports, {.resume = {{reports, 2}}, .resume_epoch = hub_->epoch()}));
+    ASSERT_FALSE(hub_->subscribe(other->id, reports, {.resume = {{reports, 2}}, .resume_epoch = 12345}));
+    run();
+    EXPECT_EQ(same->seqs(reports), range(3, 4));
+    EXPECT_EQ(other->seqs(reports), range(1, 4));
+}
+
 TEST_F(event_hub_test, long_replay_goes_through_a_small_queue_interleaved_with_live_events) {
     make_hub();
     publish(reports, 50);
