@@ -8,6 +8,11 @@
 //   2. ...the sink has written the whole batch (one frame at a time, one write in flight) and calls
 //      event_hub::request_more(id). The hub then delivers what queued up meanwhile, or waits for the
 //      next event.
+// A WebSocket session, sketched:
+//   deliver(batch): post to the session strand; outbox = batch; write(outbox.front()->message)
+//   on_write:       pop the front; write the next one, or hub->request_more(id) when outbox is empty
+//   close(reason):  post; async_close({websocket::close_code::policy_error, reason})
+// so the session's own queue never holds more than one batch.
 // Everything that arrives between 1 and 2 waits in the hub, in a bounded per-subscriber queue (see
 // event_hub.hpp for the overflow policy). The hub holds sinks by weak_ptr: a sink that is destroyed
 // is forgotten; remove_subscriber() is still the polite way out.
