@@ -21,6 +21,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import traceback
 
@@ -387,6 +388,38 @@ def test_unplug_and_timeout(c, control):
     wait_until("ready again", lambda: c.request("GET", "/api/v1/ready").status == 200)
 
 
+def test_slow_operation_does_not_block_others(c):
+    """A move waiting for arrival holds its request open; everything else keeps answering."""
+    t = TOKENS["operator"]
+    base = "/api/v1/controllers/sim1"
+    check(c.request("POST", base + "/speed", {"axes": {"X": 0.1}}, token=t).status == 200, "slow speed")
+    result = {}
+
+    def slow_move():
+        result["r"] = c.request("POST", base + "/move", {"axes": {"X": 100000}, "wait": True,
+                                                        "timeout_ms": 600000}, token=t)
+
+    mover = threading.Thread(target=slow_move)
+    mover.start()
+    try:
+        wait_until("sim1 busy", lambda: c.request("GET", base, token=t).json()["busy"])
+        for _ in range(10):
+            check(c.request("GET", "/api/v1/health").status == 200, "health during the move")
+            check(c.request("GET", "/api/v1/controllers/sim2", token=t).status == 200, "sim2 during the move")
+            check(c.request("POST", "/api/v1/controllers/sim2/halt", token=t).status == 200,
+                  "sim2 halt during the move")
+        check(mover.is_alive(), "the move should still be waiting (0.1 mm/s over 100 mm)")
+    finally:
+        c.request("POST", base + "/halt", token=t)
+        mover.join(WAIT)
+    check(not mover.is_alive(), "HALT must end the waiting move")
+    r = result["r"]
+    check(r.status == 200 and r.json()["waited"], f"the halted move answers: {r.status} {r.body[:200]}")
+    x = r.json()["positions"][0]["position_um"]
+    check(x < 100000, f"halted before arriving: X={x}")
+    check(c.request("POST", base + "/speed", {"axes": {"X": 5}}, token=t).status == 200, "speed back")
+
+
 def parse_metrics(text):
     out = {}
     for line in text.splitlines():
@@ -553,7 +586,7 @@ def main():
         config = {
             "http": {"listen_address": "127.0.0.1", "port": port,
                      "limits": {"max_body_bytes": 8192, "max_header_bytes": 4096,
-                                "read_timeout_ms": 1500, "max_connections": max_connections}},
+                                "read_timeout_ms": 4000, "max_connections": max_connections}},
             "controllers": [{"id": "ext1", "port": ext_link, "baud": 115200, "poll_ms": 0,
                              "command_timeout_ms": 500}],
             "simulate": {"count": 3, "time_scale": 20, "directory": os.path.join(tmp, "sim")},
@@ -574,6 +607,7 @@ def main():
         run("controllers", test_controllers, c)
         run("typed operations", test_operations, c)
         run("raw command", test_raw_command, c)
+        run("a slow operation does not block others", test_slow_operation_does_not_block_others, c)
         run("error kinds", test_errors, c)
         run("auth roles", test_auth, c)
         run("request ids", test_request_ids, c)
