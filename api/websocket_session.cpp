@@ -1,0 +1,401 @@
+#include "api/websocket_session.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <utility>
+#include <variant>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "api/websocket_protocol.hpp"
+#include "gateway/event_hub.hpp"
+#include "gateway/metrics.hpp"
+
+namespace gw::api {
+
+using nlohmann::json;
+
+namespace {
+
+std::atomic<std::uint64_t> next_connection{1};
+
+// RFC 6455: a close reason fits in 123 bytes.
+std::string close_reason_text(std::string reason) {
+    if (reason.size() > 123) reason.resize(123);
+    return reason;
+}
+
+void describe_metrics(gw::metrics& m) {
+    // gw_websocket_clients is declared by the HTTP layer (controller_metrics); these are ours.
+    m.describe("gw_websocket_connections_total", metric_type::counter, "WebSocket connections accepted");
+    m.describe("gw_websocket_disconnects_total", metric_type::counter,
+               "WebSocket connections ended, by reason (client, idle, too_slow, going_away, error)");
+    m.describe("gw_websocket_messages_received_total", metric_type::counter,
+               "WebSocket client messages, by op (invalid: refused with an error message)");
+    m.describe("gw_websocket_gap_events_total", metric_type::counter,
+               "Gap events sent to WebSocket clients (they fell behind or resumed too late)");
+    m.describe("gw_websocket_gapped_events_total", metric_type::counter,
+               "Stream events WebSocket clients were told they missed (dropped for them)");
+}
+
+}  // namespace
+
+websocket_limits websocket_limits_from(const http_limits& limits) {
+    websocket_limits l;
+    l.max_message_bytes = limits.max_websocket_message_bytes;
+    // Pings after one read_timeout of silence, closes after two: a healthy client answers the ping.
+    l.idle_timeout = 2 * limits.read_timeout;
+    l.write_timeout = limits.read_timeout;
+    return l;
+}
+
+void start_websocket_session(beast::tcp_stream&& stream, http::request<http::string_body>&& request,
+                             std::shared_ptr<api_context> context, auth_identity who) {
+    auto limits = websocket_limits_from(context->limits);
+    auto session =
+        std::make_shared<websocket_session>(std::move(stream), std::move(context), std::move(who), limits);
+    session->run(std::move(request));
+}
+
+websocket_session::websocket_session(beast::tcp_stream&& stream, std::shared_ptr<api_context> context,
+                                     auth_identity who, websocket_limits limits)
+    : ws_(std::move(stream)),
+      ctx_(std::move(context)),
+      who_(std::move(who)),
+      limits_(limits),
+      connection_("ws-" + std::to_string(next_connection.fetch_add(1))),
+      watchdog_(ws_.get_executor()) {}
+
+websocket_session::~websocket_session() {
+    // Normally finish() ran already; this covers an io_context torn down mid-session.
+    if (subscriber_ != 0 && !hub_closed_ && ctx_->hub) ctx_->hub->remove_subscriber(subscriber_);
+    if (counted_ && ctx_->metrics) ctx_->metrics->increment("gw_websocket_clients", {}, -1);
+}
+
+void websocket_session::run(http::request<http::string_body> request) {
+    upgrade_ = std::move(request);
+    net::dispatch(ws_.get_executor(), [self = shared_from_this()] {
+        if (self->ctx_->metrics) describe_metrics(*self->ctx_->metrics);
+        // Beast's own timers govern the WebSocket from here; the HTTP stream's must be off.
+        beast::get_lowest_layer(self->ws_).expires_never();
+        websocket::stream_base::timeout timeouts;
+        timeouts.handshake_timeout = self->limits_.close_timeout;
+        timeouts.idle_timeout = self->limits_.idle_timeout;
+        timeouts.keep_alive_pings = true;
+        self->ws_.set_option(timeouts);
+        self->ws_.set_option(websocket::stream_base::decorator(
+            [](websocket::response_type& res) { res.set(http::field::server, "asi-gateway"); }));
+        self->ws_.read_message_max(self->limits_.max_message_bytes);
+        self->ws_.async_accept(self->upgrade_,
+                               beast::bind_front_handler(&websocket_session::on_accept, self));
+    });
+}
+
+void websocket_session::stop(std::string reason) {
+    net::post(ws_.get_executor(), [self = shared_from_this(), reason = std::move(reason)]() mutable {
+        self->begin_close(websocket::close_code::going_away, std::move(reason));
+    });
+}
+
+void websocket_session::deliver(std::vector<std::shared_ptr<const event>> batch) {
+    net::post(ws_.get_executor(), [self = shared_from_this(), batch = std::move(batch)]() mutable {
+        self->on_deliver(std::move(batch));
+    });
+}
+
+void websocket_session::close(std::string reason) {
+    net::post(ws_.get_executor(), [self = shared_from_this(), reason = std::move(reason)]() mutable {
+        self->hub_closed_ = true;
+        const bool slow = reason.starts_with("too slow");
+        self->begin_close(slow ? websocket::close_code::policy_error : websocket::close_code::going_away,
+                          std::move(reason));
+    });
+}
+
+// ---- on the session's strand ----
+
+void websocket_session::on_accept(beast::error_code ec) {
+    upgrade_ = {};
+    if (ec) {
+        fail(ec, "accept");
+        return finish("error");
+    }
+    if (phase_ != phase::handshake) return finish("going_away");  // stopped during the handshake
+    phase_ = phase::open;
+    counted_ = true;
+    if (ctx_->metrics) {
+        ctx_->metrics->increment("gw_websocket_clients", {}, 1);
+        ctx_->metrics->increment("gw_websocket_connections_total", {});
+    }
+    if (ctx_->log)
+        ctx_->log->info("{}: WebSocket open ({}, {})", connection_, who_.name, gw::to_string(who_.role));
+    subscriber_ = ctx_->hub->add_subscriber(weak_from_this());
+    answer(ws_hello_message(connection_, who_.name, gw::to_string(who_.role), limits_.max_message_bytes));
+    schedule_watchdog();
+    do_read();
+}
+
+bool websocket_session::reading_blocked() const {
+    return answers_queued_ >= limits_.answer_queue_limit ||
+           commands_in_flight_ >= limits_.max_commands_in_flight;
+}
+
+void websocket_session::maybe_resume_reading() {
+    if (phase_ == phase::open && !reading_ && !reading_blocked()) do_read();
+}
+
+void websocket_session::do_read() {
+    if (phase_ != phase::open || reading_ || reading_blocked()) return;
+    reading_ = true;
+    ws_.async_read(in_, beast::bind_front_handler(&websocket_session::on_read, shared_from_this()));
+}
+
+void websocket_session::on_read(beast::error_code ec, std::size_t) {
+    reading_ = false;
+    if (ec) {
+        if (phase_ == phase::closing) return;  // on_close or the watchdog finishes
+        fail(ec, "read");
+        // A close frame, or a client that just went away, is the client's choice.
+        const bool by_client =
+            ec == websocket::error::closed || ec == net::error::eof || ec == net::error::connection_reset;
+        return finish(by_client ? "client" : ec == beast::error::timeout ? "idle" : "error");
+    }
+    if (phase_ != phase::open) return;
+    if (!ws_.got_text()) {
+        in_.consume(in_.size());
+        if (ctx_->metrics)
+            ctx_->metrics->increment("gw_websocket_messages_received_total", {{"op", "invalid"}});
+        auto e = binary_frame_error();
+        answer_error(e.id, std::move(e.error));
+    } else {
+        const std::string text = beast::buffers_to_string(in_.data());
+        in_.consume(in_.size());
+        handle_message(text);
+    }
+    do_read();
+}
+
+void websocket_session::handle_message(std::string_view text) {
+    auto parsed = parse_client_message(text);
+    if (!parsed) {
+        if (ctx_->metrics)
+            ctx_->metrics->increment("gw_websocket_messages_received_total", {{"op", "invalid"}});
+        if (ctx_->log) ctx_->log->debug("{}: refused message: {}", connection_, parsed.error().error.detail);
+        auto e = std::move(parsed.error());
+        return answer_error(e.id, std::move(e.error));
+    }
+    std::visit(
+        [this](auto& m) {
+            using T = std::decay_t<decltype(m)>;
+            auto count = [this](const char* op) {
+                if (ctx_->metrics)
+                    ctx_->metrics->increment("gw_websocket_messages_received_total", {{"op", op}});
+            };
+            if constexpr (std::is_same_v<T, ws_ping>) {
+                count("ping");
+                answer(ws_pong_message(m.id));
+            } else if constexpr (std::is_same_v<T, ws_subscribe>) {
+                count("subscribe");
+                std::size_t added = 0;
+                for (const auto& t : m.topics)
+                    added += filters_.contains(t) ? 0 : 1;
+                if (filters_.size() + added > limits_.max_subscriptions) {
+                    auto p = make_problem(make_error(operation_error_kind::invalid_value,
+                                                     "at most " + std::to_string(limits_.max_subscriptions) +
+                                                         " subscriptions per connection (unsubscribe first)",
+                                                     "topics"));
+                    return answer_error(m.id, std::move(p));
+                }
+                // The ack first: the hub delivers on its strand and posts back, so events of this
+                // subscription can only be queued after it.
+                answer(ws_subscribed_message(m));
+                for (const auto& t : m.topics) {
+                    filters_.insert(t);
+                    ctx_->hub->subscribe(subscriber_, t, {.max_rate_hz = m.max_rate_hz, .resume = m.resume});
+                }
+            } else if constexpr (std::is_same_v<T, ws_unsubscribe>) {
+                count("unsubscribe");
+                for (const auto& t : m.topics) {
+                    filters_.erase(t);
+                    ctx_->hub->unsubscribe(subscriber_, t);
+                }
+                answer(ws_unsubscribed_message(m));
+            } else if constexpr (std::is_same_v<T, ws_command>) {
+                count("command");
+                ++commands_in_flight_;
+                // The same function as REST: same validation, roles and request ids.
+                run_operation(
+                    *ctx_, m.controller, m.operation, m.args, ws_request_id(connection_, m.id), who_.role,
+                    net::bind_executor(ws_.get_executor(),
+                                       [self = shared_from_this(), id = m.id](operation_outcome out) {
+                                           self->on_command_done(id, std::move(out));
+                                       }));
+            }
+        },
+        *parsed);
+}
+
+void websocket_session::on_command_done(const json& id, operation_outcome outcome) {
+    --commands_in_flight_;
+    if (phase_ != phase::open) return;
+    if (outcome.error)
+        answer_error(id, std::move(*outcome.error));
+    else
+        answer(ws_result_message(id, outcome.result));
+    maybe_resume_reading();
+}
+
+void websocket_session::answer_error(const json& id, problem p) {
+    p.instance = std::string(websocket_path);
+    answer(ws_error_message(id, p));
+}
+
+void websocket_session::answer(std::string text) {
+    if (phase_ != phase::open) return;
+    out_.push_back({std::make_shared<const std::string>(std::move(text)), false, true});
+    ++answers_queued_;
+    if (!writing_) do_write();
+}
+
+void websocket_session::on_deliver(std::vector<std::shared_ptr<const event>> batch) {
+    // Not open any more: the hub keeps the rest until remove_subscriber (we never ask for more).
+    if (phase_ != phase::open || batch.empty()) return;
+    std::uint64_t gaps = 0;
+    std::uint64_t missed = 0;
+    for (auto& e : batch) {
+        if (e->kind == event_kind::gap) {
+            ++gaps;
+            missed += e->missed();
+        }
+        // The hub's serialised message, shared with every other subscriber: sent as is.
+        out_.push_back({e->message, false, false});
+    }
+    out_.back().ends_batch = true;
+    if (ctx_->metrics && gaps != 0) {
+        ctx_->metrics->increment("gw_websocket_gap_events_total", {}, static_cast<double>(gaps));
+        ctx_->metrics->increment("gw_websocket_gapped_events_total", {}, static_cast<double>(missed));
+    }
+    if (!writing_) do_write();
+}
+
+// One write in flight: the next frame starts in on_write.
+void websocket_session::do_write() {
+    if (writing_ || out_.empty() || phase_ != phase::open) return;
+    writing_ = true;
+    write_started_ = std::chrono::steady_clock::now();
+    ws_.text(true);
+    ws_.async_write(net::buffer(*out_.front().text),
+                    beast::bind_front_handler(&websocket_session::on_write, shared_from_this()));
+}
+
+void websocket_session::on_write(beast::error_code ec, std::size_t) {
+    writing_ = false;
+    if (ec) {
+        if (phase_ == phase::closed) return;
+        fail(ec, "write");
+        return finish("error");
+    }
+    if (!out_.empty()) {
+        const auto done = out_.front();
+        out_.pop_front();
+        if (done.answer) --answers_queued_;
+        if (done.ends_batch && phase_ == phase::open) ctx_->hub->request_more(subscriber_);
+    }
+    if (phase_ == phase::closing) return do_close();
+    do_write();
+    maybe_resume_reading();
+}
+
+void websocket_session::begin_close(websocket::close_code code, std::string reason) {
+    if (phase_ == phase::closing || phase_ == phase::closed) return;
+    const bool in_handshake = phase_ == phase::handshake;
+    phase_ = phase::closing;
+    close_code_ = code;
+    close_reason_ = close_reason_text(std::move(reason));
+    end_reason_ = code == websocket::close_code::policy_error ? "too_slow" : "going_away";
+    close_deadline_ = std::chrono::steady_clock::now() + limits_.close_timeout;
+    if (ctx_->log) {
+        if (code == websocket::close_code::policy_error)
+            ctx_->log->warn("{}: closing: {}", connection_, close_reason_);
+        else
+            ctx_->log->info("{}: closing: {}", connection_, close_reason_);
+    }
+    // Only the frame being written stays; nothing new is written but the close frame.
+    while (out_.size() > (writing_ ? 1u : 0u)) {
+        if (out_.back().answer) --answers_queued_;
+        out_.pop_back();
+    }
+    if (in_handshake) return;  // on_accept sees the phase and ends
+    if (!writing_) do_close();
+    // else: on_write closes; a write that never completes is cut by the watchdog at close_deadline_.
+}
+
+void websocket_session::do_close() {
+    if (close_started_) return;
+    close_started_ = true;
+    ws_.async_close(websocket::close_reason(close_code_, close_reason_),
+                    beast::bind_front_handler(&websocket_session::on_close, shared_from_this()));
+}
+
+void websocket_session::on_close(beast::error_code ec) {
+    if (ec) fail(ec, "close");
+    finish(end_reason_);
+}
+
+void websocket_session::schedule_watchdog() {
+    const auto period = std::clamp<std::chrono::milliseconds>(
+        limits_.write_timeout / 4, std::chrono::milliseconds(20), std::chrono::milliseconds(1000));
+    watchdog_.expires_after(period);
+    watchdog_.async_wait(beast::bind_front_handler(&websocket_session::on_watchdog, shared_from_this()));
+}
+
+void websocket_session::on_watchdog(beast::error_code ec) {
+    if (ec || phase_ == phase::closed) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (phase_ == phase::open && writing_ && now - write_started_ >= limits_.write_timeout) {
+        begin_close(
+            websocket::close_code::policy_error,
+            "too slow: a message waited " +
+                std::to_string(
+                    std::chrono::duration_cast<std::chrono::milliseconds>(now - write_started_).count()) +
+                " ms to be written");
+        // The close frame would queue behind the stuck write: cut the connection now.
+        return finish(end_reason_);
+    } else if (phase_ == phase::closing && now >= close_deadline_) {
+        // The peer takes neither our data nor the close frame: cut the connection.
+        return finish(end_reason_);
+    }
+    schedule_watchdog();
+}
+
+void websocket_session::finish(std::string_view why) {
+    if (phase_ == phase::closed) return;
+    phase_ = phase::closed;
+    watchdog_.cancel();
+    if (subscriber_ != 0 && !hub_closed_) ctx_->hub->remove_subscriber(subscriber_);
+    subscriber_ = 0;
+    out_.clear();
+    answers_queued_ = 0;
+    if (counted_) {
+        counted_ = false;
+        if (ctx_->metrics) {
+            ctx_->metrics->increment("gw_websocket_clients", {}, -1);
+            ctx_->metrics->increment("gw_websocket_disconnects_total", {{"reason", std::string(why)}});
+        }
+        if (ctx_->log) ctx_->log->info("{}: WebSocket closed ({})", connection_, why);
+    }
+    // Whatever is still pending (a stuck write, the read, an unanswered close) ends now.
+    beast::error_code ignored;
+    beast::get_lowest_layer(ws_).socket().shutdown(net::ip::tcp::socket::shutdown_both, ignored);
+    beast::get_lowest_layer(ws_).close();
+}
+
+void websocket_session::fail(beast::error_code ec, std::string_view what) {
+    if (ec == net::error::operation_aborted || ec == websocket::error::closed || ec == net::error::eof ||
+        ec == net::error::connection_reset || ec == beast::error::timeout)
+        return;
+    if (ctx_->log) ctx_->log->debug("{}: {}: {}", connection_, what, ec.message());
+}
+
+}  // namespace gw::api
