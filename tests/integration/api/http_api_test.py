@@ -277,12 +277,16 @@ def test_operations(c):
     # The snapshot follows (polling).
     wait_until("sim1 X near 1000 in GET", lambda: abs(
         c.request("GET", base, token=t).json()["axes"][0]["position_um"] - 1000) < 1)
-    for op, body in [("halt", None), ("halt", {}), ("zero", {}), ("home", {"axes": ["X"]}),
-                     ("here", {"axes": {"X": 10}}), ("speed", {"axes": {"X": 2.5}}),
-                     ("ttl", {"in0_mode": 1, "out0_mode": 0})]:
+    # zero, here and home are refused while the stage moves (409 busy): wait for the snapshot.
+    not_busy = lambda: not c.request("GET", base, token=t).json()["busy"]  # noqa: E731
+    wait_until("sim1 stopped", not_busy)
+    for op, body in [("halt", None), ("halt", {}), ("zero", {}), ("here", {"axes": {"X": 10}}),
+                     ("speed", {"axes": {"X": 2.5}}), ("ttl", {"in0_mode": 1, "out0_mode": 0}),
+                     ("home", {"axes": ["X"]}), ("halt", {})]:
         r = c.request("POST", f"{base}/{op}", body, token=t)
         check(r.status == 200, f"{op}: {r.status} {r.body}")
         check(r.json()["operation"] == op and r.json()["id"] == "sim1", f"{op}: {r.body}")
+    wait_until("sim1 stopped after home and halt", not_busy)
     r = c.request("POST", "/api/v1/controllers/sim3/dac", {"volts": 2.5}, token=t)
     check(r.status == 200, f"dac on sim3: {r.status} {r.body}")
     r = c.request("POST", "/api/v1/controllers/sim3/led", {"percent": 40, "channel": "X"}, token=t)
@@ -408,6 +412,8 @@ def test_slow_operation_does_not_block_others(c):
             check(c.request("GET", "/api/v1/controllers/sim2", token=t).status == 200, "sim2 during the move")
             check(c.request("POST", "/api/v1/controllers/sim2/halt", token=t).status == 200,
                   "sim2 halt during the move")
+        p = c.problem("POST", base + "/zero", 409, "busy", token=t)
+        check("moving" in p["detail"], f"busy detail: {p['detail']}")
         check(mover.is_alive(), "the move should still be waiting (0.1 mm/s over 100 mm)")
     finally:
         c.request("POST", base + "/halt", token=t)
