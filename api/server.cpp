@@ -18,6 +18,9 @@ server::server(net::any_io_executor executor, const gateway_config& config, cont
       ctx_(std::make_shared<api_context>(api_context{executor, registry, std::move(hub), std::move(metrics),
                                                      config.http.limits, config.auth, get_logger("api")})) {
     controller_metrics::describe(*ctx_->metrics);
+    // Gauges exist from the start (a scrape before the first client sees 0, not nothing).
+    ctx_->metrics->set("gw_http_connections", {}, 0);
+    ctx_->metrics->set("gw_websocket_clients", {}, 0);
     registry.add_observer(
         std::shared_ptr<devices::controller_observer>(std::make_shared<controller_metrics>(ctx_->metrics)));
 }

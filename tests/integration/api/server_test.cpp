@@ -1,0 +1,127 @@
+#include "api/server.hpp"
+
+#include <chrono>
+#include <memory>
+#include <stdexcept>
+#include <thread>
+
+#include <boost/asio/executor_work_guard.hpp>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "gateway/controller_registry.hpp"
+#include "gateway/event_hub.hpp"
+#include "gateway/metrics.hpp"
+
+namespace gw::api {
+namespace {
+
+using tcp = net::ip::tcp;
+
+// The real server object on a real loopback socket, without controllers; a Beast client.
+class server_test : public ::testing::Test {
+  protected:
+    server_test() : registry_(io_.get_executor(), registry_options{}) {}
+    ~server_test() override {
+        if (server_) server_->stop();
+        work_.reset();
+        if (hub_) hub_->stop();
+        io_.stop();
+        if (thread_.joinable()) thread_.join();
+    }
+
+    void start(gateway_config config) {
+        config.http.port = 0;
+        hub_ = event_hub::create(io_.get_executor());
+        server_ = std::make_unique<server>(io_.get_executor(), config, registry_, hub_,
+                                           std::make_shared<metrics>());
+        server_->start();
+        thread_ = std::thread([this] { io_.run(); });
+    }
+
+    tcp::socket connect() {
+        tcp::socket s(client_io_);
+        s.connect(server_->local_endpoint());
+        return s;
+    }
+
+    static http::response<http::string_body> get(tcp::socket& s, const std::string& target) {
+        http::request<http::string_body> req{http::verb::get, target, 11};
+        req.set(http::field::host, "127.0.0.1");
+        http::write(s, req);
+        beast::flat_buffer buffer;
+        http::response<http::string_body> res;
+        http::read(s, buffer, res);
+        return res;
+    }
+
+    net::io_context io_;
+    net::executor_work_guard<net::io_context::executor_type> work_{io_.get_executor()};
+    controller_registry registry_;
+    std::shared_ptr<event_hub> hub_;
+    std::unique_ptr<server> server_;
+    std::thread thread_;
+    net::io_context client_io_;
+};
+
+TEST_F(server_test, answers_on_a_free_port_and_keeps_the_connection_alive) {
+    start(gateway_config{});
+    ASSERT_NE(server_->local_endpoint().port(), 0);
+    auto s = connect();
+    for (int i = 0; i < 3; ++i) {
+        auto res = get(s, "/api/v1/health");
+        EXPECT_EQ(res.result(), http::status::ok);
+        EXPECT_EQ(nlohmann::json::parse(res.body()), nlohmann::json({{"status", "ok"}}));
+        EXPECT_TRUE(res.keep_alive());
+        EXPECT_FALSE(res["X-Request-Id"].empty());
+    }
+    auto ready = get(s, "/api/v1/ready");
+    EXPECT_EQ(ready.result(), http::status::ok);  // no controllers: trivially ready
+}
+
+TEST_F(server_test, stop_closes_idle_connections) {
+    start(gateway_config{});
+    auto s = connect();
+    EXPECT_EQ(get(s, "/api/v1/health").result(), http::status::ok);
+    server_->stop();
+    // The server closes its end: the next read sees EOF (or a reset), never a hang.
+    char byte;
+    beast::error_code ec;
+    s.read_some(net::buffer(&byte, 1), ec);
+    EXPECT_TRUE(ec == net::error::eof || ec == net::error::connection_reset) << ec.message();
+}
+
+TEST_F(server_test, one_connection_over_the_limit_gets_503) {
+    gateway_config config;
+    config.http.limits.max_connections = 2;
+    start(config);
+    auto a = connect();
+    auto b = connect();
+    EXPECT_EQ(get(a, "/api/v1/health").result(), http::status::ok);  // both are sessions by now
+    EXPECT_EQ(get(b, "/api/v1/health").result(), http::status::ok);
+    auto c = connect();
+    beast::flat_buffer buffer;
+    http::response<http::string_body> res;
+    http::read(c, buffer, res);
+    EXPECT_EQ(res.result(), http::status::service_unavailable);
+    EXPECT_EQ(res[http::field::content_type], "application/problem+json");
+    EXPECT_EQ(nlohmann::json::parse(res.body())["type"],
+              "https://asi-gateway.dev/problems/too-many-connections");
+    EXPECT_FALSE(res.keep_alive());
+}
+
+TEST_F(server_test, refuses_a_public_address_without_tokens) {
+    gateway_config config;
+    config.http.listen_address = "0.0.0.0";
+    hub_ = event_hub::create(io_.get_executor());
+    server srv(io_.get_executor(), config, registry_, hub_, std::make_shared<metrics>());
+    EXPECT_THROW(srv.start(), std::runtime_error);
+    config.auth.tokens = {{"t", "a-token-of-enough-length", role::viewer}};
+    config.http.port = 0;
+    server with_tokens(io_.get_executor(), config, registry_, hub_, std::make_shared<metrics>());
+    EXPECT_NO_THROW(with_tokens.start());
+    with_tokens.stop();
+}
+
+}  // namespace
+}  // namespace gw::api
