@@ -294,7 +294,7 @@ void websocket_session::on_write(beast::error_code ec, std::size_t) {
     if (ec) {
         if (phase_ == phase::closed) return;
         fail(ec, "write");
-        return finish("error");
+        return finish(phase_ == phase::closing ? end_reason_ : "error");
     }
     if (!out_.empty()) {
         const auto done = out_.front();
