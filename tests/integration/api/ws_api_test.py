@@ -1,13 +1,15 @@
 #!/usr/bin/python3
 """End-to-end test of the WebSocket API (/api/v1/ws): starts the real asi-gateway (three simulated
-controllers in-process plus one external ms2000-sim with a control socket, so it can be unplugged)
-on a free loopback port and talks to it with real WebSocket clients over loopback.
+controllers in-process, plus two external ms2000-sims with control sockets: ext1 to unplug, ext2
+with a report port whose TTL pulses make report events) on a free loopback port and talks to it
+with real WebSocket clients over loopback.
 
 Covers: protocol errors answered without closing; subscribe with wildcards and events while a move
-runs; resume from a sequence number (replay) and an explicit gap when too old; commands over the
-WebSocket answered with the same id (and errors as problems, roles included); a stalled client
-(raw TCP: upgrades, stuffs its pipe, never reads) that neither slows a healthy client nor stays
-connected; a controller unplugged while clients watch; "going away" on SIGTERM.
+runs; every report frame in order; resume from a sequence number (replay) and an explicit gap when
+too old; commands over the WebSocket answered with the same id (errors as problems, roles
+included); a stalled client (raw TCP: upgrades, stuffs its pipe, never reads) that neither slows a
+healthy client nor stays connected; a controller unplugged while clients watch; "going away" on
+SIGTERM.
 
 The client is a small RFC 6455 implementation on the standard library (no python3-websockets
 needed), so the stalled client can misbehave at the socket level. Run by ctest with Debian's
@@ -457,6 +459,34 @@ def test_resume(port):
     g.close()
 
 
+def test_reports_stream(port, control2):
+    topic = "controllers/ext2/reports"
+    a = WsClient(port, TOKENS["operator"], "reports")
+    a.request({"op": "subscribe", "id": 1, "topics": ["controllers/+/reports"]})
+    r = a.request({"op": "command", "id": 2, "controller": "ext2", "operation": "ttl", "args": {"in0_mode": 1}})
+    check(r["type"] == "result", f"ttl in0_mode 1: {r}")
+    n = 60
+    check(control2(f"pulse {n} 100") == "ok", "pulse")
+    got = []
+    while len(got) < n:
+        m = a.wait_for(lambda m: m.get("topic") == topic, f"report {len(got) + 1} of {n}")
+        check(m["type"] == "event", f"a stream topic with a reading client has no gaps: {m}")
+        got.append(m["seq"])
+    check(got == list(range(got[0], got[0] + n)), f"every report, in order: {got}")
+    a.close()
+    # Resume inside the replay buffer: exactly the rest of the stream, no gap.
+    b = WsClient(port, TOKENS["viewer"], "reports-resume")
+    mid = got[0] + 24
+    b.request({"op": "subscribe", "id": 1, "topics": [topic], "resume": {topic: mid}})
+    rest = []
+    while len(rest) < got[-1] - mid:
+        m = b.wait_for(lambda m: m.get("topic") == topic, "replayed reports")
+        check(m["type"] == "event", f"no gap expected: {m}")
+        rest.append(m["seq"])
+    check(rest == list(range(mid + 1, got[-1] + 1)), f"replayed {rest}")
+    b.close()
+
+
 def test_stalled_client(port):
     # The stalled client: upgrades, subscribes to everything, then asks for many large answers
     # (acks echo their topics) and never reads, so the gateway's write to it cannot complete.
@@ -609,10 +639,10 @@ def main():
         procs.append(sim)
         wait_until("ms2000-sim", lambda: os.path.exists(ext_link) and os.path.exists(control_path))
 
-        def control(line):
+        def control(line, path=control_path):
             with socket.socket(socket.AF_UNIX) as s:
                 s.settimeout(WAIT)
-                s.connect(control_path)
+                s.connect(path)
                 s.sendall(line.encode() + b"\n")
                 data = b""
                 while not data.endswith(b"\n"):
@@ -622,6 +652,19 @@ def main():
                     data += chunk
                 return data.decode().strip()
 
+        control2_path = os.path.join(tmp, "control2.sock")
+        ext2_link = os.path.join(tmp, "ext2", "port")
+        ext2_report = os.path.join(tmp, "ext2", "report")
+        sim2 = subprocess.Popen([args.sim, "--preset", "full", "--name", "ext2", "--link", ext2_link,
+                                 "--report-link", ext2_report, "--control", control2_path],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+        procs.append(sim2)
+        wait_until("ms2000-sim with a report port",
+                   lambda: all(os.path.exists(p) for p in (ext2_link, ext2_report, control2_path)))
+
+        def control2(line):
+            return control(line, control2_path)
+
         port = free_port()
         config = {
             # read_timeout is the WebSocket idle and write timeout: short, so the stalled client is cut
@@ -629,7 +672,8 @@ def main():
             "http": {"listen_address": "127.0.0.1", "port": port,
                      "limits": {"read_timeout_ms": 4000, "max_websocket_message_bytes": 32768}},
             "controllers": [{"id": "ext1", "port": ext_link, "baud": 115200, "poll_ms": 50,
-                             "command_timeout_ms": 1000}],
+                             "command_timeout_ms": 1000},
+                            {"id": "ext2", "port": ext2_link, "report_port": ext2_report, "baud": 115200}],
             "simulate": {"count": 3, "time_scale": 1, "directory": os.path.join(tmp, "sim")},
             "auth": {"tokens": [{"name": role + "1", "token": tok, "role": role} for role, tok in TOKENS.items()]},
             "logging": {"level": "info"},
@@ -649,6 +693,7 @@ def main():
         run("subscribe with wildcards, events while a move runs", test_subscribe_and_move, port)
         run("commands over the WebSocket", test_commands, port)
         run("resume: replay and gap", test_resume, port)
+        run("reports: every frame in order; resume replays the rest", test_reports_stream, port, control2)
         run("stalled client: healthy one unaffected, stalled one disconnected", test_stalled_client, port)
         run("controller unplugged while watched", test_unplug, port, control)
         run("metrics", test_metrics, port)
