@@ -1,7 +1,8 @@
 #pragma once
 // What a controller tells the outside world. Knows nothing of JSON, HTTP or MQTT.
 // Every callback runs on the controller's strand: keep it short, never block, never throw, copy what
-// you need and post it elsewhere. The controller holds the observer by weak_ptr, so the owner decides its lifetime.
+// you need and post it elsewhere. The controller holds the observer by weak_ptr, so the owner decides its
+// lifetime.
 
 #include "devices/serial/controller_events.hpp"
 #include "devices/serial/controller_snapshot.hpp"
