@@ -22,8 +22,12 @@ bool is_http_parse_error(const beast::error_code& ec) {
 }  // namespace
 
 http_session::http_session(net::ip::tcp::socket&& socket, std::shared_ptr<api_context> ctx,
-                           std::weak_ptr<listener> owner, bool reject)
-    : stream_(std::move(socket)), ctx_(std::move(ctx)), owner_(std::move(owner)), reject_(reject) {
+                           std::weak_ptr<listener> owner, std::shared_ptr<connection_permit> permit)
+    : stream_(std::move(socket)),
+      ctx_(std::move(ctx)),
+      owner_(std::move(owner)),
+      permit_(std::move(permit)),
+      reject_(!permit_) {
     ctx_->metrics->increment("gw_http_connections", {}, 1);
 }
 
@@ -114,7 +118,8 @@ void http_session::on_read(beast::error_code ec, std::size_t) {
 #if GW_API_HAS_WEBSOCKET
         ctx_->metrics->increment("gw_http_requests_total",
                                  {{"route", "/api/v1/ws"}, {"method", method_}, {"status", "101"}});
-        return start_websocket_session(std::move(stream_), parser_->release(), ctx_, std::move(*who));
+        return start_websocket_session(std::move(stream_), parser_->release(), ctx_, std::move(*who),
+                                       std::move(permit_));
 #else
         return do_write(problem_response(make_problem(http_error::not_implemented,
                                                       "WebSocket sessions are not available in this build"),

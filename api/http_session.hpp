@@ -11,6 +11,7 @@
 #include <string>
 
 #include "api/api_context.hpp"
+#include "api/connection_permit.hpp"
 #include "api/net.hpp"
 #include "api/router.hpp"
 
@@ -20,9 +21,10 @@ class listener;
 
 class http_session : public std::enable_shared_from_this<http_session> {
   public:
-    // `reject`: the connection limit was reached; answer 503 and close.
+    // Without a `permit` the connection limit was reached: answer 503 and close. The permit moves
+    // into the WebSocket session at an upgrade.
     http_session(net::ip::tcp::socket&& socket, std::shared_ptr<api_context> ctx,
-                 std::weak_ptr<listener> owner, bool reject);
+                 std::weak_ptr<listener> owner, std::shared_ptr<connection_permit> permit);
     ~http_session();
 
     void run();
@@ -46,6 +48,7 @@ class http_session : public std::enable_shared_from_this<http_session> {
     beast::flat_buffer buffer_;
     std::shared_ptr<api_context> ctx_;
     std::weak_ptr<listener> owner_;
+    std::shared_ptr<connection_permit> permit_;
     bool reject_;
     std::uint64_t id_ = 0;  // in the listener's table; 0 = not tracked
     std::optional<http::request_parser<http::string_body>> parser_;

@@ -42,11 +42,6 @@ void listener::stop() {
         if (auto s = w.lock()) s->close();
 }
 
-std::size_t listener::open_sessions() const {
-    std::lock_guard lock(mutex_);
-    return sessions_.size();
-}
-
 std::uint64_t listener::add(const std::shared_ptr<http_session>& s) {
     std::lock_guard lock(mutex_);
     auto id = next_id_++;
@@ -76,13 +71,17 @@ void listener::on_accept(beast::error_code ec, net::ip::tcp::socket socket) {
             if (!e && self->acceptor_.is_open()) self->do_accept();
         });
     }
-    bool reject = false;
+    std::shared_ptr<connection_permit> permit;
     {
         std::lock_guard lock(mutex_);
         if (stopped_) return;
-        reject = sessions_.size() >= ctx_->limits.max_connections;
+        // Only this strand takes permits, so the count can only fall between the check and the take.
+        if (connections_->load() < ctx_->limits.max_connections)
+            permit = std::make_shared<connection_permit>(connections_);
     }
-    auto session = std::make_shared<http_session>(std::move(socket), ctx_, weak_from_this(), reject);
+    const bool reject = !permit;
+    auto session =
+        std::make_shared<http_session>(std::move(socket), ctx_, weak_from_this(), std::move(permit));
     if (!reject) session->set_id(add(session));
     session->run();
     do_accept();

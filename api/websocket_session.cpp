@@ -51,21 +51,24 @@ websocket_limits websocket_limits_from(const http_limits& limits) {
 }
 
 void start_websocket_session(beast::tcp_stream&& stream, http::request<http::string_body>&& request,
-                             std::shared_ptr<api_context> context, auth_identity who) {
+                             std::shared_ptr<api_context> context, auth_identity who,
+                             std::shared_ptr<connection_permit> permit) {
     auto limits = websocket_limits_from(context->limits);
-    auto session =
-        std::make_shared<websocket_session>(std::move(stream), std::move(context), std::move(who), limits);
+    auto session = std::make_shared<websocket_session>(std::move(stream), std::move(context), std::move(who),
+                                                       limits, std::move(permit));
     session->run(std::move(request));
 }
 
 websocket_session::websocket_session(beast::tcp_stream&& stream, std::shared_ptr<api_context> context,
-                                     auth_identity who, websocket_limits limits)
+                                     auth_identity who, websocket_limits limits,
+                                     std::shared_ptr<connection_permit> permit)
     : ws_(std::move(stream)),
       ctx_(std::move(context)),
       who_(std::move(who)),
       limits_(limits),
       connection_("ws-" + std::to_string(next_connection.fetch_add(1))),
-      watchdog_(ws_.get_executor()) {}
+      watchdog_(ws_.get_executor()),
+      permit_(std::move(permit)) {}
 
 websocket_session::~websocket_session() {
     // Normally finish() ran already; this covers an io_context torn down mid-session.
@@ -389,6 +392,7 @@ void websocket_session::finish(std::string_view why) {
     beast::error_code ignored;
     beast::get_lowest_layer(ws_).socket().shutdown(net::ip::tcp::socket::shutdown_both, ignored);
     beast::get_lowest_layer(ws_).close();
+    permit_.reset();  // the socket is closed: its slot is free, even if a handler still holds us
 }
 
 void websocket_session::fail(beast::error_code ec, std::string_view what) {

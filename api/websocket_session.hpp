@@ -28,6 +28,7 @@
 
 #include "api/api_context.hpp"
 #include "api/auth.hpp"
+#include "api/connection_permit.hpp"
 #include "api/net.hpp"
 #include "api/operation_requests.hpp"
 #include "gateway/event.hpp"
@@ -36,9 +37,11 @@
 namespace gw::api {
 
 // Takes over the connection: accepts the upgrade `request` (already read, already authenticated as
-// `who`) and runs the session until it closes.
+// `who`) and runs the session until it closes. The session keeps the connection's `permit` (its slot
+// in http.limits.max_connections) until it ends.
 void start_websocket_session(beast::tcp_stream&& stream, http::request<http::string_body>&& request,
-                             std::shared_ptr<api_context> context, auth_identity who);
+                             std::shared_ptr<api_context> context, auth_identity who,
+                             std::shared_ptr<connection_permit> permit = nullptr);
 
 struct websocket_limits {
     std::size_t max_message_bytes = 64 * 1024;        // client messages (http.limits)
@@ -58,7 +61,7 @@ class websocket_session final : public gw::event_sink,
                                 public std::enable_shared_from_this<websocket_session> {
   public:
     websocket_session(beast::tcp_stream&& stream, std::shared_ptr<api_context> context, auth_identity who,
-                      websocket_limits limits);
+                      websocket_limits limits, std::shared_ptr<connection_permit> permit = nullptr);
     ~websocket_session() override;
 
     // Accepts the upgrade and starts reading. Call once.
@@ -124,6 +127,7 @@ class websocket_session final : public gw::event_sink,
     std::chrono::steady_clock::time_point write_started_;
     std::chrono::steady_clock::time_point close_deadline_;
     net::steady_timer watchdog_;
+    std::shared_ptr<connection_permit> permit_;  // released with the session
 };
 
 }  // namespace gw::api

@@ -110,6 +110,38 @@ TEST_F(server_test, one_connection_over_the_limit_gets_503) {
     EXPECT_FALSE(res.keep_alive());
 }
 
+TEST_F(server_test, websocket_connections_count_toward_the_limit) {
+    gateway_config config;
+    config.http.limits.max_connections = 2;
+    start(config);
+    auto open_ws = [this] {
+        auto ws = std::make_unique<websocket::stream<tcp::socket>>(connect());
+        ws->handshake("127.0.0.1", "/api/v1/ws");
+        return ws;
+    };
+    auto a = open_ws();
+    auto b = open_ws();
+    // Both are upgraded: their HTTP sessions are gone, their slots are not.
+    auto c = connect();
+    auto res = get(c, "/api/v1/health");
+    EXPECT_EQ(res.result(), http::status::service_unavailable);
+    EXPECT_EQ(nlohmann::json::parse(res.body())["type"],
+              "https://asi-gateway.dev/problems/too-many-connections");
+
+    // Closing one frees its slot once the server has finished it: poll, with a generous deadline.
+    a->close(websocket::close_code::normal);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    http::status status = http::status::service_unavailable;
+    while (std::chrono::steady_clock::now() < deadline) {
+        auto d = connect();
+        status = get(d, "/api/v1/health").result();
+        if (status == http::status::ok) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    EXPECT_EQ(status, http::status::ok);
+    EXPECT_TRUE(b->is_open());
+}
+
 TEST_F(server_test, refuses_a_public_address_without_tokens) {
     gateway_config config;
     config.http.listen_address = "0.0.0.0";
