@@ -42,6 +42,12 @@ std::optional<auth_identity> authenticate(const auth_config& auth, std::string_v
         token.remove_prefix(1);
     while (!token.empty() && token.back() == ' ')
         token.remove_suffix(1);
+    return authenticate_token(auth, token, error);
+}
+
+std::optional<auth_identity> authenticate_token(const auth_config& auth, std::string_view token,
+                                                problem& error) {
+    if (auth.tokens.empty()) return auth_identity{"anonymous", gw::role::admin};
     const gw::auth_token* found = nullptr;
     for (const auto& t : auth.tokens)  // no early exit: every token is compared
         if (same_token(token, t.token) && !token.empty()) found = &t;
@@ -50,6 +56,66 @@ std::optional<auth_identity> authenticate(const auth_config& auth, std::string_v
         return std::nullopt;
     }
     return auth_identity{found->name, found->role};
+}
+
+std::optional<std::string> access_token_parameter(std::string_view target) {
+    const auto q = target.find('?');
+    if (q == std::string_view::npos) return std::nullopt;
+    constexpr std::string_view name = "access_token=";
+    auto query = target.substr(q + 1);
+    while (!query.empty()) {
+        const auto amp = query.find('&');
+        const auto pair = query.substr(0, amp);
+        query = amp == std::string_view::npos ? std::string_view{} : query.substr(amp + 1);
+        if (!pair.starts_with(name)) continue;
+        const auto raw = pair.substr(name.size());
+        std::string value;
+        value.reserve(raw.size());
+        auto hex = [](char c) -> int {
+            if (c >= '0' && c <= '9') return c - '0';
+            if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+            if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+            return -1;
+        };
+        for (std::size_t i = 0; i < raw.size(); ++i) {
+            if (raw[i] != '%') {
+                value += raw[i];
+                continue;
+            }
+            if (i + 2 >= raw.size()) return std::string{};
+            const int hi = hex(raw[i + 1]);
+            const int lo = hex(raw[i + 2]);
+            if (hi < 0 || lo < 0) return std::string{};
+            value += static_cast<char>(hi * 16 + lo);
+            i += 2;
+        }
+        return value;
+    }
+    return std::nullopt;
+}
+
+std::string redact_access_token(std::string_view target) {
+    const auto q = target.find('?');
+    if (q == std::string_view::npos) return std::string(target);
+    constexpr std::string_view name = "access_token=";
+    std::string out(target.substr(0, q + 1));
+    auto query = target.substr(q + 1);
+    bool first = true;
+    while (true) {
+        const auto amp = query.find('&');
+        const auto pair = query.substr(0, amp);
+        if (!first) out += '&';
+        first = false;
+        if (pair.starts_with(name)) {
+            out += name;
+            out += "REDACTED";
+        } else {
+            out += pair;
+        }
+        if (amp == std::string_view::npos) break;
+        query = query.substr(amp + 1);
+    }
+    return out;
 }
 
 bool has_role(const auth_identity& who, gw::role needed) {

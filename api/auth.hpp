@@ -2,6 +2,7 @@
 // Bearer-token authentication and role checks. Pure.
 //
 //   Authorization: Bearer <token>   -> the token's name and role (config auth.tokens)
+//   GET /api/v1/ws?access_token=<token>   (WebSocket upgrade only: browsers cannot set the header)
 // Without configured tokens every client is "anonymous" with the admin role: the service then only
 // listens on loopback (enforced at start-up by validate_config and the listener).
 // Roles are ordered viewer < operator < admin; a role includes the ones below it.
@@ -24,6 +25,19 @@ struct auth_identity {
 // problem. Token comparison takes the same time whatever the content.
 std::optional<auth_identity> authenticate(const auth_config& auth, std::string_view authorization,
                                           problem& error);
+
+// The same for a bare token (the WebSocket upgrade's access_token query parameter). An empty token
+// is unknown.
+std::optional<auth_identity> authenticate_token(const auth_config& auth, std::string_view token,
+                                                problem& error);
+
+// The percent-decoded value of the `access_token` query parameter of a request target ("/p?a=b&c"),
+// or nullopt when there is none. '+' stays '+' (RFC 3986: percent-encode the token). A malformed
+// escape yields an empty string, which no token matches.
+std::optional<std::string> access_token_parameter(std::string_view target);
+
+// `target` with every access_token value replaced by "REDACTED": the form that may be logged.
+std::string redact_access_token(std::string_view target);
 
 bool has_role(const auth_identity& who, gw::role needed);
 

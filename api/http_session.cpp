@@ -2,6 +2,7 @@
 
 #include <spdlog/logger.h>
 
+#include "api/auth.hpp"
 #include "api/listener.hpp"
 #include "api/request_id.hpp"
 #include "gateway/metrics.hpp"
@@ -113,7 +114,15 @@ void http_session::on_read(beast::error_code ec, std::size_t) {
                 "unmatched", !req.keep_alive());
         }
         problem p;
-        auto who = identify(*ctx_, req, p);
+        std::optional<auth_identity> who;
+        auto query_token = access_token_parameter(req.target());
+        if (query_token && req.find(http::field::authorization) == req.end()) {
+            // Browsers cannot set Authorization on a WebSocket: the token may come in the query.
+            who = authenticate_token(ctx_->auth, *query_token, p);
+            req.target(redact_access_token(req.target()));  // from here on the target may be logged
+        } else {
+            who = identify(*ctx_, req, p);
+        }
         if (!who) return do_write(problem_response(std::move(p), req, request_id_), "/api/v1/ws", true);
 #if GW_API_HAS_WEBSOCKET
         ctx_->metrics->increment("gw_http_requests_total",

@@ -80,8 +80,9 @@ class Closed(Exception):
         self.reason = reason
 
 
-def upgrade(port, token=None, rcvbuf=None):
-    """A connected socket after a successful upgrade to /api/v1/ws, plus any bytes read past it."""
+def upgrade(port, token=None, rcvbuf=None, query=""):
+    """A connected socket after a successful upgrade to /api/v1/ws, plus any bytes read past it.
+    `query` ("?access_token=...") is appended to the target."""
     s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     if rcvbuf:
         s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
@@ -89,7 +90,7 @@ def upgrade(port, token=None, rcvbuf=None):
     s.connect(("127.0.0.1", port))
     key = base64.b64encode(os.urandom(16)).decode()
     headers = [
-        "GET /api/v1/ws HTTP/1.1",
+        f"GET /api/v1/ws{query} HTTP/1.1",
         f"Host: 127.0.0.1:{port}",
         "Upgrade: websocket",
         "Connection: Upgrade",
@@ -140,8 +141,8 @@ def frame(opcode, payload, fin=True):
 
 
 class WsClient:
-    def __init__(self, port, token=None, name="client"):
-        r = upgrade(port, token)
+    def __init__(self, port, token=None, name="client", query=""):
+        r = upgrade(port, token, query=query)
         if isinstance(r[0], int):
             raise Failure(f"{name}: upgrade refused with {r[0]}: {r[1]!r}")
         self.sock, self.buf = r
@@ -252,7 +253,7 @@ class WsClient:
 
 def http_request(port, method, path, body=None, token=TOKENS["admin"]):
     conn = http.client.HTTPConnection("127.0.0.1", port, timeout=WAIT)
-    headers = {"Authorization": f"Bearer {token}"}
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
     data = None
     if body is not None:
         data = json.dumps(body)
@@ -280,6 +281,24 @@ def is_event(topic=None):
 
 # --------------------------------------------------------------------------------------------
 # The tests
+
+
+def test_access_token_query(port, log_path):
+    # Browsers cannot set Authorization on a WebSocket: the token may come as ?access_token=.
+    c = WsClient(port, None, "query-token", query="?access_token=" + TOKENS["viewer"])
+    check(c.hello.get("role") == "viewer", f"role from ?access_token= {c.hello}")
+    c.close()
+    status, body = upgrade(port, query="?access_token=" + TOKENS["viewer"] + "x")
+    check(status == 401, f"wrong ?access_token= answered {status} {body!r}")
+    problem = json.loads(body)
+    check("access_token" not in problem.get("instance", ""), f"problem instance leaks the query: {problem}")
+    status, _ = upgrade(port, query="?access_token=")
+    check(status == 401, f"empty ?access_token= answered {status}")
+    # Only the upgrade takes a query token: REST still wants the header.
+    status, _ = http_request(port, "GET", "/api/v1/controllers?access_token=" + TOKENS["viewer"], token=None)
+    check(status == 401, f"REST with ?access_token= answered {status}")
+    with open(log_path) as f:
+        check(TOKENS["viewer"] not in f.read(), "the token appears in the gateway log")
 
 
 def test_protocol_errors(port):
@@ -688,6 +707,8 @@ def main():
         wait_until("gateway ready", lambda: http_request(port, "GET", "/api/v1/ready")[0] == 200)
 
         run("upgrade without a token is refused", lambda: check(upgrade(port)[0] == 401, "no 401"))
+        run("?access_token= on the upgrade: viewer accepted, wrong one 401", test_access_token_query, port,
+            log_path)
         run("protocol errors answered, connection kept", test_protocol_errors, port)
         run("oversized message closes with 1009", test_oversized_message_closes_with_1009, port)
         run("subscribe with wildcards, events while a move runs", test_subscribe_and_move, port)

@@ -1,5 +1,8 @@
 #include "api/auth.hpp"
 
+#include <optional>
+#include <string>
+
 #include <gtest/gtest.h>
 
 namespace gw::api {
@@ -48,6 +51,55 @@ TEST(auth, bearer_tokens_map_to_their_roles) {
             EXPECT_EQ(p.status, 401u) << r.header;
         }
     }
+}
+
+TEST(auth, bare_tokens_from_the_websocket_query) {
+    problem p;
+    auto who = authenticate_token(tokens(), "viewer-token-0123456789", p);
+    ASSERT_TRUE(who);
+    EXPECT_EQ(who->role, role::viewer);
+    EXPECT_EQ(who->name, "dash");
+    for (const char* bad : {"", "viewer-token-012345678", "nope"}) {
+        problem e;
+        EXPECT_FALSE(authenticate_token(tokens(), bad, e)) << bad;
+        EXPECT_EQ(e.status, 401) << bad;
+    }
+}
+
+TEST(auth, access_token_query_parameter) {
+    struct row {
+        const char* target;
+        std::optional<std::string> expected;
+    };
+    const row rows[] = {
+        {"/api/v1/ws", std::nullopt},
+        {"/api/v1/ws?", std::nullopt},
+        {"/api/v1/ws?other=1", std::nullopt},
+        {"/api/v1/ws?my_access_token=x", std::nullopt},
+        {"/api/v1/ws?access_token=abc", "abc"},
+        {"/api/v1/ws?a=1&access_token=abc&b=2", "abc"},
+        {"/api/v1/ws?access_token=", ""},
+        {"/api/v1/ws?access_token=a%2Bb%2fc+d", "a+b/c+d"},  // '+' stays '+'
+        {"/api/v1/ws?access_token=abc%2", ""},               // malformed escapes match nothing
+        {"/api/v1/ws?access_token=abc%zz", ""},
+    };
+    for (const auto& r : rows)
+        EXPECT_EQ(access_token_parameter(r.target), r.expected) << r.target;
+}
+
+TEST(auth, access_tokens_are_redacted) {
+    struct row {
+        const char* target;
+        const char* expected;
+    };
+    const row rows[] = {
+        {"/api/v1/ws", "/api/v1/ws"},
+        {"/api/v1/ws?access_token=secret", "/api/v1/ws?access_token=REDACTED"},
+        {"/api/v1/ws?a=1&access_token=secret&b=2", "/api/v1/ws?a=1&access_token=REDACTED&b=2"},
+        {"/api/v1/ws?a=1&", "/api/v1/ws?a=1&"},
+    };
+    for (const auto& r : rows)
+        EXPECT_EQ(redact_access_token(r.target), r.expected) << r.target;
 }
 
 TEST(auth, roles_are_ordered) {
