@@ -8,6 +8,7 @@ example matches its schema) and validates every real response body against the s
 document gives for its path, method, status and content type.
 
 Run by ctest with Debian's /usr/bin/python3 (python3-yaml, python3-jsonschema).
+The gateway, sims, config and run/report harness come from gateway_fixture.py (shared).
 Exit code 0 when every check passed; the failures are listed otherwise.
 """
 
@@ -16,39 +17,17 @@ import http.client
 import json
 import os
 import re
-import shutil
 import socket
 import subprocess
 import sys
-import tempfile
 import threading
-import time
-import traceback
 
 import jsonschema
 import yaml
 
-TOKENS = {
-    "viewer": "viewer-token-0123456789",
-    "operator": "operator-token-0123456789",
-    "admin": "admin-token-0123456789abc",
-}
-WAIT = 60.0  # generous: a loaded 2-core machine
-
-
-class Failure(Exception):
-    pass
-
-
-def check(cond, message):
-    if not cond:
-        raise Failure(message)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from gateway_fixture import TOKENS, WAIT, Failure, Fixture, auth_tokens, check, free_port, wait_until  # noqa: E402
 
 
 # --------------------------------------------------------------------------------------------
@@ -213,20 +192,6 @@ class Client:
         check(p["status"] == status, "problem status differs from the HTTP status")
         check(p.get("request_id") == r.header("X-Request-Id"), "problem request_id differs from the header")
         return p
-
-
-def wait_until(what, fn, timeout=WAIT):
-    deadline = time.monotonic() + timeout
-    last = None
-    while time.monotonic() < deadline:
-        try:
-            last = fn()
-            if last:
-                return last
-        except (OSError, http.client.HTTPException) as e:
-            last = e
-        time.sleep(0.1)
-    raise Failure(f"timed out waiting for {what} (last: {last!r})")
 
 
 # --------------------------------------------------------------------------------------------
@@ -547,45 +512,14 @@ def main():
     args = ap.parse_args()
 
     contract = Contract(open(args.openapi).read())
-    failures = []
-    passed = []
-
-    def run(name, fn, *a):
-        try:
-            fn(*a)
-            passed.append(name)
-            print(f"[ OK ] {name}", flush=True)
-        except Exception as e:  # noqa: BLE001 - every failure is reported, then the next test runs
-            failures.append((name, e))
-            print(f"[FAIL] {name}: {e}", flush=True)
-            if not isinstance(e, Failure):
-                traceback.print_exc()
+    fx = Fixture("gw-api-test-")
+    run = fx.run
 
     run("openapi document structure", contract.check_structure)
 
-    tmp = tempfile.mkdtemp(prefix="gw-api-test-")
-    procs = []
     try:
-        control_path = os.path.join(tmp, "control.sock")
-        ext_link = os.path.join(tmp, "ext1", "port")
-        sim = subprocess.Popen([args.sim, "--preset", "plain", "--name", "ext1", "--link", ext_link,
-                                "--no-report-port", "--time-scale", "20", "--control", control_path],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
-        procs.append(sim)
-        wait_until("ms2000-sim", lambda: os.path.exists(ext_link) and os.path.exists(control_path))
-
-        def control(line):
-            with socket.socket(socket.AF_UNIX) as s:
-                s.settimeout(WAIT)
-                s.connect(control_path)
-                s.sendall(line.encode() + b"\n")
-                data = b""
-                while not data.endswith(b"\n"):
-                    chunk = s.recv(4096)
-                    if not chunk:
-                        break
-                    data += chunk
-                return data.decode().strip()
+        ext1 = fx.start_sim(args.sim, "ext1", "plain", time_scale=20)
+        control = ext1.control
 
         port = free_port()
         max_connections = 6
@@ -593,19 +527,13 @@ def main():
             "http": {"listen_address": "127.0.0.1", "port": port,
                      "limits": {"max_body_bytes": 8192, "max_header_bytes": 4096,
                                 "read_timeout_ms": 4000, "max_connections": max_connections}},
-            "controllers": [{"id": "ext1", "port": ext_link, "baud": 115200, "poll_ms": 0,
+            "controllers": [{"id": "ext1", "port": ext1.link, "baud": 115200, "poll_ms": 0,
                              "command_timeout_ms": 500}],
-            "simulate": {"count": 3, "time_scale": 20, "directory": os.path.join(tmp, "sim")},
-            "auth": {"tokens": [{"name": role + "1", "token": tok, "role": role} for role, tok in TOKENS.items()]},
+            "simulate": {"count": 3, "time_scale": 20, "directory": os.path.join(fx.tmp, "sim")},
+            "auth": auth_tokens(),
             "logging": {"level": "info"},
         }
-        cfg = os.path.join(tmp, "gateway.json")
-        with open(cfg, "w") as f:
-            json.dump(config, f)
-        log_path = os.path.join(tmp, "gateway.log")
-        log = open(log_path, "w")
-        gw = subprocess.Popen([args.gateway, "--config", cfg], stdout=log, stderr=subprocess.STDOUT)
-        procs.append(gw)
+        gw = fx.start_gateway(args.gateway, config)
         c = Client(port, contract)
         wait_until("gateway ready", lambda: c.request("GET", "/api/v1/ready", validate=False).status == 200)
 
@@ -621,7 +549,8 @@ def main():
         run("metrics", test_metrics, c)
         run("websocket route", test_websocket_route, c)
         run("limits", test_limits, c, port, max_connections)
-        run("public address without tokens refused", test_refuses_public_address_without_tokens, args.gateway, tmp)
+        run("public address without tokens refused", test_refuses_public_address_without_tokens, args.gateway,
+            fx.tmp)
 
         # Graceful stop: SIGTERM closes an idle keep-alive connection and exits 0.
         idle = http.client.HTTPConnection("127.0.0.1", port, timeout=WAIT)
@@ -634,34 +563,17 @@ def main():
             closed = True
         idle.close()
         try:
-            code = gw.wait(timeout=WAIT)
+            gw.wait(timeout=WAIT)
         except subprocess.TimeoutExpired:
-            code = None
+            pass
         if not closed:
-            failures.append(("SIGTERM closes connections", Failure("an idle connection stayed open")))
-        if code == 0:
-            passed.append("SIGTERM exits 0")
-            print("[ OK ] SIGTERM exits 0")
-        else:
-            failures.append(("SIGTERM exits 0", Failure(f"exit code {code}")))
-            print(f"[FAIL] SIGTERM exits 0: exit code {code}")
-        log.close()
-        if failures:
-            print("---- gateway log (tail) ----")
-            with open(log_path) as f:
-                print("".join(f.readlines()[-60:]))
+            fx.failures.append(("SIGTERM closes connections", Failure("an idle connection stayed open")))
+        fx.expect_exit_0()
+        fx.finish_log(60)
     finally:
-        for p in procs:
-            if p.poll() is None:
-                p.kill()
-                p.wait()
-        shutil.rmtree(tmp, ignore_errors=True)
+        fx.cleanup()
 
-    print(f"\n{len(passed)} passed, {len(failures)} failed; "
-          f"{len(contract.covered)} (path, method, status) combinations validated against the schema")
-    for name, e in failures:
-        print(f"FAILED: {name}: {e}")
-    return 1 if failures else 0
+    return fx.report(f"; {len(contract.covered)} (path, method, status) combinations validated against the schema")
 
 
 if __name__ == "__main__":

@@ -14,59 +14,26 @@ SIGTERM.
 The client is a small RFC 6455 implementation on the standard library (no python3-websockets
 needed), so the stalled client can misbehave at the socket level. Run by ctest with Debian's
 /usr/bin/python3. Exit code 0 when every check passed; the failures are listed otherwise.
+The gateway, sims, config and run/report harness come from gateway_fixture.py (shared).
 Timeouts are generous (a loaded 2-core machine); nothing asserts wall-clock speed.
 """
 
 import argparse
 import base64
 import hashlib
-import http.client
 import json
 import os
-import shutil
 import socket
 import struct
-import subprocess
 import sys
-import tempfile
 import threading
 import time
-import traceback
 
-TOKENS = {
-    "viewer": "viewer-token-0123456789",
-    "operator": "operator-token-0123456789",
-    "admin": "admin-token-0123456789abc",
-}
-WAIT = 60.0  # generous: a loaded 2-core machine
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from gateway_fixture import TOKENS, WAIT, Failure, Fixture, auth_tokens, check, free_port, http_request, wait_until  # noqa: E402,E501
+
 WS_GUID = b"258EAFA5-E914-47DA-95CA-C5AB0DC85B11"
-
-
-class Failure(Exception):
-    pass
-
-
-def check(cond, message):
-    if not cond:
-        raise Failure(message)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_until(what, fn, timeout=WAIT):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        try:
-            if fn():
-                return
-        except OSError:
-            pass
-        time.sleep(0.1)
-    raise Failure(f"timed out waiting for {what}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -249,20 +216,6 @@ class WsClient:
 
 # --------------------------------------------------------------------------------------------
 # HTTP helpers
-
-
-def http_request(port, method, path, body=None, token=TOKENS["admin"]):
-    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=WAIT)
-    headers = {"Authorization": f"Bearer {token}"} if token else {}
-    data = None
-    if body is not None:
-        data = json.dumps(body)
-        headers["Content-Type"] = "application/json"
-    conn.request(method, path, body=data, headers=headers)
-    r = conn.getresponse()
-    text = r.read().decode()
-    conn.close()
-    return r.status, text
 
 
 def metric(port, name, labels=""):
@@ -633,56 +586,13 @@ def main():
     ap.add_argument("--sim", required=True)
     args = ap.parse_args()
 
-    failures = []
-    passed = []
-
-    def run(name, fn, *a):
-        try:
-            fn(*a)
-            passed.append(name)
-            print(f"[ OK ] {name}", flush=True)
-        except Exception as e:  # noqa: BLE001 - every failure is reported, then the next test runs
-            failures.append((name, e))
-            print(f"[FAIL] {name}: {e}", flush=True)
-            if not isinstance(e, Failure):
-                traceback.print_exc()
-
-    tmp = tempfile.mkdtemp(prefix="gw-ws-test-")
-    procs = []
+    fx = Fixture("gw-ws-test-")
+    run = fx.run
     try:
-        control_path = os.path.join(tmp, "control.sock")
-        ext_link = os.path.join(tmp, "ext1", "port")
-        sim = subprocess.Popen([args.sim, "--preset", "plain", "--name", "ext1", "--link", ext_link,
-                                "--no-report-port", "--time-scale", "20", "--control", control_path],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
-        procs.append(sim)
-        wait_until("ms2000-sim", lambda: os.path.exists(ext_link) and os.path.exists(control_path))
-
-        def control(line, path=control_path):
-            with socket.socket(socket.AF_UNIX) as s:
-                s.settimeout(WAIT)
-                s.connect(path)
-                s.sendall(line.encode() + b"\n")
-                data = b""
-                while not data.endswith(b"\n"):
-                    chunk = s.recv(4096)
-                    if not chunk:
-                        break
-                    data += chunk
-                return data.decode().strip()
-
-        control2_path = os.path.join(tmp, "control2.sock")
-        ext2_link = os.path.join(tmp, "ext2", "port")
-        ext2_report = os.path.join(tmp, "ext2", "report")
-        sim2 = subprocess.Popen([args.sim, "--preset", "full", "--name", "ext2", "--link", ext2_link,
-                                 "--report-link", ext2_report, "--control", control2_path],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
-        procs.append(sim2)
-        wait_until("ms2000-sim with a report port",
-                   lambda: all(os.path.exists(p) for p in (ext2_link, ext2_report, control2_path)))
-
-        def control2(line):
-            return control(line, control2_path)
+        ext1 = fx.start_sim(args.sim, "ext1", "plain", time_scale=20)
+        control = ext1.control
+        ext2 = fx.start_sim(args.sim, "ext2", "full", report=True)
+        control2 = ext2.control
 
         port = free_port()
         config = {
@@ -690,21 +600,15 @@ def main():
             # within seconds; healthy clients answer the keep-alive pings.
             "http": {"listen_address": "127.0.0.1", "port": port,
                      "limits": {"read_timeout_ms": 4000, "max_websocket_message_bytes": 32768}},
-            "controllers": [{"id": "ext1", "port": ext_link, "baud": 115200, "poll_ms": 50,
+            "controllers": [{"id": "ext1", "port": ext1.link, "baud": 115200, "poll_ms": 50,
                              "command_timeout_ms": 1000},
-                            {"id": "ext2", "port": ext2_link, "report_port": ext2_report, "baud": 115200}],
-            "simulate": {"count": 3, "time_scale": 1, "directory": os.path.join(tmp, "sim")},
-            "auth": {"tokens": [{"name": role + "1", "token": tok, "role": role} for role, tok in TOKENS.items()]},
+                            {"id": "ext2", "port": ext2.link, "report_port": ext2.report_link, "baud": 115200}],
+            "simulate": {"count": 3, "time_scale": 1, "directory": os.path.join(fx.tmp, "sim")},
+            "auth": auth_tokens(),
             "logging": {"level": "info"},
         }
-        cfg = os.path.join(tmp, "gateway.json")
-        with open(cfg, "w") as f:
-            json.dump(config, f)
-        log_path = os.path.join(tmp, "gateway.log")
-        log = open(log_path, "w")
-        gw = subprocess.Popen([args.gateway, "--config", cfg], stdout=log, stderr=subprocess.STDOUT)
-        procs.append(gw)
-        wait_until("gateway ready", lambda: http_request(port, "GET", "/api/v1/ready")[0] == 200)
+        gw = fx.start_gateway(args.gateway, config)
+        log_path = fx.log_path
 
         run("upgrade without a token is refused", lambda: check(upgrade(port)[0] == 401, "no 401"))
         run("?access_token= on the upgrade: viewer accepted, wrong one 401", test_access_token_query, port,
@@ -719,32 +623,12 @@ def main():
         run("controller unplugged while watched", test_unplug, port, control)
         run("metrics", test_metrics, port)
         run("SIGTERM closes sessions with 1001 going away", test_going_away, gw, port)
-        try:
-            code = gw.wait(timeout=WAIT)
-        except subprocess.TimeoutExpired:
-            code = None
-        if code == 0:
-            passed.append("SIGTERM exits 0")
-            print("[ OK ] SIGTERM exits 0")
-        else:
-            failures.append(("SIGTERM exits 0", Failure(f"exit code {code}")))
-            print(f"[FAIL] SIGTERM exits 0: exit code {code}")
-        log.close()
-        if failures:
-            print("---- gateway log (tail) ----")
-            with open(log_path) as f:
-                print("".join(f.readlines()[-80:]))
+        fx.expect_exit_0()
+        fx.finish_log(80)
     finally:
-        for p in procs:
-            if p.poll() is None:
-                p.kill()
-                p.wait()
-        shutil.rmtree(tmp, ignore_errors=True)
+        fx.cleanup()
 
-    print(f"\n{len(passed)} passed, {len(failures)} failed")
-    for name, e in failures:
-        print(f"FAILED: {name}: {e}")
-    return 1 if failures else 0
+    return fx.report()
 
 
 if __name__ == "__main__":

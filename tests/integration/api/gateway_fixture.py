@@ -1,0 +1,191 @@
+"""Shared fixture of the end-to-end API tests (http_api_test.py, ws_api_test.py): a scratch
+directory, external ms2000-sims with control sockets, the real asi-gateway on a free loopback port
+with a config file and a log, waiting for readiness, a plain HTTP helper, and the run/report
+harness (every check runs, failures are listed, exit code 0 only when all passed).
+
+Imported by the test scripts with their own directory on sys.path. Standard library only; timeouts
+are generous (a loaded 2-core machine); nothing asserts wall-clock speed.
+"""
+
+import http.client
+import json
+import os
+import shutil
+import socket
+import subprocess
+import tempfile
+import time
+import traceback
+
+TOKENS = {
+    "viewer": "viewer-token-0123456789",
+    "operator": "operator-token-0123456789",
+    "admin": "admin-token-0123456789abc",
+}
+WAIT = 60.0  # generous: a loaded 2-core machine
+
+
+class Failure(Exception):
+    pass
+
+
+def check(cond, message):
+    if not cond:
+        raise Failure(message)
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_until(what, fn, timeout=WAIT):
+    """Polls fn until it returns something truthy (returned); connection errors count as "not yet"."""
+    deadline = time.monotonic() + timeout
+    last = None
+    while time.monotonic() < deadline:
+        try:
+            last = fn()
+            if last:
+                return last
+        except (OSError, http.client.HTTPException) as e:
+            last = e
+        time.sleep(0.1)
+    raise Failure(f"timed out waiting for {what} (last: {last!r})")
+
+
+def auth_tokens():
+    """The config's auth section: one token per role, named <role>1."""
+    return {"tokens": [{"name": role + "1", "token": tok, "role": role} for role, tok in TOKENS.items()]}
+
+
+def http_request(port, method, path, body=None, token=TOKENS["admin"]):
+    """(status, body text) of one request on its own connection; no Authorization without a token."""
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=WAIT)
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
+    data = None
+    if body is not None:
+        data = json.dumps(body)
+        headers["Content-Type"] = "application/json"
+    conn.request(method, path, body=data, headers=headers)
+    r = conn.getresponse()
+    text = r.read().decode()
+    conn.close()
+    return r.status, text
+
+
+class Sim:
+    """An external ms2000-sim process: its serial link, report link (or None) and control socket."""
+
+    def __init__(self, link, report_link, control_path):
+        self.link = link
+        self.report_link = report_link
+        self.control_path = control_path
+
+    def control(self, line):
+        """One control-socket command; its one-line answer."""
+        with socket.socket(socket.AF_UNIX) as s:
+            s.settimeout(WAIT)
+            s.connect(self.control_path)
+            s.sendall(line.encode() + b"\n")
+            data = b""
+            while not data.endswith(b"\n"):
+                chunk = s.recv(4096)
+                if not chunk:
+                    break
+                data += chunk
+            return data.decode().strip()
+
+
+class Fixture:
+    """The scratch directory, the processes started in it, and the pass/fail record."""
+
+    def __init__(self, prefix):
+        self.tmp = tempfile.mkdtemp(prefix=prefix)
+        self.procs = []
+        self.passed = []
+        self.failures = []
+        self.gateway = None
+        self.log_path = None
+        self._log = None
+
+    def run(self, name, fn, *a):
+        try:
+            fn(*a)
+            self.passed.append(name)
+            print(f"[ OK ] {name}", flush=True)
+        except Exception as e:  # noqa: BLE001 - every failure is reported, then the next test runs
+            self.failures.append((name, e))
+            print(f"[FAIL] {name}: {e}", flush=True)
+            if not isinstance(e, Failure):
+                traceback.print_exc()
+
+    def start_sim(self, sim, name, preset, time_scale=None, report=False):
+        """Starts ms2000-sim `name` with a control socket (and a report port when `report`)."""
+        link = os.path.join(self.tmp, name, "port")
+        report_link = os.path.join(self.tmp, name, "report") if report else None
+        control_path = os.path.join(self.tmp, name + ".control.sock")
+        cmd = [sim, "--preset", preset, "--name", name, "--link", link]
+        cmd += ["--report-link", report_link] if report else ["--no-report-port"]
+        if time_scale is not None:
+            cmd += ["--time-scale", str(time_scale)]
+        cmd += ["--control", control_path]
+        self.procs.append(subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT))
+        paths = [p for p in (link, report_link, control_path) if p]
+        wait_until(f"ms2000-sim {name}", lambda: all(os.path.exists(p) for p in paths))
+        return Sim(link, report_link, control_path)
+
+    def start_gateway(self, gateway, config):
+        """Writes `config`, starts the gateway with its output in a log file and waits until
+        /api/v1/ready answers 200. Returns the process."""
+        cfg = os.path.join(self.tmp, "gateway.json")
+        with open(cfg, "w") as f:
+            json.dump(config, f)
+        self.log_path = os.path.join(self.tmp, "gateway.log")
+        self._log = open(self.log_path, "w")
+        self.gateway = subprocess.Popen([gateway, "--config", cfg], stdout=self._log, stderr=subprocess.STDOUT)
+        self.procs.append(self.gateway)
+        port = config["http"]["port"]
+        wait_until("gateway ready", lambda: http_request(port, "GET", "/api/v1/ready", token=None)[0] == 200)
+        return self.gateway
+
+    def expect_exit_0(self):
+        """After a SIGTERM: records "SIGTERM exits 0"."""
+        try:
+            code = self.gateway.wait(timeout=WAIT)
+        except subprocess.TimeoutExpired:
+            code = None
+        if code == 0:
+            self.passed.append("SIGTERM exits 0")
+            print("[ OK ] SIGTERM exits 0")
+        else:
+            self.failures.append(("SIGTERM exits 0", Failure(f"exit code {code}")))
+            print(f"[FAIL] SIGTERM exits 0: exit code {code}")
+
+    def finish_log(self, tail_lines):
+        """Closes the gateway log; prints its tail when something failed."""
+        if self._log:
+            self._log.close()
+            self._log = None
+        if self.failures and self.log_path:
+            print("---- gateway log (tail) ----")
+            with open(self.log_path) as f:
+                print("".join(f.readlines()[-tail_lines:]))
+
+    def cleanup(self):
+        if self._log:
+            self._log.close()
+            self._log = None
+        for p in self.procs:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def report(self, extra=""):
+        """Prints the summary; the exit code."""
+        print(f"\n{len(self.passed)} passed, {len(self.failures)} failed{extra}")
+        for name, e in self.failures:
+            print(f"FAILED: {name}: {e}")
+        return 1 if self.failures else 0
