@@ -315,8 +315,10 @@ void event_hub::pump(subscriber& s) {
         if (!slot.pending) continue;
         if (slot.next_allowed && now < *slot.next_allowed) continue;
         // Replayed events of this topic still queued go first.
-        bool queued =
-            std::any_of(s.queue.begin(), s.queue.end(), [&](const auto& e) { return e->topic == topic; });
+        // (a named copy of the binding: clang 14 cannot capture structured bindings)
+        const auto& slot_topic = topic;
+        bool queued = std::any_of(s.queue.begin(), s.queue.end(),
+                                  [&slot_topic](const auto& e) { return e->topic == slot_topic; });
         if (queued) continue;
         batch.push_back(std::move(slot.pending));
         slot.pending.reset();
