@@ -16,6 +16,7 @@
 #include "devices/serial/controller.hpp"
 #include "devices/sim/sim_config.hpp"
 #include "devices/sim/simulator.hpp"
+#include "tests/support/drv_command_call.hpp"
 #include "tests/support/drv_recording_observer.hpp"
 
 namespace gw::devices {
@@ -24,7 +25,7 @@ namespace {
 namespace net = boost::asio;
 using namespace std::chrono_literals;
 using boost::system::error_code;
-using result_pair = std::pair<error_code, ms2000::reply>;
+using result_pair = test::command_result;
 
 // One io_context with its own thread; the simulators and the driver each get one.
 struct io_thread {
@@ -49,22 +50,10 @@ struct simulated_controller {
     std::shared_ptr<controller> ctl;
 
     std::future<result_pair> submit(ms2000::command cmd) {
-        auto promise = std::make_shared<std::promise<result_pair>>();
-        auto future = promise->get_future();
-        ctl->async_command(std::move(cmd), "it", [promise](error_code ec, ms2000::reply r) {
-            promise->set_value({ec, std::move(r)});
-        });
-        return future;
+        return test::submit_command(*ctl, std::move(cmd), "it");
     }
 
-    result_pair call(ms2000::command cmd) {
-        auto f = submit(std::move(cmd));
-        if (f.wait_for(30s) != std::future_status::ready) {
-            ADD_FAILURE() << "no completion";
-            return {};
-        }
-        return f.get();
-    }
+    result_pair call(ms2000::command cmd) { return test::await_command(submit(std::move(cmd)), 30s); }
 };
 
 class controller_sim_test : public ::testing::Test {

@@ -18,6 +18,7 @@
 
 #include "devices/ms2000/error.hpp"
 #include "devices/ms2000/report_frame.hpp"
+#include "tests/support/drv_command_call.hpp"
 #include "tests/support/drv_pty_controller.hpp"
 #include "tests/support/drv_recording_observer.hpp"
 
@@ -27,7 +28,7 @@ namespace {
 namespace net = boost::asio;
 using namespace std::chrono_literals;
 using boost::system::error_code;
-using result_pair = std::pair<error_code, ms2000::reply>;
+using result_pair = test::command_result;
 
 ms2000::command raw(std::string_view line) {
     auto c = ms2000::raw_command(line);
@@ -71,22 +72,10 @@ class controller_test : public ::testing::Test {
 
     // Submits and returns a future of (error, reply); the callback runs on the controller's strand.
     std::future<result_pair> submit(ms2000::command cmd, std::string id = "test") {
-        auto promise = std::make_shared<std::promise<result_pair>>();
-        auto future = promise->get_future();
-        ctl_->async_command(std::move(cmd), std::move(id), [promise](error_code ec, ms2000::reply r) {
-            promise->set_value({ec, std::move(r)});
-        });
-        return future;
+        return test::submit_command(*ctl_, std::move(cmd), std::move(id));
     }
 
-    result_pair call(ms2000::command cmd) {
-        auto f = submit(std::move(cmd));
-        if (f.wait_for(20s) != std::future_status::ready) {
-            ADD_FAILURE() << "no completion";
-            return {};
-        }
-        return f.get();
-    }
+    result_pair call(ms2000::command cmd) { return test::await_command(submit(std::move(cmd)), 20s); }
 
     net::io_context io_;
     net::executor_work_guard<net::io_context::executor_type> work_ = net::make_work_guard(io_);
