@@ -17,8 +17,13 @@ class logger;
 namespace gw {
 class controller_registry;
 class event_hub;
+class lease_manager;
 class metrics;
 }  // namespace gw
+
+namespace gw::jobs {
+class job_manager;
+}
 
 namespace gw::api {
 
@@ -29,7 +34,9 @@ struct api_context {
     std::shared_ptr<gw::metrics> metrics;
     http_limits limits;
     auth_config auth;  // no tokens: every client is admin, and the listener is loopback-only
-    std::shared_ptr<spdlog::logger> log;  // "api"
+    std::shared_ptr<spdlog::logger> log;      // "api"
+    std::shared_ptr<jobs::job_manager> jobs;  // null: the job routes answer 503
+    std::shared_ptr<lease_manager> leases;    // null: no leases (every check passes)
 };
 
 }  // namespace gw::api

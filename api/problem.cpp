@@ -32,6 +32,12 @@ kind_info info(operation_error_kind k) {
             return {502, "Controller error"};
         case queue_full:
             return {503, "Controller queue full"};
+        case unknown_job:
+            return {404, "Unknown job"};
+        case invalid_state:
+            return {409, "Invalid state"};
+        case storage_unavailable:
+            return {503, "Storage unavailable"};
         case internal:
             break;
     }

@@ -13,10 +13,12 @@
 namespace gw::api {
 
 server::server(net::any_io_executor executor, const gateway_config& config, controller_registry& registry,
-               std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics)
+               std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
+               std::shared_ptr<jobs::job_manager> jobs, std::shared_ptr<lease_manager> leases)
     : http_(config.http),
       ctx_(std::make_shared<api_context>(api_context{executor, registry, std::move(hub), std::move(metrics),
-                                                     config.http.limits, config.auth, get_logger("api")})) {
+                                                     config.http.limits, config.auth, get_logger("api"),
+                                                     std::move(jobs), std::move(leases)})) {
     controller_metrics::describe(*ctx_->metrics);
     // Gauges exist from the start (a scrape before the first client sees 0, not nothing).
     ctx_->metrics->set("gw_http_connections", {}, 0);

@@ -26,6 +26,12 @@ std::string_view to_string(operation_error_kind kind) {
             return "controller_error";
         case operation_error_kind::queue_full:
             return "queue_full";
+        case operation_error_kind::unknown_job:
+            return "unknown_job";
+        case operation_error_kind::invalid_state:
+            return "invalid_state";
+        case operation_error_kind::storage_unavailable:
+            return "storage_unavailable";
         case operation_error_kind::internal:
             return "internal";
     }

@@ -21,7 +21,10 @@ enum class operation_error_kind : std::uint8_t {
     timeout,             // the controller did not answer, or did not arrive in time (504)
     controller_error,    // the controller answered ":N-<code>" or an unparseable line (502)
     queue_full,          // the controller's command queue is full (503)
-    internal,            // a bug or an unexpected condition (500)
+    unknown_job,         // no job with that id (404)
+    invalid_state,       // the job (or lease) is not in a state that allows this: cancel a finished job (409)
+    storage_unavailable,  // the job store cannot be written or read: disk full, read-only file (503)
+    internal,             // a bug or an unexpected condition (500)
 };
 
 // Stable snake_case name ("missing_module"), for problem types, logs and metrics.

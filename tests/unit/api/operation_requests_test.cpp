@@ -18,7 +18,7 @@ class operation_requests_test : public ::testing::Test {
   protected:
     operation_requests_test()
         : registry_(io_.get_executor(), registry_options{}),
-          ctx_{io_.get_executor(), registry_, nullptr, nullptr, {}, {}, nullptr} {}
+          ctx_{io_.get_executor(), registry_, nullptr, nullptr, {}, {}, nullptr, nullptr, nullptr} {}
 
     operation_outcome run(std::string_view op, const json& body, gw::role role = gw::role::admin) {
         std::optional<operation_outcome> out;

@@ -1,0 +1,81 @@
+#pragma once
+// What a running job may do: the interface between a job type's run() coroutine (array_job.cpp,
+// scan_job.cpp, ...) and the job_manager that runs it (job_execution implements it).
+//
+// Every awaitable below throws job_cancelled once the job is cancelled (the manager has already sent
+// HALT and "TTL Y=0"), and job_failure when the controller refuses, times out or disconnects. A run()
+// that returns normally means the job succeeded. run() must call checkpoint() before each step:
+// that is where pause takes effect ("stops after the current step") and where a paused job resumes.
+//
+// Threads: run() executes on the job's strand; all calls are made from there.
+
+#include <chrono>
+#include <cstddef>
+#include <exception>
+#include <string>
+
+#include <boost/asio/awaitable.hpp>
+#include <nlohmann/json.hpp>
+
+#include "devices/ms2000/reply.hpp"
+#include "devices/serial/controller_snapshot.hpp"
+#include "gateway/jobs/job.hpp"
+#include "gateway/jobs/job_plan.hpp"
+#include "gateway/operation_error.hpp"
+#include "gateway/operations.hpp"
+
+namespace gw::jobs {
+
+struct job_cancelled : std::exception {
+    const char* what() const noexcept override { return "job cancelled"; }
+};
+
+struct job_failure : std::exception {
+    explicit job_failure(operation_error e) : error(std::move(e)) {}
+    const char* what() const noexcept override { return error.message.c_str(); }
+    operation_error error;
+};
+
+// How an array job (or a ring-buffer tour) moves on to its next position.
+enum class advance_source : std::uint8_t {
+    timer,  // after the dwell
+    ttl,    // a rising edge on TTL IN0 (the controller's TTL events)
+    next,   // a `next` call from REST/WebSocket (POST /api/v1/jobs/{id}/next)
+};
+
+class job_context {
+  public:
+    virtual ~job_context() = default;
+
+    virtual const job_record& job() const = 0;  // spec, controller id, ...
+    virtual const job_plan& plan() const = 0;
+    // The first step to run: 0 for a fresh job, progress.steps_done for a resumed one.
+    virtual std::size_t first_step() const = 0;
+    // The controller's latest snapshot (positions, busy, TTL modes); never touches the serial line.
+    virtual devices::controller_snapshot snapshot() const = 0;
+
+    // Returns at once while running; waits while paused; throws job_cancelled when cancelled.
+    virtual boost::asio::awaitable<void> checkpoint() = 0;
+
+    // Progress. step_started sets current_step; step_done(i) marks steps 0..i done (steps_done =
+    // i + 1), persists it and publishes a "step" event on jobs/<id> with `detail` merged in (for
+    // an array: {"well":"C7","position":{"X":..,"Y":..}} - the measured position).
+    virtual void step_started(std::size_t index) = 0;
+    virtual void step_done(std::size_t index, nlohmann::json detail = {}) = 0;
+    // Any other event on jobs/<id>: {"type": kind, ...detail}. Stored with the job's history.
+    virtual void emit(std::string kind, nlohmann::json detail) = 0;
+
+    // Serial work, tagged with the job's request id. command() throws job_failure on ":N-<code>".
+    virtual boost::asio::awaitable<devices::ms2000::reply> command(std::string line) = 0;
+    virtual boost::asio::awaitable<move_result> move(move_request request) = 0;
+    // Polls STATUS until the stage reports not busy ("N"); job_failure(timeout) after `timeout`.
+    virtual boost::asio::awaitable<void> wait_idle(std::chrono::milliseconds timeout) = 0;
+
+    // Cancellable waits.
+    virtual boost::asio::awaitable<void> sleep(std::chrono::milliseconds duration) = 0;
+    // Waits for the next advance of `source` (timer: returns at once). TTL edges and `next` calls
+    // that arrive while no one waits are counted and consumed by the following waits (none is lost).
+    virtual boost::asio::awaitable<void> wait_advance(advance_source source) = 0;
+};
+
+}  // namespace gw::jobs

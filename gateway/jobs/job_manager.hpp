@@ -1,0 +1,133 @@
+#pragma once
+// Runs jobs: one running job per controller, a FIFO queue per controller, controllers in parallel.
+// Validates and plans a submission before storing it, persists every transition and event in the
+// job_store, publishes them on the event hub topic "jobs/<id>", honours leases and Idempotency-Key.
+//
+// Events on "jobs/<id>" (JSON objects with "type"):
+//   {"type":"state","state":"running","reason":"",...}        every transition (the whole job record)
+//   {"type":"step","index":i,"name":"C7","steps_done":n,"steps_total":t,"percent":p,
+//    "remaining_s":r, ...detail}                              every completed step
+//   {"type":<kind>, ...}                                      job-specific (job_context::emit)
+//
+// Cancel: HALT at once, then "TTL Y=0" (outputs low), state cancelled. Pause: after the current
+// step. A disconnect of the controller pauses a running job with reason "controller disconnected";
+// resume continues from the last completed step once it is connected again.
+//
+// Threads: public methods may be called from any thread. Completion handlers run on their associated
+// executor (or the manager's), never inline.
+
+#include <chrono>
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <boost/asio/any_completion_handler.hpp>
+#include <boost/asio/any_io_executor.hpp>
+#include <nlohmann/json.hpp>
+
+#include "gateway/jobs/job.hpp"
+#include "gateway/jobs/job_plan.hpp"
+#include "gateway/operation_error.hpp"
+
+namespace gw {
+class controller_registry;
+class event_hub;
+class lease_manager;
+}  // namespace gw
+
+namespace gw::jobs {
+
+class job_store;
+
+struct job_manager_settings {
+    std::string storage_path;     // directory; the database is <path>/jobs.sqlite3
+    bool restart_queued = false;  // after a restart, start the jobs that were queued
+    std::size_t max_queued_per_controller = 1000;
+    std::chrono::milliseconds idle_timeout{120000};  // one step's motion must end within this
+};
+
+struct submit_request {
+    std::string controller;
+    job_type type = job_type::array;
+    nlohmann::json spec;
+    std::optional<std::string> idempotency_key;
+    std::optional<std::string> lease_id;
+    std::string principal = "anonymous";
+    std::string request_id;
+    bool dry_run = false;  // plan only: nothing stored, nothing sent
+};
+
+struct submit_result {
+    job_record job;         // dry run: a record that was not stored (id empty, state queued)
+    job_plan plan;          // the plan it runs (dry run: the plan it would run)
+    bool replayed = false;  // Idempotency-Key seen before: `job` is the first submission's job
+};
+
+struct job_filter {
+    std::optional<std::string> controller;
+    std::optional<job_type> type;
+    std::optional<job_state> state;
+    std::size_t limit = 50;             // 1..500
+    std::optional<std::string> before;  // cursor: jobs created before this job id (newest first)
+};
+
+struct job_page {
+    std::vector<job_record> jobs;     // newest first
+    std::optional<std::string> next;  // cursor for the next page, when there is one
+};
+
+// Who asks for a control action (cancel/pause/resume/next), for lease checks.
+struct job_action {
+    std::string job_id;
+    std::optional<std::string> lease_id;
+    std::string principal = "anonymous";
+    std::string request_id;
+};
+
+class job_manager : public std::enable_shared_from_this<job_manager> {
+  public:
+    template <typename T>
+    using handler = boost::asio::any_completion_handler<void(operation_result<T>)>;
+
+    // Opens (creates) the store. Failure to open is returned, not thrown: main reports it and exits 1.
+    static operation_result<std::shared_ptr<job_manager>> create(boost::asio::any_io_executor executor,
+                                                                 controller_registry& registry,
+                                                                 std::shared_ptr<event_hub> hub,
+                                                                 std::shared_ptr<lease_manager> leases,
+                                                                 job_manager_settings settings);
+    ~job_manager();
+
+    // Marks jobs that were running or paused when the gateway stopped as interrupted (reason
+    // "gateway restarted", their last completed step kept), and queues the queued ones again if
+    // settings say so. Then starts dispatching.
+    void start();
+    // Running jobs: HALT, TTL Y=0, state interrupted ("gateway shutting down"); then the store is
+    // flushed and closed, then `done` runs on the manager's executor.
+    void async_shutdown(std::function<void()> done);
+
+    // Validates (spec, controller, lease, soft limits), plans, stores, queues. 201 semantics.
+    void async_submit(submit_request request, handler<submit_result> h);
+
+    operation_result<job_record> get(const std::string& id) const;
+    operation_result<job_page> list(const job_filter& filter) const;
+    // The stored events of a job, oldest first (history survives restarts).
+    operation_result<std::vector<nlohmann::json>> events(const std::string& id, std::size_t limit) const;
+
+    void async_cancel(job_action a, handler<job_record> h);  // queued/running/paused/interrupted
+    void async_pause(job_action a, handler<job_record> h);   // running (takes effect after the step)
+    void async_resume(job_action a, handler<job_record> h);  // paused / interrupted -> queued/running
+    void async_next(job_action a, handler<job_record> h);    // a running job that advances on `next`
+
+  private:
+    job_manager(boost::asio::any_io_executor executor, controller_registry& registry,
+                std::shared_ptr<event_hub> hub, std::shared_ptr<lease_manager> leases,
+                job_manager_settings settings, std::unique_ptr<job_store> store);
+
+    struct impl;
+    std::unique_ptr<impl> impl_;
+};
+
+}  // namespace gw::jobs

@@ -1,0 +1,64 @@
+#pragma once
+// Durable job history in SQLite (WAL journal, synchronous=FULL): the jobs,
+// every state transition, every job event. Survives kill -9: each call is one transaction, committed
+// before it returns. Blocking calls; the job_manager calls them from its own strand.
+//
+//   auto store = job_store::open("/var/lib/asi-gateway");   // creates <dir>/jobs.sqlite3
+//   store->insert(record);
+//   store->save(record);                                     // state, progress, reason, timestamps
+//   store->append_event(id, json);                           // {"type":"step",...}
+//
+// Errors never throw: every call returns storage_unavailable (503) with SQLite's message (disk full,
+// read-only file, locked) and leaves the database as it was (the transaction is rolled back).
+
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "gateway/jobs/job.hpp"
+#include "gateway/jobs/job_manager.hpp"
+#include "gateway/operation_error.hpp"
+
+struct sqlite3;
+
+namespace gw::jobs {
+
+class job_store {
+  public:
+    // Creates the directory and the database (schema versioned with PRAGMA user_version) if needed.
+    static operation_result<std::unique_ptr<job_store>> open(const std::string& directory);
+    ~job_store();
+    job_store(const job_store&) = delete;
+    job_store& operator=(const job_store&) = delete;
+
+    // A new job; also records its first transition. invalid_state when the id or the idempotency key
+    // already exists (the manager calls find_by_idempotency_key first, on its strand).
+    operation_result<void> insert(const job_record& job);
+    // Writes the job's mutable columns; appends a transition row when the state differs from the
+    // stored one (from, to, reason, time).
+    operation_result<void> save(const job_record& job);
+    operation_result<void> append_event(const std::string& job_id, const nlohmann::json& event);
+
+    operation_result<std::optional<job_record>> find(const std::string& id) const;
+    operation_result<std::optional<job_record>> find_by_idempotency_key(const std::string& key) const;
+    operation_result<job_page> list(const job_filter& filter) const;
+    // Oldest first; at most `limit`.
+    operation_result<std::vector<nlohmann::json>> events(const std::string& job_id, std::size_t limit) const;
+    // Transitions of a job, oldest first: {"from":..,"to":..,"reason":..,"at":"RFC 3339"}.
+    operation_result<std::vector<nlohmann::json>> transitions(const std::string& job_id) const;
+    // Jobs in any of these states (startup recovery), oldest first.
+    operation_result<std::vector<job_record>> in_states(const std::vector<job_state>& states) const;
+
+    // Checkpoints the WAL into the main file (clean shutdown).
+    operation_result<void> flush();
+
+  private:
+    explicit job_store(sqlite3* db);
+    sqlite3* db_;
+};
+
+}  // namespace gw::jobs
