@@ -1,0 +1,118 @@
+#pragma once
+// One run of a job: the job_context a job type's run() coroutine uses, implemented on the manager's
+// strand over the controller_registry. The job_manager creates one per run (a fresh run, or a resume
+// whose coroutine had ended) and talks to it only from its strand.
+//
+// Waiting: one steady_timer serves every wait (sleep, advance, pause) - a job coroutine awaits one
+// thing at a time. wake() cancels it; the waiter re-checks its condition. Every awaitable checks the
+// stop flags before and after it suspends: after cancel() (or fail()) no new serial command starts and
+// the next await throws job_cancelled (job_failure).
+//
+// TTL edges: one per TTL_REPORT frame of the controller (report_event: the firmware latches the
+// encoders on every IN0 edge). `next` calls and edges that arrive while nothing waits are counted and
+// consumed by later wait_advance() calls, one each.
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <boost/asio/any_io_executor.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+
+#include "gateway/jobs/job_context.hpp"
+
+namespace gw {
+class controller_registry;
+}
+
+namespace gw::jobs {
+
+class job_execution;
+
+// A job the manager knows in memory (queued, running, paused, or recovered after a restart).
+struct live_job {
+    job_record record;
+    std::optional<job_plan> plan;         // empty until planned (recovered jobs are planned again)
+    std::shared_ptr<job_execution> exec;  // while a run() coroutine exists
+    bool queued_in_lane = false;          // in its controller's FIFO
+    bool stopping = false;                // a cancel is sending HALT / TTL Y=0: the job keeps the controller
+};
+
+// What an execution reports to the manager (which persists and publishes). Called on the strand.
+class execution_host {
+  public:
+    virtual ~execution_host() = default;
+    virtual void on_step_started(live_job& job, std::size_t index) = 0;
+    virtual void on_step_done(live_job& job, std::size_t index, nlohmann::json detail) = 0;
+    virtual void on_emit(live_job& job, nlohmann::json event) = 0;
+    // checkpoint() honoured a pause request: the job is paused now.
+    virtual void on_paused(live_job& job) = 0;
+};
+
+class job_execution final : public job_context, public std::enable_shared_from_this<job_execution> {
+  public:
+    using strand_type = boost::asio::strand<boost::asio::any_io_executor>;
+
+    job_execution(strand_type strand, controller_registry& registry, std::weak_ptr<execution_host> host,
+                  std::shared_ptr<live_job> job, std::size_t first_step);
+
+    // job_context
+    const job_record& job() const override { return job_->record; }
+    const job_plan& plan() const override { return *job_->plan; }
+    std::size_t first_step() const override { return first_step_; }
+    devices::controller_snapshot snapshot() const override;
+    boost::asio::awaitable<void> checkpoint() override;
+    void step_started(std::size_t index) override;
+    void step_done(std::size_t index, nlohmann::json detail = {}) override;
+    void emit(std::string kind, nlohmann::json detail) override;
+    boost::asio::awaitable<devices::ms2000::reply> command(std::string line) override;
+    boost::asio::awaitable<move_result> move(move_request request) override;
+    boost::asio::awaitable<void> wait_idle(std::chrono::milliseconds timeout) override;
+    boost::asio::awaitable<void> sleep(std::chrono::milliseconds duration) override;
+    boost::asio::awaitable<void> wait_advance(advance_source source) override;
+
+    // From the manager (strand).
+    void cancel();                     // every await from now on throws job_cancelled
+    void fail(operation_error error);  // ... throws job_failure (a disconnect); the first one wins
+    void request_pause();              // the next checkpoint() pauses
+    void resume();                     // a paused checkpoint() returns
+    void ttl_edge();
+    void next();
+    // The hub of the host is gone (the manager was destroyed): stop quietly.
+    void abandon();
+
+    bool cancelled() const { return cancelled_; }
+    bool abandoned() const { return abandoned_; }
+    const std::optional<operation_error>& failure() const { return failure_; }
+    bool pause_requested() const { return pause_requested_; }
+    bool waiting_paused() const { return waiting_paused_; }
+    const std::shared_ptr<live_job>& live() const { return job_; }
+    const std::string& request_id() const { return request_id_; }
+
+  private:
+    void throw_if_stopped() const;
+    void wake();
+    boost::asio::awaitable<void> wait_until(std::chrono::steady_clock::time_point deadline);
+
+    strand_type strand_;
+    controller_registry& registry_;
+    std::weak_ptr<execution_host> host_;
+    std::shared_ptr<live_job> job_;
+    std::size_t first_step_ = 0;
+    std::string request_id_;  // "job-<id>" on every serial command
+    boost::asio::steady_timer signal_;
+
+    bool cancelled_ = false;
+    bool abandoned_ = false;
+    std::optional<operation_error> failure_;
+    bool pause_requested_ = false;
+    bool waiting_paused_ = false;
+    std::uint64_t ttl_pending_ = 0;
+    std::uint64_t next_pending_ = 0;
+};
+
+}  // namespace gw::jobs

@@ -1,0 +1,964 @@
+#include "gateway/jobs/job_manager.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <deque>
+#include <fmt/format.h>
+#include <map>
+#include <mutex>
+#include <random>
+
+#include <boost/asio/append.hpp>
+#include <boost/asio/co_spawn.hpp>
+#include <boost/asio/detached.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/redirect_error.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/asio/use_awaitable.hpp>
+#include <spdlog/spdlog.h>
+
+#include "devices/serial/controller_observer.hpp"
+#include "gateway/controller_registry.hpp"
+#include "gateway/event_hub.hpp"
+#include "gateway/jobs/job_execution.hpp"
+#include "gateway/jobs/job_json.hpp"
+#include "gateway/jobs/job_kinds.hpp"
+#include "gateway/jobs/job_store.hpp"
+#include "gateway/jobs/motion_probe.hpp"
+#include "gateway/lease_manager.hpp"
+#include "gateway/logging.hpp"
+
+namespace gw::jobs {
+
+namespace net = boost::asio;
+using json = nlohmann::json;
+using kind = operation_error_kind;
+
+namespace {
+
+// How long shutdown waits for running jobs to stop after their HALT before closing the store anyway.
+constexpr std::chrono::milliseconds shutdown_grace{5000};
+
+// "j-" + a ULID: 48 bits of milliseconds and 80 random bits in Crockford base 32, so ids sort by
+// creation time; within one millisecond the random part counts up (still sortable, never equal).
+class job_id_source {
+  public:
+    std::string next(job_clock::time_point now) {
+        const auto ms = static_cast<std::uint64_t>(
+            std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count());
+        if (ms <= last_ms_) {
+            if (++low_ == 0) ++high_;  // 80-bit increment (16 high bits + 64 low bits)
+        } else {
+            last_ms_ = ms;
+            high_ = static_cast<std::uint16_t>(random_() & 0x7fff);  // room to count up
+            low_ = random_();
+        }
+        static constexpr std::string_view alphabet = "0123456789ABCDEFGHJKMNPQRSTVWXYZ";
+        std::string out = "j-";
+        for (int shift = 45; shift >= 0; shift -= 5)
+            out += alphabet[(last_ms_ >> shift) & 31];
+        // 80 random bits: 16 of high_ then 64 of low_, 5 at a time.
+        for (int bit = 75; bit >= 0; bit -= 5) {
+            std::uint64_t v = 0;
+            for (int b = 0; b < 5; ++b) {
+                const int pos = bit + 4 - b;  // from the most significant of the five
+                const std::uint64_t one = pos >= 64 ? (high_ >> (pos - 64)) & 1u : (low_ >> pos) & 1u;
+                v = (v << 1) | one;
+            }
+            out += alphabet[v];
+        }
+        return out;
+    }
+
+  private:
+    std::mt19937_64 random_{std::random_device{}()};
+    std::uint64_t last_ms_ = 0;
+    std::uint16_t high_ = 0;
+    std::uint64_t low_ = 0;
+};
+
+// Seconds the steps from `first` on still need; empty when one of them waits for a trigger.
+std::optional<double> remaining_from(const job_plan& plan, std::size_t first) {
+    double s = 0;
+    for (std::size_t i = first; i < plan.steps.size(); ++i) {
+        if (plan.steps[i].waits_for_trigger) return std::nullopt;
+        s += plan.steps[i].estimated_s;
+    }
+    return s;
+}
+
+std::string describe(const operation_error& e) {
+    return e.message.empty() ? std::string(to_string(e.kind)) : e.message;
+}
+
+}  // namespace
+
+// Everything the manager does, on one strand. Shared with the run() coroutines and the registry
+// observer, so it outlives the job_manager object while they finish.
+class manager_core final : public execution_host, public std::enable_shared_from_this<manager_core> {
+  public:
+    manager_core(net::any_io_executor executor, controller_registry& registry, std::shared_ptr<event_hub> hub,
+                 std::shared_ptr<lease_manager> leases, job_manager_settings settings,
+                 std::unique_ptr<job_store> store)
+        : executor_(executor),
+          strand_(net::make_strand(executor)),
+          registry_(registry),
+          hub_(std::move(hub)),
+          leases_(std::move(leases)),
+          settings_(std::move(settings)),
+          log_(get_logger("jobs")),
+          store_(std::move(store)) {}
+
+    void attach();
+    void start();
+    void shutdown(std::function<void()> done);
+    void abandon();
+
+    void submit(submit_request r, job_manager::handler<submit_result> h);
+    void cancel(job_action a, job_manager::handler<job_record> h);
+    void pause(job_action a, job_manager::handler<job_record> h);
+    void resume(job_action a, job_manager::handler<job_record> h);
+    void next(job_action a, job_manager::handler<job_record> h);
+
+    operation_result<job_record> get(const std::string& id) const;
+    operation_result<job_page> list(const job_filter& f) const;
+    operation_result<std::vector<json>> events(const std::string& id, std::size_t limit) const;
+
+    // Registry observer events (controller strands): posted here.
+    void controller_snapshot_changed(const devices::controller_snapshot& s);
+    void controller_ttl_edge(const std::string& controller);
+
+    // execution_host
+    void on_step_started(live_job& job, std::size_t index) override;
+    void on_step_done(live_job& job, std::size_t index, json detail) override;
+    void on_emit(live_job& job, json event) override;
+    void on_paused(live_job& job) override;
+
+  private:
+    struct lane {
+        std::deque<std::string> queue;  // FIFO of queued job ids
+        std::string holder;             // the job that has the controller: running, or paused
+        bool dispatching = false;       // planning a recovered job before it runs
+    };
+
+    template <typename T>
+    void deliver(job_manager::handler<T> h, operation_result<T> r) {
+        net::post(executor_, net::append(std::move(h), std::move(r)));
+    }
+
+    operation_result<std::shared_ptr<live_job>> find_live(const std::string& id);
+    operation_result<void> check_lease(const std::string& controller, const job_action& a) const;
+
+    void submit_planned(submit_request r, job_manager::handler<submit_result> h, motion_model model);
+    void plan_again(std::shared_ptr<live_job> job, std::function<void(operation_result<void>)> done);
+
+    // Changes the state, persists it (transition) and publishes {"type":"state",...}.
+    void set_state(live_job& job, job_state s, std::string reason);
+    void save(const job_record& r);
+    void record_event(const std::string& id, const json& event);
+    void publish(const std::string& id, const json& event);
+
+    void dispatch(const std::string& controller);
+    void launch(std::shared_ptr<live_job> job);
+    void run_finished(std::shared_ptr<job_execution> exec, std::exception_ptr e);
+    void release(const std::string& controller, const std::string& id);
+    net::awaitable<void> safe_stop(std::string controller, std::string request_id);
+    net::awaitable<void> shutdown_coro(std::function<void()> done);
+
+    bool controller_connected(const std::string& id) const {
+        auto s = registry_.get(id);
+        return s && s->state == devices::connection_state::connected && s->identity;
+    }
+
+    net::any_io_executor executor_;
+    net::strand<net::any_io_executor> strand_;
+    controller_registry& registry_;
+    std::shared_ptr<event_hub> hub_;
+    std::shared_ptr<lease_manager> leases_;
+    job_manager_settings settings_;
+    std::shared_ptr<spdlog::logger> log_;
+
+    // The store is used from the strand and from get/list/events on any thread.
+    mutable std::mutex store_mutex_;
+    std::unique_ptr<job_store> store_;
+
+    // Strand only, except live_records_ (under records_mutex_) which get() reads.
+    std::map<std::string, std::shared_ptr<live_job>> jobs_;  // not terminal
+    std::map<std::string, lane> lanes_;
+    std::size_t running_ = 0;  // run() coroutines alive
+    job_id_source ids_;
+    bool started_ = false;
+    bool shutting_down_ = false;
+    std::atomic<bool> abandoned_{false};
+    mutable std::mutex records_mutex_;
+    std::map<std::string, job_record> live_records_;
+
+    std::shared_ptr<devices::controller_observer> observer_;
+
+    friend class job_manager;
+};
+
+namespace {
+
+// Forwards the registry's events to the core's strand; holds the core weakly.
+class core_observer final : public devices::controller_observer {
+  public:
+    explicit core_observer(std::weak_ptr<manager_core> core) : core_(std::move(core)) {}
+    void on_snapshot(const devices::controller_snapshot& s) override {
+        if (s.state == devices::connection_state::connected) return;  // only departures matter
+        if (auto c = core_.lock()) c->controller_snapshot_changed(s);
+    }
+    void on_report(const devices::report_event& e) override {
+        if (auto c = core_.lock()) c->controller_ttl_edge(e.controller_id);
+    }
+
+  private:
+    std::weak_ptr<manager_core> core_;
+};
+
+}  // namespace
+
+void manager_core::attach() {
+    observer_ = std::make_shared<core_observer>(weak_from_this());
+    registry_.add_observer(std::weak_ptr<devices::controller_observer>(observer_));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Persistence and publication (strand).
+
+void manager_core::save(const job_record& r) {
+    {
+        std::lock_guard lock(records_mutex_);
+        if (is_terminal(r.state))
+            live_records_.erase(r.id);
+        else
+            live_records_[r.id] = r;
+    }
+    std::lock_guard lock(store_mutex_);
+    if (!store_) return;
+    if (auto ok = store_->save(r); !ok)
+        log_->error("job {}: cannot save its state: {}", r.id, ok.error().message);
+}
+
+void manager_core::record_event(const std::string& id, const json& event) {
+    std::lock_guard lock(store_mutex_);
+    if (!store_) return;
+    if (auto ok = store_->append_event(id, event); !ok)
+        log_->error("job {}: cannot store an event: {}", id, ok.error().message);
+}
+
+void manager_core::publish(const std::string& id, const json& event) {
+    if (abandoned_) return;
+    record_event(id, event);
+    if (hub_) hub_->publish(job_topic(id), event);
+}
+
+void manager_core::set_state(live_job& job, job_state s, std::string reason) {
+    if (abandoned_) return;
+    auto& r = job.record;
+    const auto now = job_clock::now();
+    r.state = s;
+    r.reason = std::move(reason);
+    r.updated = now;
+    if (s == job_state::running && !r.started) r.started = now;
+    if (is_terminal(s)) r.finished = now;
+    if (s == job_state::succeeded) r.progress.remaining_s = 0.0;
+    save(r);
+    publish(r.id, state_event(r, now));
+    log_->info("job {} ({} on {}): {}{}{}", r.id, to_string(r.type), r.controller, to_string(s),
+               r.reason.empty() ? "" : ": ", r.reason);
+    if (is_terminal(s)) jobs_.erase(r.id);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reads (any thread).
+
+operation_result<job_record> manager_core::get(const std::string& id) const {
+    {
+        std::lock_guard lock(records_mutex_);
+        if (auto it = live_records_.find(id); it != live_records_.end()) return it->second;
+    }
+    std::lock_guard lock(store_mutex_);
+    if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
+    auto found = store_->find(id);
+    if (!found) return found.error();
+    if (!*found) return make_error(kind::unknown_job, "no job with id \"" + id + "\"", "id");
+    return std::move(**found);
+}
+
+operation_result<job_page> manager_core::list(const job_filter& f) const {
+    std::lock_guard lock(store_mutex_);
+    if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
+    return store_->list(f);
+}
+
+operation_result<std::vector<json>> manager_core::events(const std::string& id, std::size_t limit) const {
+    std::lock_guard lock(store_mutex_);
+    if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
+    auto found = store_->find(id);
+    if (!found) return found.error();
+    if (!*found) return make_error(kind::unknown_job, "no job with id \"" + id + "\"", "id");
+    return store_->events(id, limit);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Start, shutdown, abandon.
+
+void manager_core::start() {
+    net::post(strand_, [self = shared_from_this()] {
+        if (self->started_ || self->abandoned_) return;
+        self->started_ = true;
+        operation_result<std::vector<job_record>> active = std::vector<job_record>{};
+        operation_result<std::vector<job_record>> queued = std::vector<job_record>{};
+        {
+            std::lock_guard lock(self->store_mutex_);
+            if (!self->store_) return;
+            active = self->store_->in_states({job_state::running, job_state::paused});
+            queued = self->store_->in_states({job_state::queued});
+        }
+        if (!active)
+            self->log_->error("restart recovery: cannot read the job store: {}", active.error().message);
+        if (!queued)
+            self->log_->error("restart recovery: cannot read the job store: {}", queued.error().message);
+        // A job that was active when the gateway stopped is not continued by itself: nothing is sent
+        // twice to a controller. A client may resume it.
+        for (auto& r : active ? *active : std::vector<job_record>{}) {
+            auto job = std::make_shared<live_job>();
+            job->record = std::move(r);
+            self->jobs_[job->record.id] = job;
+            self->set_state(*job, job_state::interrupted, "gateway restarted");
+        }
+        for (auto& r : queued ? *queued : std::vector<job_record>{}) {
+            auto job = std::make_shared<live_job>();
+            job->record = std::move(r);
+            const auto id = job->record.id;
+            const auto controller = job->record.controller;
+            self->jobs_[id] = job;
+            {
+                std::lock_guard lock(self->records_mutex_);
+                self->live_records_[id] = job->record;
+            }
+            if (!self->settings_.restart_queued) continue;  // kept; `resume` queues it again
+            job->queued_in_lane = true;
+            self->lanes_[controller].queue.push_back(id);
+        }
+        for (auto& [controller, l] : self->lanes_)
+            self->dispatch(controller);
+    });
+}
+
+void manager_core::shutdown(std::function<void()> done) {
+    net::co_spawn(strand_, shutdown_coro(std::move(done)), net::detached);
+}
+
+net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
+    auto self = shared_from_this();
+    shutting_down_ = true;
+    std::vector<std::pair<std::string, std::string>> to_stop;  // controller, request id
+    for (auto& [controller, l] : lanes_) {
+        if (l.holder.empty()) continue;
+        auto it = jobs_.find(l.holder);
+        if (it == jobs_.end()) continue;
+        auto job = it->second;
+        const auto st = job->record.state;
+        if (st != job_state::running && st != job_state::paused) continue;  // queued ones stay queued
+        if (job->exec) {
+            job->exec->cancel();
+            to_stop.emplace_back(controller, "job-" + job->record.id);
+        }
+        set_state(*job, job_state::interrupted, "gateway shutting down");
+    }
+    for (auto& [controller, rid] : to_stop)
+        co_await safe_stop(controller, rid);
+    // The coroutines end at their next await (the HALT ends a move in progress).
+    net::steady_timer timer(strand_);
+    const auto deadline = std::chrono::steady_clock::now() + shutdown_grace;
+    while (running_ > 0 && std::chrono::steady_clock::now() < deadline) {
+        timer.expires_after(std::chrono::milliseconds(10));
+        boost::system::error_code ec;
+        co_await timer.async_wait(net::redirect_error(net::use_awaitable, ec));
+    }
+    if (running_ > 0) log_->warn("shutdown: {} job(s) did not stop in time", running_);
+    {
+        std::lock_guard lock(store_mutex_);
+        if (store_) {
+            if (auto ok = store_->flush(); !ok)
+                log_->error("shutdown: flushing the job store: {}", ok.error().message);
+            store_.reset();
+        }
+    }
+    abandoned_ = true;  // nothing is written or published any more
+    for (auto& [id, job] : jobs_)
+        if (job->exec) job->exec->abandon();
+    net::post(executor_, std::move(done));
+}
+
+void manager_core::abandon() {
+    abandoned_ = true;
+    {
+        std::lock_guard lock(store_mutex_);
+        store_.reset();  // like a crash: what was committed stays, nothing more is written
+    }
+    net::post(strand_, [self = shared_from_this()] {
+        for (auto& [id, job] : self->jobs_)
+            if (job->exec) job->exec->abandon();
+    });
+}
+
+// ---------------------------------------------------------------------------------------------
+// Submission.
+
+void manager_core::submit(submit_request r, job_manager::handler<submit_result> h) {
+    net::post(strand_, [self = shared_from_this(), r = std::move(r), h = std::move(h)]() mutable {
+        if (self->shutting_down_ || self->abandoned_)
+            return self->deliver<submit_result>(
+                std::move(h), make_error(kind::not_connected, "the gateway is shutting down"));
+        auto snapshot = self->registry_.get(r.controller);
+        if (!snapshot)
+            return self->deliver<submit_result>(
+                std::move(h), make_error(kind::unknown_controller,
+                                         "no controller with id \"" + r.controller + "\"", "controller"));
+        if (self->leases_) {
+            auto lease = self->leases_->check(
+                r.controller, r.lease_id ? std::optional<std::string_view>(*r.lease_id) : std::nullopt);
+            if (!lease) return self->deliver<submit_result>(std::move(h), lease.error());
+        }
+        if (r.idempotency_key && !r.dry_run) {
+            std::lock_guard lock(self->store_mutex_);
+            auto found = self->store_ ? self->store_->find_by_idempotency_key(*r.idempotency_key)
+                                      : operation_result<std::optional<job_record>>(
+                                            make_error(kind::storage_unavailable, "the job store is closed"));
+            if (!found) return self->deliver<submit_result>(std::move(h), found.error());
+            if (*found) {
+                submit_result out;
+                out.job = std::move(**found);
+                out.replayed = true;
+                return self->deliver<submit_result>(std::move(h), std::move(out));
+            }
+        }
+        const auto controller = r.controller;
+        const auto rid = r.request_id;
+        // std::function needs a copyable callable: the handler travels in a shared_ptr.
+        auto shared_h = std::make_shared<job_manager::handler<submit_result>>(std::move(h));
+        async_read_motion_model(
+            self->registry_, controller, rid, [self, r = std::move(r), shared_h](motion_model model) mutable {
+                net::post(self->strand_,
+                          [self, r = std::move(r), shared_h, model = std::move(model)]() mutable {
+                              self->submit_planned(std::move(r), std::move(*shared_h), std::move(model));
+                          });
+            });
+    });
+}
+
+void manager_core::submit_planned(submit_request r, job_manager::handler<submit_result> h,
+                                  motion_model model) {
+    if (shutting_down_ || abandoned_)
+        return deliver<submit_result>(std::move(h),
+                                      make_error(kind::not_connected, "the gateway is shutting down"));
+    auto snapshot = registry_.get(r.controller);
+    if (!snapshot || snapshot->state != devices::connection_state::connected || !snapshot->identity)
+        return deliver<submit_result>(
+            std::move(h), make_error(kind::not_connected, fmt::format("{} is not connected: its build and "
+                                                                      "limits are needed to plan the job",
+                                                                      r.controller)));
+    if (!r.spec.is_object())
+        return deliver<submit_result>(std::move(h),
+                                      make_error(kind::invalid_value, "spec must be a JSON object", "spec"));
+    auto plan = plan_job(r.type, r.spec, plan_context{*snapshot, std::move(model)});
+    if (!plan) return deliver<submit_result>(std::move(h), plan.error());
+
+    const auto now = job_clock::now();
+    submit_result out;
+    auto& rec = out.job;
+    rec.controller = r.controller;
+    rec.type = r.type;
+    rec.spec = r.spec;
+    rec.state = job_state::queued;
+    rec.progress.steps_total = plan->steps.size();
+    rec.progress.remaining_s = remaining_from(*plan, 0);
+    rec.estimated_s = plan->estimated_s;
+    rec.plan_path = plan->path;
+    rec.idempotency_key = r.idempotency_key;
+    rec.submitted_by = r.principal;
+    rec.request_id = r.request_id;
+    rec.created = now;
+    rec.updated = now;
+    if (r.dry_run) {
+        out.plan = std::move(*plan);
+        return deliver<submit_result>(std::move(h), std::move(out));
+    }
+
+    auto& l = lanes_[r.controller];
+    if (l.queue.size() >= settings_.max_queued_per_controller)
+        return deliver<submit_result>(
+            std::move(h), make_error(kind::queue_full, fmt::format("{} already has {} queued jobs",
+                                                                   r.controller, l.queue.size())));
+    rec.id = ids_.next(now);
+    {
+        std::lock_guard lock(store_mutex_);
+        // Idempotency again: another submission with the key may have been stored while this one planned.
+        if (store_ && r.idempotency_key) {
+            auto found = store_->find_by_idempotency_key(*r.idempotency_key);
+            if (found && *found) {
+                submit_result first;
+                first.job = std::move(**found);
+                first.replayed = true;
+                return deliver<submit_result>(std::move(h), std::move(first));
+            }
+        }
+        auto inserted =
+            store_ ? store_->insert(rec)
+                   : operation_result<void>(make_error(kind::storage_unavailable, "the job store is closed"));
+        if (!inserted) {
+            auto e = inserted.error();
+            if (e.kind != kind::storage_unavailable) e.kind = kind::storage_unavailable;
+            log_->error("job submission for {} not stored: {}", r.controller, e.message);
+            return deliver<submit_result>(std::move(h), std::move(e));
+        }
+    }
+    auto job = std::make_shared<live_job>();
+    job->record = rec;
+    job->plan = *plan;
+    job->queued_in_lane = true;
+    jobs_[rec.id] = job;
+    {
+        std::lock_guard lock(records_mutex_);
+        live_records_[rec.id] = rec;
+    }
+    publish(rec.id, state_event(rec, now));
+    log_->info("job {} ({} on {}) queued: {} steps, {:.1f} s estimated", rec.id, to_string(rec.type),
+               rec.controller, rec.progress.steps_total, rec.estimated_s);
+    l.queue.push_back(rec.id);
+    out.plan = std::move(*plan);
+    deliver<submit_result>(std::move(h), std::move(out));
+    dispatch(r.controller);
+}
+
+void manager_core::plan_again(std::shared_ptr<live_job> job,
+                              std::function<void(operation_result<void>)> done) {
+    if (job->plan) return done({});
+    const auto controller = job->record.controller;
+    async_read_motion_model(
+        registry_, controller, "job-" + job->record.id,
+        [self = shared_from_this(), job, done = std::move(done)](motion_model model) mutable {
+            net::post(self->strand_, [self, job, done = std::move(done), model = std::move(model)]() mutable {
+                auto snapshot = self->registry_.get(job->record.controller);
+                if (!snapshot || snapshot->state != devices::connection_state::connected ||
+                    !snapshot->identity)
+                    return done(
+                        make_error(kind::not_connected, job->record.controller + " is not connected"));
+                auto plan =
+                    plan_job(job->record.type, job->record.spec, plan_context{*snapshot, std::move(model)});
+                if (!plan) return done(plan.error());
+                if (plan->steps.size() != job->record.progress.steps_total)
+                    self->log_->warn("job {}: the plan now has {} steps, it had {}", job->record.id,
+                                     plan->steps.size(), job->record.progress.steps_total);
+                job->record.progress.steps_total = plan->steps.size();
+                job->plan = std::move(*plan);
+                done({});
+            });
+        });
+}
+
+// ---------------------------------------------------------------------------------------------
+// Running.
+
+void manager_core::dispatch(const std::string& controller) {
+    if (shutting_down_ || abandoned_) return;
+    auto& l = lanes_[controller];
+    if (!l.holder.empty() || l.dispatching) return;
+    while (!l.queue.empty()) {
+        const auto id = l.queue.front();
+        l.queue.pop_front();
+        auto it = jobs_.find(id);
+        if (it == jobs_.end()) continue;
+        auto job = it->second;
+        job->queued_in_lane = false;
+        if (job->record.state != job_state::queued) continue;
+        l.holder = id;
+        if (job->plan) return launch(job);
+        l.dispatching = true;
+        plan_again(job, [self = shared_from_this(), job, controller](operation_result<void> planned) {
+            auto& lane = self->lanes_[controller];
+            lane.dispatching = false;
+            if (job->record.state != job_state::queued || self->shutting_down_ || self->abandoned_) {
+                self->release(controller, job->record.id);
+                return;
+            }
+            if (!planned) {
+                self->set_state(*job, job_state::failed,
+                                "cannot plan the job again: " + describe(planned.error()));
+                self->release(controller, job->record.id);
+                return;
+            }
+            self->launch(job);
+        });
+        return;
+    }
+}
+
+void manager_core::launch(std::shared_ptr<live_job> job) {
+    const auto first = std::min(job->record.progress.steps_done, job->plan->steps.size());
+    auto exec = std::make_shared<job_execution>(strand_, registry_, weak_from_this(), job, first);
+    job->exec = exec;
+    job->record.progress.remaining_s = remaining_from(*job->plan, first);
+    ++running_;
+    set_state(*job, job_state::running, "");
+    net::co_spawn(
+        strand_, [exec]() -> net::awaitable<void> { co_await run_job(*exec); },
+        [self = shared_from_this(), exec](std::exception_ptr e) { self->run_finished(exec, e); });
+}
+
+void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::exception_ptr e) {
+    --running_;
+    auto job = exec->live();
+    if (job->exec == exec) job->exec.reset();
+    if (abandoned_ || exec->abandoned() || job->stopping) return;  // a cancel in progress finishes it
+    const auto controller = job->record.controller;
+    const auto id = job->record.id;
+    const auto st = job->record.state;
+    if (st != job_state::running && st != job_state::paused) {
+        // Cancelled or interrupted already (the manager set the state before the coroutine ended).
+        release(controller, id);
+        return;
+    }
+    std::string failure;
+    bool disconnected = false;
+    bool cancelled = false;
+    try {
+        if (e) std::rethrow_exception(e);
+    } catch (const job_cancelled&) {
+        cancelled = true;
+    } catch (const job_failure& f) {
+        failure = describe(f.error);
+        // The registry's observer may have seen the disconnect first (exec->failure()), or the command
+        // failed first and the snapshot says so.
+        disconnected = f.error.kind == kind::not_connected || exec->failure().has_value() ||
+                       !controller_connected(controller);
+    } catch (const std::exception& x) {
+        failure = std::string("internal error: ") + x.what();
+    }
+    if (!e) {
+        set_state(*job, job_state::succeeded, "");
+        release(controller, id);
+    } else if (cancelled) {
+        set_state(*job, job_state::cancelled, "cancelled");
+        release(controller, id);
+    } else if (disconnected) {
+        // The job keeps the controller: resume continues from the last completed step.
+        set_state(*job, job_state::paused, "controller disconnected: " + failure);
+    } else {
+        set_state(*job, job_state::failed, failure);
+        release(controller, id);
+    }
+}
+
+void manager_core::release(const std::string& controller, const std::string& id) {
+    auto& l = lanes_[controller];
+    if (l.holder == id) l.holder.clear();
+    net::post(strand_, [self = shared_from_this(), controller] { self->dispatch(controller); });
+}
+
+net::awaitable<void> manager_core::safe_stop(std::string controller, std::string request_id) {
+    auto halted = co_await registry_.async_halt(controller, request_id, net::use_awaitable);
+    if (!halted) log_->warn("[{}] {}: HALT failed: {}", request_id, controller, halted.error().message);
+    ttl_request low;
+    low.output_high = false;  // "TTL Y=0"
+    auto ttl = co_await registry_.async_ttl(controller, low, request_id, net::use_awaitable);
+    if (!ttl) log_->warn("[{}] {}: TTL Y=0 failed: {}", request_id, controller, ttl.error().message);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Control actions.
+
+operation_result<std::shared_ptr<live_job>> manager_core::find_live(const std::string& id) {
+    if (auto it = jobs_.find(id); it != jobs_.end()) return it->second;
+    std::optional<job_record> found;
+    {
+        std::lock_guard lock(store_mutex_);
+        if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
+        auto r = store_->find(id);
+        if (!r) return r.error();
+        found = std::move(*r);
+    }
+    if (!found) return make_error(kind::unknown_job, "no job with id \"" + id + "\"", "id");
+    if (is_terminal(found->state))
+        return make_error(kind::invalid_state,
+                          fmt::format("job {} has ended ({})", id, to_string(found->state)), "state");
+    // Not terminal but unknown here: an interrupted job from an earlier run of the gateway.
+    auto job = std::make_shared<live_job>();
+    job->record = std::move(*found);
+    jobs_[id] = job;
+    return job;
+}
+
+operation_result<void> manager_core::check_lease(const std::string& controller, const job_action& a) const {
+    if (!leases_) return {};
+    return leases_->check(controller,
+                          a.lease_id ? std::optional<std::string_view>(*a.lease_id) : std::nullopt);
+}
+
+void manager_core::cancel(job_action a, job_manager::handler<job_record> h) {
+    net::co_spawn(
+        strand_,
+        [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable -> net::awaitable<void> {
+            auto found = self->find_live(a.job_id);
+            if (!found) co_return self->deliver<job_record>(std::move(h), found.error());
+            auto job = *found;
+            const auto controller = job->record.controller;
+            if (auto lease = self->check_lease(controller, a); !lease)
+                co_return self->deliver<job_record>(std::move(h), lease.error());
+            const auto st = job->record.state;
+            if (is_terminal(st))
+                co_return self->deliver<job_record>(
+                    std::move(h),
+                    make_error(kind::invalid_state,
+                               fmt::format("job {} has ended ({})", a.job_id, to_string(st)), "state"));
+            auto& l = self->lanes_[controller];
+            if (st == job_state::queued || st == job_state::interrupted) {
+                std::erase(l.queue, a.job_id);
+                job->queued_in_lane = false;
+                self->set_state(*job, job_state::cancelled, "cancelled");
+                co_return self->deliver<job_record>(std::move(h), job->record);
+            }
+            // Running or paused: stop the motion first, then the job. The controller stays the job's
+            // until both the HALT/TTL and its run() are over, so the next job starts after them.
+            job->stopping = true;
+            if (job->exec) job->exec->cancel();
+            co_await self->safe_stop(controller, "job-" + a.job_id);
+            job->stopping = false;
+            if (!is_terminal(job->record.state) && job->record.state != job_state::interrupted)
+                self->set_state(*job, job_state::cancelled, "cancelled");
+            if (!job->exec) self->release(controller, a.job_id);  // else run_finished releases it
+            self->deliver<job_record>(std::move(h), job->record);
+        },
+        net::detached);
+}
+
+void manager_core::pause(job_action a, job_manager::handler<job_record> h) {
+    net::post(strand_, [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable {
+        auto found = self->find_live(a.job_id);
+        if (!found) return self->deliver<job_record>(std::move(h), found.error());
+        auto job = *found;
+        if (auto lease = self->check_lease(job->record.controller, a); !lease)
+            return self->deliver<job_record>(std::move(h), lease.error());
+        if (job->record.state == job_state::paused)
+            return self->deliver<job_record>(std::move(h), job->record);
+        if (job->record.state != job_state::running || !job->exec)
+            return self->deliver<job_record>(
+                std::move(h), make_error(kind::invalid_state,
+                                         fmt::format("job {} is {}: only a running job can be paused",
+                                                     a.job_id, to_string(job->record.state)),
+                                         "state"));
+        job->exec->request_pause();  // takes effect at the next checkpoint (after the current step)
+        self->deliver<job_record>(std::move(h), job->record);
+    });
+}
+
+void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
+    net::post(strand_, [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable {
+        if (self->shutting_down_ || self->abandoned_)
+            return self->deliver<job_record>(std::move(h),
+                                             make_error(kind::not_connected, "the gateway is shutting down"));
+        auto found = self->find_live(a.job_id);
+        if (!found) return self->deliver<job_record>(std::move(h), found.error());
+        auto job = *found;
+        const auto controller = job->record.controller;
+        if (auto lease = self->check_lease(controller, a); !lease)
+            return self->deliver<job_record>(std::move(h), lease.error());
+        const auto st = job->record.state;
+        auto& l = self->lanes_[controller];
+        if (st == job_state::running && job->exec && job->exec->pause_requested()) {
+            job->exec->resume();  // asked to pause, not paused yet: carry on
+            return self->deliver<job_record>(std::move(h), job->record);
+        }
+        if (st == job_state::queued && !job->queued_in_lane && l.holder != a.job_id) {
+            // Kept from before a restart (restart_queued off): queue it now.
+            job->queued_in_lane = true;
+            l.queue.push_back(a.job_id);
+            self->dispatch(controller);
+            return self->deliver<job_record>(std::move(h), job->record);
+        }
+        if (st != job_state::paused && st != job_state::interrupted)
+            return self->deliver<job_record>(
+                std::move(h),
+                make_error(kind::invalid_state,
+                           fmt::format("job {} is {}: only a paused or interrupted job can be resumed",
+                                       a.job_id, to_string(st)),
+                           "state"));
+        if (!self->controller_connected(controller))
+            return self->deliver<job_record>(
+                std::move(h), make_error(kind::not_connected,
+                                         fmt::format("{} is not connected; resume once it is", controller)));
+        if (st == job_state::paused && job->exec && job->exec->waiting_paused()) {
+            // Its run() waits at a checkpoint: it continues where it stopped.
+            self->set_state(*job, job_state::queued, "");
+            self->set_state(*job, job_state::running, "");
+            job->exec->resume();
+            return self->deliver<job_record>(std::move(h), job->record);
+        }
+        self->set_state(*job, job_state::queued, "");
+        job->queued_in_lane = true;
+        if (l.holder == a.job_id) {
+            // It kept the controller while paused (a disconnect): it goes first.
+            l.holder.clear();
+            l.queue.push_front(a.job_id);
+        } else {
+            l.queue.push_back(a.job_id);
+        }
+        auto record = job->record;
+        self->dispatch(controller);
+        self->deliver<job_record>(std::move(h), std::move(record));
+    });
+}
+
+void manager_core::next(job_action a, job_manager::handler<job_record> h) {
+    net::post(strand_, [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable {
+        auto found = self->find_live(a.job_id);
+        if (!found) return self->deliver<job_record>(std::move(h), found.error());
+        auto job = *found;
+        if (auto lease = self->check_lease(job->record.controller, a); !lease)
+            return self->deliver<job_record>(std::move(h), lease.error());
+        if (job->record.state != job_state::running || !job->exec)
+            return self->deliver<job_record>(
+                std::move(h), make_error(kind::invalid_state,
+                                         fmt::format("job {} is {}: `next` needs a running job", a.job_id,
+                                                     to_string(job->record.state)),
+                                         "state"));
+        job->exec->next();
+        self->deliver<job_record>(std::move(h), job->record);
+    });
+}
+
+// ---------------------------------------------------------------------------------------------
+// Controller events.
+
+void manager_core::controller_snapshot_changed(const devices::controller_snapshot& s) {
+    net::post(strand_, [self = shared_from_this(), id = s.id, state = s.state] {
+        auto it = self->lanes_.find(id);
+        if (it == self->lanes_.end() || it->second.holder.empty()) return;
+        auto job = self->jobs_.find(it->second.holder);
+        if (job == self->jobs_.end() || !job->second->exec) return;
+        if (job->second->exec->waiting_paused()) return;  // paused by a client: resume finds out
+        job->second->exec->fail(
+            make_error(kind::not_connected, fmt::format("{} is {}", id, devices::to_string(state))));
+    });
+}
+
+void manager_core::controller_ttl_edge(const std::string& controller) {
+    net::post(strand_, [self = shared_from_this(), controller] {
+        auto it = self->lanes_.find(controller);
+        if (it == self->lanes_.end() || it->second.holder.empty()) return;
+        auto job = self->jobs_.find(it->second.holder);
+        if (job != self->jobs_.end() && job->second->exec) job->second->exec->ttl_edge();
+    });
+}
+
+// ---------------------------------------------------------------------------------------------
+// execution_host
+
+void manager_core::on_step_started(live_job& job, std::size_t index) {
+    if (!job.plan || index >= job.plan->steps.size()) return;
+    job.record.progress.current_step = job.plan->steps[index].name;
+    job.record.updated = job_clock::now();
+    std::lock_guard lock(records_mutex_);
+    live_records_[job.record.id] = job.record;
+}
+
+void manager_core::on_step_done(live_job& job, std::size_t index, json detail) {
+    if (abandoned_ || !job.plan) return;
+    auto& p = job.record.progress;
+    const auto now = job_clock::now();
+    const std::string name = index < job.plan->steps.size() ? job.plan->steps[index].name : "";
+    p.steps_done = std::max(p.steps_done, std::min(index + 1, job.plan->steps.size()));
+    p.current_step = name;
+    p.remaining_s = remaining_from(*job.plan, index + 1);
+    job.record.updated = now;
+    save(job.record);
+    publish(job.record.id, step_event(job.record, index, name, detail, now));
+}
+
+void manager_core::on_emit(live_job& job, json event) {
+    publish(job.record.id, event);
+}
+
+void manager_core::on_paused(live_job& job) {
+    set_state(job, job_state::paused, "paused");
+}
+
+// ---------------------------------------------------------------------------------------------
+// job_manager
+
+struct job_manager::impl {
+    std::shared_ptr<manager_core> core;
+};
+
+operation_result<std::shared_ptr<job_manager>> job_manager::create(net::any_io_executor executor,
+                                                                   controller_registry& registry,
+                                                                   std::shared_ptr<event_hub> hub,
+                                                                   std::shared_ptr<lease_manager> leases,
+                                                                   job_manager_settings settings) {
+    auto store = job_store::open(settings.storage_path);
+    if (!store) return store.error();
+    return std::shared_ptr<job_manager>(new job_manager(std::move(executor), registry, std::move(hub),
+                                                        std::move(leases), std::move(settings),
+                                                        std::move(*store)));
+}
+
+job_manager::job_manager(net::any_io_executor executor, controller_registry& registry,
+                         std::shared_ptr<event_hub> hub, std::shared_ptr<lease_manager> leases,
+                         job_manager_settings settings, std::unique_ptr<job_store> store)
+    : impl_(std::make_unique<impl>()) {
+    impl_->core = std::make_shared<manager_core>(std::move(executor), registry, std::move(hub),
+                                                 std::move(leases), std::move(settings), std::move(store));
+    impl_->core->attach();
+}
+
+job_manager::~job_manager() {
+    impl_->core->abandon();
+}
+
+void job_manager::start() {
+    impl_->core->start();
+}
+
+void job_manager::async_shutdown(std::function<void()> done) {
+    impl_->core->shutdown(std::move(done));
+}
+
+void job_manager::async_submit(submit_request request, handler<submit_result> h) {
+    impl_->core->submit(std::move(request), std::move(h));
+}
+
+operation_result<job_record> job_manager::get(const std::string& id) const {
+    return impl_->core->get(id);
+}
+
+operation_result<job_page> job_manager::list(const job_filter& filter) const {
+    return impl_->core->list(filter);
+}
+
+operation_result<std::vector<nlohmann::json>> job_manager::events(const std::string& id,
+                                                                  std::size_t limit) const {
+    return impl_->core->events(id, limit);
+}
+
+void job_manager::async_cancel(job_action a, handler<job_record> h) {
+    impl_->core->cancel(std::move(a), std::move(h));
+}
+
+void job_manager::async_pause(job_action a, handler<job_record> h) {
+    impl_->core->pause(std::move(a), std::move(h));
+}
+
+void job_manager::async_resume(job_action a, handler<job_record> h) {
+    impl_->core->resume(std::move(a), std::move(h));
+}
+
+void job_manager::async_next(job_action a, handler<job_record> h) {
+    impl_->core->next(std::move(a), std::move(h));
+}
+
+}  // namespace gw::jobs
