@@ -1,13 +1,13 @@
 #pragma once
-// Trapezoidal motion of one axis in simulated time. Pure: the caller passes the time in.
-//   speed v (SPEED, mm/s), ramp time r (ACCEL, ms): acceleration a = v / r.
-//   long move  (d >= v*r):  t = d/v + r                      (accelerate, cruise, decelerate)
-//   short move (d <  v*r):  t = 2*sqrt(d/a)                  (triangle, peak speed below v)
-// then a settle time while the servo hunts into the finish-error window; the axis is busy until the
-// settle time is over but is already at its target. Calibrated against the seed's "Stage Scanning
-// Speed and Accuracy" table (see sim_config.cpp and tests/unit/sim/calibration_test.cpp).
+// Trapezoidal motion of one axis in simulated time. Pure: the caller passes the time in. The profile
+// (trapezoid or triangle, then settle) is devices/ms2000/motion_profile.hpp, the same formula the
+// gateway's duration estimates use; the axis is busy until the settle time is over but is already at
+// its target. Calibrated against the seed's "Stage Scanning Speed and Accuracy" table (see
+// sim_config.cpp and tests/unit/sim/calibration_test.cpp).
 
 #include <chrono>
+
+#include "devices/ms2000/motion_profile.hpp"
 
 namespace gw::devices::sim {
 
@@ -24,6 +24,7 @@ class axis_motion {
     bool moving(sim_time now) const { return now < motion_end_; }  // motor running
     bool busy(sim_time now) const { return now < settled_; }       // includes settle time
     bool ramping(sim_time now) const;
+    sim_time start() const { return start_; }
     sim_time motion_end() const { return motion_end_; }
     sim_time settled() const { return settled_; }
     double target_mm() const { return to_mm_; }
@@ -35,10 +36,7 @@ class axis_motion {
   private:
     double from_mm_ = 0;
     double to_mm_ = 0;
-    double speed_ = 1;
-    double accel_ = 0;    // mm/s^2; 0 means no ramp
-    double ramp_s_ = 0;   // time spent accelerating (and again decelerating)
-    double total_s_ = 0;  // motion time without settle
+    ms2000::motion_profile profile_;
     sim_time start_{0};
     sim_time motion_end_{0};
     sim_time settled_{0};

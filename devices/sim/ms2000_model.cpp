@@ -10,6 +10,7 @@
 
 #include "devices/ms2000/command.hpp"
 #include "devices/ms2000/error.hpp"
+#include "devices/ms2000/motion_profile.hpp"
 #include "devices/ms2000/report_frame.hpp"
 
 namespace gw::devices::sim {
@@ -345,7 +346,7 @@ void ms2000_model::start_move(axis& a, double target_mm, sim_time now, bool comm
     // Error to about 10 rotary encoder counts allows the move to complete quickly").
     const double default_pc = screw_.encoder_nm / 1e6;
     const double pc = std::max(a.params["PCROS"], 1e-9);
-    const double settle = screw_.settle_ms * std::clamp(std::sqrt(default_pc / pc), 0.1, 3.0);
+    const double settle = ms2000::settle_ms(screw_.settle_ms, default_pc, pc);
     a.motion = axis_motion(from, target_mm, speed, a.params["ACCEL"], settle, now);
     a.commanded = commanded;
 }
@@ -982,6 +983,10 @@ nlohmann::json ms2000_model::state(sim_time now) const {
         axes[std::string(1, a.letter)] = {{"position", a.motion.position_mm(now) * um},
                                           {"target", a.motion.target_mm() * um},
                                           {"busy", a.motion.busy(now)},
+                                          // Simulated times of the last motion (duration checks).
+                                          {"motion_start_us", a.motion.start().count()},
+                                          {"motion_end_us", a.motion.motion_end().count()},
+                                          {"settled_us", a.motion.settled().count()},
                                           {"speed", a.params.at("SPEED")},
                                           {"accel_ms", a.params.at("ACCEL")},
                                           {"upper_limit", a.params.at("SETUP")},
