@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <exception>
 #include <string>
+#include <vector>
 
 #include <boost/asio/awaitable.hpp>
 #include <nlohmann/json.hpp>
@@ -64,6 +65,9 @@ class job_context {
     virtual void step_done(std::size_t index, nlohmann::json detail = {}) = 0;
     // Any other event on jobs/<id>: {"type": kind, ...detail}. Stored with the job's history.
     virtual void emit(std::string kind, nlohmann::json detail) = 0;
+    // The stored "step" events of this job, oldest first (earlier runs included): a resumed run reads
+    // what the steps before first_step() measured. Empty when the history cannot be read.
+    virtual std::vector<nlohmann::json> completed_steps() const { return {}; }
 
     // Serial work, tagged with the job's request id. command() throws job_failure on ":N-<code>".
     virtual boost::asio::awaitable<devices::ms2000::reply> command(std::string line) = 0;

@@ -80,6 +80,11 @@ void job_execution::emit(std::string kind, nlohmann::json detail) {
     if (auto h = host_.lock()) h->on_emit(*job_, std::move(event));
 }
 
+std::vector<nlohmann::json> job_execution::completed_steps() const {
+    if (auto h = host_.lock()) return h->step_events(*job_);
+    return {};
+}
+
 net::awaitable<devices::ms2000::reply> job_execution::command(std::string line) {
     throw_if_stopped();
     auto r = co_await registry_.async_raw_command(job_->record.controller, raw_command_request{line},

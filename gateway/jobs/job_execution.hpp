@@ -18,6 +18,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <boost/asio/any_io_executor.hpp>
 #include <boost/asio/steady_timer.hpp>
@@ -51,6 +52,8 @@ class execution_host {
     virtual void on_emit(live_job& job, nlohmann::json event) = 0;
     // checkpoint() honoured a pause request: the job is paused now.
     virtual void on_paused(live_job& job) = 0;
+    // The job's stored "step" events, oldest first.
+    virtual std::vector<nlohmann::json> step_events(const live_job& job) const = 0;
 };
 
 class job_execution final : public job_context, public std::enable_shared_from_this<job_execution> {
@@ -69,6 +72,7 @@ class job_execution final : public job_context, public std::enable_shared_from_t
     void step_started(std::size_t index) override;
     void step_done(std::size_t index, nlohmann::json detail = {}) override;
     void emit(std::string kind, nlohmann::json detail) override;
+    std::vector<nlohmann::json> completed_steps() const override;
     boost::asio::awaitable<devices::ms2000::reply> command(std::string line) override;
     boost::asio::awaitable<move_result> move(move_request request) override;
     boost::asio::awaitable<void> wait_idle(std::chrono::milliseconds timeout) override;

@@ -135,6 +135,7 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void on_step_done(live_job& job, std::size_t index, json detail) override;
     void on_emit(live_job& job, json event) override;
     void on_paused(live_job& job) override;
+    std::vector<json> step_events(const live_job& job) const override;
 
   private:
     struct lane {
@@ -882,6 +883,18 @@ void manager_core::on_step_done(live_job& job, std::size_t index, json detail) {
 
 void manager_core::on_emit(live_job& job, json event) {
     publish(job.record.id, event);
+}
+
+std::vector<json> manager_core::step_events(const live_job& job) const {
+    constexpr std::size_t all = 1'000'000;
+    std::lock_guard lock(store_mutex_);
+    if (!store_) return {};
+    auto stored = store_->events(job.record.id, all);
+    if (!stored) return {};
+    std::vector<json> out;
+    for (auto& e : *stored)
+        if (e.is_object() && e.value("type", "") == "step") out.push_back(std::move(e));
+    return out;
 }
 
 void manager_core::on_paused(live_job& job) {
