@@ -11,8 +11,10 @@
 // Errors never throw: every call returns storage_unavailable (503) with SQLite's message (disk full,
 // read-only file, locked) and leaves the database as it was (the transaction is rolled back).
 
+#include <chrono>
 #include <cstddef>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -27,10 +29,24 @@ struct sqlite3;
 
 namespace gw::jobs {
 
+inline constexpr int job_store_schema_version = 1;
+inline constexpr const char* job_store_file_name = "jobs.sqlite3";
+
+struct job_store_options {
+    // Bound on the database file (PRAGMA max_page_count); writes beyond it fail with "database or
+    // disk is full" (storage_unavailable). Config storage.max_size_mb. 0 = SQLite's own limit.
+    std::size_t max_size_mb = 1024;
+    // How long a call waits for a lock held by another connection (another process on the file).
+    std::chrono::milliseconds busy_timeout{5000};
+};
+
 class job_store {
   public:
     // Creates the directory and the database (schema versioned with PRAGMA user_version) if needed.
-    static operation_result<std::unique_ptr<job_store>> open(const std::string& directory);
+    // storage_unavailable when the directory cannot be created, the file is not a SQLite database,
+    // or its schema version is newer than job_store_schema_version.
+    static operation_result<std::unique_ptr<job_store>> open(const std::string& directory,
+                                                             const job_store_options& options = {});
     ~job_store();
     job_store(const job_store&) = delete;
     job_store& operator=(const job_store&) = delete;
@@ -41,12 +57,16 @@ class job_store {
     // Writes the job's mutable columns; appends a transition row when the state differs from the
     // stored one (from, to, reason, time).
     operation_result<void> save(const job_record& job);
+    // Stored as given, numbered per job (seq 1, 2, ...), with the time it was appended. unknown_job when
+    // the job is not stored.
     operation_result<void> append_event(const std::string& job_id, const nlohmann::json& event);
 
     operation_result<std::optional<job_record>> find(const std::string& id) const;
     operation_result<std::optional<job_record>> find_by_idempotency_key(const std::string& key) const;
+    // Newest first (descending id: ids are time-ordered), filtered; `before` pages (any string works
+    // as a cursor). invalid_value (field "limit") when limit is outside 1..500.
     operation_result<job_page> list(const job_filter& filter) const;
-    // Oldest first; at most `limit`.
+    // The stored event objects, oldest first; at most `limit`.
     operation_result<std::vector<nlohmann::json>> events(const std::string& job_id, std::size_t limit) const;
     // Transitions of a job, oldest first: {"from":..,"to":..,"reason":..,"at":"RFC 3339"}.
     operation_result<std::vector<nlohmann::json>> transitions(const std::string& job_id) const;
@@ -56,9 +76,14 @@ class job_store {
     // Checkpoints the WAL into the main file (clean shutdown).
     operation_result<void> flush();
 
+    // <directory>/jobs.sqlite3
+    const std::string& path() const { return path_; }
+
   private:
-    explicit job_store(sqlite3* db);
+    job_store(sqlite3* db, std::string path);
     sqlite3* db_;
+    std::string path_;
+    mutable std::mutex mutex_;  // one transaction at a time on the connection
 };
 
 }  // namespace gw::jobs
