@@ -1,18 +1,117 @@
-// Placeholder until the probe lands: the defaults, without asking the controller.
 #include "gateway/jobs/motion_probe.hpp"
 
-#include <boost/asio/post.hpp>
+#include <fmt/format.h>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <utility>
 
+#include <spdlog/logger.h>
+
+#include "devices/ms2000/reply.hpp"
 #include "gateway/controller_registry.hpp"
+#include "gateway/logging.hpp"
 
 namespace gw::jobs {
 
+namespace {
+
+// Each fallback reason is logged once per process (controller, what), not on every submission.
+void log_fallback_once(const std::string& controller, const std::string& what, const std::string& why) {
+    static std::mutex mutex;
+    static std::set<std::string> logged;
+    {
+        std::lock_guard lock(mutex);
+        if (!logged.insert(controller + "/" + what).second) return;
+    }
+    get_logger("jobs")->warn("motion model of {}: {} ({}); estimates use the default", controller, what, why);
+}
+
+struct probe_state {
+    controller_registry& registry;
+    std::string controller;
+    std::string request_id;
+    std::function<void(motion_model)> done;
+    std::string axes;                                       // hardware order
+    std::map<char, std::optional<double>> counts;           // CNTS from the snapshot
+    std::map<char, std::optional<double>> speed, ramp, pc;  // S, AC, PC answers
+};
+
+// "S X? Y? Z?"
+std::string query_line(const std::string& verb, const std::string& axes) {
+    std::string line = verb;
+    for (const char a : axes)
+        line += fmt::format(" {}?", a);
+    return line;
+}
+
+// Reads one setting of every axis into `out`; a failed or partial answer leaves axes unset.
+void query(const std::shared_ptr<probe_state>& s, const std::string& verb,
+           std::map<char, std::optional<double>> probe_state::*out, std::function<void()> next) {
+    s->registry.async_raw_command(
+        s->controller, raw_command_request{query_line(verb, s->axes)}, s->request_id,
+        [s, verb, out, next = std::move(next)](operation_result<raw_command_result> r) {
+            if (!r) {
+                log_fallback_once(s->controller, verb + " query failed", r.error().message);
+            } else if (r->reply.what != devices::ms2000::reply::kind::ack) {
+                log_fallback_once(s->controller, verb + " query failed", "reply \"" + r->raw_reply + "\"");
+            } else {
+                for (const char a : s->axes) {
+                    const auto* v = r->reply.axis(a);
+                    if (v && v->number && *v->number >= 0)
+                        ((*s).*out)[a] = *v->number;
+                    else
+                        log_fallback_once(s->controller, fmt::format("{} {}? unanswered", verb, a),
+                                          "reply \"" + r->raw_reply + "\"");
+                }
+            }
+            next();
+        });
+}
+
+void finish(const std::shared_ptr<probe_state>& s) {
+    motion_model model;
+    for (const char a : s->axes) {
+        std::optional<lead_screw_motion> screw;
+        if (const auto c = s->counts[a]) screw = lead_screw_for_counts(*c);
+        if (!screw) {
+            log_fallback_once(s->controller, fmt::format("lead screw of {}", a),
+                              s->counts[a] ? fmt::format("unknown counts per mm {}", *s->counts[a])
+                                           : std::string("no counts per mm in the snapshot"));
+            screw = default_lead_screw();
+        }
+        // ACCEL 0 would be no ramp at all; the firmware refuses it (range 1..), so treat it as unknown.
+        auto ramp = s->ramp[a];
+        if (ramp && *ramp <= 0) ramp.reset();
+        auto speed = s->speed[a];
+        if (speed && *speed <= 0) speed.reset();
+        auto pc = s->pc[a];
+        if (pc && *pc <= 0) pc.reset();
+        model.set_axis(a, axis_params_for(*screw, speed, ramp, pc));
+    }
+    s->done(std::move(model));
+}
+
+}  // namespace
+
 void async_read_motion_model(controller_registry& registry, const std::string& controller_id,
                              const std::string& request_id, std::function<void(motion_model)> done) {
-    (void)controller_id;
-    (void)request_id;
-    (void)registry;
-    done(motion_model{});
+    auto s = std::make_shared<probe_state>(
+        probe_state{registry, controller_id, request_id, std::move(done), {}, {}, {}, {}, {}});
+    if (const auto snap = registry.get(controller_id); snap && !snap->axes.empty()) {
+        for (const auto& a : snap->axes) {
+            s->axes.push_back(a.axis);
+            s->counts[a.axis] = a.counts_per_mm;
+        }
+    } else {
+        s->axes = "XYZ";  // the queries will fail and say why; the model gets the default axes
+    }
+    // One at a time: the driver serialises them anyway, and a dead controller fails fast.
+    query(s, "S", &probe_state::speed, [s] {
+        query(s, "AC", &probe_state::ramp, [s] { query(s, "PC", &probe_state::pc, [s] { finish(s); }); });
+    });
 }
 
 }  // namespace gw::jobs
