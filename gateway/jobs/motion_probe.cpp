@@ -1,5 +1,6 @@
 #include "gateway/jobs/motion_probe.hpp"
 
+#include <cmath>
 #include <fmt/format.h>
 #include <map>
 #include <memory>
@@ -29,7 +30,21 @@ void log_fallback_once(const std::string& controller, const std::string& what, c
     get_logger("jobs")->warn("motion model of {}: {} ({}); estimates use the default", controller, what, why);
 }
 
+// Half a unit of the last decimal the controller printed ("0.000005": 5e-7), so that a finish error
+// that prints as the screw's default (A screw: 0.0000055 mm prints "0.000005") counts as the default.
+double half_last_digit(const std::string& text) {
+    const auto dot = text.find('.');
+    if (dot == std::string::npos) return 0.5;
+    std::size_t decimals = 0;
+    for (std::size_t i = dot + 1; i < text.size() && text[i] >= '0' && text[i] <= '9'; ++i)
+        ++decimals;
+    return 0.5 * std::pow(10.0, -static_cast<double>(decimals));
+}
+
 struct probe_state {
+    probe_state(controller_registry& r, std::string id, std::string rid, std::function<void(motion_model)> d)
+        : registry(r), controller(std::move(id)), request_id(std::move(rid)), done(std::move(d)) {}
+
     controller_registry& registry;
     std::string controller;
     std::string request_id;
@@ -37,6 +52,7 @@ struct probe_state {
     std::string axes;                                       // hardware order
     std::map<char, std::optional<double>> counts;           // CNTS from the snapshot
     std::map<char, std::optional<double>> speed, ramp, pc;  // S, AC, PC answers
+    std::map<char, double> pc_resolution;                   // half the last printed digit of PC
 };
 
 // "S X? Y? Z?"
@@ -60,9 +76,10 @@ void query(const std::shared_ptr<probe_state>& s, const std::string& verb,
             } else {
                 for (const char a : s->axes) {
                     const auto* v = r->reply.axis(a);
-                    if (v && v->number && *v->number >= 0)
+                    if (v && v->number && *v->number >= 0) {
                         ((*s).*out)[a] = *v->number;
-                    else
+                        if (out == &probe_state::pc) s->pc_resolution[a] = half_last_digit(v->text);
+                    } else
                         log_fallback_once(s->controller, fmt::format("{} {}? unanswered", verb, a),
                                           "reply \"" + r->raw_reply + "\"");
                 }
@@ -88,6 +105,7 @@ void finish(const std::shared_ptr<probe_state>& s) {
         auto speed = s->speed[a];
         if (speed && *speed <= 0) speed.reset();
         auto pc = s->pc[a];
+        if (pc && std::abs(*pc - screw->default_pc_mm) <= s->pc_resolution[a]) pc = screw->default_pc_mm;
         if (pc && *pc <= 0) pc.reset();
         model.set_axis(a, axis_params_for(*screw, speed, ramp, pc));
     }
@@ -98,8 +116,7 @@ void finish(const std::shared_ptr<probe_state>& s) {
 
 void async_read_motion_model(controller_registry& registry, const std::string& controller_id,
                              const std::string& request_id, std::function<void(motion_model)> done) {
-    auto s = std::make_shared<probe_state>(
-        probe_state{registry, controller_id, request_id, std::move(done), {}, {}, {}, {}, {}});
+    auto s = std::make_shared<probe_state>(registry, controller_id, request_id, std::move(done));
     if (const auto snap = registry.get(controller_id); snap && !snap->axes.empty()) {
         for (const auto& a : snap->axes) {
             s->axes.push_back(a.axis);
