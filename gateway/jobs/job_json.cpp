@@ -110,9 +110,11 @@ json dry_run_json(const std::string& controller, job_type type, const job_plan& 
 }
 
 json state_event(const job_record& job, job_clock::time_point now) {
-    json e = {{"type", "state"}};
-    e.update(to_json(job, now));
-    return e;
+    // The record goes under "job": its own "type" (the job type) would clash with the event's.
+    return {{"type", "state"},
+            {"state", std::string(to_string(job.state))},
+            {"reason", job.reason},
+            {"job", to_json(job, now)}};
 }
 
 json step_event(const job_record& job, std::size_t index, const std::string& name, const json& detail,

@@ -8,7 +8,7 @@
 //                          "created","started","finished","updated"}
 //   to_json(plan, 1000) -> {"path","summary","steps_total","steps":[{"name","target","estimated_s"}],
 //                          "commands","commands_omitted","estimated_s","bounds","warnings"}
-//   state_event(job, now) -> {"type":"state", ...the whole job record}
+//   state_event(job, now) -> {"type":"state","state":"running","reason":"","job":{...to_json(job)}}
 //   step_event(job, index, name, detail, now) -> {"type":"step","index","name","steps_done",
 //                          "steps_total","percent","remaining_s","elapsed_s", ...detail}
 

@@ -7,7 +7,6 @@
 #include <fmt/format.h>
 #include <map>
 #include <mutex>
-#include <random>
 
 #include <boost/asio/append.hpp>
 #include <boost/asio/co_spawn.hpp>
@@ -23,6 +22,7 @@
 #include "gateway/controller_registry.hpp"
 #include "gateway/event_hub.hpp"
 #include "gateway/jobs/job_execution.hpp"
+#include "gateway/jobs/job_id.hpp"
 #include "gateway/jobs/job_json.hpp"
 #include "gateway/jobs/job_kinds.hpp"
 #include "gateway/jobs/job_store.hpp"
@@ -40,44 +40,6 @@ namespace {
 
 // How long shutdown waits for running jobs to stop after their HALT before closing the store anyway.
 constexpr std::chrono::milliseconds shutdown_grace{5000};
-
-// "j-" + a ULID: 48 bits of milliseconds and 80 random bits in Crockford base 32, so ids sort by
-// creation time; within one millisecond the random part counts up (still sortable, never equal).
-class job_id_source {
-  public:
-    std::string next(job_clock::time_point now) {
-        const auto ms = static_cast<std::uint64_t>(
-            std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count());
-        if (ms <= last_ms_) {
-            if (++low_ == 0) ++high_;  // 80-bit increment (16 high bits + 64 low bits)
-        } else {
-            last_ms_ = ms;
-            high_ = static_cast<std::uint16_t>(random_() & 0x7fff);  // room to count up
-            low_ = random_();
-        }
-        static constexpr std::string_view alphabet = "0123456789ABCDEFGHJKMNPQRSTVWXYZ";
-        std::string out = "j-";
-        for (int shift = 45; shift >= 0; shift -= 5)
-            out += alphabet[(last_ms_ >> shift) & 31];
-        // 80 random bits: 16 of high_ then 64 of low_, 5 at a time.
-        for (int bit = 75; bit >= 0; bit -= 5) {
-            std::uint64_t v = 0;
-            for (int b = 0; b < 5; ++b) {
-                const int pos = bit + 4 - b;  // from the most significant of the five
-                const std::uint64_t one = pos >= 64 ? (high_ >> (pos - 64)) & 1u : (low_ >> pos) & 1u;
-                v = (v << 1) | one;
-            }
-            out += alphabet[v];
-        }
-        return out;
-    }
-
-  private:
-    std::mt19937_64 random_{std::random_device{}()};
-    std::uint64_t last_ms_ = 0;
-    std::uint16_t high_ = 0;
-    std::uint64_t low_ = 0;
-};
 
 // Seconds the steps from `first` on still need; empty when one of them waits for a trigger.
 std::optional<double> remaining_from(const job_plan& plan, std::size_t first) {
@@ -189,7 +151,6 @@ class manager_core final : public execution_host, public std::enable_shared_from
     std::map<std::string, std::shared_ptr<live_job>> jobs_;  // not terminal
     std::map<std::string, lane> lanes_;
     std::size_t running_ = 0;  // run() coroutines alive
-    job_id_source ids_;
     bool started_ = false;
     bool shutting_down_ = false;
     std::atomic<bool> abandoned_{false};
@@ -230,17 +191,21 @@ void manager_core::attach() {
 // Persistence and publication (strand).
 
 void manager_core::save(const job_record& r) {
+    bool saved = false;
     {
-        std::lock_guard lock(records_mutex_);
-        if (is_terminal(r.state))
-            live_records_.erase(r.id);
-        else
-            live_records_[r.id] = r;
+        std::lock_guard lock(store_mutex_);
+        if (store_) {
+            auto ok = store_->save(r);
+            saved = ok.has_value();
+            if (!ok) log_->error("job {}: cannot save its state: {}", r.id, ok.error().message);
+        }
     }
-    std::lock_guard lock(store_mutex_);
-    if (!store_) return;
-    if (auto ok = store_->save(r); !ok)
-        log_->error("job {}: cannot save its state: {}", r.id, ok.error().message);
+    // get() answers from memory for active jobs, and for ended ones the store could not take.
+    std::lock_guard lock(records_mutex_);
+    if (is_terminal(r.state) && saved)
+        live_records_.erase(r.id);
+    else
+        live_records_[r.id] = r;
 }
 
 void manager_core::record_event(const std::string& id, const json& event) {
@@ -496,7 +461,7 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
         return deliver<submit_result>(
             std::move(h), make_error(kind::queue_full, fmt::format("{} already has {} queued jobs",
                                                                    r.controller, l.queue.size())));
-    rec.id = ids_.next(now);
+    rec.id = make_job_id();
     {
         std::lock_guard lock(store_mutex_);
         // Idempotency again: another submission with the key may have been stored while this one planned.
@@ -913,7 +878,9 @@ operation_result<std::shared_ptr<job_manager>> job_manager::create(net::any_io_e
                                                                    std::shared_ptr<event_hub> hub,
                                                                    std::shared_ptr<lease_manager> leases,
                                                                    job_manager_settings settings) {
-    auto store = job_store::open(settings.storage_path);
+    job_store_options options;
+    options.max_size_mb = settings.storage_max_size_mb;
+    auto store = job_store::open(settings.storage_path, options);
     if (!store) return store.error();
     return std::shared_ptr<job_manager>(new job_manager(std::move(executor), registry, std::move(hub),
                                                         std::move(leases), std::move(settings),

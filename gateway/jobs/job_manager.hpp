@@ -4,7 +4,8 @@
 // job_store, publishes them on the event hub topic "jobs/<id>", honours leases and Idempotency-Key.
 //
 // Events on "jobs/<id>" (JSON objects with "type"):
-//   {"type":"state","state":"running","reason":"",...}        every transition (the whole job record)
+//   {"type":"state","state":"running","reason":"","job":{...}} every transition (the whole job record
+//                                                             under "job": see job_json.hpp)
 //   {"type":"step","index":i,"name":"C7","steps_done":n,"steps_total":t,"percent":p,
 //    "remaining_s":r, ...detail}                              every completed step
 //   {"type":<kind>, ...}                                      job-specific (job_context::emit)
@@ -43,8 +44,9 @@ namespace gw::jobs {
 class job_store;
 
 struct job_manager_settings {
-    std::string storage_path;     // directory; the database is <path>/jobs.sqlite3
-    bool restart_queued = false;  // after a restart, start the jobs that were queued
+    std::string storage_path;                // directory; the database is <path>/jobs.sqlite3
+    std::size_t storage_max_size_mb = 1024;  // job_store_options::max_size_mb (0: SQLite's own limit)
+    bool restart_queued = false;             // after a restart, start the jobs that were queued
     std::size_t max_queued_per_controller = 1000;
     std::chrono::milliseconds idle_timeout{120000};  // one step's motion must end within this
 };
@@ -130,4 +132,13 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
     std::unique_ptr<impl> impl_;
 };
 
+}  // namespace gw::jobs
+
+namespace gw {
+struct gateway_config;
+}
+namespace gw::jobs {
+// The manager's settings from the config file: storage.path, storage.max_size_mb, jobs.*
+// (job_manager_settings.cpp).
+job_manager_settings make_job_manager_settings(const gateway_config& config);
 }  // namespace gw::jobs
