@@ -234,7 +234,8 @@ void read_logging(const json& j, logging_config& out) {
 
 gateway_config read_config(const json& j) {
     gateway_config c;
-    object_reader r(j, "", {"http", "controllers", "simulate", "storage", "auth", "logging", "shutdown"});
+    object_reader r(j, "",
+                    {"http", "controllers", "simulate", "storage", "jobs", "auth", "logging", "shutdown"});
     if (auto* v = r.get("http")) read_http(*v, c.http);
     if (auto* v = r.get("controllers")) {
         if (!v->is_array()) fail("controllers", "must be an array");
@@ -243,8 +244,18 @@ gateway_config read_config(const json& j) {
     }
     if (auto* v = r.get("simulate")) read_simulate(*v, c.simulate);
     if (auto* v = r.get("storage")) {
-        object_reader s(*v, "storage", {"path"});
+        object_reader s(*v, "storage", {"path", "max_size_mb"});
         if (auto* p = s.get("path")) c.storage.path = read_string(*p, s.path("path"));
+        if (auto* m = s.get("max_size_mb"))
+            c.storage.max_size_mb = read_uint(*m, s.path("max_size_mb"), 1, max_storage_size_mb);
+    }
+    if (auto* v = r.get("jobs")) {
+        object_reader s(*v, "jobs", {"restart_queued", "max_queued_per_controller"});
+        if (auto* b = s.get("restart_queued"))
+            c.jobs.restart_queued = read_bool(*b, s.path("restart_queued"));
+        if (auto* m = s.get("max_queued_per_controller"))
+            c.jobs.max_queued_per_controller =
+                read_uint(*m, s.path("max_queued_per_controller"), 1, max_queued_jobs_per_controller);
     }
     if (auto* v = r.get("auth")) read_auth(*v, c.auth);
     if (auto* v = r.get("logging")) read_logging(*v, c.logging);

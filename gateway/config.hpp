@@ -5,7 +5,8 @@
 //
 //   {"http": {"listen_address": "127.0.0.1", "port": 8080, "limits": {...}},
 //    "controllers": [{"id": "stage1", "port": "/dev/ttyUSB0", "baud": 115200}],
-//    "simulate": {"count": 0}, "storage": {"path": "..."}, "auth": {"tokens": [...]},
+//    "simulate": {"count": 0}, "storage": {"path": "...", "max_size_mb": 1024},
+//    "jobs": {"restart_queued": false, "max_queued_per_controller": 1000}, "auth": {"tokens": [...]},
 //    "logging": {"level": "info", "format": "text", "levels": {"ms2000": "debug"}},
 //    "shutdown": {"halt_on_exit": true}}
 
@@ -45,7 +46,13 @@ struct simulate_config {
 };
 
 struct storage_config {
-    std::string path = "asi-gateway-data";
+    std::string path = "asi-gateway-data";  // a directory; the job database is <path>/jobs.sqlite3
+    std::size_t max_size_mb = 1024;         // bound on jobs.sqlite3; beyond it submissions fail (503)
+};
+
+struct jobs_config {
+    bool restart_queued = false;  // after a restart, start the jobs that were still queued
+    std::size_t max_queued_per_controller = 1000;
 };
 
 enum class role : std::uint8_t { viewer, operator_, admin };
@@ -82,6 +89,7 @@ struct gateway_config {
     std::vector<devices::controller_settings> controllers;
     simulate_config simulate;
     storage_config storage;
+    jobs_config jobs;
     auth_config auth;
     logging_config logging;
     shutdown_config shutdown;
@@ -90,6 +98,8 @@ struct gateway_config {
 // Limits of the values the file may hold.
 inline constexpr unsigned supported_bauds[] = {9600, 19200, 28800, 38400, 57600, 115200};
 inline constexpr std::size_t max_simulated_controllers = 16;
+inline constexpr std::size_t max_storage_size_mb = 1024 * 1024;  // 1 TiB
+inline constexpr std::size_t max_queued_jobs_per_controller = 100000;
 
 // The embedded default used without a file: three simulated controllers (`--simulate 3`).
 gateway_config default_config();

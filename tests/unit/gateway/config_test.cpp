@@ -28,6 +28,9 @@ TEST(config, empty_object_gives_the_safe_defaults) {
     EXPECT_EQ(c->simulate.count, 0u);
     EXPECT_EQ(c->simulate.time_scale, 1.0);
     EXPECT_EQ(c->storage.path, "asi-gateway-data");
+    EXPECT_EQ(c->storage.max_size_mb, 1024u);
+    EXPECT_FALSE(c->jobs.restart_queued);
+    EXPECT_EQ(c->jobs.max_queued_per_controller, 1000u);
     EXPECT_TRUE(c->auth.tokens.empty());
     EXPECT_EQ(c->logging.level, log_level::info);
     EXPECT_EQ(c->logging.format, log_format::text);
@@ -54,7 +57,8 @@ TEST(config, reads_every_key) {
         {"id": "stage-2_b", "port": "/dev/serial/by-id/x"}
       ],
       "simulate": {"count": 2, "time_scale": 10.5, "directory": "/tmp/sims"},
-      "storage": {"path": "/var/lib/asi"},
+      "storage": {"path": "/var/lib/asi", "max_size_mb": 64},
+      "jobs": {"restart_queued": true, "max_queued_per_controller": 20},
       "auth": {"tokens": [{"name": "dash", "token": "0123456789abcdef", "role": "viewer"},
                           {"name": "ops", "token": "0123456789abcdeX", "role": "operator"},
                           {"name": "root", "token": "0123456789abcdeY", "role": "admin"},
@@ -89,6 +93,9 @@ TEST(config, reads_every_key) {
     EXPECT_EQ(c->simulate.time_scale, 10.5);
     EXPECT_EQ(c->simulate.directory, "/tmp/sims");
     EXPECT_EQ(c->storage.path, "/var/lib/asi");
+    EXPECT_EQ(c->storage.max_size_mb, 64u);
+    EXPECT_TRUE(c->jobs.restart_queued);
+    EXPECT_EQ(c->jobs.max_queued_per_controller, 20u);
     ASSERT_EQ(c->auth.tokens.size(), 4u);
     EXPECT_EQ(c->auth.tokens[0].role, role::viewer);
     EXPECT_EQ(c->auth.tokens[1].role, role::operator_);
@@ -177,6 +184,18 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
          "simulate.time_scale: must be a number from 0.01 to 1000"},
         {R"({"simulate": {"directory": ""}})", "simulate.directory: must not be empty"},
         {R"({"storage": {"path": ""}})", "storage.path: must not be empty"},
+        {R"({"storage": {"max_size_mb": 0}})", "storage.max_size_mb: must be an integer from 1 to 1048576"},
+        {R"({"storage": {"max_size_mb": 1048577}})",
+         "storage.max_size_mb: must be an integer from 1 to 1048576"},
+        {R"({"storage": {"max_size_mb": "1G"}})",
+         "storage.max_size_mb: must be an integer from 1 to 1048576"},
+        // jobs
+        {R"({"jobs": []})", "jobs: must be an object"},
+        {R"({"jobs": {"restart_queued": 1}})", "jobs.restart_queued: must be true or false"},
+        {R"({"jobs": {"max_queued_per_controller": 0}})",
+         "jobs.max_queued_per_controller: must be an integer from 1 to 100000"},
+        {R"({"jobs": {"max_queued_per_controller": 100001}})",
+         "jobs.max_queued_per_controller: must be an integer from 1 to 100000"},
         // auth
         {R"({"auth": {"tokens": [{"token": "0123456789abcdef"}]}})", "auth.tokens[0].name: required"},
         {R"({"auth": {"tokens": [{"name": "a"}]}})", "auth.tokens[0].token: required"},
@@ -225,6 +244,7 @@ TEST(config, refuses_unknown_keys_at_every_level) {
          "controllers[1].speed: unknown key"},
         {R"({"simulate": {"cont": 1}})", "simulate.cont: unknown key"},
         {R"({"storage": {"dir": "x"}})", "storage.dir: unknown key"},
+        {R"({"jobs": {"restart": true}})", "jobs.restart: unknown key"},
         {R"({"auth": {"token": []}})", "auth.token: unknown key"},
         {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789abcdef", "roles": "admin"}]}})",
          "auth.tokens[0].roles: unknown key"},

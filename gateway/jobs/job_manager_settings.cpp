@@ -1,0 +1,16 @@
+// Wiring from the config file to the job manager; kept apart so job_manager.cpp needs no config.
+#include "gateway/config.hpp"
+#include "gateway/jobs/job_manager.hpp"
+
+namespace gw::jobs {
+
+job_manager_settings make_job_manager_settings(const gateway_config& config) {
+    job_manager_settings s;
+    s.storage_path = config.storage.path;
+    s.storage_max_size_mb = config.storage.max_size_mb;
+    s.restart_queued = config.jobs.restart_queued;
+    s.max_queued_per_controller = config.jobs.max_queued_per_controller;
+    return s;
+}
+
+}  // namespace gw::jobs
