@@ -12,6 +12,7 @@
 
 #include "devices/ms2000/error.hpp"
 #include "gateway/controller_registry.hpp"
+#include "gateway/lease_manager.hpp"
 #include "gateway/operations.hpp"
 
 namespace gw::api {
@@ -358,8 +359,19 @@ gw::role required_role(std::string_view operation) {
     return operation == "command" ? gw::role::admin : gw::role::operator_;
 }
 
+bool needs_lease(std::string_view operation) {
+    return operation != "halt";
+}
+
 void run_operation(api_context& ctx, std::string_view controller_id, std::string_view operation,
                    const json& body, std::string request_id, gw::role role, operation_handler handler) {
+    run_operation(ctx, controller_id, operation, body, std::move(request_id), role, std::nullopt,
+                  std::move(handler));
+}
+
+void run_operation(api_context& ctx, std::string_view controller_id, std::string_view operation,
+                   const json& body, std::string request_id, gw::role role,
+                   std::optional<std::string> lease_id, operation_handler handler) {
     // Never inline: post through the handler's associated executor (default ctx.executor).
     auto finish_now = [&](problem p) {
         p.request_id = request_id;
@@ -376,6 +388,11 @@ void run_operation(api_context& ctx, std::string_view controller_id, std::string
     }
     auto parsed = parse_request(operation, body);
     if (!parsed) return finish_now(make_problem(parsed.error()));
+    if (ctx.leases && needs_lease(operation)) {
+        auto allowed = ctx.leases->check(
+            std::string(controller_id), lease_id ? std::optional<std::string_view>(*lease_id) : std::nullopt);
+        if (!allowed) return finish_now(make_problem(allowed.error()));
+    }
 
     // The registry completes on its executor; from there the handler is dispatched to its own.
     auto shared = std::make_shared<operation_handler>(std::move(handler));

@@ -46,10 +46,20 @@ bool is_operation(std::string_view name);
 // operator for the typed operations, admin for "command".
 gw::role required_role(std::string_view operation);
 
-// Checks the role, parses `body` (a JSON object; null counts as {}), runs the operation and calls
-// `handler` once, on its associated executor (default: ctx.executor), never inline.
+// Checks the role, parses `body` (a JSON object; null counts as {}), checks the lease, runs the
+// operation and calls `handler` once, on its associated executor (default: ctx.executor), never inline.
+// Leases (ctx.leases): while someone holds the controller, every operation but halt needs
+// `lease_id` to be that lease (409 leased otherwise). halt is never refused for a lease: stopping
+// the stage must always be possible.
+void run_operation(api_context& ctx, std::string_view controller_id, std::string_view operation,
+                   const nlohmann::json& body, std::string request_id, gw::role role,
+                   std::optional<std::string> lease_id, operation_handler handler);
+// The same without a lease id (refused while the controller is leased).
 void run_operation(api_context& ctx, std::string_view controller_id, std::string_view operation,
                    const nlohmann::json& body, std::string request_id, gw::role role,
                    operation_handler handler);
+
+// Whether `operation` is subject to leases (every one but halt).
+bool needs_lease(std::string_view operation);
 
 }  // namespace gw::api

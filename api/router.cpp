@@ -4,6 +4,8 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/logger.h>
 
+#include "api/job_requests.hpp"
+#include "api/lease_requests.hpp"
 #include "api/openapi_document.hpp"
 #include "api/operation_requests.hpp"
 #include "gateway/controller_registry.hpp"
@@ -63,7 +65,32 @@ void copy_hub_counters(const api_context& ctx) {
     m.set("gw_event_subscribers", {}, static_cast<double>(c.subscribers));
 }
 
+// The value of a header, if the request has it.
+std::optional<std::string> header_value(const string_request& req, std::string_view name) {
+    auto it = req.find(name);
+    if (it == req.end()) return std::nullopt;
+    return std::string(it->value());
+}
+
 }  // namespace
+
+string_response outcome_response(api_outcome o, unsigned version, bool keep_alive, std::string_view target,
+                                 const std::string& request_id) {
+    if (o.error) return problem_response(std::move(*o.error), version, keep_alive, target, request_id);
+    string_response res{static_cast<http::status>(o.status), version};
+    res.set(http::field::server, "asi-gateway");
+    res.set("X-Request-Id", request_id);
+    res.set(http::field::cache_control, "no-store");
+    if (!o.location.empty()) res.set(http::field::location, o.location);
+    if (o.replayed) res.set("Idempotency-Replayed", "true");
+    res.keep_alive(keep_alive);
+    if (o.status != 204) {
+        res.set(http::field::content_type, "application/json");
+        res.body() = o.body.dump(-1, ' ', false, json::error_handler_t::replace);
+    }
+    res.prepare_payload();
+    return res;
+}
 
 std::string_view target_path(std::string_view target) {
     return target.substr(0, target.find('?'));
@@ -184,6 +211,197 @@ void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& re
                                                 "no controller \"" + std::string(segments[1]) + "\"")));
         return reply(route, json_response(http::status::ok, state_json(*s), req, request_id));
     }
+    // Several methods on one route: 405 with Allow listing them.
+    auto methods_ok = [&](const std::string& route, std::initializer_list<http::verb> allowed) {
+        for (auto v : allowed)
+            if (method == v) return true;
+        std::string list;
+        for (auto v : allowed)
+            list += (list.empty() ? "" : ", ") + std::string(http::to_string(v));
+        auto res = problem_response(
+            make_problem(http_error::method_not_allowed,
+                         std::string(req.method_string()) + " is not allowed here; use " + list),
+            req, request_id);
+        res.set(http::field::allow, list);
+        reply(route, std::move(res));
+        return false;
+    };
+    auto query = [&](const std::string& route) -> std::optional<query_params> {
+        auto q = parse_query(req.target());
+        if (!q) {
+            fail(route, make_problem(q.error()));
+            return std::nullopt;
+        }
+        return std::move(*q);
+    };
+    auto known_only = [&](const std::string& route, const query_params& q,
+                          std::initializer_list<std::string_view> known) {
+        auto ok = check_known_parameters(q, known);
+        if (!ok) fail(route, make_problem(ok.error()));
+        return static_cast<bool>(ok);
+    };
+    // The body as JSON (null when empty), or a 400 answered.
+    auto json_body = [&](const std::string& route) -> std::optional<json> {
+        json body;
+        if (!req.body().empty()) {
+            body = json::parse(req.body(), nullptr, false);
+            if (body.is_discarded()) {
+                fail(route, make_problem(http_error::malformed_json, "the request body is not valid JSON"));
+                return std::nullopt;
+            }
+        }
+        return body;
+    };
+    // A Lease-Id / Idempotency-Key header: absent, valid, or a 422 answered (`ok` false).
+    auto key_header = [&](const std::string& route, std::string_view name,
+                          bool& ok) -> std::optional<std::string> {
+        ok = true;
+        auto v = header_value(req, name);
+        if (v && !is_valid_key(*v)) {
+            ok = false;
+            fail(route,
+                 make_problem(make_error(operation_error_kind::invalid_value,
+                                         std::string(name) + " must be 1..128 printable ASCII characters",
+                                         std::string(name))));
+        }
+        return v;
+    };
+    auto reply_outcome = [&](const std::string& route, api_outcome o) {
+        reply(route,
+              outcome_response(std::move(o), req.version(), req.keep_alive(), req.target(), request_id));
+    };
+    // The answer of an asynchronous route, on the session's executor.
+    auto async_reply = [&](std::string route) {
+        return net::bind_executor(
+            session_executor,
+            [route = std::move(route), version = req.version(), keep_alive = req.keep_alive(),
+             target = std::string(req.target()), request_id, done = std::move(done)](api_outcome o) {
+                done({outcome_response(std::move(o), version, keep_alive, target, request_id), route});
+            });
+    };
+
+    if (!segments.empty() && segments[0] == "jobs") {
+        if (segments.size() == 1) {
+            const std::string route = "/api/v1/jobs";
+            if (!methods_ok(route, {http::verb::get, http::verb::post})) return;
+            auto q = query(route);
+            if (!q) return;
+            if (method == http::verb::get) {
+                if (!authorize(route, gw::role::viewer)) return;
+                auto filter = parse_job_filter(*q);
+                if (!filter) return fail(route, make_problem(filter.error()));
+                return reply_outcome(route, list_jobs(*ctx, *filter, request_id));
+            }
+            auto who = authorize(route, gw::role::operator_);
+            if (!who || !known_only(route, *q, {"dry_run"})) return;
+            auto dry_run = query_flag(*q, "dry_run", false);
+            if (!dry_run) return fail(route, make_problem(dry_run.error()));
+            bool ok = true;
+            submit_options options;
+            options.dry_run = *dry_run;
+            options.idempotency_key = key_header(route, "Idempotency-Key", ok);
+            if (!ok) return;
+            options.lease_id = key_header(route, "Lease-Id", ok);
+            if (!ok) return;
+            auto body = json_body(route);
+            if (!body) return;
+            options.principal = who->name;
+            options.request_id = request_id;
+            return submit_job(*ctx, *body, std::move(options), async_reply(route));
+        }
+        if (!segments[1].empty() && is_plausible_job_id(segments[1])) {
+            const std::string id(segments[1]);
+            if (segments.size() == 2) {
+                const std::string route = "/api/v1/jobs/{id}";
+                if (!method_ok(route, http::verb::get) || !authorize(route, gw::role::viewer)) return;
+                auto q = query(route);
+                if (!q || !known_only(route, *q, {})) return;
+                return reply_outcome(route, get_job(*ctx, id, request_id));
+            }
+            if (segments.size() == 3 && segments[2] == "events") {
+                const std::string route = "/api/v1/jobs/{id}/events";
+                if (!method_ok(route, http::verb::get) || !authorize(route, gw::role::viewer)) return;
+                auto q = query(route);
+                if (!q) return;
+                auto limit = parse_event_limit(*q);
+                if (!limit) return fail(route, make_problem(limit.error()));
+                return reply_outcome(route, job_events(*ctx, id, *limit, request_id));
+            }
+            if (segments.size() == 3) {
+                if (auto command = parse_job_command(segments[2])) {
+                    const std::string route = "/api/v1/jobs/{id}/" + std::string(segments[2]);
+                    if (!method_ok(route, http::verb::post)) return;
+                    auto who = authorize(route, gw::role::operator_);
+                    if (!who) return;
+                    auto q = query(route);
+                    if (!q || !known_only(route, *q, {})) return;
+                    auto body = json_body(route);
+                    if (!body) return;
+                    if (!body->is_null() && !(body->is_object() && body->empty()))
+                        return fail(route, make_problem(make_error(operation_error_kind::invalid_value,
+                                                                   "this request takes no body (or {})")));
+                    bool ok = true;
+                    jobs::job_action action;
+                    action.job_id = id;
+                    action.lease_id = key_header(route, "Lease-Id", ok);
+                    if (!ok) return;
+                    action.principal = who->name;
+                    action.request_id = request_id;
+                    return control_job(*ctx, *command, std::move(action), async_reply(route));
+                }
+            }
+        } else if (segments.size() >= 2 && segments.size() <= 3) {
+            // Not a job id at all: the job cannot exist.
+            const std::string route = segments.size() == 2 ? "/api/v1/jobs/{id}" : "unmatched";
+            if (segments.size() == 2)
+                return fail(route,
+                            make_problem(make_error(operation_error_kind::unknown_job, "no such job")));
+        }
+        return fail("unmatched", make_problem(http_error::not_found, "no route for " + path));
+    }
+
+    if ((segments.size() == 3 || (segments.size() == 4 && segments[3] == "renew")) &&
+        segments[0] == "controllers" && !segments[1].empty() && segments[2] == "lease") {
+        const std::string controller(segments[1]);
+        if (segments.size() == 4) {
+            const std::string route = "/api/v1/controllers/{id}/lease/renew";
+            if (!method_ok(route, http::verb::post) || !authorize(route, gw::role::operator_)) return;
+            auto q = query(route);
+            if (!q || !known_only(route, *q, {})) return;
+            bool ok = true;
+            auto lease_id = key_header(route, "Lease-Id", ok);
+            if (!ok) return;
+            auto body = json_body(route);
+            if (!body) return;
+            return reply_outcome(route, renew_lease(*ctx, controller, lease_id, *body, request_id));
+        }
+        const std::string route = "/api/v1/controllers/{id}/lease";
+        if (!methods_ok(route, {http::verb::get, http::verb::post, http::verb::delete_})) return;
+        auto q = query(route);
+        if (!q) return;
+        if (method == http::verb::get) {
+            if (!authorize(route, gw::role::viewer) || !known_only(route, *q, {})) return;
+            return reply_outcome(route, get_lease(*ctx, controller, request_id));
+        }
+        if (method == http::verb::post) {
+            auto who = authorize(route, gw::role::operator_);
+            if (!who || !known_only(route, *q, {})) return;
+            auto body = json_body(route);
+            if (!body) return;
+            return reply_outcome(route, acquire_lease(*ctx, controller, *body, who->name, request_id));
+        }
+        auto who = authorize(route, gw::role::operator_);
+        if (!who || !known_only(route, *q, {"force"})) return;
+        auto force = query_flag(*q, "force", false);
+        if (!force) return fail(route, make_problem(force.error()));
+        if (*force && !has_role(*who, gw::role::admin))
+            return fail(route, forbidden_problem(*who, gw::role::admin));
+        bool ok = true;
+        auto lease_id = key_header(route, "Lease-Id", ok);
+        if (!ok) return;
+        return reply_outcome(route, release_lease(*ctx, controller, lease_id, *force, request_id));
+    }
+
     if (segments.size() == 3 && segments[0] == "controllers" && !segments[1].empty() &&
         is_operation(segments[2])) {
         const std::string route = "/api/v1/controllers/{id}/" + std::string(segments[2]);
@@ -202,10 +420,13 @@ void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& re
             return fail(route,
                         make_problem(make_error(operation_error_kind::unknown_controller,
                                                 "no controller \"" + std::string(segments[1]) + "\"")));
+        bool lease_ok = true;
+        auto lease_id = key_header(route, "Lease-Id", lease_ok);
+        if (!lease_ok) return;
         auto version = req.version();
         auto keep_alive = req.keep_alive();
         std::string target(req.target());
-        run_operation(*ctx, segments[1], segments[2], body, request_id, who->role,
+        run_operation(*ctx, segments[1], segments[2], body, request_id, who->role, std::move(lease_id),
                       net::bind_executor(session_executor, [route, version, keep_alive, target, request_id,
                                                             done = std::move(done)](operation_outcome o) {
                           if (o.error)

@@ -8,10 +8,14 @@
 //   GET  /api/v1/controllers/{id}            viewer
 //   POST /api/v1/controllers/{id}/{op}       operator (op: move halt home zero here speed ttl dac led)
 //   POST /api/v1/controllers/{id}/command    admin
+//   GET/POST/DELETE /api/v1/controllers/{id}/lease, POST .../lease/renew   (api/lease_requests.hpp)
+//   GET/POST /api/v1/jobs, GET /api/v1/jobs/{id}[/events], POST /api/v1/jobs/{id}/{cancel|pause|resume|next}
+//                                            (api/job_requests.hpp)
 //   GET  /api/v1/metrics                     viewer; Prometheus text
 //   GET  /api/v1/openapi.yaml, /openapi.yaml public
 // Thread safety: handle() may be called from any session strand; `done` is called exactly once, on
-// `session_executor` (immediately, inside handle(), for everything but the controller operations).
+// `session_executor` (immediately, inside handle(), for everything but the controller operations and
+// the job submissions and job commands).
 
 #include <functional>
 #include <memory>
@@ -40,6 +44,12 @@ std::string_view target_path(std::string_view target);
 // A problem+json response (status, body, X-Request-Id) for `request`.
 string_response problem_response(problem p, const string_request& request, const std::string& request_id);
 string_response problem_response(problem p, unsigned version, bool keep_alive, std::string_view target,
+                                 const std::string& request_id);
+
+// The HTTP response for a route's outcome: problem+json, or JSON with status 200/201 (Location) or 204;
+// Idempotency-Replayed: true on a replayed submission.
+struct api_outcome;
+string_response outcome_response(api_outcome o, unsigned version, bool keep_alive, std::string_view target,
                                  const std::string& request_id);
 
 // Resolves the Authorization header, or fills `error` (401).

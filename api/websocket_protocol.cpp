@@ -5,6 +5,7 @@
 #include <optional>
 #include <utility>
 
+#include "api/job_requests.hpp"
 #include "api/operation_requests.hpp"
 #include "gateway/operation_error.hpp"
 #include "gateway/topic.hpp"
@@ -139,10 +140,67 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_unsubscribe(co
     return ws_unsubscribe{.id = std::move(id), .topics = std::move(*topics)};
 }
 
-boost::system::result<ws_client_message, ws_protocol_error> parse_command(const json& msg, json id) {
-    if (auto key = unknown_key(msg, {"op", "id", "controller", "operation", "args"}))
+// "lease" / "idempotency_key": absent, or 1..128 printable characters without spaces.
+boost::system::result<std::optional<std::string>, ws_protocol_error> read_key(const json& msg, const json& id,
+                                                                              const char* name) {
+    auto it = msg.find(name);
+    if (it == msg.end() || it->is_null()) return std::optional<std::string>();
+    if (!it->is_string() || !is_valid_key(it->get_ref<const std::string&>()))
+        return invalid(id, name, std::string("\"") + name + "\" must be 1..128 printable ASCII characters");
+    return std::optional<std::string>(it->get<std::string>());
+}
+
+boost::system::result<ws_client_message, ws_protocol_error> parse_job(const json& msg, json id) {
+    if (auto key =
+            unknown_key(msg, {"op", "id", "action", "job", "args", "lease", "idempotency_key", "dry_run"}))
         return invalid(id, *key,
-                       "unknown field \"" + *key + "\" (known: op, id, controller, operation, args)");
+                       "unknown field \"" + *key +
+                           "\" (known: op, id, action, job, args, lease, idempotency_key, dry_run)");
+    if (id.is_null()) return invalid(id, "id", "a job message needs an \"id\" (echoed in its answer)");
+    constexpr std::string_view actions = "submit, get, cancel, pause, resume, next";
+    auto action = msg.find("action");
+    if (action == msg.end() || !action->is_string())
+        return invalid(id, "action", "\"action\" must be one of: " + std::string(actions));
+    const auto& a = action->get_ref<const std::string&>();
+    if (a != "submit" && a != "get" && !parse_job_command(a))
+        return invalid(id, "action",
+                       "unknown action \"" + (printable(a) ? a : std::string("...")) +
+                           "\" (one of: " + std::string(actions) + ")");
+    ws_job j;
+    j.id = id;
+    j.action = a;
+    auto lease = read_key(msg, id, "lease");
+    if (!lease) return lease.error();
+    j.lease = std::move(*lease);
+    if (a == "submit") {
+        if (msg.contains("job")) return invalid(id, "job", "\"job\" is not used by submit (the job is new)");
+        auto args = msg.find("args");
+        if (args == msg.end() || !args->is_object())
+            return invalid(id, "args", "submit needs \"args\": {\"controller\", \"type\", \"spec\"}");
+        j.args = *args;
+        auto key = read_key(msg, id, "idempotency_key");
+        if (!key) return key.error();
+        j.idempotency_key = std::move(*key);
+        if (auto it = msg.find("dry_run"); it != msg.end()) {
+            if (!it->is_boolean()) return invalid(id, "dry_run", "\"dry_run\" must be true or false");
+            j.dry_run = it->get<bool>();
+        }
+        return j;
+    }
+    for (const char* only_submit : {"args", "idempotency_key", "dry_run"})
+        if (msg.contains(only_submit))
+            return invalid(id, only_submit, std::string("\"") + only_submit + "\" is only used by submit");
+    auto job = msg.find("job");
+    if (job == msg.end() || !job->is_string() || !is_plausible_job_id(job->get_ref<const std::string&>()))
+        return invalid(id, "job", "\"job\" must be a job id (\"j-...\")");
+    j.job = job->get<std::string>();
+    return j;
+}
+
+boost::system::result<ws_client_message, ws_protocol_error> parse_command(const json& msg, json id) {
+    if (auto key = unknown_key(msg, {"op", "id", "controller", "operation", "args", "lease"}))
+        return invalid(id, *key,
+                       "unknown field \"" + *key + "\" (known: op, id, controller, operation, args, lease)");
     if (id.is_null()) return invalid(id, "id", "a command needs an \"id\" (echoed in its answer)");
     auto controller = msg.find("controller");
     if (controller == msg.end() || !controller->is_string() ||
@@ -172,10 +230,13 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_command(const 
             return invalid(id, "args", "\"args\" must be an object, not " + std::string(type_name(*it)));
         args = *it;
     }
+    auto lease = read_key(msg, id, "lease");
+    if (!lease) return lease.error();
     return ws_command{.id = std::move(id),
                       .controller = controller->get<std::string>(),
                       .operation = op,
-                      .args = std::move(args)};
+                      .args = std::move(args),
+                      .lease = std::move(*lease)};
 }
 
 }  // namespace
@@ -200,11 +261,12 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_client_message
     }
     auto op = msg.find("op");
     if (op == msg.end() || !op->is_string())
-        return invalid(id, "op", "\"op\" must be one of: subscribe, unsubscribe, command, ping");
+        return invalid(id, "op", "\"op\" must be one of: subscribe, unsubscribe, command, job, ping");
     const auto& name = op->get_ref<const std::string&>();
     if (name == "subscribe") return parse_subscribe(msg, std::move(id));
     if (name == "unsubscribe") return parse_unsubscribe(msg, std::move(id));
     if (name == "command") return parse_command(msg, std::move(id));
+    if (name == "job") return parse_job(msg, std::move(id));
     if (name == "ping") {
         if (auto key = unknown_key(msg, {"op", "id"}))
             return invalid(id, *key,
@@ -213,7 +275,7 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_client_message
     }
     return invalid(id, "op",
                    "unknown op \"" + (printable(name) ? name : std::string("...")) +
-                       "\" (one of: subscribe, unsubscribe, command, ping)");
+                       "\" (one of: subscribe, unsubscribe, command, job, ping)");
 }
 
 ws_protocol_error binary_frame_error() {
@@ -254,8 +316,10 @@ std::string ws_unsubscribed_message(const ws_unsubscribe& request) {
     return text(json{{"type", "unsubscribed"}, {"id", request.id}, {"topics", request.topics}});
 }
 
-std::string ws_result_message(const json& id, const json& result) {
-    return text(json{{"type", "result"}, {"id", id}, {"result", result}});
+std::string ws_result_message(const json& id, const json& result, bool replayed) {
+    json m{{"type", "result"}, {"id", id}, {"result", result}};
+    if (replayed) m["replayed"] = true;
+    return text(m);
 }
 
 std::string ws_error_message(const json& id, const problem& error) {

@@ -10,12 +10,19 @@
 //   {"op":"unsubscribe","id":2,"topics":["jobs/#"]}
 //   {"op":"command","id":"c7","controller":"sim1","operation":"move",
 //    "args":{"axes":{"X":1000},"mode":"absolute"}}
+//   {"op":"job","id":"s1","action":"submit","args":{"controller":"sim1","type":"array","spec":{...}},
+//    "lease":"l-...","idempotency_key":"plate-7","dry_run":false}
+//   {"op":"job","id":"s2","action":"cancel"|"pause"|"resume"|"next"|"get","job":"j-...","lease":"l-..."}
 //   {"op":"ping","id":3}
+// "lease" (also on "command"): the lease id, like the REST header Lease-Id; while a controller is
+// leased, commands (but halt), job submissions and job actions without its lease get 409 leased.
+// Job args are the REST body of POST /api/v1/jobs; roles as REST (get: viewer, others: operator).
 // Server -> client:
 //   {"type":"hello","connection":"ws-5","user":"anonymous","role":"admin","max_message_bytes":65536}
 //   {"type":"subscribed","id":1,"topics":[...],"resume":{...},"max_rate_hz":10}
 //   {"type":"unsubscribed","id":2,"topics":[...]}
 //   {"type":"result","id":"c7","result":{...the REST result body...}}
+//   {"type":"result","id":"s1","result":{...the first job...},"replayed":true}   (Idempotency replay)
 //   {"type":"error","id":"c7"|null,"problem":{...the application/problem+json body...}}
 //   {"type":"pong","id":3}
 //   {"type":"event",...} and {"type":"gap",...} exactly as in gateway/event.hpp.
@@ -25,6 +32,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <variant>
@@ -57,15 +65,27 @@ struct ws_unsubscribe {
 struct ws_command {
     nlohmann::json id;  // never null
     std::string controller;
-    std::string operation;  // one of operation_names()
-    nlohmann::json args;    // an object ({} when absent)
+    std::string operation;             // one of operation_names()
+    nlohmann::json args;               // an object ({} when absent)
+    std::optional<std::string> lease;  // "lease": the lease id, when the client holds one
+};
+
+// A job submission or a job action.
+struct ws_job {
+    nlohmann::json id;    // never null
+    std::string action;   // "submit", "get", "cancel", "pause", "resume", "next"
+    std::string job;      // the job id: every action but submit
+    nlohmann::json args;  // submit: {"controller","type","spec"} (validated when submitted)
+    std::optional<std::string> lease;
+    std::optional<std::string> idempotency_key;  // submit only
+    bool dry_run = false;                        // submit only
 };
 
 struct ws_ping {
     nlohmann::json id;
 };
 
-using ws_client_message = std::variant<ws_subscribe, ws_unsubscribe, ws_command, ws_ping>;
+using ws_client_message = std::variant<ws_subscribe, ws_unsubscribe, ws_command, ws_job, ws_ping>;
 
 // Why a client message was refused; `id` is the message's id when it had a valid one, else null.
 struct ws_protocol_error {
@@ -86,7 +106,7 @@ std::string ws_hello_message(std::string_view connection, std::string_view user,
                              std::size_t max_message_bytes);
 std::string ws_subscribed_message(const ws_subscribe& request);
 std::string ws_unsubscribed_message(const ws_unsubscribe& request);
-std::string ws_result_message(const nlohmann::json& id, const nlohmann::json& result);
+std::string ws_result_message(const nlohmann::json& id, const nlohmann::json& result, bool replayed = false);
 std::string ws_error_message(const nlohmann::json& id, const problem& error);
 std::string ws_pong_message(const nlohmann::json& id);
 

@@ -36,6 +36,9 @@
 
 namespace gw::api {
 
+struct ws_job;
+struct api_outcome;
+
 // Takes over the connection: accepts the upgrade `request` (already read, already authenticated as
 // `who`) and runs the session until it closes. The session keeps the connection's `permit` (its slot
 // in http.limits.max_connections) until it ends.
@@ -90,6 +93,8 @@ class websocket_session final : public gw::event_sink,
     void answer(std::string text);
     void answer_error(const nlohmann::json& id, problem p);
     void on_command_done(const nlohmann::json& id, operation_outcome outcome);
+    void handle_job(ws_job& m);
+    void on_job_done(const nlohmann::json& id, api_outcome outcome);
     void on_deliver(std::vector<std::shared_ptr<const event>> batch);
     void do_write();
     void on_write(beast::error_code ec, std::size_t bytes);

@@ -1,0 +1,141 @@
+#include "api/lease_requests.hpp"
+
+#include <cmath>
+
+#include "gateway/controller_registry.hpp"
+#include "gateway/timestamp.hpp"
+
+namespace gw::api {
+
+using nlohmann::json;
+
+namespace {
+
+operation_error invalid(std::string field, std::string message) {
+    return make_error(operation_error_kind::invalid_value, std::move(message), std::move(field));
+}
+
+bool printable(std::string_view s) {
+    for (unsigned char c : s)
+        if (c < 0x20 || c > 0x7e) return false;
+    return true;
+}
+
+std::optional<api_outcome> check_controller(api_context& ctx, const std::string& controller,
+                                            const std::string& request_id) {
+    if (!ctx.registry.get(controller))
+        return failed(
+            make_error(operation_error_kind::unknown_controller, "no controller \"" + controller + "\""),
+            request_id);
+    if (!ctx.leases)
+        return failed(make_problem(http_error::not_implemented, "leases are not enabled on this gateway"),
+                      request_id);
+    return std::nullopt;
+}
+
+std::optional<api_outcome> require_lease_id(const std::optional<std::string>& lease_id,
+                                            const std::string& request_id) {
+    if (!lease_id)
+        return failed(invalid("Lease-Id", "the Lease-Id header is required (the lease_id of the lease)"),
+                      request_id);
+    if (!is_valid_key(*lease_id))
+        return failed(invalid("Lease-Id", "Lease-Id must be 1..128 printable characters"), request_id);
+    return std::nullopt;
+}
+
+}  // namespace
+
+operation_result<lease_body> parse_lease_body(const json& body_in, bool allow_holder) {
+    static const json empty = json::object();
+    const json& body = body_in.is_null() ? empty : body_in;
+    if (!body.is_object()) return invalid("", "the body must be a JSON object");
+    for (const auto& [key, value] : body.items()) {
+        if (key == "ttl_s" || (allow_holder && key == "holder")) continue;
+        const std::string name = printable(key) && key.size() <= 64 ? key : std::string("...");
+        return invalid(
+            name, "unknown field \"" + name + "\" (known: " + (allow_holder ? "ttl_s, holder)" : "ttl_s)"));
+    }
+    lease_body out;
+    if (auto it = body.find("ttl_s"); it != body.end()) {
+        const auto range =
+            std::to_string(min_lease_ttl.count()) + ".." + std::to_string(max_lease_ttl.count());
+        if (!it->is_number_integer())
+            return invalid("ttl_s", "ttl_s must be an integer number of seconds " + range);
+        const auto s = it->get<std::int64_t>();
+        if (s < min_lease_ttl.count() || s > max_lease_ttl.count())
+            return invalid("ttl_s", "ttl_s must be " + range + " seconds");
+        out.ttl = std::chrono::seconds(s);
+    }
+    if (auto it = body.find("holder"); it != body.end()) {
+        if (!it->is_string() || it->get_ref<const std::string&>().empty() ||
+            it->get_ref<const std::string&>().size() > 64 || !printable(it->get_ref<const std::string&>()))
+            return invalid("holder", "holder must be a label of 1..64 printable characters");
+        out.label = it->get<std::string>();
+    }
+    return out;
+}
+
+json lease_json(const lease& l, bool with_id, std::chrono::system_clock::time_point now) {
+    json j = json::object();
+    if (with_id) j["lease_id"] = l.id;
+    j["controller"] = l.controller;
+    j["holder"] = l.holder;
+    j["acquired"] = format_timestamp(l.acquired);
+    j["expires"] = format_timestamp(l.expires);
+    const double left = std::chrono::duration<double>(l.expires - now).count();
+    j["expires_in_s"] = std::max(0.0, std::round(left * 1000) / 1000);
+    return j;
+}
+
+api_outcome acquire_lease(api_context& ctx, const std::string& controller, const json& body,
+                          const std::string& principal, const std::string& request_id) {
+    if (auto bad = check_controller(ctx, controller, request_id)) return std::move(*bad);
+    auto parsed = parse_lease_body(body, true);
+    if (!parsed) return failed(parsed.error(), request_id);
+    std::string holder = principal + (parsed->label ? "/" + *parsed->label : std::string());
+    auto l = ctx.leases->acquire(controller, std::move(holder), parsed->ttl);
+    if (!l) return failed(l.error(), request_id);
+    api_outcome out;
+    out.status = 201;
+    out.body = lease_json(*l, true, std::chrono::system_clock::now());
+    out.location = "/api/v1/controllers/" + controller + "/lease";
+    return out;
+}
+
+api_outcome renew_lease(api_context& ctx, const std::string& controller,
+                        const std::optional<std::string>& lease_id, const json& body,
+                        const std::string& request_id) {
+    if (auto bad = check_controller(ctx, controller, request_id)) return std::move(*bad);
+    if (auto bad = require_lease_id(lease_id, request_id)) return std::move(*bad);
+    auto parsed = parse_lease_body(body, false);
+    if (!parsed) return failed(parsed.error(), request_id);
+    auto l = ctx.leases->renew(controller, *lease_id, parsed->ttl);
+    if (!l) return failed(l.error(), request_id);
+    api_outcome out;
+    out.body = lease_json(*l, true, std::chrono::system_clock::now());
+    return out;
+}
+
+api_outcome release_lease(api_context& ctx, const std::string& controller,
+                          const std::optional<std::string>& lease_id, bool force,
+                          const std::string& request_id) {
+    if (auto bad = check_controller(ctx, controller, request_id)) return std::move(*bad);
+    if (!force)
+        if (auto bad = require_lease_id(lease_id, request_id)) return std::move(*bad);
+    auto l = ctx.leases->release(controller, lease_id.value_or(std::string()), force);
+    if (!l) return failed(l.error(), request_id);
+    api_outcome out;
+    out.status = 204;
+    return out;
+}
+
+api_outcome get_lease(api_context& ctx, const std::string& controller, const std::string& request_id) {
+    if (auto bad = check_controller(ctx, controller, request_id)) return std::move(*bad);
+    auto l = ctx.leases->current(controller);
+    if (!l) return failed(make_problem(http_error::not_found, controller + " is not leased"), request_id);
+    api_outcome out;
+    out.body = lease_json(*l, false, std::chrono::system_clock::now());
+    return out;
+}
+
+}  // namespace gw::api
