@@ -87,8 +87,12 @@ std::vector<nlohmann::json> job_execution::completed_steps() const {
 
 net::awaitable<devices::ms2000::reply> job_execution::command(std::string line) {
     throw_if_stopped();
-    auto r = co_await registry_.async_raw_command(job_->record.controller, raw_command_request{line},
-                                                  request_id_, net::use_awaitable);
+    // Named arguments only: g++ 12 mishandles temporaries that live across a co_await.
+    std::string controller = job_->record.controller;
+    raw_command_request request{line};
+    std::string request_id = request_id_;
+    auto r = co_await registry_.async_raw_command(std::move(controller), std::move(request),
+                                                  std::move(request_id), net::use_awaitable);
     throw_if_stopped();
     if (!r) throw job_failure(r.error());
     if (r->reply.what == devices::ms2000::reply::kind::error) {
@@ -106,7 +110,9 @@ net::awaitable<devices::ms2000::reply> job_execution::command(std::string line) 
 
 net::awaitable<move_result> job_execution::move(move_request request) {
     throw_if_stopped();
-    auto r = co_await registry_.async_move(job_->record.controller, std::move(request), request_id_,
+    std::string controller = job_->record.controller;
+    std::string request_id = request_id_;
+    auto r = co_await registry_.async_move(std::move(controller), std::move(request), std::move(request_id),
                                            net::use_awaitable);
     throw_if_stopped();
     if (!r) throw job_failure(r.error());
@@ -116,7 +122,8 @@ net::awaitable<move_result> job_execution::move(move_request request) {
 net::awaitable<void> job_execution::wait_idle(std::chrono::milliseconds timeout) {
     const auto deadline = steady_clock::now() + timeout;
     for (;;) {
-        auto reply = co_await command("/");
+        std::string status = "/";
+        auto reply = co_await command(std::move(status));
         if (reply.what == devices::ms2000::reply::kind::status && !reply.busy) co_return;
         if (steady_clock::now() >= deadline)
             throw job_failure(make_error(operation_error_kind::timeout,

@@ -628,11 +628,18 @@ void manager_core::release(const std::string& controller, const std::string& id)
 }
 
 net::awaitable<void> manager_core::safe_stop(std::string controller, std::string request_id) {
-    auto halted = co_await registry_.async_halt(controller, request_id, net::use_awaitable);
+    // Named arguments only: g++ 12 mishandles temporaries that live across a co_await.
+    std::string halt_controller = controller;
+    std::string halt_request_id = request_id;
+    auto halted = co_await registry_.async_halt(std::move(halt_controller), std::move(halt_request_id),
+                                                net::use_awaitable);
     if (!halted) log_->warn("[{}] {}: HALT failed: {}", request_id, controller, halted.error().message);
     ttl_request low;
     low.output_high = false;  // "TTL Y=0"
-    auto ttl = co_await registry_.async_ttl(controller, low, request_id, net::use_awaitable);
+    std::string ttl_controller = controller;
+    std::string ttl_request_id = request_id;
+    auto ttl = co_await registry_.async_ttl(std::move(ttl_controller), low, std::move(ttl_request_id),
+                                            net::use_awaitable);
     if (!ttl) log_->warn("[{}] {}: TTL Y=0 failed: {}", request_id, controller, ttl.error().message);
 }
 
@@ -693,7 +700,8 @@ void manager_core::cancel(job_action a, job_manager::handler<job_record> h) {
             // until both the HALT/TTL and its run() are over, so the next job starts after them.
             job->stopping = true;
             if (job->exec) job->exec->cancel();
-            co_await self->safe_stop(controller, "job-" + a.job_id);
+            std::string rid = "job-" + a.job_id;
+            co_await self->safe_stop(controller, rid);
             job->stopping = false;
             if (!is_terminal(job->record.state) && job->record.state != job_state::interrupted)
                 self->set_state(*job, job_state::cancelled, "cancelled");

@@ -251,7 +251,8 @@ boost::asio::awaitable<void> run_planar_correction(job_context& ctx) {
         if (first > 0) co_return;  // done before an interruption
         co_await ctx.checkpoint();
         ctx.step_started(0);
-        co_await ctx.command(command_of(parsed->what));
+        std::string line = command_of(parsed->what);  // named: see below
+        co_await ctx.command(std::move(line));
         ctx.step_done(0, {{"action", name_of(parsed->what)}});
         co_return;
     }
@@ -267,7 +268,11 @@ boost::asio::awaitable<void> run_planar_correction(job_context& ctx) {
         measured[index] = std::move(p);
     }
 
-    if (first == 0) co_await ctx.command("CCB Z=7");  // the old plane must not bend the new points
+    // Every argument of a co_await is a named variable: g++ 12 mishandles temporaries across it.
+    if (first == 0) {
+        std::string clear = "CCB Z=7";  // the old plane must not bend the new points
+        co_await ctx.command(std::move(clear));
+    }
     for (std::size_t i = first; i < 3; ++i) {
         co_await ctx.checkpoint();
         ctx.step_started(i);
@@ -284,7 +289,8 @@ boost::asio::awaitable<void> run_planar_correction(job_context& ctx) {
                 at[v.axis] = v.micrometres;
         } else {
             co_await ctx.wait_advance(advance_source::next);
-            const auto reply = co_await ctx.command("W X Y Z");
+            std::string where = "W X Y Z";
+            const auto reply = co_await ctx.command(std::move(where));
             for (std::size_t k = 0; k < xyz.size(); ++k) {
                 const auto tenths_um = reply.number(k);
                 if (!tenths_um)
@@ -295,7 +301,8 @@ boost::asio::awaitable<void> run_planar_correction(job_context& ctx) {
                 at[xyz[k]] = *tenths_um / 10.0;
             }
         }
-        co_await ctx.command(fmt::format("CCB Z={}", i + 1));
+        std::string store = fmt::format("CCB Z={}", i + 1);
+        co_await ctx.command(std::move(store));
         measured[i] = at;
         ctx.step_done(i, {{"point", i + 1}, {"position", point_json(at)}});
     }
@@ -303,7 +310,8 @@ boost::asio::awaitable<void> run_planar_correction(job_context& ctx) {
     if (parsed->enable && plan.steps.size() > 3 && first <= 3) {
         co_await ctx.checkpoint();
         ctx.step_started(3);
-        co_await ctx.command("CCB Z=4");
+        std::string enable = "CCB Z=4";
+        co_await ctx.command(std::move(enable));
         enabled = true;
         ctx.step_done(3, {{"enabled", true}});
     }
