@@ -262,17 +262,17 @@ operation_result<std::optional<job_record>> find_one(const connection& c, std::s
     return std::optional<job_record>{std::move(jobs->front())};
 }
 
-operation_result<std::int64_t> pragma_integer(const connection& c, const char* sql) {
+operation_result<std::int64_t> pragma_integer(const connection& c, const char* sql, std::string_view doing) {
     auto s = c.prepare(sql);
-    if (!s) return s.error();
-    if (s->step() != SQLITE_ROW) return c.error(sql);
+    if (!s) return c.error(doing);
+    if (s->step() != SQLITE_ROW) return c.error(doing);
     return s->integer(0);
 }
 
-operation_result<std::string> pragma_text(const connection& c, const char* sql) {
+operation_result<std::string> pragma_text(const connection& c, const char* sql, std::string_view doing) {
     auto s = c.prepare(sql);
-    if (!s) return s.error();
-    if (s->step() != SQLITE_ROW) return c.error(sql);
+    if (!s) return c.error(doing);
+    if (s->step() != SQLITE_ROW) return c.error(doing);
     return s->text(0);
 }
 
@@ -283,7 +283,7 @@ operation_result<void> configure(const connection& c, const job_store_options& o
                                                                          : static_cast<int>(timeout));
 
     // The first read also proves the file is a SQLite database ("file is not a database").
-    auto version = pragma_integer(c, "PRAGMA user_version");
+    auto version = pragma_integer(c, "PRAGMA user_version", "read schema version");
     if (!version) return version.error();
     if (*version > job_store_schema_version || *version < 0)
         return make_error(operation_error_kind::storage_unavailable,
@@ -291,7 +291,7 @@ operation_result<void> configure(const connection& c, const job_store_options& o
                                       "knows version {}; was the file written by a newer gateway?)",
                                       c.path, *version, job_store_schema_version));
 
-    auto mode = pragma_text(c, "PRAGMA journal_mode = WAL");
+    auto mode = pragma_text(c, "PRAGMA journal_mode = WAL", "set WAL journal");
     if (!mode) return mode.error();
     if (*mode != "wal")
         return make_error(
@@ -301,21 +301,21 @@ operation_result<void> configure(const connection& c, const job_store_options& o
     if (auto r = c.exec("PRAGMA foreign_keys = ON", "enable foreign keys"); !r) return r.error();
 
     if (options.max_size_mb > 0) {
-        auto page_size = pragma_integer(c, "PRAGMA page_size");
+        auto page_size = pragma_integer(c, "PRAGMA page_size", "read page size");
         if (!page_size) return page_size.error();
         auto bytes = static_cast<unsigned long long>(options.max_size_mb) * 1024ULL * 1024ULL;
         auto pages = std::max<unsigned long long>(
             1, bytes / static_cast<unsigned long long>(std::max<std::int64_t>(1, *page_size)));
         // PRAGMA takes no bound parameters; this is a number we computed, not outside text.
         auto sql = fmt::format("PRAGMA max_page_count = {}", pages);
-        if (auto r = pragma_integer(c, sql.c_str()); !r) return r.error();
+        if (auto r = pragma_integer(c, sql.c_str(), "set max_page_count"); !r) return r.error();
     }
 
     if (*version == 0) {
         transaction tx(c);
         if (auto r = tx.begin(true); !r) return r.error();
         // Another process may have created it while we waited for the lock.
-        auto again = pragma_integer(c, "PRAGMA user_version");
+        auto again = pragma_integer(c, "PRAGMA user_version", "read schema version");
         if (!again) return again.error();
         if (*again == 0) {
             if (auto r = c.exec(schema_v1, "create schema"); !r) return r.error();
