@@ -1,0 +1,235 @@
+// The job manager's queueing and control: FIFO per controller, controllers in parallel, cancel with
+// HALT and TTL low, pause after the current step and resume, idempotency, leases, queue bound.
+#include <cmath>
+
+#include "tests/integration/jobs/manager_fixture.hpp"
+
+namespace gw::jobs::test {
+namespace {
+
+using json = nlohmann::json;
+using kind = operation_error_kind;
+
+class manager_control_test : public manager_fixture {};
+
+// Three given points far apart: a few seconds of motion per point at a low time scale.
+json far_points(double span_um, bool enable = true) {
+    return {{"action", "set"},
+            {"points",
+             json::array({json{{"X", span_um}, {"Y", 0}, {"Z", 0}}, json{{"X", 0}, {"Y", span_um}, {"Z", 10}},
+                          json{{"X", span_um}, {"Y", span_um}, {"Z", 20}}})},
+            {"enable", enable}};
+}
+
+TEST_F(manager_control_test, jobs_on_one_controller_run_one_at_a_time_in_submission_order) {
+    add_sim("sim3", "planar");
+    start();
+    auto a = submit("sim3", job_type::planar_correction, far_points(3000));
+    auto b = submit("sim3", job_type::planar_correction, {{"action", "disable"}});
+    auto c = submit("sim3", job_type::planar_correction, {{"action", "clear"}});
+    ASSERT_TRUE(a && b && c);
+    // While the first runs, the others wait.
+    ASSERT_TRUE(wait_state(a->job.id, job_state::running));
+    EXPECT_EQ(job(b->job.id)->state, job_state::queued);
+    EXPECT_EQ(job(c->job.id)->state, job_state::queued);
+    ASSERT_TRUE(wait_state(c->job.id, job_state::succeeded));
+    const auto ja = job(a->job.id), jb = job(b->job.id), jc = job(c->job.id);
+    ASSERT_TRUE(ja && jb && jc);
+    EXPECT_EQ(ja->state, job_state::succeeded);
+    EXPECT_EQ(jb->state, job_state::succeeded);
+    EXPECT_LE(*ja->finished, *jb->started);
+    EXPECT_LE(*jb->finished, *jc->started);
+    // On the wire too: every command of A before B's, B's before C's.
+    std::vector<std::string> order;
+    observer_->locked([&] {
+        for (const auto& t : observer_->traces)
+            if (t.request_id.starts_with("job-") && (order.empty() || order.back() != t.request_id))
+                order.push_back(t.request_id);
+        return 0;
+    });
+    EXPECT_EQ(order, (std::vector<std::string>{"job-" + a->job.id, "job-" + b->job.id, "job-" + c->job.id}));
+    // Listing: newest first.
+    auto page = manager_->list(job_filter{});
+    ASSERT_TRUE(page) << page.error().message;
+    ASSERT_EQ(page->jobs.size(), 3u);
+    EXPECT_EQ(page->jobs.front().id, c->job.id);
+}
+
+TEST_F(manager_control_test, jobs_on_two_controllers_run_in_parallel) {
+    add_sim("pa", "planar", 4);
+    add_sim("pb", "planar", 4);
+    start();
+    auto a = submit("pa", job_type::planar_correction, far_points(4000));
+    auto b = submit("pb", job_type::planar_correction, far_points(4000));
+    ASSERT_TRUE(a && b);
+    EXPECT_TRUE(wait_until([&] {
+        auto ja = job(a->job.id), jb = job(b->job.id);
+        return ja && jb && ja->state == job_state::running && jb->state == job_state::running;
+    })) << "both jobs should be running at the same time";
+    ASSERT_TRUE(wait_state(a->job.id, job_state::succeeded));
+    ASSERT_TRUE(wait_state(b->job.id, job_state::succeeded));
+}
+
+TEST_F(manager_control_test, cancel_halts_the_move_and_sets_ttl_out_low) {
+    add_sim("sim3", "planar", 1);  // real time: the first move takes seconds
+    start();
+    ttl_request high;
+    high.output_high = true;
+    ASSERT_TRUE(await(registry_->async_ttl("sim3", high, "test-ttl", net::use_future)));
+    EXPECT_EQ(sim_state("sim3")["ttl"]["out0_mode"], 1);
+
+    auto a = submit("sim3", job_type::planar_correction, far_points(20000));
+    auto queued = submit("sim3", job_type::planar_correction, {{"action", "clear"}});
+    ASSERT_TRUE(a && queued);
+    ASSERT_TRUE(wait_state(a->job.id, job_state::running));
+    ASSERT_TRUE(wait_until([&] {
+        auto x = position("sim3", 'X');
+        return x && *x > 200;
+    })) << "the stage never moved";
+    auto cancelled = cancel(a->job.id);
+    ASSERT_TRUE(cancelled) << cancelled.error().message;
+    EXPECT_EQ(cancelled->state, job_state::cancelled);
+    EXPECT_EQ(cancelled->reason, "cancelled");
+
+    const auto sent = commands_of(a->job.id);
+    EXPECT_NE(std::find(sent.begin(), sent.end(), "\\\\"), sent.end()) << "no HALT";
+    EXPECT_NE(std::find(sent.begin(), sent.end(), "TTL Y=0"), sent.end()) << "no TTL Y=0";
+    EXPECT_EQ(sim_state("sim3")["ttl"]["out0_mode"], 0);
+    // The stage stopped short of the first point.
+    ASSERT_TRUE(wait_until([&] { return !registry_->get("sim3")->busy; }));
+    auto x = position("sim3", 'X');
+    ASSERT_TRUE(x);
+    EXPECT_LT(*x, 19000);
+    // No CCB point was stored after the cancel, and the queued job runs next.
+    ASSERT_TRUE(wait_state(queued->job.id, job_state::succeeded));
+    EXPECT_EQ(job(a->job.id)->state, job_state::cancelled);
+
+    // Cancelling a finished job is refused; a queued one just becomes cancelled.
+    auto again = cancel(a->job.id);
+    ASSERT_FALSE(again);
+    EXPECT_EQ(again.error().kind, kind::invalid_state);
+}
+
+TEST_F(manager_control_test, cancel_of_a_queued_job_sends_nothing) {
+    add_sim("sim3", "planar", 4);
+    start();
+    auto a = submit("sim3", job_type::planar_correction, far_points(3000));
+    auto b = submit("sim3", job_type::planar_correction, {{"action", "clear"}});
+    ASSERT_TRUE(a && b);
+    auto cancelled = cancel(b->job.id);
+    ASSERT_TRUE(cancelled) << cancelled.error().message;
+    EXPECT_EQ(cancelled->state, job_state::cancelled);
+    ASSERT_TRUE(wait_state(a->job.id, job_state::succeeded));
+    EXPECT_TRUE(commands_of(b->job.id).empty());
+}
+
+TEST_F(manager_control_test, pause_takes_effect_after_the_current_step_and_resume_finishes) {
+    add_sim("sim3", "planar", 2);
+    start();
+    auto a = submit("sim3", job_type::planar_correction, far_points(6000));
+    ASSERT_TRUE(a);
+    const auto id = a->job.id;
+    ASSERT_TRUE(wait_state(id, job_state::running));
+    ASSERT_TRUE(wait_until([&] {
+        auto x = position("sim3", 'X');
+        return x && *x > 200;
+    })) << "the move to point 1 never started";
+    auto paused = pause(id);
+    ASSERT_TRUE(paused) << paused.error().message;
+    ASSERT_TRUE(wait_state(id, job_state::paused));
+    const auto p = job(id);
+    EXPECT_EQ(p->progress.steps_done, 1u) << "the move to point 1 finished, then the job paused";
+    EXPECT_EQ(sim_state("sim3")["planar_correction"]["points"], 1);
+    EXPECT_FALSE(registry_->get("sim3")->busy);
+    // Paused: a second pause is harmless, `next` is refused.
+    EXPECT_TRUE(pause(id));
+    auto resumed = resume(id);
+    ASSERT_TRUE(resumed) << resumed.error().message;
+    ASSERT_TRUE(wait_state(id, job_state::succeeded));
+    EXPECT_EQ(job(id)->progress.steps_done, 4u);
+    EXPECT_EQ(sim_state("sim3")["planar_correction"]["points"], 3);
+    EXPECT_EQ(sim_state("sim3")["planar_correction"]["enabled"], true);
+    // The transitions: running -> paused -> queued -> running -> succeeded (the hub delivers later).
+    std::vector<std::string> states;
+    ASSERT_TRUE(wait_until([&] {
+        states.clear();
+        for (const auto& e : sink_->of(id))
+            if (e.value("type", "") == "state") states.push_back(e.value("state", ""));
+        return !states.empty() && states.back() == "succeeded";
+    }));
+    EXPECT_EQ(states,
+              (std::vector<std::string>{"queued", "running", "paused", "queued", "running", "succeeded"}));
+    // Resume of a finished job is refused.
+    auto late = resume(id);
+    ASSERT_FALSE(late);
+    EXPECT_EQ(late.error().kind, kind::invalid_state);
+}
+
+TEST_F(manager_control_test, the_same_idempotency_key_returns_the_first_job) {
+    add_sim("sim3", "planar");
+    start();
+    auto first = submit("sim3", job_type::planar_correction, {{"action", "clear"}}, "key-1");
+    ASSERT_TRUE(first) << first.error().message;
+    EXPECT_FALSE(first->replayed);
+    auto again = submit("sim3", job_type::planar_correction, {{"action", "clear"}}, "key-1");
+    ASSERT_TRUE(again) << again.error().message;
+    EXPECT_TRUE(again->replayed);
+    EXPECT_EQ(again->job.id, first->job.id);
+    // A different body with the same key: still the first job (documented).
+    auto other = submit("sim3", job_type::planar_correction, {{"action", "disable"}}, "key-1");
+    ASSERT_TRUE(other) << other.error().message;
+    EXPECT_TRUE(other->replayed);
+    EXPECT_EQ(other->job.id, first->job.id);
+    auto different = submit("sim3", job_type::planar_correction, {{"action", "clear"}}, "key-2");
+    ASSERT_TRUE(different);
+    EXPECT_NE(different->job.id, first->job.id);
+    ASSERT_TRUE(wait_state(different->job.id, job_state::succeeded));
+    auto page = manager_->list(job_filter{});
+    ASSERT_TRUE(page);
+    EXPECT_EQ(page->jobs.size(), 2u);
+    EXPECT_EQ(job(first->job.id)->idempotency_key, "key-1");
+}
+
+TEST_F(manager_control_test, a_leased_controller_takes_jobs_only_from_the_lease_holder) {
+    add_sim("sim3", "planar", 4);
+    start();
+    auto l = leases_->acquire("sim3", "alice", 60s);
+    ASSERT_TRUE(l) << l.error().message;
+    auto refused = submit("sim3", job_type::planar_correction, {{"action", "clear"}});
+    ASSERT_FALSE(refused);
+    EXPECT_EQ(refused.error().kind, kind::leased);
+    auto wrong = submit("sim3", job_type::planar_correction, {{"action", "clear"}}, std::nullopt, "l-wrong");
+    ASSERT_FALSE(wrong);
+    EXPECT_EQ(wrong.error().kind, kind::leased);
+
+    auto allowed = submit("sim3", job_type::planar_correction, far_points(3000), std::nullopt, l->id);
+    ASSERT_TRUE(allowed) << allowed.error().message;
+    ASSERT_TRUE(wait_state(allowed->job.id, job_state::running));
+    // Control actions follow the same rule.
+    job_action a;
+    a.job_id = allowed->job.id;
+    auto not_holder = await(call<job_record>([&](auto h) { manager_->async_cancel(a, std::move(h)); }));
+    ASSERT_FALSE(not_holder);
+    EXPECT_EQ(not_holder.error().kind, kind::leased);
+    ASSERT_TRUE(wait_state(allowed->job.id, job_state::succeeded));
+    auto page = manager_->list(job_filter{});
+    ASSERT_TRUE(page);
+    EXPECT_EQ(page->jobs.size(), 1u);
+}
+
+TEST_F(manager_control_test, a_full_queue_refuses_more_jobs) {
+    max_queued_ = 2;
+    add_sim("sim3", "planar", 2);
+    start();
+    auto a = submit("sim3", job_type::planar_correction, far_points(3000));
+    ASSERT_TRUE(a);
+    ASSERT_TRUE(wait_state(a->job.id, job_state::running));
+    ASSERT_TRUE(submit("sim3", job_type::planar_correction, {{"action", "clear"}}));
+    ASSERT_TRUE(submit("sim3", job_type::planar_correction, {{"action", "clear"}}));
+    auto full = submit("sim3", job_type::planar_correction, {{"action", "clear"}});
+    ASSERT_FALSE(full);
+    EXPECT_EQ(full.error().kind, kind::queue_full);
+}
+
+}  // namespace
+}  // namespace gw::jobs::test

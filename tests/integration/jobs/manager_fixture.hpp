@@ -1,0 +1,298 @@
+#pragma once
+// A job_manager over in-process simulators (real ptys, time_scale 20), a real controller_registry,
+// a real event hub and a real SQLite store in a temporary directory. For the manager_*_test.cpp files
+// (other job tests may use it too).
+//
+//   add_sim("sim3", "planar");  start();        // registry ready, manager started
+//   auto job = submit("sim3", job_type::planar_correction, {{"action","clear"}});
+//   wait_state(job->job.id, job_state::succeeded);
+//   restart_manager();                          // crash: destroy without shutdown, open again
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <functional>
+#include <future>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <unistd.h>
+#include <vector>
+
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/use_future.hpp>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "devices/sim/sim_config.hpp"
+#include "devices/sim/simulator.hpp"
+#include "gateway/controller_registry.hpp"
+#include "gateway/event_hub.hpp"
+#include "gateway/event_sink.hpp"
+#include "gateway/jobs/job_manager.hpp"
+#include "gateway/lease_manager.hpp"
+#include "tests/support/drv_recording_observer.hpp"
+
+namespace gw::jobs::test {
+
+namespace net = boost::asio;
+namespace sim = devices::sim;
+using namespace std::chrono_literals;
+
+struct io_thread {
+    net::io_context io;
+    std::optional<net::executor_work_guard<net::io_context::executor_type>> work{net::make_work_guard(io)};
+    std::thread thread{[this] { io.run(); }};
+
+    void join() {
+        work.reset();
+        if (thread.joinable()) thread.join();
+    }
+    ~io_thread() { join(); }
+};
+
+// Records every event of the hub's "jobs/#" topics, as parsed JSON messages, in arrival order.
+class recording_sink : public event_sink, public std::enable_shared_from_this<recording_sink> {
+  public:
+    void attach(const std::shared_ptr<event_hub>& hub) {
+        hub_ = hub;
+        id_ = hub->add_subscriber(weak_from_this());
+        hub->subscribe(id_, "jobs/#");
+    }
+    void deliver(std::vector<std::shared_ptr<const event>> batch) override {
+        {
+            std::lock_guard lock(mutex_);
+            for (const auto& e : batch)
+                messages_.push_back(nlohmann::json::parse(*e->message));
+        }
+        if (auto hub = hub_.lock()) hub->request_more(id_);
+    }
+    void close(std::string) override {}
+
+    // The "data" of the events of one job, in order.
+    std::vector<nlohmann::json> of(const std::string& job_id) {
+        std::lock_guard lock(mutex_);
+        std::vector<nlohmann::json> out;
+        for (const auto& m : messages_)
+            if (m.value("topic", "") == "jobs/" + job_id) out.push_back(m.contains("data") ? m["data"] : m);
+        return out;
+    }
+    std::vector<nlohmann::json> all() {
+        std::lock_guard lock(mutex_);
+        return messages_;
+    }
+
+  private:
+    std::weak_ptr<event_hub> hub_;
+    subscriber_id id_ = 0;
+    std::mutex mutex_;
+    std::vector<nlohmann::json> messages_;
+};
+
+template <typename T>
+operation_result<T> await(std::future<operation_result<T>> f, std::chrono::seconds timeout = 60s) {
+    if (f.wait_for(timeout) != std::future_status::ready) {
+        ADD_FAILURE() << "the operation did not complete";
+        return make_error(operation_error_kind::internal, "test: no completion");
+    }
+    return f.get();
+}
+
+class manager_fixture : public ::testing::Test {
+  protected:
+    std::shared_ptr<sim::simulator> add_sim(const std::string& id, const std::string& preset,
+                                            double time_scale = 20) {
+        auto config = sim::preset(preset).value();
+        config.name = id;
+        config.time_scale = time_scale;
+        config.link_path = dir_ + "/ports/" + id + "/port";
+        config.report_link_path = dir_ + "/ports/" + id + "/report";
+        auto s = std::make_shared<sim::simulator>(sim_io_.io.get_executor(), config);
+        s->start();
+        sims_[id] = s;
+        devices::controller_settings c;
+        c.id = id;
+        c.port = s->port_path();
+        c.report_port = s->report_port_path();
+        c.baud = config.baud;
+        c.poll_interval = 20ms;
+        c.command_timeout = 2000ms;
+        c.reconnect_min = 50ms;
+        c.reconnect_max = 300ms;
+        options_.controllers.push_back(c);
+        return s;
+    }
+
+    job_manager_settings settings() const {
+        job_manager_settings s;
+        s.storage_path = dir_ + "/store";
+        s.restart_queued = restart_queued_;
+        s.max_queued_per_controller = max_queued_;
+        s.storage_max_size_mb = storage_max_size_mb_;
+        return s;
+    }
+
+    // Registry (ready), hub, leases, manager (started).
+    void start() {
+        registry_ = std::make_unique<controller_registry>(gw_io_.io.get_executor(), options_);
+        registry_->add_observer(std::weak_ptr<devices::controller_observer>(observer_));
+        hub_ = event_hub::create(gw_io_.io.get_executor());
+        sink_->attach(hub_);
+        registry_->start();
+        ASSERT_TRUE(wait_until([&] { return registry_->ready(); })) << "controllers not ready";
+        open_manager();
+    }
+
+    void open_manager() {
+        auto m = job_manager::create(gw_io_.io.get_executor(), *registry_, hub_, leases_, settings());
+        ASSERT_TRUE(m) << m.error().message;
+        manager_ = std::move(*m);
+        manager_->start();
+    }
+
+    // Like kill -9 for the manager: destroyed without shutdown, then a new one on the same directory.
+    void restart_manager() {
+        manager_.reset();
+        open_manager();
+    }
+
+    void shutdown_manager() {
+        std::promise<void> done;
+        manager_->async_shutdown([&] { done.set_value(); });
+        ASSERT_EQ(done.get_future().wait_for(30s), std::future_status::ready) << "shutdown did not finish";
+    }
+
+    operation_result<submit_result> submit(const std::string& controller, job_type type, nlohmann::json spec,
+                                           std::optional<std::string> key = std::nullopt,
+                                           std::optional<std::string> lease = std::nullopt,
+                                           bool dry_run = false) {
+        submit_request r;
+        r.controller = controller;
+        r.type = type;
+        r.spec = std::move(spec);
+        r.idempotency_key = std::move(key);
+        r.lease_id = std::move(lease);
+        r.request_id = "test-submit";
+        r.dry_run = dry_run;
+        return await(
+            call<submit_result>([&](auto h) { manager_->async_submit(std::move(r), std::move(h)); }));
+    }
+
+    operation_result<job_record> act(void (job_manager::*f)(job_action, job_manager::handler<job_record>),
+                                     const std::string& id, std::optional<std::string> lease = std::nullopt) {
+        job_action a;
+        a.job_id = id;
+        a.lease_id = std::move(lease);
+        a.request_id = "test-action";
+        return await(call<job_record>([&](auto h) { ((*manager_).*f)(std::move(a), std::move(h)); }));
+    }
+    operation_result<job_record> cancel(const std::string& id) { return act(&job_manager::async_cancel, id); }
+    operation_result<job_record> pause(const std::string& id) { return act(&job_manager::async_pause, id); }
+    operation_result<job_record> resume(const std::string& id) { return act(&job_manager::async_resume, id); }
+    operation_result<job_record> next(const std::string& id) { return act(&job_manager::async_next, id); }
+
+    template <typename T, typename F>
+    std::future<operation_result<T>> call(F&& start) {
+        auto p = std::make_shared<std::promise<operation_result<T>>>();
+        auto f = p->get_future();
+        start(job_manager::handler<T>([p](operation_result<T> r) { p->set_value(std::move(r)); }));
+        return f;
+    }
+
+    template <typename Pred>
+    bool wait_until(Pred pred, std::chrono::milliseconds timeout = 60s) {
+        const auto deadline = std::chrono::steady_clock::now() + timeout;
+        while (std::chrono::steady_clock::now() < deadline) {
+            if (pred()) return true;
+            std::this_thread::sleep_for(10ms);
+        }
+        return pred();
+    }
+
+    std::optional<job_record> job(const std::string& id) {
+        auto r = manager_->get(id);
+        if (!r) return std::nullopt;
+        return *r;
+    }
+
+    bool wait_state(const std::string& id, job_state s, std::chrono::milliseconds timeout = 60s) {
+        const bool ok = wait_until(
+            [&] {
+                auto j = job(id);
+                return j && j->state == s;
+            },
+            timeout);
+        if (!ok) {
+            auto j = job(id);
+            ADD_FAILURE() << "job " << id << " never became " << to_string(s) << "; it is "
+                          << (j ? std::string(to_string(j->state)) + " (" + j->reason + ")" : "unknown");
+        }
+        return ok;
+    }
+
+    nlohmann::json sim_state(const std::string& id) {
+        return nlohmann::json::parse(sims_.at(id)->state_json());
+    }
+
+    std::optional<double> position(const std::string& id, char axis) {
+        auto s = registry_->get(id);
+        if (!s) return std::nullopt;
+        const auto* a = s->axis(axis);
+        return a ? a->position_um : std::nullopt;
+    }
+
+    // Serial commands sent for a job ("job-<id>"), in order (wire text without CR).
+    std::vector<std::string> commands_of(const std::string& job_id) {
+        return observer_->locked([&] {
+            std::vector<std::string> out;
+            for (const auto& t : observer_->traces)
+                if (t.request_id == "job-" + job_id) {
+                    auto w = t.wire;  // escaped: "W X Y Z\\r"
+                    if (w.ends_with("\\r")) w.resize(w.size() - 2);
+                    out.push_back(w);
+                }
+            return out;
+        });
+    }
+
+    void TearDown() override {
+        if (manager_ && !manager_shut_) {
+            std::promise<void> done;
+            manager_->async_shutdown([&] { done.set_value(); });
+            done.get_future().wait_for(30s);
+        }
+        if (registry_) registry_->stop();
+        if (hub_) hub_->stop();
+        gw_io_.join();
+        manager_.reset();
+        registry_.reset();
+        for (auto& [id, s] : sims_)
+            s->stop();
+        sim_io_.join();
+        std::filesystem::remove_all(dir_);
+    }
+
+    io_thread sim_io_;
+    io_thread gw_io_;
+    std::string dir_ = "/tmp/gw-jobs-" +
+                       std::string(testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
+                       std::to_string(::getpid());
+    registry_options options_;
+    std::map<std::string, std::shared_ptr<sim::simulator>> sims_;
+    std::shared_ptr<gw::test::drv_recording_observer> observer_ =
+        std::make_shared<gw::test::drv_recording_observer>();
+    std::unique_ptr<controller_registry> registry_;
+    std::shared_ptr<event_hub> hub_;
+    std::shared_ptr<recording_sink> sink_ = std::make_shared<recording_sink>();
+    std::shared_ptr<lease_manager> leases_ = std::make_shared<lease_manager>();
+    std::shared_ptr<job_manager> manager_;
+    bool restart_queued_ = false;
+    bool manager_shut_ = false;
+    std::size_t max_queued_ = 1000;
+    std::size_t storage_max_size_mb_ = 64;
+};
+
+}  // namespace gw::jobs::test
