@@ -302,10 +302,13 @@ boost::asio::awaitable<position_um> controller_arrival(job_context& ctx, std::pa
                                                        double tolerance_um,
                                                        std::chrono::milliseconds timeout) {
     for (;;) {
-        const auto p = measured_xy(co_await ctx.command("W X Y"));
+        const auto r = co_await ctx.command("W X Y");
+        const auto p = measured_xy(r);
         if (p.contains('X') && p.contains('Y') && std::abs(p.at('X') - target.first) <= tolerance_um &&
-            std::abs(p.at('Y') - target.second) <= tolerance_um)
-            co_return co_await arrival(ctx, timeout);
+            std::abs(p.at('Y') - target.second) <= tolerance_um) {
+            auto at = co_await arrival(ctx, timeout);
+            co_return at;
+        }
         co_await ctx.sleep(arrival_poll);
     }
 }
@@ -352,7 +355,8 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
     if (spec.a1_um) {
         a1 = *spec.a1_um;
     } else if (ctx.first_step() == 0 && !spec.resume_from) {
-        const auto p = measured_xy(co_await ctx.command("W X Y"));
+        const auto r = co_await ctx.command("W X Y");
+        const auto p = measured_xy(r);
         if (!p.contains('X') || !p.contains('Y'))
             throw job_failure(
                 make_error(operation_error_kind::controller_error, "W X Y gave no X/Y position"));
@@ -388,11 +392,14 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
         0.5 * 1000.0 * std::min(std::abs(spec.geometry.column_step_mm), std::abs(spec.geometry.row_step_mm)));
 
     if (firmware) {
-        co_await ctx.command(ttl_in0(7));
-        co_await ctx.command(array_setup(spec.geometry));
-        co_await ctx.command(ahome(a1.first, a1.second));
+        // Named lines, never temporaries in a co_await expression (g++ 12 coroutine temporaries).
+        const std::vector<std::string> setup{ttl_in0(7), array_setup(spec.geometry),
+                                             ahome(a1.first, a1.second)};
+        for (const auto& line : setup)
+            co_await ctx.command(line);
     } else if (spec.advance == advance_source::ttl) {
-        co_await ctx.command(ttl_in0(1));
+        const std::string line = ttl_in0(1);
+        co_await ctx.command(line);
     }
 
     for (std::size_t i = first; i < visits.size(); ++i) {
@@ -412,7 +419,8 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
             for (const auto& a : r.positions)
                 measured[a.axis] = a.micrometres;
         } else if (i == first) {
-            co_await ctx.command(i == 0 ? std::string("RM X=0") : aij(visits[i]));
+            const std::string start = i == 0 ? std::string("RM X=0") : aij(visits[i]);
+            co_await ctx.command(start);
             measured = co_await arrival(ctx, timeout);
         } else if (controller_steps) {
             measured = co_await controller_arrival(ctx, targets[i], tolerance_um, timeout);
@@ -430,7 +438,10 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
                        {"position", to_json(measured)},
                        {"target", to_json(position_um{{'X', targets[i].first}, {'Y', targets[i].second}})}});
     }
-    if (firmware || spec.advance == advance_source::ttl) co_await ctx.command(ttl_in0(restore_in0));
+    if (firmware || spec.advance == advance_source::ttl) {
+        const std::string restore = ttl_in0(restore_in0);
+        co_await ctx.command(restore);
+    }
 }
 
 }  // namespace gw::jobs
