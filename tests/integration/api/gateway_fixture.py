@@ -136,15 +136,19 @@ class Fixture:
         wait_until(f"ms2000-sim {name}", lambda: all(os.path.exists(p) for p in paths))
         return Sim(link, report_link, control_path)
 
-    def start_gateway(self, gateway, config):
-        """Writes `config`, starts the gateway with its output in a log file and waits until
-        /api/v1/ready answers 200. Returns the process."""
+    def start_gateway(self, gateway, config, extra_args=()):
+        """Writes `config`, starts the gateway (with `extra_args` after --config) with its output in a
+        log file and waits until /api/v1/ready answers 200. Returns the process. Called again after
+        the gateway stopped (a restart), the log continues in the same file."""
         cfg = os.path.join(self.tmp, "gateway.json")
         with open(cfg, "w") as f:
             json.dump(config, f)
         self.log_path = os.path.join(self.tmp, "gateway.log")
-        self._log = open(self.log_path, "w")
-        self.gateway = subprocess.Popen([gateway, "--config", cfg], stdout=self._log, stderr=subprocess.STDOUT)
+        if self._log:
+            self._log.close()
+        self._log = open(self.log_path, "a")
+        self.gateway = subprocess.Popen([gateway, "--config", cfg, *extra_args], stdout=self._log,
+                                        stderr=subprocess.STDOUT)
         self.procs.append(self.gateway)
         port = config["http"]["port"]
         wait_until("gateway ready", lambda: http_request(port, "GET", "/api/v1/ready", token=None)[0] == 200)
