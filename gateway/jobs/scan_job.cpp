@@ -332,15 +332,18 @@ boost::asio::awaitable<void> run_host(job_context& ctx, const scan_setup& u, dou
         move_request to_start{move_request::mode::absolute,
                               to_axes(line_point(u, g.fast_begin(i), g.slow_at(i))), true,
                               wait_timeout_for(estimated)};
-        co_await ctx.move(std::move(to_start));
+        const auto at_start = co_await ctx.move(std::move(to_start));
         if (u.spec.speed_mm_s) co_await ctx.command(speed_command(f, *u.spec.speed_mm_s));
         move_request line{
             move_request::mode::absolute, {{f, g.fast_end(i) * 1000.0}}, true, wait_timeout_for(estimated)};
         auto done = co_await ctx.move(std::move(line));
         if (u.spec.speed_mm_s) co_await ctx.command(speed_command(f, original_speed));
+        // The line moves the fast axis only; the slow axis stands where the line began.
         position_um measured;
+        for (const auto& p : at_start.positions)
+            if (p.axis == u.spec.slow_axis) measured[p.axis] = p.micrometres;
         for (const auto& p : done.positions)
-            if (p.axis == f || p.axis == u.spec.slow_axis) measured[p.axis] = p.micrometres;
+            if (p.axis == f) measured[p.axis] = p.micrometres;
         ctx.step_done(index, line_detail(i + 1, measured, true));
     }
 }
@@ -358,15 +361,17 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const scan_setup& u)
                                             first)));
         --first;
     }
-    for (auto& c : firmware_setup(u, s, first))
-        co_await ctx.command(std::move(c));
+    // Named, not a range-for temporary: g++ 12 frees a range-init temporary of a coroutine too early.
+    const auto setup_commands = firmware_setup(u, s, first);
+    for (const auto& c : setup_commands)
+        co_await ctx.command(c);
     const auto& steps = ctx.plan().steps;
-    double estimated_total = 0;
-    for (std::size_t i = static_cast<std::size_t>(first); i < steps.size(); ++i)
-        estimated_total += steps[i].estimated_s;
-    co_await ctx.move(
-        {move_request::mode::absolute, to_axes(line_point(u, g.fast_begin(first), g.slow_at(first))), true,
-         wait_timeout_for(steps.empty() ? 0 : steps[static_cast<std::size_t>(first)].estimated_s)});
+    move_request to_start;
+    to_start.axes = to_axes(line_point(u, g.fast_begin(first), g.slow_at(first)));
+    to_start.wait = true;
+    to_start.wait_timeout =
+        wait_timeout_for(steps.empty() ? 0 : steps[static_cast<std::size_t>(first)].estimated_s);
+    co_await ctx.move(std::move(to_start));
     ctx.step_started(static_cast<std::size_t>(first));
     co_await ctx.command("SCAN");
 
