@@ -1,8 +1,8 @@
 // asi-gateway: puts MS-2000 stage controllers behind one service.
 // Reads a JSON config file (--config) or uses the embedded default (three simulated controllers),
-// lets flags override it, sets up logging, and runs the controller registry until SIGINT/SIGTERM,
-// when it HALTs connected controllers (shutdown.halt_on_exit) and stops. The REST and WebSocket
-// interfaces (api/) come on top of the registry.
+// lets flags override it, sets up logging, and runs the controller registry and the job manager until
+// SIGINT/SIGTERM, when it stops the running jobs (HALT, interrupted), HALTs connected controllers
+// (shutdown.halt_on_exit) and stops. The REST and WebSocket interfaces (api/) come on top.
 
 #include <chrono>
 #include <condition_variable>
@@ -25,6 +25,8 @@
 #include "gateway/controller_events_bridge.hpp"
 #include "gateway/controller_registry.hpp"
 #include "gateway/event_hub.hpp"
+#include "gateway/jobs/job_manager.hpp"
+#include "gateway/lease_manager.hpp"
 #include "gateway/log_observer.hpp"
 #include "gateway/logging.hpp"
 #include "gateway/metrics.hpp"
@@ -121,13 +123,28 @@ int main(int argc, char** argv) {
     auto hub = gw::event_hub::create(ioc.get_executor());
     registry.add_observer(std::shared_ptr<gw::devices::controller_observer>(
         std::make_shared<gw::controller_events_bridge>(hub)));
-    gw::api::server http_server(ioc.get_executor(), config, registry, hub, metrics);
+    // Jobs: leases and the job manager over the durable store (an unusable storage path is fatal).
+    auto leases = std::make_shared<gw::lease_manager>();
+    gw::jobs::job_manager_settings job_settings;
+    job_settings.storage_path = config.storage.path;
+    job_settings.storage_max_size_mb = config.storage.max_size_mb;
+    job_settings.restart_queued = config.jobs.restart_queued;
+    job_settings.max_queued_per_controller = config.jobs.max_queued_per_controller;
+    auto jobs = gw::jobs::job_manager::create(ioc.get_executor(), registry, hub, leases, job_settings);
+    if (!jobs) {
+        log->error("cannot open the job store in \"{}\": {}", job_settings.storage_path,
+                   jobs.error().message);
+        return 1;
+    }
+    auto job_manager = std::move(*jobs);
+    gw::api::server http_server(ioc.get_executor(), config, registry, hub, metrics, job_manager, leases);
     try {
         registry.start();
     } catch (const std::exception& e) {
         log->error("cannot start the simulated controllers: {}", e.what());
         return 1;
     }
+    job_manager->start();  // restart recovery: interrupted jobs, queued ones kept
 
     try {
         http_server.start();
@@ -149,11 +166,15 @@ int main(int argc, char** argv) {
         if (ec) return;
         log->info("signal {}: stopping", signal);
         http_server.stop();  // stop accepting, close connections
-        hub->stop();
-        registry.async_shutdown([&] {
-            watchdog = std::thread([&] {
-                std::unique_lock lock(mutex);
-                if (!cv.wait_for(lock, std::chrono::seconds(2), [&] { return finished; })) ioc.stop();
+        // Running jobs: HALT, TTL low, interrupted, store flushed; then the controllers; then the hub
+        // (the jobs' last state events still go out).
+        job_manager->async_shutdown([&] {
+            registry.async_shutdown([&] {
+                hub->stop();
+                watchdog = std::thread([&] {
+                    std::unique_lock lock(mutex);
+                    if (!cv.wait_for(lock, std::chrono::seconds(2), [&] { return finished; })) ioc.stop();
+                });
             });
         });
     });
