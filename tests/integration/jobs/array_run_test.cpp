@@ -1,0 +1,341 @@
+// Array jobs end to end: the real job_manager, controller_registry and SQLite store over in-process
+// simulators ("full" has the ARRAY module and TTL_REPORT, "plain" has neither, "xy" has ARRAY without
+// TTL_REPORT). Checks the well events (names, order, measured positions), the serial commands and the
+// simulator's state for both paths and every advance source, resume_from, soft limits, pause, cancel.
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "gateway/jobs/plate.hpp"
+#include "tests/integration/jobs/manager_fixture.hpp"
+#include "tests/support/sim_serial_client.hpp"
+
+namespace gw::jobs::test {
+namespace {
+
+using json = nlohmann::json;
+using kind = operation_error_kind;
+
+class array_run_test : public manager_fixture {
+  protected:
+    std::vector<json> steps(const std::string& id) {
+        std::vector<json> out;
+        for (const auto& e : sink_->of(id))
+            if (e.value("type", "") == "step") out.push_back(e);
+        return out;
+    }
+    // The wells of the step events, once `expected` of them have arrived (the hub delivers them
+    // asynchronously: the job may already read succeeded).
+    std::vector<std::string> wells(const std::string& id, std::size_t expected) {
+        wait_until([&] { return steps(id).size() >= expected; }, 10s);
+        std::vector<std::string> out;
+        for (const auto& e : steps(id))
+            out.push_back(e.value("well", ""));
+        return out;
+    }
+    std::size_t steps_done(const std::string& id) {
+        auto j = job(id);
+        return j ? j->progress.steps_done : 0;
+    }
+    bool wait_steps(const std::string& id, std::size_t n) {
+        const bool ok = wait_until([&] { return steps_done(id) >= n; }, 90s);
+        if (!ok) ADD_FAILURE() << "job " << id << " did only " << steps_done(id) << " of " << n << " steps";
+        return ok;
+    }
+    std::vector<std::string> commands_starting(const std::string& id, const std::string& prefix) {
+        std::vector<std::string> out;
+        for (const auto& c : commands_of(id))
+            if (c.starts_with(prefix)) out.push_back(c);
+        return out;
+    }
+    // Every step event: measured position within `tolerance_um` of the planned target.
+    void expect_arrivals(const std::string& id, const std::vector<std::pair<double, double>>& targets,
+                         double tolerance_um = 1.0) {
+        wait_until([&] { return steps(id).size() >= targets.size(); }, 10s);
+        const auto s = steps(id);
+        ASSERT_EQ(s.size(), targets.size());
+        for (std::size_t i = 0; i < s.size(); ++i) {
+            ASSERT_TRUE(s[i]["position"].is_object()) << s[i].dump();
+            EXPECT_NEAR(s[i]["position"]["X"].get<double>(), targets[i].first, tolerance_um) << s[i].dump();
+            EXPECT_NEAR(s[i]["position"]["Y"].get<double>(), targets[i].second, tolerance_um) << s[i].dump();
+            EXPECT_EQ(s[i]["name"], s[i]["well"]);
+        }
+    }
+};
+
+std::vector<std::pair<double, double>> plate_targets(const std::string& plate, double x0, double y0,
+                                                     well_order order, double rotation = 0,
+                                                     const std::vector<std::string>& subset = {}) {
+    const auto g = *plate_preset(plate);
+    std::vector<std::pair<double, double>> out;
+    for (const auto& w : visit_order(g, order)) {
+        if (!subset.empty() && std::find(subset.begin(), subset.end(), well_name(w)) == subset.end())
+            continue;
+        const auto [dx, dy] = well_offset_um(g, w, rotation);
+        out.emplace_back(x0 + dx, y0 + dy);
+    }
+    return out;
+}
+
+std::vector<std::string> plate_names(const std::string& plate, well_order order) {
+    std::vector<std::string> out;
+    for (const auto& w : visit_order(*plate_preset(plate), order))
+        out.push_back(well_name(w));
+    return out;
+}
+
+TEST_F(array_run_test, firmware_96_wells_timer_advance) {
+    add_sim("sim1", "full", 100);
+    start();
+    auto submitted =
+        submit("sim1", job_type::array, {{"plate", "96"}, {"a1", {{"X", -40000}, {"Y", 30000}}}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    EXPECT_EQ(submitted->job.plan_path, "firmware");
+    EXPECT_EQ(submitted->job.progress.steps_total, 96u);
+    EXPECT_GT(submitted->job.estimated_s, 0);
+    ASSERT_TRUE(wait_state(id, job_state::succeeded, 180s));
+
+    EXPECT_EQ(wells(id, plate_names("96", well_order::serpentine).size()),
+              plate_names("96", well_order::serpentine));
+    expect_arrivals(id, plate_targets("96", -40000, 30000, well_order::serpentine));
+    const auto cmds = commands_of(id);
+    auto pos = [&](const std::string& c) { return std::find(cmds.begin(), cmds.end(), c) - cmds.begin(); };
+    ASSERT_LT(pos("TTL X=7"), pos("RM X=0"));
+    EXPECT_LT(pos("ARRAY X=12 Y=8 Z=9 F=-9"), pos("RM X=0"));
+    EXPECT_LT(pos("AHOME X=-40 Y=30"), pos("RM X=0"));
+    EXPECT_EQ(std::count(cmds.begin(), cmds.end(), "RM"), 95);
+    EXPECT_TRUE(commands_starting(id, "M ").empty());  // the ARRAY module moved the stage
+    EXPECT_EQ(cmds.back(), "TTL X=0");                 // IN0 mode restored
+    const auto st = sim_state("sim1");
+    EXPECT_EQ(st["array"]["index"], 95);
+    EXPECT_EQ(st["ttl"]["in0_mode"], 0);
+    const auto done = job(id);
+    EXPECT_EQ(done->progress.steps_done, 96u);
+    EXPECT_EQ(done->progress.current_step, "H1");
+}
+
+TEST_F(array_run_test, host_run_with_rotation_subset_dwell_and_pulse) {
+    add_sim("sim1", "full", 50);
+    start();
+    const std::vector<std::string> subset{"D6", "A1", "B2", "C5"};
+    auto submitted = submit("sim1", job_type::array,
+                            {{"plate", "24"},
+                             {"a1", {{"X", -40000}, {"Y", 30000}}},
+                             {"rotation_deg", 30},
+                             {"order", "raster"},
+                             {"wells", subset},
+                             {"dwell_ms", 20},
+                             {"ttl_pulse", true}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    EXPECT_EQ(submitted->job.plan_path, "host");
+    EXPECT_EQ(submitted->plan.steps.size(), 4u);
+    ASSERT_TRUE(wait_state(id, job_state::succeeded, 120s));
+    EXPECT_EQ(wells(id, (std::vector<std::string>{"A1", "B2", "C5", "D6"}).size()),
+              (std::vector<std::string>{"A1", "B2", "C5", "D6"}));
+    expect_arrivals(id, plate_targets("24", -40000, 30000, well_order::raster, 30, subset));
+    EXPECT_EQ(commands_starting(id, "M ").size(), 4u);
+    EXPECT_TRUE(commands_starting(id, "RM").empty());
+    EXPECT_EQ(commands_starting(id, "TTL Y=1").size(), 4u);  // one pulse per arrival
+    EXPECT_EQ(commands_starting(id, "TTL Y=0").size(), 4u);
+    EXPECT_EQ(sim_state("sim1")["ttl"]["out0_mode"], 0);  // the output ends low
+}
+
+TEST_F(array_run_test, plain_controller_runs_host_driven_and_refuses_firmware) {
+    add_sim("sim2", "plain", 50);
+    start();
+    auto refused = submit("sim2", job_type::array, {{"plate", "6"}, {"mode", "firmware"}});
+    ASSERT_FALSE(refused);
+    EXPECT_EQ(refused.error().kind, kind::missing_module);
+    auto submitted = submit("sim2", job_type::array, {{"plate", "6"}, {"a1", {{"X", 0}, {"Y", 0}}}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    EXPECT_EQ(submitted->job.plan_path, "host");
+    ASSERT_TRUE(wait_state(submitted->job.id, job_state::succeeded, 120s));
+    EXPECT_EQ(wells(submitted->job.id, plate_names("6", well_order::serpentine).size()),
+              plate_names("6", well_order::serpentine));
+    expect_arrivals(submitted->job.id, plate_targets("6", 0, 0, well_order::serpentine));
+}
+
+TEST_F(array_run_test, next_advance_waits_for_each_call_on_both_paths) {
+    add_sim("sim1", "full", 50);
+    start();
+    for (const std::string mode : {"firmware", "host"}) {
+        auto submitted =
+            submit("sim1", job_type::array,
+                   {{"plate", "6"}, {"a1", {{"X", 500}, {"Y", 500}}}, {"advance", "next"}, {"mode", mode}});
+        ASSERT_TRUE(submitted) << submitted.error().message;
+        const auto id = submitted->job.id;
+        EXPECT_EQ(submitted->job.plan_path, mode);
+        ASSERT_TRUE(wait_steps(id, 1));  // the first well needs no call
+        for (std::size_t n = 2; n <= 6; ++n) {
+            std::this_thread::sleep_for(150ms);  // room to misbehave: it must still wait here
+            EXPECT_EQ(steps_done(id), n - 1) << mode;
+            EXPECT_EQ(job(id)->state, job_state::running);
+            ASSERT_TRUE(next(id));
+            ASSERT_TRUE(wait_steps(id, n));
+        }
+        ASSERT_TRUE(wait_state(id, job_state::succeeded));
+        EXPECT_EQ(wells(id, plate_names("6", well_order::serpentine).size()),
+                  plate_names("6", well_order::serpentine));
+        expect_arrivals(id, plate_targets("6", 500, 500, well_order::serpentine));
+        if (mode == "firmware") {
+            EXPECT_EQ(commands_starting(id, "RM").size(), 6u);  // RM X=0 + 5 RM
+        }
+    }
+}
+
+// TTL advance, firmware path, with TTL_REPORT ("full"): the gateway sees each IN0 edge as a report
+// frame and forwards it as RM.
+TEST_F(array_run_test, ttl_advance_firmware_with_ttl_report) {
+    auto sim = add_sim("sim1", "full", 50);
+    start();
+    auto submitted =
+        submit("sim1", job_type::array, {{"plate", "6"}, {"a1", {{"X", 0}, {"Y", 0}}}, {"advance", "ttl"}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    EXPECT_EQ(submitted->job.plan_path, "firmware");
+    ASSERT_TRUE(wait_steps(id, 1));
+    EXPECT_FALSE(job(id)->progress.remaining_s);  // waits for an edge: unpredictable
+    for (std::size_t n = 2; n <= 6; ++n) {
+        sim->ttl_pulse();
+        ASSERT_TRUE(wait_steps(id, n));
+    }
+    ASSERT_TRUE(wait_state(id, job_state::succeeded));
+    EXPECT_EQ(wells(id, plate_names("6", well_order::serpentine).size()),
+              plate_names("6", well_order::serpentine));
+    expect_arrivals(id, plate_targets("6", 0, 0, well_order::serpentine));
+}
+
+// TTL advance, firmware path, without TTL_REPORT ("xy"): the controller steps itself on IN0 edges
+// (TTL X=7) and the gateway follows the stage to each well.
+TEST_F(array_run_test, ttl_advance_firmware_controller_steps_itself) {
+    auto sim = add_sim("sim4", "xy", 50);
+    start();
+    auto submitted =
+        submit("sim4", job_type::array, {{"plate", "6"}, {"a1", {{"X", 0}, {"Y", 0}}}, {"advance", "ttl"}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    EXPECT_EQ(submitted->job.plan_path, "firmware");
+    ASSERT_TRUE(wait_steps(id, 1));
+    for (std::size_t n = 2; n <= 6; ++n) {
+        sim->ttl_pulse();
+        ASSERT_TRUE(wait_steps(id, n));
+    }
+    ASSERT_TRUE(wait_state(id, job_state::succeeded));
+    EXPECT_EQ(wells(id, plate_names("6", well_order::serpentine).size()),
+              plate_names("6", well_order::serpentine));
+    expect_arrivals(id, plate_targets("6", 0, 0, well_order::serpentine));
+    EXPECT_EQ(commands_starting(id, "RM").size(), 1u);  // only RM X=0: the edges did the rest
+}
+
+TEST_F(array_run_test, ttl_advance_host_path) {
+    auto sim = add_sim("sim1", "full", 50);
+    start();
+    auto submitted =
+        submit("sim1", job_type::array,
+               {{"plate", "6"}, {"a1", {{"X", 0}, {"Y", 0}}}, {"advance", "ttl"}, {"order", "raster"}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    EXPECT_EQ(submitted->job.plan_path, "host");
+    ASSERT_TRUE(wait_steps(id, 1));
+    for (std::size_t n = 2; n <= 6; ++n) {
+        sim->ttl_pulse();
+        ASSERT_TRUE(wait_steps(id, n));
+    }
+    ASSERT_TRUE(wait_state(id, job_state::succeeded));
+    EXPECT_EQ(wells(id, plate_names("6", well_order::raster).size()), plate_names("6", well_order::raster));
+    expect_arrivals(id, plate_targets("6", 0, 0, well_order::raster));
+}
+
+TEST_F(array_run_test, resume_from_a_well_on_both_paths) {
+    add_sim("sim1", "full", 50);
+    start();
+    for (const std::string mode : {"firmware", "host"}) {
+        auto submitted =
+            submit("sim1", job_type::array,
+                   {{"plate", "12"}, {"a1", {{"X", 0}, {"Y", 0}}}, {"resume_from", "B2"}, {"mode", mode}});
+        ASSERT_TRUE(submitted) << submitted.error().message;
+        const auto id = submitted->job.id;
+        ASSERT_TRUE(wait_state(id, job_state::succeeded, 120s));
+        // Serpentine 4x3: A1 A2 A3 A4 B4 B3 B2 B1 C1 ...; B2 is the 7th well.
+        auto all = plate_names("12", well_order::serpentine);
+        EXPECT_EQ(wells(id, std::vector<std::string>(all.begin() + 6, all.end()).size()),
+                  std::vector<std::string>(all.begin() + 6, all.end()))
+            << mode;
+        auto targets = plate_targets("12", 0, 0, well_order::serpentine);
+        expect_arrivals(id, {targets.begin() + 6, targets.end()});
+        EXPECT_EQ(job(id)->progress.steps_done, 12u);
+        if (mode == "firmware") {
+            EXPECT_EQ(commands_starting(id, "AIJ"), (std::vector<std::string>{"AIJ X=2 Y=2"}));
+            EXPECT_EQ(commands_starting(id, "RM").size(), 5u);
+        }
+    }
+}
+
+TEST_F(array_run_test, soft_limits_refuse_the_job_naming_the_well) {
+    auto sim = add_sim("sim1", "full", 50);
+    {
+        gw::tests::sim_serial_client client(sim->port_path());
+        ASSERT_TRUE(client.command("SU X=30"));
+        ASSERT_TRUE(client.command("SL Y=-20"));
+    }
+    start();
+    auto refused = submit("sim1", job_type::array, {{"plate", "96"}, {"a1", {{"X", 0}, {"Y", 0}}}});
+    ASSERT_FALSE(refused);
+    EXPECT_EQ(refused.error().kind, kind::invalid_value);
+    EXPECT_NE(refused.error().message.find("A5"), std::string::npos) << refused.error().message;  // X = 36 mm
+    auto refused_y =
+        submit("sim1", job_type::array,
+               {{"plate", "96"}, {"a1", {{"X", 0}, {"Y", 0}}}, {"mode", "host"}, {"wells", {"A1", "D1"}}});
+    ASSERT_FALSE(refused_y);
+    EXPECT_NE(refused_y.error().message.find("D1"), std::string::npos)
+        << refused_y.error().message;  // Y = -27 mm
+    auto fits = submit("sim1", job_type::array,
+                       {{"plate", "96"}, {"a1", {{"X", 0}, {"Y", 0}}}, {"wells", {"A1", "B2"}}});
+    EXPECT_TRUE(fits) << fits.error().message;
+}
+
+TEST_F(array_run_test, pause_in_the_middle_of_a_plate_then_resume) {
+    add_sim("sim1", "full", 20);
+    start();
+    auto submitted = submit("sim1", job_type::array, {{"plate", "24"}, {"a1", {{"X", 0}, {"Y", 0}}}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_steps(id, 3));
+    ASSERT_TRUE(pause(id));
+    ASSERT_TRUE(wait_state(id, job_state::paused));
+    const auto at_pause = steps_done(id);
+    EXPECT_LT(at_pause, 24u);
+    std::this_thread::sleep_for(200ms);  // room to misbehave: nothing moves while paused
+    EXPECT_EQ(steps_done(id), at_pause);
+    EXPECT_FALSE(registry_->get("sim1")->busy);
+    ASSERT_TRUE(resume(id));
+    ASSERT_TRUE(wait_state(id, job_state::succeeded, 120s));
+    EXPECT_EQ(wells(id, plate_names("24", well_order::serpentine).size()),
+              plate_names("24", well_order::serpentine));  // each well once, in order
+    expect_arrivals(id, plate_targets("24", 0, 0, well_order::serpentine));
+}
+
+TEST_F(array_run_test, cancel_in_the_middle_of_a_plate_halts) {
+    add_sim("sim1", "full", 5);
+    start();
+    auto submitted =
+        submit("sim1", job_type::array,
+               {{"plate", "96"}, {"a1", {{"X", 0}, {"Y", 0}}}, {"mode", "host"}, {"ttl_pulse", true}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_steps(id, 2));
+    ASSERT_TRUE(cancel(id));
+    ASSERT_TRUE(wait_state(id, job_state::cancelled));
+    const auto n = steps_done(id);
+    EXPECT_LT(n, 96u);
+    ASSERT_TRUE(wait_until([&] { return !sim_state("sim1").value("busy", true); }, 10s))
+        << sim_state("sim1").dump();
+    EXPECT_EQ(sim_state("sim1")["ttl"]["out0_mode"], 0);
+    EXPECT_EQ(wells(id, n).size(), n);
+}
+
+}  // namespace
+}  // namespace gw::jobs::test
