@@ -178,7 +178,7 @@ double gcode_interpreter::plain_value(const gcode_word& w, double least_incremen
     const bool fanuc = options_.decimal_point == decimal_point_reading::least_increment;
     const double read = fanuc ? w.value * least_increment : w.value;
     const double other = fanuc ? w.value : w.value * least_increment;
-    warnings_.add(warning_kind::no_decimal_point, 0,
+    warnings_.add(warning_kind::no_decimal_point, line_,
                   std::string(1, w.letter) + num(w.value) + " has no decimal point: read as " + num(read) +
                       " " + unit_name + " (decimal_point=" + (fanuc ? "least_increment" : "calculator") +
                       "; the other reading gives " + num(other) + " " + unit_name + ")");
@@ -207,6 +207,7 @@ double gcode_interpreter::feed_mm_s(int line) {
 std::optional<gcode_error> gcode_interpreter::execute(const gcode_block& block,
                                                       std::vector<planned_move>& out) {
     const int line = block.line;
+    line_ = line;
     if (block.percent || ended_) return std::nullopt;
     if (block.block_delete) {
         warnings_.add(warning_kind::block_delete, line,

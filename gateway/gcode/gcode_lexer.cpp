@@ -152,7 +152,7 @@ std::optional<gcode_error> lex_line(std::string_view text, int line, gcode_block
         }
         if (!digits) {
             if (i < n && !is_blank(text[i]))
-                return at(line, i,
+                return at(line, letter_at,
                           std::string(1, w.letter) + " needs a number, found " + describe_char(text[i]));
             return at(line, letter_at, std::string(1, w.letter) + " needs a number");
         }
