@@ -3,7 +3,7 @@
 // operations from anyone not presenting the lease id get operation_error_kind::leased (409) - the same
 // rule for REST (header "Lease-Id"), WebSocket ({"lease": ...}) and MQTT (field "lease").
 // A lease expires unless renewed; an admin may break one (release with force). Leases live in memory:
-// a gateway restart ends them all (clients see 404 on renew and take a new one).
+// a gateway restart ends them all (clients see 409 invalid-state on renew and take a new one).
 //
 // Thread-safe (one mutex); the clock is injectable for tests.
 

@@ -125,11 +125,7 @@ int main(int argc, char** argv) {
         std::make_shared<gw::controller_events_bridge>(hub)));
     // Jobs: leases and the job manager over the durable store (an unusable storage path is fatal).
     auto leases = std::make_shared<gw::lease_manager>();
-    gw::jobs::job_manager_settings job_settings;
-    job_settings.storage_path = config.storage.path;
-    job_settings.storage_max_size_mb = config.storage.max_size_mb;
-    job_settings.restart_queued = config.jobs.restart_queued;
-    job_settings.max_queued_per_controller = config.jobs.max_queued_per_controller;
+    const auto job_settings = gw::jobs::make_job_manager_settings(config);
     auto jobs = gw::jobs::job_manager::create(ioc.get_executor(), registry, hub, leases, job_settings);
     if (!jobs) {
         log->error("cannot open the job store in \"{}\": {}", job_settings.storage_path,

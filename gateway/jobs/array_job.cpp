@@ -391,6 +391,8 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
         1.0,
         0.5 * 1000.0 * std::min(std::abs(spec.geometry.column_step_mm), std::abs(spec.geometry.row_step_mm)));
 
+    // IN0 goes back to its mode after the run; after a cancel or a failure the manager does it.
+    if (firmware || spec.advance == advance_source::ttl) ctx.restore_if_stopped(ttl_in0(restore_in0));
     if (firmware) {
         // Named lines, never temporaries in a co_await expression (g++ 12 coroutine temporaries).
         const std::vector<std::string> setup{ttl_in0(7), array_setup(spec.geometry),

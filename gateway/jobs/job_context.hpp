@@ -69,6 +69,12 @@ class job_context {
     // what the steps before first_step() measured. Empty when the history cannot be read.
     virtual std::vector<nlohmann::json> completed_steps() const { return {}; }
 
+    // A command that puts back a setting the job changed (for example "TTL X=0" after "TTL X=1").
+    // run() restores its settings itself when it ends normally; when the run is cancelled or fails,
+    // the manager sends these (after HALT and "TTL Y=0" for a cancel), newest first. A command that
+    // is already registered is kept once.
+    virtual void restore_if_stopped(std::string command) = 0;
+
     // Serial work, tagged with the job's request id. command() throws job_failure on ":N-<code>".
     virtual boost::asio::awaitable<devices::ms2000::reply> command(std::string line) = 0;
     virtual boost::asio::awaitable<move_result> move(move_request request) = 0;

@@ -1,5 +1,6 @@
 #include "gateway/jobs/job_execution.hpp"
 
+#include <algorithm>
 #include <fmt/format.h>
 
 #include <boost/asio/redirect_error.hpp>
@@ -83,6 +84,11 @@ void job_execution::emit(std::string kind, nlohmann::json detail) {
 std::vector<nlohmann::json> job_execution::completed_steps() const {
     if (auto h = host_.lock()) return h->step_events(*job_);
     return {};
+}
+
+void job_execution::restore_if_stopped(std::string command) {
+    auto& list = job_->restore_commands;
+    if (std::find(list.begin(), list.end(), command) == list.end()) list.push_back(std::move(command));
 }
 
 net::awaitable<devices::ms2000::reply> job_execution::command(std::string line) {

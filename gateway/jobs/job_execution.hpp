@@ -41,6 +41,7 @@ struct live_job {
     std::shared_ptr<job_execution> exec;  // while a run() coroutine exists
     bool queued_in_lane = false;          // in its controller's FIFO
     bool stopping = false;                // a cancel is sending HALT / TTL Y=0: the job keeps the controller
+    std::vector<std::string> restore_commands;  // job_context::restore_if_stopped, for this run
 };
 
 // What an execution reports to the manager (which persists and publishes). Called on the strand.
@@ -73,6 +74,7 @@ class job_execution final : public job_context, public std::enable_shared_from_t
     void step_done(std::size_t index, nlohmann::json detail = {}) override;
     void emit(std::string kind, nlohmann::json detail) override;
     std::vector<nlohmann::json> completed_steps() const override;
+    void restore_if_stopped(std::string command) override;
     boost::asio::awaitable<devices::ms2000::reply> command(std::string line) override;
     boost::asio::awaitable<move_result> move(move_request request) override;
     boost::asio::awaitable<void> wait_idle(std::chrono::milliseconds timeout) override;

@@ -127,7 +127,10 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void launch(std::shared_ptr<live_job> job);
     void run_finished(std::shared_ptr<job_execution> exec, std::exception_ptr e);
     void release(const std::string& controller, const std::string& id);
-    net::awaitable<void> safe_stop(std::string controller, std::string request_id);
+    // HALT, "TTL Y=0", then the job's restore_if_stopped commands.
+    net::awaitable<void> safe_stop(std::shared_ptr<live_job> job);
+    // The job's restore_if_stopped commands, newest first; failures are logged.
+    net::awaitable<void> restore_settings(std::shared_ptr<live_job> job);
     net::awaitable<void> shutdown_coro(std::function<void()> done);
 
     bool controller_connected(const std::string& id) const {
@@ -322,7 +325,7 @@ void manager_core::shutdown(std::function<void()> done) {
 net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
     auto self = shared_from_this();
     shutting_down_ = true;
-    std::vector<std::pair<std::string, std::string>> to_stop;  // controller, request id
+    std::vector<std::shared_ptr<live_job>> to_stop;
     for (auto& [controller, l] : lanes_) {
         if (l.holder.empty()) continue;
         auto it = jobs_.find(l.holder);
@@ -332,12 +335,12 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
         if (st != job_state::running && st != job_state::paused) continue;  // queued ones stay queued
         if (job->exec) {
             job->exec->cancel();
-            to_stop.emplace_back(controller, "job-" + job->record.id);
+            to_stop.push_back(job);
         }
         set_state(*job, job_state::interrupted, "gateway shutting down");
     }
-    for (auto& [controller, rid] : to_stop)
-        co_await safe_stop(controller, rid);
+    for (auto& job : to_stop)
+        co_await safe_stop(job);
     // The coroutines end at their next await (the HALT ends a move in progress).
     net::steady_timer timer(strand_);
     const auto deadline = std::chrono::steady_clock::now() + shutdown_grace;
@@ -567,6 +570,7 @@ void manager_core::dispatch(const std::string& controller) {
 
 void manager_core::launch(std::shared_ptr<live_job> job) {
     const auto first = std::min(job->record.progress.steps_done, job->plan->steps.size());
+    job->restore_commands.clear();  // the new run registers what it changes
     auto exec = std::make_shared<job_execution>(strand_, registry_, weak_from_this(), job, first);
     job->exec = exec;
     job->record.progress.remaining_s = remaining_from(*job->plan, first);
@@ -617,7 +621,15 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
         set_state(*job, job_state::paused, "controller disconnected: " + failure);
     } else {
         set_state(*job, job_state::failed, failure);
-        release(controller, id);
+        // Put back what the job changed before the next job gets the controller.
+        net::co_spawn(
+            strand_,
+            [self = shared_from_this(), job]() -> net::awaitable<void> {
+                co_await self->restore_settings(job);
+            },
+            [self = shared_from_this(), controller, id](std::exception_ptr) {
+                self->release(controller, id);
+            });
     }
 }
 
@@ -627,8 +639,10 @@ void manager_core::release(const std::string& controller, const std::string& id)
     net::post(strand_, [self = shared_from_this(), controller] { self->dispatch(controller); });
 }
 
-net::awaitable<void> manager_core::safe_stop(std::string controller, std::string request_id) {
+net::awaitable<void> manager_core::safe_stop(std::shared_ptr<live_job> job) {
     // Named arguments only: g++ 12 mishandles temporaries that live across a co_await.
+    const std::string controller = job->record.controller;
+    const std::string request_id = "job-" + job->record.id;
     std::string halt_controller = controller;
     std::string halt_request_id = request_id;
     auto halted = co_await registry_.async_halt(std::move(halt_controller), std::move(halt_request_id),
@@ -641,6 +655,23 @@ net::awaitable<void> manager_core::safe_stop(std::string controller, std::string
     auto ttl = co_await registry_.async_ttl(std::move(ttl_controller), low, std::move(ttl_request_id),
                                             net::use_awaitable);
     if (!ttl) log_->warn("[{}] {}: TTL Y=0 failed: {}", request_id, controller, ttl.error().message);
+    co_await restore_settings(std::move(job));
+}
+
+net::awaitable<void> manager_core::restore_settings(std::shared_ptr<live_job> job) {
+    const std::string controller = job->record.controller;
+    const std::string request_id = "job-" + job->record.id;
+    const auto restore = job->restore_commands;
+    for (auto it = restore.rbegin(); it != restore.rend(); ++it) {
+        std::string restore_controller = controller;
+        std::string restore_request_id = request_id;
+        raw_command_request request{*it};
+        auto r = co_await registry_.async_raw_command(std::move(restore_controller), std::move(request),
+                                                      std::move(restore_request_id), net::use_awaitable);
+        if (!r)
+            log_->warn("[{}] {}: restoring with \"{}\" failed: {}", request_id, controller, *it,
+                       r.error().message);
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -700,8 +731,7 @@ void manager_core::cancel(job_action a, job_manager::handler<job_record> h) {
             // until both the HALT/TTL and its run() are over, so the next job starts after them.
             job->stopping = true;
             if (job->exec) job->exec->cancel();
-            std::string rid = "job-" + a.job_id;
-            co_await self->safe_stop(controller, rid);
+            co_await self->safe_stop(job);
             job->stopping = false;
             if (!is_terminal(job->record.state) && job->record.state != job_state::interrupted)
                 self->set_state(*job, job_state::cancelled, "cancelled");

@@ -19,8 +19,8 @@
 //    effect. A tour of one position cannot be followed by the pointer, and on TTL_REPORT_INT builds
 //    IN0 only latches reports: both run host-driven.
 //  * `next`: TTL X=1, then one "RM" (an IN0 pulse in the current IN0 mode) per `next` call.
-//  * After a cancel the context refuses commands: IN0 stays in mode 1 until the next job or a client
-//    sets it (plan warning).
+//  * After a cancel or a failure the manager sets IN0 back to its previous mode
+//    (job_context::restore_if_stopped), so later IN0 edges do not move the stage.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -255,10 +255,6 @@ operation_result<job_plan> plan_ring_buffer(const nlohmann::json& json, const pl
                         add_preview_command(plan, "RM");
                 add_preview_command(plan, in0_command(s.ttl_in0_mode.value_or(0)));
             }
-            plan.warnings.push_back(
-                "after a cancel TTL IN0 stays in ring-buffer mode (TTL X=1): further IN0 edges move the "
-                "stage "
-                "until IN0 is set back (TTL X=0)");
         }
         if (spec.forever() && firmware_mode(spec) == 3)
             plan.warnings.push_back(
@@ -439,6 +435,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
         const std::size_t slot = tour == first_tour ? first_slot : 0;
         const std::size_t base = spec.forever() ? 0 : tour * n;
         if (tour != first_tour) co_await ctx.command(pointer_command(0));
+        ctx.restore_if_stopped(in0_command(previous_in0));
         co_await ctx.command("TTL X=1");
         if (spec.trigger == trigger_kind::ttl) {
             ctx.step_started(base + slot);

@@ -12,17 +12,19 @@
 //    reported with the measured position after the scan stopped.
 //  * A firmware scan cannot be held mid-scan: pause takes effect when the scan has finished (plan
 //    warning). Cancel is the manager's HALT, which stops the scan at once.
+//  * A scan already running on the controller (left from before a gateway restart or an unplugged
+//    cable) is stopped with "SCAN P" before the job's own scan is set up.
 //  * A resumed firmware scan restarts at its first unfinished line (SCANV X= that line's slow
 //    position, Z= the remaining lines); a serpentine scan resumes at an even line so that the
 //    firmware's first (forward) line has the right direction.
-//  * SPEED of the fast axis is set for the scan and restored afterwards, also after a failure; after
-//    a cancel the context refuses further commands, so the scan speed stays set (documented).
+//  * SPEED of the fast axis is set for the scan (after the approach move, which runs at the axis's
+//    own SPEED) and restored afterwards; after a cancel or a failure the manager restores it
+//    (job_context::restore_if_stopped).
 //  * "TTL X=1" (the encoder interrupt, seed) is sent only on builds with ENC_INT, and IN0 is
-//    restored to its previous mode afterwards.
+//    restored to its previous mode afterwards, in the same way.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <exception>
 #include <fmt/format.h>
 
 #include "devices/ms2000/command.hpp"
@@ -137,7 +139,8 @@ std::vector<axis_value_um> to_axes(const position_um& p) {
     return out;
 }
 
-// The firmware setup commands, starting at line `first` (0 for a fresh scan).
+// The firmware setup commands, starting at line `first` (0 for a fresh scan). The scan speed is not
+// among them: it is set after the approach move, which runs at the axis's own SPEED.
 std::vector<std::string> firmware_setup(const scan_setup& u, const devices::controller_snapshot& s,
                                         int first) {
     const auto& g = u.geometry;
@@ -153,8 +156,6 @@ std::vector<std::string> firmware_setup(const scan_setup& u, const devices::cont
     out.push_back(command_text(
         "SCAN", {set('Y', axis_index(s, u.spec.fast_axis), 0), set('Z', axis_index(s, u.spec.slow_axis), 0),
                  set('F', g.serpentine ? 1 : 0, 0)}));
-    if (u.spec.speed_mm_s)
-        out.push_back(command_text("SPEED", {set(u.spec.fast_axis, *u.spec.speed_mm_s, 6)}));
     if (has_module(s, module::enc_int)) out.push_back("TTL X=1");
     return out;
 }
@@ -184,17 +185,17 @@ operation_result<job_plan> plan_scan(const nlohmann::json& json, const plan_cont
     plan.type = job_type::scan;
     plan.path = u.firmware ? "firmware" : "host";
 
-    // Line times: the line at the scan speed, then the move to the next line's start at the default
-    // speed (raster: retrace and slow step together; serpentine: the slow step only).
-    const double line_s =
-        ctx.motion.travel_seconds(f, g.line_length_mm(), scan_speed) + fp.settle_ms / 1000.0;
-    const double step_s =
-        std::abs(g.slow_step_mm()) > 0
-            ? ctx.motion.travel_seconds(w, g.slow_step_mm(), sp.speed_mm_s) + sp.settle_ms / 1000.0
-            : 0;
-    const double retrace_s =
-        ctx.motion.travel_seconds(f, g.line_length_mm(), fp.speed_mm_s) + fp.settle_ms / 1000.0;
-    const double between_s = g.serpentine ? step_s : std::max(step_s, retrace_s);
+    // Line times: the line at the scan speed, then the move to the next line's start. The SCAN module
+    // retraces and steps the slow axis together at the screw's top speed (SCANR R=100); the host path
+    // sends one move to the next line's start at SPEED (raster: retrace and step; serpentine: the
+    // step only).
+    const double line_s = ctx.motion.axis_move_seconds(f, g.line_length_mm(), scan_speed);
+    const double retrace_mm = g.serpentine ? 0.0 : -g.line_length_mm();
+    const double between_s =
+        u.firmware ? std::max(ctx.motion.axis_move_seconds(f, retrace_mm, fp.max_speed_mm_s),
+                              ctx.motion.axis_move_seconds(w, g.slow_step_mm(), sp.max_speed_mm_s))
+                   : ctx.motion.move_seconds({{f, retrace_mm}, {w, g.slow_step_mm()}});
+    // The gateway moves to the first line's start itself, at SPEED, before the scan speed is set.
     double approach_s = 0;
     {
         std::vector<axis_delta_mm> d;
@@ -235,6 +236,7 @@ operation_result<job_plan> plan_scan(const nlohmann::json& json, const plan_cont
         for (auto& c : firmware_setup(u, s, 0))
             add_preview_command(plan, std::move(c));
         add_preview_command(plan, move_text(to_axes(line_point(u, g.fast_begin(0), g.slow_at(0)))));
+        if (u.spec.speed_mm_s) add_preview_command(plan, command_text("SPEED", {set(f, scan_speed, 6)}));
         add_preview_command(plan, "SCAN");
         if (u.spec.speed_mm_s) add_preview_command(plan, command_text("SPEED", {set(f, fp.speed_mm_s, 6)}));
         if (has_module(s, module::enc_int))
@@ -333,11 +335,17 @@ boost::asio::awaitable<void> run_host(job_context& ctx, const scan_setup& u, dou
                               to_axes(line_point(u, g.fast_begin(i), g.slow_at(i))), true,
                               wait_timeout_for(estimated)};
         const auto at_start = co_await ctx.move(std::move(to_start));
-        if (u.spec.speed_mm_s) co_await ctx.command(speed_command(f, *u.spec.speed_mm_s));
+        if (u.spec.speed_mm_s) {
+            auto scan_speed = speed_command(f, *u.spec.speed_mm_s);
+            co_await ctx.command(std::move(scan_speed));
+        }
         move_request line{
             move_request::mode::absolute, {{f, g.fast_end(i) * 1000.0}}, true, wait_timeout_for(estimated)};
         auto done = co_await ctx.move(std::move(line));
-        if (u.spec.speed_mm_s) co_await ctx.command(speed_command(f, original_speed));
+        if (u.spec.speed_mm_s) {
+            auto restore = speed_command(f, original_speed);
+            co_await ctx.command(std::move(restore));
+        }
         // The line moves the fast axis only; the slow axis stands where the line began.
         position_um measured;
         for (const auto& p : at_start.positions)
@@ -361,6 +369,20 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const scan_setup& u)
                                             first)));
         --first;
     }
+    // A scan still running (the firmware finishes a scan by itself when the gateway restarted or the
+    // cable was pulled mid-scan) would fight the new one: stop it first.
+    {
+        auto state = co_await ctx.command("SCAN X?");
+        const auto* x = state.axis('X');
+        if (x && x->text == "S") {
+            ctx.emit("warning",
+                     message_detail(fmt::format("{}: a scan was still running; stopped with SCAN P "
+                                                "before this one starts",
+                                                s.id)));
+            co_await ctx.command("SCAN P");
+            co_await ctx.wait_idle(milliseconds(30'000));
+        }
+    }
     // Named, not a range-for temporary: g++ 12 frees a range-init temporary of a coroutine too early.
     const auto setup_commands = firmware_setup(u, s, first);
     for (const auto& c : setup_commands)
@@ -372,6 +394,10 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const scan_setup& u)
     to_start.wait_timeout =
         wait_timeout_for(steps.empty() ? 0 : steps[static_cast<std::size_t>(first)].estimated_s);
     co_await ctx.move(std::move(to_start));
+    if (u.spec.speed_mm_s) {
+        auto scan_speed = speed_command(f, *u.spec.speed_mm_s);
+        co_await ctx.command(std::move(scan_speed));
+    }
     ctx.step_started(static_cast<std::size_t>(first));
     co_await ctx.command("SCAN");
 
@@ -435,27 +461,21 @@ boost::asio::awaitable<void> run_scan(job_context& ctx) {
     const char f = u.spec.fast_axis;
     const double original_speed = co_await current_speed(ctx, f);
     const bool enc_int = u.firmware && has_module(s, module::enc_int);
-    std::exception_ptr error;
-    try {
-        if (u.firmware)
-            co_await run_firmware(ctx, u);
-        else
-            co_await run_host(ctx, u, original_speed);
-    } catch (const job_cancelled&) {
-        throw;  // the context refuses commands from now on; the manager has halted the stage
-    } catch (...) {
-        error = std::current_exception();
+    // What the job changes; the manager puts it back after a cancel or a failure.
+    if (u.spec.speed_mm_s) ctx.restore_if_stopped(speed_command(f, original_speed));
+    if (enc_int) ctx.restore_if_stopped(in0_command(s.ttl_in0_mode.value_or(0)));
+    if (u.firmware)
+        co_await run_firmware(ctx, u);
+    else
+        co_await run_host(ctx, u, original_speed);
+    if (u.spec.speed_mm_s) {
+        auto restore = speed_command(f, original_speed);
+        co_await ctx.command(std::move(restore));
     }
-    // Restore what the job changed (also after a failure, when the controller still answers).
-    try {
-        if (u.spec.speed_mm_s) co_await ctx.command(speed_command(f, original_speed));
-        if (enc_int) co_await ctx.command(in0_command(s.ttl_in0_mode.value_or(0)));
-    } catch (const job_cancelled&) {
-        throw;
-    } catch (...) {
-        if (!error) error = std::current_exception();
+    if (enc_int) {
+        auto in0 = in0_command(s.ttl_in0_mode.value_or(0));
+        co_await ctx.command(std::move(in0));
     }
-    if (error) std::rethrow_exception(error);
 }
 
 }  // namespace gw::jobs

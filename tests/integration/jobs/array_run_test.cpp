@@ -318,6 +318,21 @@ TEST_F(array_run_test, pause_in_the_middle_of_a_plate_then_resume) {
     expect_arrivals(id, plate_targets("24", 0, 0, well_order::serpentine));
 }
 
+TEST_F(array_run_test, cancel_of_a_firmware_run_sets_in0_back) {
+    add_sim("sim1", "full", 5);
+    start();
+    auto submitted = submit("sim1", job_type::array, {{"plate", "96"}, {"a1", {{"X", 0}, {"Y", 0}}}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    EXPECT_EQ(submitted->job.plan_path, "firmware");
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_steps(id, 2));
+    EXPECT_EQ(sim_state("sim1")["ttl"]["in0_mode"], 7);  // the ARRAY module steps on IN0 edges
+    ASSERT_TRUE(cancel(id));
+    ASSERT_TRUE(wait_state(id, job_state::cancelled));
+    EXPECT_EQ(sim_state("sim1")["ttl"]["in0_mode"], 0);
+    EXPECT_EQ(sim_state("sim1")["ttl"]["out0_mode"], 0);
+}
+
 TEST_F(array_run_test, cancel_in_the_middle_of_a_plate_halts) {
     add_sim("sim1", "full", 5);
     start();

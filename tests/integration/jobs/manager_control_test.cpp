@@ -140,7 +140,12 @@ TEST_F(manager_control_test, pause_takes_effect_after_the_current_step_and_resum
     const auto p = job(id);
     EXPECT_EQ(p->progress.steps_done, 1u) << "the move to point 1 finished, then the job paused";
     EXPECT_EQ(sim_state("sim3")["planar_correction"]["points"], 1);
-    EXPECT_FALSE(registry_->get("sim3")->busy);
+    // The stage stands (the registry's snapshot may lag a poll behind the simulator) and stays there.
+    ASSERT_TRUE(wait_until([&] { return !sim_state("sim3").value("busy", true); }, 2s));
+    const auto x_paused = sim_state("sim3")["axes"]["X"]["position"].get<double>();
+    std::this_thread::sleep_for(200ms);
+    EXPECT_EQ(sim_state("sim3")["axes"]["X"]["position"].get<double>(), x_paused);
+    EXPECT_EQ(job(id)->progress.steps_done, 1u);
     // Paused: a second pause is harmless, `next` is refused.
     EXPECT_TRUE(pause(id));
     auto resumed = resume(id);

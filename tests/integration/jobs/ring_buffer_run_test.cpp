@@ -134,6 +134,28 @@ TEST_F(ring_buffer_run_test, ttl_triggered_tour_steps_on_each_in0_edge) {
     EXPECT_EQ(sim_state("sim3")["ttl"]["in0_mode"], 0);  // IN0 restored after the tour
 }
 
+TEST_F(ring_buffer_run_test, cancel_of_a_ttl_tour_sets_in0_back_so_later_edges_move_nothing) {
+    auto sim = add_sim("sim3", "planar");
+    start();
+    auto spec = three_positions();
+    spec["trigger"] = "ttl";
+    auto submitted = submit("sim3", job_type::ring_buffer, spec);
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_until([&] { return sim_state("sim3")["ttl"]["in0_mode"] == 1; }));
+    sim->ttl_pulse();
+    ASSERT_TRUE(wait_steps(id, 1));
+    ASSERT_TRUE(cancel(id));
+    ASSERT_TRUE(wait_state(id, job_state::cancelled));
+    EXPECT_EQ(sim_state("sim3")["ttl"]["in0_mode"], 0);
+    // An edge now must not take the stage to the next buffered position.
+    const double x = sim_um("sim3", 'X');
+    sim->ttl_pulse();
+    std::this_thread::sleep_for(200ms);
+    EXPECT_EQ(sim_state("sim3")["busy"], false);
+    EXPECT_NEAR(sim_um("sim3", 'X'), x, 1);
+}
+
 TEST_F(ring_buffer_run_test, next_triggered_tour_sends_rm_per_next_call) {
     add_sim("sim3", "planar");
     start();

@@ -175,6 +175,12 @@ TEST_F(scan_run_test, cancel_mid_scan_halts_the_stage) {
     EXPECT_LT(job(firmware->job.id)->progress.steps_done, 20u);
     EXPECT_LT(job(host->job.id)->progress.steps_done, 20u);
     EXPECT_LT(sim_um("sim1", 'Y'), 99);  // stopped before the last line
+    // The manager put back the SPEED the scans had changed (the cancel answers after that).
+    EXPECT_NEAR(sim_state("sim1")["axes"]["X"]["speed"].get<double>(), 5.5, 1e-6);
+    EXPECT_NEAR(sim_state("sim2")["axes"]["X"]["speed"].get<double>(), 5.5, 1e-6);
+    const auto commands = commands_of(firmware->job.id);
+    ASSERT_FALSE(commands.empty());
+    EXPECT_EQ(commands.back(), "SPEED X=5.5");
 }
 
 }  // namespace

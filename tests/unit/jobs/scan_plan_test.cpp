@@ -54,9 +54,9 @@ TEST(scan_plan, seed_example_gives_1891_pixels_and_lines_on_the_firmware_path) {
     EXPECT_EQ(plan->steps.front().name, "line 1");
     EXPECT_EQ(plan->steps.back().name, "line 1891");
     EXPECT_NE(plan->summary.find("1891 lines x 1891 pixels"), std::string::npos) << plan->summary;
-    const std::vector<std::string> expected{"SCANR X=0 Y=1 Z=24", "SCANV X=0 Y=1 Z=1891",
-                                            "SCAN Y=0 Z=1 F=0",   "SPEED X=0.528",
-                                            "M X=0 Y=0",          "SCAN",
+    // The approach move runs at the axis's SPEED; the scan speed is set after it.
+    const std::vector<std::string> expected{"SCANR X=0 Y=1 Z=24", "SCANV X=0 Y=1 Z=1891", "SCAN Y=0 Z=1 F=0",
+                                            "M X=0 Y=0",          "SPEED X=0.528",        "SCAN",
                                             "SPEED X=5.5"};
     EXPECT_EQ(plan->commands, expected);
     EXPECT_EQ(plan->commands_omitted, 0u);
@@ -76,8 +76,10 @@ TEST(scan_plan, estimate_is_line_time_plus_retrace_or_step) {
     auto ctx = make_context(true);
     auto plan = plan_job(job_type::scan, seed_spec(), ctx);
     ASSERT_TRUE(plan);
-    const double line = ctx.motion.travel_seconds('X', 1.0, 0.528) + 0.014;
-    const double retrace = ctx.motion.travel_seconds('X', 1.0, 5.5) + 0.014;
+    // The SCAN module retraces (and steps the slow axis) at the screw's top speed, 6.8 mm/s.
+    const double line = ctx.motion.axis_move_seconds('X', 1.0, 0.528);
+    const double retrace = ctx.motion.axis_move_seconds('X', 1.0, 6.8);
+    EXPECT_LT(retrace, ctx.motion.axis_move_seconds('X', 1.0, 5.5));
     EXPECT_NEAR(plan->steps[0].estimated_s, line, 1e-9);  // the stage already is at the start
     EXPECT_NEAR(plan->steps[1].estimated_s, line + retrace, 1e-9);
     double sum = 0;
@@ -89,13 +91,25 @@ TEST(scan_plan, estimate_is_line_time_plus_retrace_or_step) {
     serpentine["pattern"] = "serpentine";
     auto splan = plan_job(job_type::scan, serpentine, ctx);
     ASSERT_TRUE(splan);
-    const double step = ctx.motion.travel_seconds('Y', 1.0 / 1890, 5.5) + 0.014;
+    const double step = ctx.motion.axis_move_seconds('Y', 1.0 / 1890, 6.8);
     EXPECT_NEAR(splan->steps[1].estimated_s, line + step, 1e-9);
     EXPECT_LT(splan->estimated_s, plan->estimated_s);
     // Serpentine: odd lines (0-based) start at the fast stop.
     EXPECT_DOUBLE_EQ(splan->steps[1].target->at('X'), 1000);
     EXPECT_DOUBLE_EQ(splan->steps[2].target->at('X'), 0);
     EXPECT_EQ(splan->commands[2], "SCAN Y=0 Z=1 F=1");
+}
+
+TEST(scan_plan, host_estimate_moves_to_each_line_start_at_speed) {
+    auto ctx = make_context(false);
+    auto plan = plan_job(job_type::scan, seed_spec(), ctx);
+    ASSERT_TRUE(plan) << plan.error().message;
+    EXPECT_EQ(plan->path, "host");
+    const double line = ctx.motion.axis_move_seconds('X', 1.0, 0.528);
+    // One move back to the next line's start, both axes together at their SPEED (5.5 mm/s).
+    const double between = ctx.motion.move_seconds({{'X', -1.0}, {'Y', 1.0 / 1890}});
+    EXPECT_NEAR(between, ctx.motion.axis_move_seconds('X', 1.0, 5.5), 1e-9);  // the retrace is longer
+    EXPECT_NEAR(plan->steps[1].estimated_s, line + between, 1e-9);
 }
 
 struct pixel_row {
@@ -274,7 +288,8 @@ TEST(scan_plan, other_axes_use_their_hardware_ids) {
     auto plan = plan_job(job_type::scan, spec, make_context(true));
     ASSERT_TRUE(plan) << plan.error().message;
     EXPECT_EQ(plan->commands[2], "SCAN Y=1 Z=2 F=0");
-    EXPECT_EQ(plan->commands[3], "SPEED Y=0.528");
+    EXPECT_EQ(plan->commands[3], "M Y=0 Z=0");
+    EXPECT_EQ(plan->commands[4], "SPEED Y=0.528");
     EXPECT_DOUBLE_EQ(plan->steps[2].target->at('Z'), 1000);
 }
 
