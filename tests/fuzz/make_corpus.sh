@@ -49,3 +49,11 @@ printf '\\' > command/halt
 printf 'X=1\rM Y=2' > command/injection
 printf 'INFO X' > command/info
 printf '\x03TTLX\x00\x04\x00\x00\x00\x00\x00\x00\xf8\x3fY\x01\x02\x00\x00\x00\x00\x00\x00\x00\x00' > command/make_command
+
+# fuzz_gcode: byte 0 = option flags (1 least-increment, 2 analog Z, 4 scale 0.01, 8 coarse arcs,
+# 16 custom analog limits, 32 analog range error), then the program.
+mkdir -p gcode
+printf '\x00%%\nO0001 (SAMPLE)\nG90 G21 G17\nG00 X1. Y2.\nG01 Z- .1 F300\nM03\nG02 X3. Y2. I1.\nG03 X1. Y2. R-1.\nM05\nG04 P250\nM30\n%%\n' > gcode/basic
+printf '\x02G20 G0 X1 Y.5\nG01 F10. Z-.001\nG18 G02 X2. Z0 I.5 K0\nG19 G03 Y1. Z0 J.5\n' > gcode/analog_inch
+printf '\x01G91 G16 G01 X20. Y20. F60\nX20 Y20\nG15 G90 G02 Z5. I5.\n/N0 G0 X1000 ; G1 Y2\n' > gcode/polar_incremental
+printf '\x08G0 X1. X2.\nG28\n(a (b))\nG1 X F1\nG04 P1.5\n' > gcode/errors

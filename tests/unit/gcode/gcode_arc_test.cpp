@@ -27,7 +27,8 @@ struct segment_case {
 class segment_count_test : public ::testing::TestWithParam<segment_case> {};
 
 TEST_P(segment_count_test, smallest_count_within_tolerance_45) {
-    const auto [r, tol] = GetParam();
+    const double r = GetParam().radius;
+    const double tol = GetParam().tolerance;
     const auto g = full_circle(r);
     const auto n = arc_segment_count(g, tol);
     ASSERT_GE(n, 4u);  // at most 90 degrees per segment
