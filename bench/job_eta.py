@@ -268,7 +268,8 @@ def write_results(path, rows, args, started, elapsed):
                 "and the polled wall time (\"wall\"), both multiplied by the time scale. Target: "
                 f"|error| <= {TARGET * 100:.0f} %.\n\n")
         f.write(f"- run: {started} UTC, {elapsed:.0f} s, commit {git_commit()}\n")
-        f.write(f"- gateway: `{args.gateway}` --config (simulate 3, time scale {args.time_scale})\n")
+        gateway = os.path.relpath(os.path.abspath(args.gateway), ROOT)  # no machine paths in RESULTS.md
+        f.write(f"- gateway: `{gateway}` --config (simulate 3, time scale {args.time_scale})\n")
         for k, v in m.items():
             f.write(f"- {k}: {v}\n")
         f.write("\n" + table(rows) + "\n")
