@@ -31,6 +31,7 @@
 #include "gateway/logging.hpp"
 #include "gateway/metrics.hpp"
 #include "gateway/serial_spec.hpp"
+#include "gateway/storage_lock.hpp"
 
 namespace net = boost::asio;
 
@@ -112,6 +113,13 @@ int main(int argc, char** argv) {
         log->warn("no controllers configured: give --simulate N, --serial ID=PATH or a config file");
     if (config.auth.tokens.empty())
         log->info("no auth tokens configured: listening on loopback only ({})", config.http.listen_address);
+
+    // One gateway per storage directory, taken before any serial port is opened.
+    auto storage = gw::storage_lock::acquire(config.storage.path);
+    if (!storage) {
+        log->error("{}", storage.error().message);
+        return 1;
+    }
 
     net::io_context ioc;
     gw::controller_registry registry(ioc.get_executor(), std::move(options));
