@@ -232,10 +232,117 @@ void read_logging(const json& j, logging_config& out) {
     }
 }
 
+int read_qos(const json& j, const std::string& path) {
+    return static_cast<int>(read_uint(j, path, 0, 2));
+}
+
+// "mqtt://host[:port]" and the like: a known scheme, a host, an optional port.
+void check_broker_uri(const std::string& uri, const std::string& path) {
+    const auto sep = uri.find("://");
+    const auto scheme = sep == std::string::npos ? std::string() : uri.substr(0, sep);
+    if (scheme != "mqtt" && scheme != "tcp" && scheme != "mqtts" && scheme != "ssl")
+        fail(path, "must start with mqtt://, tcp://, mqtts:// or ssl://");
+    auto rest = std::string_view(uri).substr(sep + 3);
+    if (rest.empty() || rest.find_first_of("/ ?#@") != std::string_view::npos)
+        fail(path, "must be <scheme>://host[:port]");
+    const auto colon = rest.rfind(':');
+    if (colon != std::string_view::npos && rest.back() != ']') {
+        const auto port = rest.substr(colon + 1);
+        if (colon == 0 || port.empty() || port.size() > 5 ||
+            !std::all_of(port.begin(), port.end(), [](char c) { return c >= '0' && c <= '9'; }) ||
+            std::stoul(std::string(port)) == 0 || std::stoul(std::string(port)) > 65535)
+            fail(path, "the port must be 1..65535");
+    }
+}
+
+void read_mqtt(const json& j, mqtt_config& out) {
+    object_reader r(
+        j, "mqtt",
+        {"enabled", "brokers", "client_id", "username", "password", "tls", "keepalive_s", "topic_prefix",
+         "gateway_id", "protocol", "qos", "telemetry", "reconnect", "jobs", "commands"});
+    if (auto* v = r.get("enabled")) out.enabled = read_bool(*v, r.path("enabled"));
+    if (auto* v = r.get("brokers")) {
+        if (!v->is_array() || v->empty() || v->size() > 16)
+            fail(r.path("brokers"), "must be an array of 1..16 broker URIs");
+        out.brokers.clear();
+        for (std::size_t i = 0; i < v->size(); ++i) {
+            const auto path = r.path("brokers") + "[" + std::to_string(i) + "]";
+            auto uri = read_string((*v)[i], path);
+            check_broker_uri(uri, path);
+            out.brokers.push_back(std::move(uri));
+        }
+    }
+    if (auto* v = r.get("client_id")) {
+        out.client_id = read_string(*v, r.path("client_id"));
+        if (out.client_id.size() > 128) fail(r.path("client_id"), "must be at most 128 characters");
+    }
+    if (auto* v = r.get("username")) out.username = read_string(*v, r.path("username"));
+    if (auto* v = r.get("password")) out.password = read_string(*v, r.path("password"));
+    if (auto* tj = r.get("tls")) {
+        object_reader t(*tj, "mqtt.tls", {"ca_file", "cert_file", "key_file", "verify"});
+        if (auto* v = t.get("ca_file")) out.tls.ca_file = read_string(*v, t.path("ca_file"));
+        if (auto* v = t.get("cert_file")) out.tls.cert_file = read_string(*v, t.path("cert_file"));
+        if (auto* v = t.get("key_file")) out.tls.key_file = read_string(*v, t.path("key_file"));
+        if (auto* v = t.get("verify")) out.tls.verify = read_bool(*v, t.path("verify"));
+        if (out.tls.cert_file.empty() != out.tls.key_file.empty())
+            fail(t.path(out.tls.cert_file.empty() ? "cert_file" : "key_file"),
+                 "cert_file and key_file go together");
+    }
+    if (auto* v = r.get("keepalive_s"))
+        out.keepalive = std::chrono::seconds(read_uint(*v, r.path("keepalive_s"), 5, 3600));
+    if (auto* v = r.get("topic_prefix")) {
+        out.topic_prefix = read_string(*v, r.path("topic_prefix"));
+        if (!is_valid_mqtt_prefix(out.topic_prefix))
+            fail(r.path("topic_prefix"),
+                 "must be levels of 1-64 characters of letters, digits, '_', '.' or '-' separated by '/'");
+    }
+    if (auto* v = r.get("gateway_id")) {
+        out.gateway_id = read_string(*v, r.path("gateway_id"));
+        if (!is_valid_mqtt_level(out.gateway_id))
+            fail(r.path("gateway_id"), "must be 1-64 characters of letters, digits, '_', '.' or '-'");
+    }
+    if (auto* v = r.get("protocol"))
+        out.protocol = read_enum<mqtt_protocol>(*v, r.path("protocol"),
+                                                {{"5", mqtt_protocol::v5}, {"3.1.1", mqtt_protocol::v3_1_1}});
+    if (auto* qj = r.get("qos")) {
+        object_reader q(*qj, "mqtt.qos", {"status", "state", "telemetry", "jobs", "responses"});
+        if (auto* v = q.get("status")) out.qos.status = read_qos(*v, q.path("status"));
+        if (auto* v = q.get("state")) out.qos.state = read_qos(*v, q.path("state"));
+        if (auto* v = q.get("telemetry")) out.qos.telemetry = read_qos(*v, q.path("telemetry"));
+        if (auto* v = q.get("jobs")) out.qos.jobs = read_qos(*v, q.path("jobs"));
+        if (auto* v = q.get("responses")) out.qos.responses = read_qos(*v, q.path("responses"));
+    }
+    if (auto* tj = r.get("telemetry")) {
+        object_reader t(*tj, "mqtt.telemetry", {"position_max_hz"});
+        if (auto* v = t.get("position_max_hz"))
+            out.position_max_hz = read_double(*v, t.path("position_max_hz"), 0, 1000);
+    }
+    if (auto* rj = r.get("reconnect")) {
+        object_reader t(*rj, "mqtt.reconnect", {"min_ms", "max_ms"});
+        if (auto* v = t.get("min_ms"))
+            out.reconnect_min = std::chrono::milliseconds(read_uint(*v, t.path("min_ms"), 10, 60000));
+        if (auto* v = t.get("max_ms"))
+            out.reconnect_max = std::chrono::milliseconds(read_uint(*v, t.path("max_ms"), 10, 600000));
+        if (out.reconnect_max < out.reconnect_min) fail(t.path("max_ms"), "must be at least min_ms");
+    }
+    if (auto* jj = r.get("jobs")) {
+        object_reader t(*jj, "mqtt.jobs", {"queue_limit", "retain_finished_s"});
+        if (auto* v = t.get("queue_limit"))
+            out.job_queue_limit = read_uint(*v, t.path("queue_limit"), 1, 100000);
+        if (auto* v = t.get("retain_finished_s"))
+            out.retain_finished_jobs =
+                std::chrono::seconds(read_uint(*v, t.path("retain_finished_s"), 0, 604800));
+    }
+    if (auto* cj = r.get("commands")) {
+        object_reader t(*cj, "mqtt.commands", {"enabled"});
+        if (auto* v = t.get("enabled")) out.commands_enabled = read_bool(*v, t.path("enabled"));
+    }
+}
+
 gateway_config read_config(const json& j) {
     gateway_config c;
-    object_reader r(j, "",
-                    {"http", "controllers", "simulate", "storage", "jobs", "auth", "logging", "shutdown"});
+    object_reader r(
+        j, "", {"http", "controllers", "simulate", "storage", "jobs", "auth", "logging", "shutdown", "mqtt"});
     if (auto* v = r.get("http")) read_http(*v, c.http);
     if (auto* v = r.get("controllers")) {
         if (!v->is_array()) fail("controllers", "must be an array");
@@ -263,6 +370,7 @@ gateway_config read_config(const json& j) {
         object_reader s(*v, "shutdown", {"halt_on_exit"});
         if (auto* h = s.get("halt_on_exit")) c.shutdown.halt_on_exit = read_bool(*h, s.path("halt_on_exit"));
     }
+    if (auto* v = r.get("mqtt")) read_mqtt(*v, c.mqtt);
     return c;
 }
 
@@ -292,6 +400,24 @@ gateway_config default_config() {
     return c;
 }
 
+bool is_valid_mqtt_level(std::string_view level) {
+    if (level.empty() || level.size() > 64 || level.front() == '$') return false;
+    return std::all_of(level.begin(), level.end(), [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
+               c == '_' || c == '.';
+    });
+}
+
+bool is_valid_mqtt_prefix(std::string_view prefix) {
+    if (prefix.empty() || prefix.size() > 128) return false;
+    while (true) {
+        const auto slash = prefix.find('/');
+        if (!is_valid_mqtt_level(prefix.substr(0, slash))) return false;
+        if (slash == std::string_view::npos) return true;
+        prefix.remove_prefix(slash + 1);
+    }
+}
+
 bool is_loopback_address(std::string_view address) {
     boost::system::error_code ec;
     const auto a = boost::asio::ip::make_address(std::string(address), ec);
@@ -312,6 +438,9 @@ std::string validate_config(const gateway_config& config) {
     if (config.auth.tokens.empty() && !is_loopback_address(config.http.listen_address))
         return "http.listen_address: " + config.http.listen_address +
                " is not a loopback address, which needs auth.tokens (no tokens: loopback only)";
+    // Every MQTT command carries a token: without tokens anyone on the broker would be admin.
+    if (config.mqtt.enabled && config.mqtt.commands_enabled && config.auth.tokens.empty())
+        return "mqtt.commands.enabled: needs auth.tokens (every MQTT command carries a token)";
     return {};
 }
 

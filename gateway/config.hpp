@@ -8,7 +8,7 @@
 //    "simulate": {"count": 0}, "storage": {"path": "...", "max_size_mb": 1024},
 //    "jobs": {"restart_queued": false, "max_queued_per_controller": 1000}, "auth": {"tokens": [...]},
 //    "logging": {"level": "info", "format": "text", "levels": {"ms2000": "debug"}},
-//    "shutdown": {"halt_on_exit": true}}
+//    "shutdown": {"halt_on_exit": true}, "mqtt": {"enabled": false, ...} (see mqtt_config)}
 
 #include <chrono>
 #include <cstddef>
@@ -84,6 +84,51 @@ struct shutdown_config {
     bool halt_on_exit = true;  // HALT every connected controller before stopping
 };
 
+// The MQTT fleet interface (api/mqtt/). Off by default; command topics off even when it is on.
+//   "mqtt": {"enabled": true, "brokers": ["mqtt://broker:1883"], "client_id": "", "username": "",
+//            "password": "", "tls": {"ca_file": "", "cert_file": "", "key_file": "", "verify": true},
+//            "keepalive_s": 30, "topic_prefix": "asi", "gateway_id": "" (the host name),
+//            "protocol": "5"|"3.1.1", "qos": {"status": 1, "state": 1, "telemetry": 0, "jobs": 1,
+//            "responses": 1}, "telemetry": {"position_max_hz": 10},
+//            "reconnect": {"min_ms": 500, "max_ms": 30000},
+//            "jobs": {"queue_limit": 1000, "retain_finished_s": 600}, "commands": {"enabled": false}}
+enum class mqtt_protocol : std::uint8_t { v3_1_1, v5 };
+
+struct mqtt_tls_config {
+    std::string ca_file;    // PEM file of the CA(s) trusted for the broker; empty: the system's
+    std::string cert_file;  // client certificate (PEM), together with key_file
+    std::string key_file;
+    bool verify = true;  // verify the broker's certificate chain and host name
+};
+
+struct mqtt_qos_config {
+    int status = 1;     // <prefix>/<gateway>/status (birth, will, offline)
+    int state = 1;      // controllers/<id>/state
+    int telemetry = 0;  // position, reports, ttl
+    int jobs = 1;       // jobs/<job>/state
+    int responses = 1;  // command responses (and the command subscriptions)
+};
+
+struct mqtt_config {
+    bool enabled = false;
+    std::vector<std::string> brokers{"mqtt://127.0.0.1:1883"};  // mqtt:// tcp:// mqtts:// ssl://
+    std::string client_id;                                      // empty: "asi-gateway-<gateway_id>"
+    std::string username;
+    std::string password;
+    mqtt_tls_config tls;  // used for mqtts:// and ssl:// brokers
+    std::chrono::seconds keepalive{30};
+    std::string topic_prefix = "asi";
+    std::string gateway_id;  // empty: the host name (characters outside [A-Za-z0-9_.-] become '-')
+    mqtt_protocol protocol = mqtt_protocol::v5;
+    mqtt_qos_config qos;
+    double position_max_hz = 10;  // per controller; 0: every position event
+    std::chrono::milliseconds reconnect_min{500};
+    std::chrono::milliseconds reconnect_max{30000};
+    std::size_t job_queue_limit = 1000;              // job state changes kept while disconnected
+    std::chrono::seconds retain_finished_jobs{600};  // then jobs/<job>/state is cleared
+    bool commands_enabled = false;                   // subscribe to the command topics (needs auth.tokens)
+};
+
 struct gateway_config {
     http_config http;
     std::vector<devices::controller_settings> controllers;
@@ -93,6 +138,7 @@ struct gateway_config {
     auth_config auth;
     logging_config logging;
     shutdown_config shutdown;
+    mqtt_config mqtt;
 };
 
 // Limits of the values the file may hold.
@@ -116,6 +162,12 @@ std::string validate_config(const gateway_config& config);
 // `asi-gateway --check-config FILE`: prints "ok" to `out` and returns 0, or prints the error to `err`
 // and returns 2.
 int check_config_file(const std::string& path, std::ostream& out, std::ostream& err);
+
+// A level of an MQTT topic the gateway builds (prefix levels, gateway id): 1..64 characters of
+// [A-Za-z0-9_.-], not starting with '$' (that would be a broker topic).
+bool is_valid_mqtt_level(std::string_view level);
+// "asi", "lab/asi": levels as above, separated by '/'.
+bool is_valid_mqtt_prefix(std::string_view prefix);
 
 // The loopback test behind the "no tokens, loopback only" rule.
 bool is_loopback_address(std::string_view address);
