@@ -29,6 +29,7 @@
 
 #include "devices/ms2000/command.hpp"
 #include "gateway/jobs/array_spec.hpp"
+#include "gateway/jobs/job_commands.hpp"
 #include "gateway/jobs/job_kinds.hpp"
 #include "gateway/jobs/plate.hpp"
 
@@ -39,41 +40,26 @@ namespace {
 using devices::ms2000::module;
 namespace ms = devices::ms2000;
 
-std::string wire_text(const ms::command& c) {
-    std::string s = c.wire;
-    if (!s.empty() && s.back() == '\r') s.pop_back();
-    return s;
-}
-
-std::string command_text(std::string_view verb, std::initializer_list<ms::argument> args) {
-    auto c = ms::make_command(verb, std::span<const ms::argument>(args.begin(), args.size()));
-    return c ? wire_text(*c) : std::string(verb);
-}
-
-ms::argument set(char letter, double value, int decimals = 4) {
-    return {letter, ms::argument::op::set, value, decimals};
-}
-
 std::string move_text(double x_um, double y_um) {
-    auto c = ms::move({{'X', x_um}, {'Y', y_um}});
-    return c ? wire_text(*c) : "M";
+    const ms::axis_position to[] = {{'X', x_um}, {'Y', y_um}};
+    return jobs::move_text(to);
 }
 
 std::string ttl_in0(int mode) {
-    return command_text("TTL", {set('X', mode, 0)});
+    return command_text("TTL", {set_arg('X', mode, 0)});
 }
 
 std::string array_setup(const plate_geometry& g) {
-    return command_text("ARRAY", {set('X', g.columns, 0), set('Y', g.rows, 0), set('Z', g.column_step_mm),
-                                  set('F', g.row_step_mm)});
+    return command_text("ARRAY", {set_arg('X', g.columns, 0), set_arg('Y', g.rows, 0),
+                                  set_arg('Z', g.column_step_mm), set_arg('F', g.row_step_mm)});
 }
 
 std::string ahome(double x_um, double y_um) {
-    return command_text("AHOME", {set('X', x_um / 1000.0), set('Y', y_um / 1000.0)});
+    return command_text("AHOME", {set_arg('X', x_um / 1000.0), set_arg('Y', y_um / 1000.0)});
 }
 
 std::string aij(well_index w) {
-    return command_text("AIJ", {set('X', w.column + 1, 0), set('Y', w.row + 1, 0)});
+    return command_text("AIJ", {set_arg('X', w.column + 1, 0), set_arg('Y', w.row + 1, 0)});
 }
 
 std::string_view to_text(advance_source a) {
@@ -235,7 +221,8 @@ operation_result<job_plan> plan_array(const nlohmann::json& json_spec, const pla
 
         if (path->firmware) {
             if (i == first)
-                add_preview_command(plan, first == 0 ? command_text("RM", {set('X', 0, 0)}) : aij(visits[i]));
+                add_preview_command(plan,
+                                    first == 0 ? command_text("RM", {set_arg('X', 0, 0)}) : aij(visits[i]));
             else if (spec.advance != advance_source::ttl || forwards_ttl_edges(snap))
                 add_preview_command(plan, "RM");
         } else {

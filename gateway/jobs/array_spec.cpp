@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <set>
 
+#include "gateway/jobs/spec_fields.hpp"
 #include "gateway/operations.hpp"
 
 namespace gw::jobs {
@@ -13,52 +14,30 @@ namespace {
 
 using json = nlohmann::json;
 
-operation_error bad(std::string field, std::string message) {
-    return make_error(operation_error_kind::invalid_value, std::move(message), "spec." + field);
-}
-
-operation_result<double> number(const json& v, const std::string& field, double lo, double hi) {
-    if (!v.is_number()) return bad(field, fmt::format("{} must be a number", field));
-    const double d = v.get<double>();
-    if (!std::isfinite(d) || d < lo || d > hi)
-        return bad(field, fmt::format("{} must be between {} and {}", field, lo, hi));
-    return d;
-}
-
-operation_result<int> integer(const json& v, const std::string& field, int lo, int hi) {
-    if (!v.is_number_integer()) return bad(field, fmt::format("{} must be an integer", field));
-    const auto i = v.get<long long>();
-    if (i < lo || i > hi) return bad(field, fmt::format("{} must be between {} and {}", field, lo, hi));
-    return static_cast<int>(i);
-}
-
-operation_result<std::string> text(const json& v, const std::string& field) {
-    if (!v.is_string()) return bad(field, fmt::format("{} must be a string", field));
-    return v.get<std::string>();
-}
-
 operation_result<plate_geometry> parse_grid(const json& grid) {
     if (!grid.is_object())
-        return bad("grid", "grid must be an object {columns, rows, column_step_mm, row_step_mm}");
+        return spec_error("grid", "grid must be an object {columns, rows, column_step_mm, row_step_mm}");
     for (const auto& [key, value] : grid.items())
         if (key != "columns" && key != "rows" && key != "column_step_mm" && key != "row_step_mm")
-            return bad("grid." + key, fmt::format("unknown field grid.{}", key));
+            return spec_error("grid." + key, fmt::format("unknown field grid.{}", key));
     plate_geometry g;
     for (const char* key : {"columns", "rows", "column_step_mm", "row_step_mm"})
         if (!grid.contains(key))
-            return bad(std::string("grid.") + key, fmt::format("grid.{} is required", key));
-    auto columns = integer(grid["columns"], "grid.columns", 1, max_plate_columns);
+            return spec_error(std::string("grid.") + key, fmt::format("grid.{} is required", key));
+    auto columns = spec_integer(grid["columns"], "grid.columns", 1, max_plate_columns);
     if (!columns) return columns.error();
-    auto rows = integer(grid["rows"], "grid.rows", 1, max_plate_rows);
+    auto rows = spec_integer(grid["rows"], "grid.rows", 1, max_plate_rows);
     if (!rows) return rows.error();
     if (static_cast<std::size_t>(*columns) * static_cast<std::size_t>(*rows) > max_array_wells)
-        return bad("grid", fmt::format("a grid has at most {} wells", max_array_wells));
-    auto cs = number(grid["column_step_mm"], "grid.column_step_mm", -max_array_step_mm, max_array_step_mm);
+        return spec_error("grid", fmt::format("a grid has at most {} wells", max_array_wells));
+    auto cs =
+        spec_number(grid["column_step_mm"], "grid.column_step_mm", -max_array_step_mm, max_array_step_mm);
     if (!cs) return cs.error();
-    auto rs = number(grid["row_step_mm"], "grid.row_step_mm", -max_array_step_mm, max_array_step_mm);
+    auto rs = spec_number(grid["row_step_mm"], "grid.row_step_mm", -max_array_step_mm, max_array_step_mm);
     if (!rs) return rs.error();
-    if (*cs == 0 && *columns > 1) return bad("grid.column_step_mm", "grid.column_step_mm must not be 0");
-    if (*rs == 0 && *rows > 1) return bad("grid.row_step_mm", "grid.row_step_mm must not be 0");
+    if (*cs == 0 && *columns > 1)
+        return spec_error("grid.column_step_mm", "grid.column_step_mm must not be 0");
+    if (*rs == 0 && *rows > 1) return spec_error("grid.row_step_mm", "grid.row_step_mm must not be 0");
     g.columns = *columns;
     g.rows = *rows;
     g.column_step_mm = *cs;
@@ -67,15 +46,15 @@ operation_result<plate_geometry> parse_grid(const json& grid) {
 }
 
 operation_result<std::pair<double, double>> parse_a1(const json& a1) {
-    if (!a1.is_object()) return bad("a1", R"(a1 must be {"X": um, "Y": um} or "current")");
+    if (!a1.is_object()) return spec_error("a1", R"(a1 must be {"X": um, "Y": um} or "current")");
     for (const auto& [key, value] : a1.items())
         if (key != "X" && key != "Y")
-            return bad("a1." + key, fmt::format("a1 takes X and Y only, not {}", key));
-    if (!a1.contains("X")) return bad("a1.X", "a1.X is required");
-    if (!a1.contains("Y")) return bad("a1.Y", "a1.Y is required");
-    auto x = number(a1["X"], "a1.X", -max_travel_um, max_travel_um);
+            return spec_error("a1." + key, fmt::format("a1 takes X and Y only, not {}", key));
+    if (!a1.contains("X")) return spec_error("a1.X", "a1.X is required");
+    if (!a1.contains("Y")) return spec_error("a1.Y", "a1.Y is required");
+    auto x = spec_number(a1["X"], "a1.X", -max_travel_um, max_travel_um);
     if (!x) return x.error();
-    auto y = number(a1["Y"], "a1.Y", -max_travel_um, max_travel_um);
+    auto y = spec_number(a1["Y"], "a1.Y", -max_travel_um, max_travel_um);
     if (!y) return y.error();
     return std::pair{*x, *y};
 }
@@ -99,12 +78,12 @@ operation_result<array_spec> parse_array_spec(const json& spec) {
                                              "order",     "wells",       "dwell_ms", "advance",
                                              "ttl_pulse", "resume_from", "mode"};
     for (const auto& [key, value] : spec.items())
-        if (!known.contains(key)) return bad(key, fmt::format("unknown field {}", key));
+        if (!known.contains(key)) return spec_error(key, fmt::format("unknown field {}", key));
 
     array_spec s;
     const bool has_plate = spec.contains("plate"), has_grid = spec.contains("grid");
     if (has_plate == has_grid)
-        return bad(has_plate ? "grid" : "plate", "give exactly one of plate (a preset) and grid");
+        return spec_error(has_plate ? "grid" : "plate", "give exactly one of plate (a preset) and grid");
     if (has_plate) {
         const auto& p = spec["plate"];
         std::string name;
@@ -113,7 +92,8 @@ operation_result<array_spec> parse_array_spec(const json& spec) {
         else if (p.is_number_integer())
             name = std::to_string(p.get<long long>());
         auto g = plate_preset(name);
-        if (!g) return bad("plate", "plate must be one of \"6\", \"12\", \"24\", \"48\", \"96\", \"384\"");
+        if (!g)
+            return spec_error("plate", "plate must be one of \"6\", \"12\", \"24\", \"48\", \"96\", \"384\"");
         s.plate = name;
         s.geometry = *g;
     } else {
@@ -131,45 +111,47 @@ operation_result<array_spec> parse_array_spec(const json& spec) {
         }
     }
     if (spec.contains("rotation_deg")) {
-        auto r = number(spec["rotation_deg"], "rotation_deg", -360, 360);
+        auto r = spec_number(spec["rotation_deg"], "rotation_deg", -360, 360);
         if (!r) return r.error();
         s.rotation_deg = *r;
     }
     if (spec.contains("order")) {
-        auto o = text(spec["order"], "order");
+        auto o = spec_text(spec["order"], "order");
         if (!o) return o.error();
         if (*o == "raster")
             s.order = well_order::raster;
         else if (*o == "serpentine")
             s.order = well_order::serpentine;
         else
-            return bad("order", "order must be \"raster\" or \"serpentine\"");
+            return spec_error("order", "order must be \"raster\" or \"serpentine\"");
     }
     if (spec.contains("wells")) {
         const auto& w = spec["wells"];
-        if (!w.is_array() || w.empty()) return bad("wells", "wells must be a non-empty array of well names");
+        if (!w.is_array() || w.empty())
+            return spec_error("wells", "wells must be a non-empty array of well names");
         std::set<std::pair<int, int>> seen;
         for (std::size_t i = 0; i < w.size(); ++i) {
             const std::string field = fmt::format("wells[{}]", i);
-            auto name = text(w[i], field);
+            auto name = spec_text(w[i], field);
             if (!name) return name.error();
             auto well = parse_well(*name, s.geometry);
             if (!well)
-                return bad(field, fmt::format("{} is not a well of this {}x{} plate (A1..{})", *name,
-                                              s.geometry.columns, s.geometry.rows,
-                                              well_name({s.geometry.rows - 1, s.geometry.columns - 1})));
+                return spec_error(
+                    field,
+                    fmt::format("{} is not a well of this {}x{} plate (A1..{})", *name, s.geometry.columns,
+                                s.geometry.rows, well_name({s.geometry.rows - 1, s.geometry.columns - 1})));
             if (!seen.insert({well->row, well->column}).second)
-                return bad(field, fmt::format("well {} is listed twice", *name));
+                return spec_error(field, fmt::format("well {} is listed twice", *name));
             s.wells.push_back(*well);
         }
     }
     if (spec.contains("dwell_ms")) {
-        auto d = number(spec["dwell_ms"], "dwell_ms", 0, max_array_dwell_ms);
+        auto d = spec_number(spec["dwell_ms"], "dwell_ms", 0, max_array_dwell_ms);
         if (!d) return d.error();
         s.dwell_ms = *d;
     }
     if (spec.contains("advance")) {
-        auto a = text(spec["advance"], "advance");
+        auto a = spec_text(spec["advance"], "advance");
         if (!a) return a.error();
         if (*a == "timer")
             s.advance = advance_source::timer;
@@ -178,14 +160,15 @@ operation_result<array_spec> parse_array_spec(const json& spec) {
         else if (*a == "next")
             s.advance = advance_source::next;
         else
-            return bad("advance", "advance must be \"timer\", \"ttl\" or \"next\"");
+            return spec_error("advance", "advance must be \"timer\", \"ttl\" or \"next\"");
     }
     if (spec.contains("ttl_pulse")) {
-        if (!spec["ttl_pulse"].is_boolean()) return bad("ttl_pulse", "ttl_pulse must be true or false");
+        if (!spec["ttl_pulse"].is_boolean())
+            return spec_error("ttl_pulse", "ttl_pulse must be true or false");
         s.ttl_pulse = spec["ttl_pulse"].get<bool>();
     }
     if (spec.contains("mode")) {
-        auto m = text(spec["mode"], "mode");
+        auto m = spec_text(spec["mode"], "mode");
         if (!m) return m.error();
         if (*m == "auto")
             s.mode = run_mode::automatic;
@@ -194,16 +177,16 @@ operation_result<array_spec> parse_array_spec(const json& spec) {
         else if (*m == "host")
             s.mode = run_mode::host;
         else
-            return bad("mode", "mode must be \"auto\", \"firmware\" or \"host\"");
+            return spec_error("mode", "mode must be \"auto\", \"firmware\" or \"host\"");
     }
     if (spec.contains("resume_from")) {
-        auto name = text(spec["resume_from"], "resume_from");
+        auto name = spec_text(spec["resume_from"], "resume_from");
         if (!name) return name.error();
         auto well = parse_well(*name, s.geometry);
-        if (!well) return bad("resume_from", fmt::format("{} is not a well of this plate", *name));
+        if (!well) return spec_error("resume_from", fmt::format("{} is not a well of this plate", *name));
         const auto v = s.visits();
         if (std::find(v.begin(), v.end(), *well) == v.end())
-            return bad("resume_from", fmt::format("well {} is not among the wells to visit", *name));
+            return spec_error("resume_from", fmt::format("well {} is not among the wells to visit", *name));
         s.resume_from = *well;
     }
     return s;

@@ -29,6 +29,7 @@
 #include <optional>
 
 #include "devices/ms2000/command.hpp"
+#include "gateway/jobs/job_commands.hpp"
 #include "gateway/jobs/job_kinds.hpp"
 #include "gateway/jobs/ring_buffer_spec.hpp"
 
@@ -48,38 +49,6 @@ using trigger_kind = ring_buffer_spec::trigger_kind;
 using std::chrono::milliseconds;
 
 constexpr milliseconds follow_poll{20};
-
-std::string wire_text(const ms::command& c) {
-    std::string s = c.wire;
-    if (!s.empty() && s.back() == '\r') s.pop_back();
-    return s;
-}
-
-ms::argument set(char letter, double value, int decimals) {
-    return {letter, ms::argument::op::set, value, decimals};
-}
-
-std::string command_text(std::string_view verb, const std::vector<ms::argument>& args) {
-    auto c = ms::make_command(verb, std::span<const ms::argument>(args));
-    return c ? wire_text(*c) : std::string(verb);
-}
-
-bool has_module(const devices::controller_snapshot& s, module m) {
-    return s.identity && s.identity->build.has(m);
-}
-
-int axis_index(const devices::controller_snapshot& s, char letter) {
-    for (std::size_t i = 0; i < s.axes.size(); ++i)
-        if (s.axes[i].axis == letter) return static_cast<int>(i);
-    return -1;
-}
-
-std::string motor_axes(const devices::controller_snapshot& s) {
-    std::string out;
-    for (const auto& a : s.axes)
-        out += a.axis;
-    return out;
-}
 
 std::size_t capacity_of(const devices::controller_snapshot& s) {
     if (has_module(s, module::ring_buffer) && s.identity->build.ring_buffer_size > 0)
@@ -153,7 +122,7 @@ std::string step_name(const ring_buffer_spec& spec, int tour, std::size_t slot) 
 std::string load_command(const rb_setup& u, const position_um& p) {
     std::vector<ms::argument> args;
     for (char a : u.hardware_axes)
-        args.push_back(set(a, p.at(a) * 10.0, 1));  // tenths of a micron
+        args.push_back(set_arg(a, p.at(a) * 10.0, 1));  // tenths of a micron
     return command_text("LD", args);
 }
 
@@ -161,8 +130,7 @@ std::string move_command(const rb_setup& u, const position_um& p) {
     std::vector<ms::axis_position> to;
     for (char a : u.hardware_axes)
         to.push_back({a, p.at(a)});
-    auto c = ms::move(std::span<const ms::axis_position>(to));
-    return c ? wire_text(*c) : "M";
+    return move_text(to);
 }
 
 int firmware_mode(const ring_buffer_spec& spec) {
@@ -171,20 +139,20 @@ int firmware_mode(const ring_buffer_spec& spec) {
 }
 
 std::string rbmode_command(const rb_setup& u, std::size_t pointer) {
-    return command_text("RM", {set('Y', u.axis_byte, 0), set('Z', static_cast<double>(pointer), 0),
-                               set('F', firmware_mode(u.spec), 0)});
+    return command_text("RM", {set_arg('Y', u.axis_byte, 0), set_arg('Z', static_cast<double>(pointer), 0),
+                               set_arg('F', firmware_mode(u.spec), 0)});
 }
 
 std::string rt_delay_command(double delay_ms) {
-    return command_text("RT", {set('Z', delay_ms, 0)});
+    return command_text("RT", {set_arg('Z', delay_ms, 0)});
 }
 
 std::string in0_command(int mode) {
-    return command_text("TTL", {set('X', mode, 0)});
+    return command_text("TTL", {set_arg('X', mode, 0)});
 }
 
 std::string pointer_command(std::size_t pointer) {
-    return command_text("RM", {set('Z', static_cast<double>(pointer), 0)});
+    return command_text("RM", {set_arg('Z', static_cast<double>(pointer), 0)});
 }
 
 }  // namespace

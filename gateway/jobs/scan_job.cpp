@@ -28,6 +28,7 @@
 #include <fmt/format.h>
 
 #include "devices/ms2000/command.hpp"
+#include "gateway/jobs/job_commands.hpp"
 #include "gateway/jobs/job_kinds.hpp"
 #include "gateway/jobs/scan_spec.hpp"
 
@@ -47,44 +48,11 @@ using std::chrono::milliseconds;
 
 constexpr milliseconds follow_poll{25};
 
-std::string wire_text(const ms::command& c) {
-    std::string s = c.wire;
-    if (!s.empty() && s.back() == '\r') s.pop_back();
-    return s;
-}
-
-ms::argument set(char letter, double value, int decimals) {
-    return {letter, ms::argument::op::set, value, decimals};
-}
-
-std::string command_text(std::string_view verb, std::initializer_list<ms::argument> args) {
-    auto c = ms::make_command(verb, std::span<const ms::argument>(args.begin(), args.size()));
-    return c ? wire_text(*c) : std::string(verb);
-}
-
 std::string move_text(const std::vector<axis_value_um>& axes) {
     std::vector<ms::axis_position> to;
     for (const auto& a : axes)
         to.push_back({a.axis, a.micrometres});
-    auto c = ms::move(std::span<const ms::axis_position>(to));
-    return c ? wire_text(*c) : "M";
-}
-
-bool has_module(const devices::controller_snapshot& s, module m) {
-    return s.identity && s.identity->build.has(m);
-}
-
-int axis_index(const devices::controller_snapshot& s, char letter) {
-    for (std::size_t i = 0; i < s.axes.size(); ++i)
-        if (s.axes[i].axis == letter) return static_cast<int>(i);
-    return -1;
-}
-
-std::string motor_axes(const devices::controller_snapshot& s) {
-    std::string out;
-    for (const auto& a : s.axes)
-        out += a.axis;
-    return out;
+    return jobs::move_text(to);
 }
 
 struct scan_setup {
@@ -146,26 +114,27 @@ std::vector<std::string> firmware_setup(const scan_setup& u, const devices::cont
     const auto& g = u.geometry;
     std::vector<std::string> out;
     if (u.spec.pixels)
-        out.push_back(command_text("SCANR", {set('X', g.fast_start_mm, 6), set('F', g.pixels, 0),
-                                             set('Z', u.spec.encoder_divide, 0)}));
+        out.push_back(command_text("SCANR", {set_arg('X', g.fast_start_mm, 6), set_arg('F', g.pixels, 0),
+                                             set_arg('Z', u.spec.encoder_divide, 0)}));
     else
-        out.push_back(command_text("SCANR", {set('X', g.fast_start_mm, 6), set('Y', g.fast_stop_mm, 6),
-                                             set('Z', u.spec.encoder_divide, 0)}));
+        out.push_back(
+            command_text("SCANR", {set_arg('X', g.fast_start_mm, 6), set_arg('Y', g.fast_stop_mm, 6),
+                                   set_arg('Z', u.spec.encoder_divide, 0)}));
+    out.push_back(command_text("SCANV", {set_arg('X', g.slow_at(first), 6), set_arg('Y', g.slow_stop_mm, 6),
+                                         set_arg('Z', g.lines - first, 0)}));
     out.push_back(command_text(
-        "SCANV", {set('X', g.slow_at(first), 6), set('Y', g.slow_stop_mm, 6), set('Z', g.lines - first, 0)}));
-    out.push_back(command_text(
-        "SCAN", {set('Y', axis_index(s, u.spec.fast_axis), 0), set('Z', axis_index(s, u.spec.slow_axis), 0),
-                 set('F', g.serpentine ? 1 : 0, 0)}));
+        "SCAN", {set_arg('Y', axis_index(s, u.spec.fast_axis), 0),
+                 set_arg('Z', axis_index(s, u.spec.slow_axis), 0), set_arg('F', g.serpentine ? 1 : 0, 0)}));
     if (has_module(s, module::enc_int)) out.push_back("TTL X=1");
     return out;
 }
 
 std::string speed_command(char axis, double mm_s) {
-    return command_text("SPEED", {set(axis, mm_s, 6)});
+    return command_text("SPEED", {set_arg(axis, mm_s, 6)});
 }
 
 std::string in0_command(int mode) {
-    return command_text("TTL", {set('X', mode, 0)});
+    return command_text("TTL", {set_arg('X', mode, 0)});
 }
 
 }  // namespace
@@ -236,21 +205,23 @@ operation_result<job_plan> plan_scan(const nlohmann::json& json, const plan_cont
         for (auto& c : firmware_setup(u, s, 0))
             add_preview_command(plan, std::move(c));
         add_preview_command(plan, move_text(to_axes(line_point(u, g.fast_begin(0), g.slow_at(0)))));
-        if (u.spec.speed_mm_s) add_preview_command(plan, command_text("SPEED", {set(f, scan_speed, 6)}));
+        if (u.spec.speed_mm_s) add_preview_command(plan, command_text("SPEED", {set_arg(f, scan_speed, 6)}));
         add_preview_command(plan, "SCAN");
-        if (u.spec.speed_mm_s) add_preview_command(plan, command_text("SPEED", {set(f, fp.speed_mm_s, 6)}));
+        if (u.spec.speed_mm_s)
+            add_preview_command(plan, command_text("SPEED", {set_arg(f, fp.speed_mm_s, 6)}));
         if (has_module(s, module::enc_int))
-            add_preview_command(plan, command_text("TTL", {set('X', s.ttl_in0_mode.value_or(0), 0)}));
+            add_preview_command(plan, command_text("TTL", {set_arg('X', s.ttl_in0_mode.value_or(0), 0)}));
         plan.warnings.push_back(
             "pause takes effect only when the firmware scan has finished: the SCAN module cannot hold a scan "
             "mid-way (cancel stops it at once)");
     } else {
         for (int i = 0; i < g.lines; ++i) {
             add_preview_command(plan, move_text(to_axes(line_point(u, g.fast_begin(i), g.slow_at(i)))));
-            if (u.spec.speed_mm_s) add_preview_command(plan, command_text("SPEED", {set(f, scan_speed, 6)}));
+            if (u.spec.speed_mm_s)
+                add_preview_command(plan, command_text("SPEED", {set_arg(f, scan_speed, 6)}));
             add_preview_command(plan, move_text({{f, g.fast_end(i) * 1000.0}}));
             if (u.spec.speed_mm_s)
-                add_preview_command(plan, command_text("SPEED", {set(f, fp.speed_mm_s, 6)}));
+                add_preview_command(plan, command_text("SPEED", {set_arg(f, fp.speed_mm_s, 6)}));
         }
         if (u.firmware == false && has_module(s, module::scan) == false &&
             u.spec.mode == scan_spec::path_mode::automatic)

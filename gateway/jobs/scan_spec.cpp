@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <set>
 
+#include "gateway/jobs/spec_fields.hpp"
 #include "gateway/operations.hpp"
 
 namespace gw::jobs {
@@ -13,36 +14,18 @@ namespace {
 
 using json = nlohmann::json;
 
-operation_error bad(const std::string& field, std::string message) {
-    return make_error(operation_error_kind::invalid_value, std::move(message), "spec." + field);
-}
-
-operation_result<double> number(const json& v, const std::string& field, double lo, double hi) {
-    if (!v.is_number()) return bad(field, fmt::format("{} must be a number", field));
-    const double d = v.get<double>();
-    if (!std::isfinite(d) || d < lo || d > hi)
-        return bad(field, fmt::format("{} must be between {} and {}", field, lo, hi));
-    return d;
-}
-
-operation_result<int> integer(const json& v, const std::string& field, long long lo, long long hi) {
-    if (!v.is_number_integer()) return bad(field, fmt::format("{} must be an integer", field));
-    const auto i = v.get<long long>();
-    if (i < lo || i > hi) return bad(field, fmt::format("{} must be between {} and {}", field, lo, hi));
-    return static_cast<int>(i);
-}
-
 operation_result<char> axis_letter(const json& v, const std::string& field) {
     if (!v.is_string() || v.get<std::string>().size() != 1 ||
         !std::isalpha(static_cast<unsigned char>(v.get<std::string>()[0])))
-        return bad(field, fmt::format("{} must be one axis letter (\"X\")", field));
+        return spec_error(field, fmt::format("{} must be one axis letter (\"X\")", field));
     return static_cast<char>(std::toupper(static_cast<unsigned char>(v.get<std::string>()[0])));
 }
 
 operation_result<void> only_known(const json& object, const std::string& prefix,
                                   const std::set<std::string>& known) {
     for (const auto& [key, value] : object.items())
-        if (!known.contains(key)) return bad(prefix + key, fmt::format("unknown field {}{}", prefix, key));
+        if (!known.contains(key))
+            return spec_error(prefix + key, fmt::format("unknown field {}{}", prefix, key));
     return {};
 }
 
@@ -86,64 +69,66 @@ operation_result<scan_spec> parse_scan_spec(const json& spec) {
         if (!a) return a.error();
         s.slow_axis = *a;
     }
-    if (s.fast_axis == s.slow_axis) return bad("slow_axis", "slow_axis must differ from fast_axis");
+    if (s.fast_axis == s.slow_axis) return spec_error("slow_axis", "slow_axis must differ from fast_axis");
 
     if (!spec.contains("fast"))
-        return bad("fast", "fast {start_mm, stop_mm | pixels, encoder_divide} is required");
+        return spec_error("fast", "fast {start_mm, stop_mm | pixels, encoder_divide} is required");
     const auto& fast = spec["fast"];
     if (!fast.is_object())
-        return bad("fast", "fast must be an object {start_mm, stop_mm | pixels, encoder_divide}");
+        return spec_error("fast", "fast must be an object {start_mm, stop_mm | pixels, encoder_divide}");
     if (auto k = only_known(fast, "fast.", {"start_mm", "stop_mm", "pixels", "encoder_divide"}); !k)
         return k.error();
     if (fast.contains("start_mm")) {
-        auto v = number(fast["start_mm"], "fast.start_mm", -max_scan_extent_mm, max_scan_extent_mm);
+        auto v = spec_number(fast["start_mm"], "fast.start_mm", -max_scan_extent_mm, max_scan_extent_mm);
         if (!v) return v.error();
         s.fast_start_mm = *v;
     }
     if (fast.contains("stop_mm") == fast.contains("pixels"))
-        return bad(fast.contains("pixels") ? "fast.pixels" : "fast.stop_mm",
-                   "give exactly one of fast.stop_mm and fast.pixels");
+        return spec_error(fast.contains("pixels") ? "fast.pixels" : "fast.stop_mm",
+                          "give exactly one of fast.stop_mm and fast.pixels");
     if (fast.contains("stop_mm")) {
-        auto v = number(fast["stop_mm"], "fast.stop_mm", -max_scan_extent_mm, max_scan_extent_mm);
+        auto v = spec_number(fast["stop_mm"], "fast.stop_mm", -max_scan_extent_mm, max_scan_extent_mm);
         if (!v) return v.error();
-        if (*v == s.fast_start_mm) return bad("fast.stop_mm", "fast.stop_mm must differ from fast.start_mm");
+        if (*v == s.fast_start_mm)
+            return spec_error("fast.stop_mm", "fast.stop_mm must differ from fast.start_mm");
         s.fast_stop_mm = *v;
     } else {
         // The SCAN module's own limit is checked with the geometry; here only the type and sign.
-        auto v = integer(fast["pixels"], "fast.pixels", 1, 1'000'000'000);
+        auto v = spec_integer(fast["pixels"], "fast.pixels", 1, 1'000'000'000);
         if (!v) return v.error();
         s.pixels = *v;
     }
     if (fast.contains("encoder_divide")) {
-        auto v = integer(fast["encoder_divide"], "fast.encoder_divide", 1, 1'000'000'000);
+        auto v = spec_integer(fast["encoder_divide"], "fast.encoder_divide", 1, 1'000'000'000);
         if (!v) return v.error();
         s.encoder_divide = *v;
     }
 
-    if (!spec.contains("slow")) return bad("slow", "slow {start_mm, stop_mm, lines} is required");
+    if (!spec.contains("slow")) return spec_error("slow", "slow {start_mm, stop_mm, lines} is required");
     const auto& slow = spec["slow"];
-    if (!slow.is_object()) return bad("slow", "slow must be an object {start_mm, stop_mm, lines}");
+    if (!slow.is_object()) return spec_error("slow", "slow must be an object {start_mm, stop_mm, lines}");
     if (auto k = only_known(slow, "slow.", {"start_mm", "stop_mm", "lines"}); !k) return k.error();
     if (slow.contains("start_mm")) {
-        auto v = number(slow["start_mm"], "slow.start_mm", -max_scan_extent_mm, max_scan_extent_mm);
+        auto v = spec_number(slow["start_mm"], "slow.start_mm", -max_scan_extent_mm, max_scan_extent_mm);
         if (!v) return v.error();
         s.slow_start_mm = *v;
     }
-    if (!slow.contains("lines")) return bad("slow.lines", "slow.lines is required");
-    auto lines = integer(slow["lines"], "slow.lines", 1, scan_firmware_limit - 1);
+    if (!slow.contains("lines")) return spec_error("slow.lines", "slow.lines is required");
+    auto lines = spec_integer(slow["lines"], "slow.lines", 1, scan_firmware_limit - 1);
     if (!lines) return lines.error();
     s.lines = *lines;
     if (slow.contains("stop_mm")) {
-        auto v = number(slow["stop_mm"], "slow.stop_mm", -max_scan_extent_mm, max_scan_extent_mm);
+        auto v = spec_number(slow["stop_mm"], "slow.stop_mm", -max_scan_extent_mm, max_scan_extent_mm);
         if (!v) return v.error();
         s.slow_stop_mm = *v;
     } else if (s.lines == 1) {
         s.slow_stop_mm = s.slow_start_mm;
     } else {
-        return bad("slow.stop_mm", "slow.stop_mm is required with more than one line");
+        return spec_error("slow.stop_mm", "slow.stop_mm is required with more than one line");
     }
     if (s.lines > 1 && s.slow_stop_mm == s.slow_start_mm)
-        return bad("slow.stop_mm", "slow.stop_mm must differ from slow.start_mm with more than one line");
+        return spec_error("slow.stop_mm",
+                          "slow.stop_mm must differ from slow.start_mm with more than one line");
 
     if (spec.contains("pattern")) {
         const auto& p = spec["pattern"];
@@ -152,12 +137,12 @@ operation_result<scan_spec> parse_scan_spec(const json& spec) {
         else if (p == "serpentine")
             s.serpentine = true;
         else
-            return bad("pattern", "pattern must be \"raster\" or \"serpentine\"");
+            return spec_error("pattern", "pattern must be \"raster\" or \"serpentine\"");
     }
     if (spec.contains("speed_mm_s")) {
-        auto v = number(spec["speed_mm_s"], "speed_mm_s", 0, max_speed_mm_s);
+        auto v = spec_number(spec["speed_mm_s"], "speed_mm_s", 0, max_speed_mm_s);
         if (!v) return v.error();
-        if (*v <= 0) return bad("speed_mm_s", "speed_mm_s must be above 0");
+        if (*v <= 0) return spec_error("speed_mm_s", "speed_mm_s must be above 0");
         s.speed_mm_s = *v;
     }
     if (spec.contains("mode")) {
@@ -169,7 +154,7 @@ operation_result<scan_spec> parse_scan_spec(const json& spec) {
         else if (m == "host")
             s.mode = scan_spec::path_mode::host;
         else
-            return bad("mode", "mode must be \"auto\", \"firmware\" or \"host\"");
+            return spec_error("mode", "mode must be \"auto\", \"firmware\" or \"host\"");
     }
     return s;
 }
@@ -179,9 +164,10 @@ operation_result<scan_geometry> scan_firmware_geometry(const scan_spec& spec, do
         return make_error(operation_error_kind::internal,
                           fmt::format("encoder counts per mm of axis {} unknown", spec.fast_axis));
     if (spec.encoder_divide >= scan_firmware_limit)
-        return bad("fast.encoder_divide",
-                   fmt::format("fast.encoder_divide {} is too large: the SCAN module needs it below {}",
-                               spec.encoder_divide, scan_firmware_limit));
+        return spec_error(
+            "fast.encoder_divide",
+            fmt::format("fast.encoder_divide {} is too large: the SCAN module needs it below {}",
+                        spec.encoder_divide, scan_firmware_limit));
     scan_geometry g;
     g.counts_per_mm = counts_per_mm;
     g.fast_start_mm = spec.fast_start_mm;
@@ -191,33 +177,33 @@ operation_result<scan_geometry> scan_firmware_geometry(const scan_spec& spec, do
     g.serpentine = spec.serpentine;
     if (spec.pixels) {
         if (*spec.pixels >= scan_firmware_limit)
-            return bad("fast.pixels",
-                       fmt::format("fast.pixels {} is too many: the SCAN module needs fewer than {}",
-                                   *spec.pixels, scan_firmware_limit));
+            return spec_error("fast.pixels",
+                              fmt::format("fast.pixels {} is too many: the SCAN module needs fewer than {}",
+                                          *spec.pixels, scan_firmware_limit));
         g.pixels = *spec.pixels;
         g.line_counts = static_cast<long long>(g.pixels) * spec.encoder_divide;
         g.fast_stop_mm = spec.fast_start_mm + static_cast<double>(g.line_counts) / counts_per_mm;
         if (std::abs(g.fast_stop_mm) > max_scan_extent_mm)
-            return bad("fast.pixels",
-                       fmt::format("{} pixels of {} counts end at {:.3f} mm, beyond +-{} mm", g.pixels,
-                                   spec.encoder_divide, g.fast_stop_mm, max_scan_extent_mm));
+            return spec_error("fast.pixels",
+                              fmt::format("{} pixels of {} counts end at {:.3f} mm, beyond +-{} mm", g.pixels,
+                                          spec.encoder_divide, g.fast_stop_mm, max_scan_extent_mm));
         return g;
     }
     g.fast_stop_mm = *spec.fast_stop_mm;
     g.line_counts = std::llround(std::abs(g.fast_stop_mm - g.fast_start_mm) * counts_per_mm);
     const long long pixels = g.line_counts / spec.encoder_divide;
     if (pixels >= scan_firmware_limit)
-        return bad(
+        return spec_error(
             "fast.stop_mm",
             fmt::format("the line from {} to {} mm is {} encoder counts = {} pixels of {} counts: the SCAN "
                         "module needs fewer than {} pixels (raise fast.encoder_divide or shorten the line)",
                         g.fast_start_mm, g.fast_stop_mm, g.line_counts, pixels, spec.encoder_divide,
                         scan_firmware_limit));
     if (pixels < 1)
-        return bad("fast.stop_mm",
-                   fmt::format("the line from {} to {} mm is {} encoder counts, shorter than one "
-                               "pixel of {} counts",
-                               g.fast_start_mm, g.fast_stop_mm, g.line_counts, spec.encoder_divide));
+        return spec_error("fast.stop_mm",
+                          fmt::format("the line from {} to {} mm is {} encoder counts, shorter than one "
+                                      "pixel of {} counts",
+                                      g.fast_start_mm, g.fast_stop_mm, g.line_counts, spec.encoder_divide));
     g.pixels = static_cast<int>(pixels);
     return g;
 }

@@ -1,0 +1,32 @@
+#pragma once
+// Serial command text for job planners and runs (what the plan previews and what run() sends), and
+// the facts about a controller a job type asks for. Pure.
+
+#include <initializer_list>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "devices/ms2000/build_info.hpp"
+#include "devices/ms2000/command.hpp"
+#include "devices/serial/controller_snapshot.hpp"
+
+namespace gw::jobs {
+
+// "X=<value>" with `decimals` digits at most (trailing zeros dropped by the command builder).
+devices::ms2000::argument set_arg(char letter, double value, int decimals = 4);
+
+// The command line without its CR ("SPEED X=0.528"); the bare verb when the arguments are refused.
+std::string command_text(std::string_view verb, std::span<const devices::ms2000::argument> args);
+std::string command_text(std::string_view verb, std::initializer_list<devices::ms2000::argument> args);
+
+// "M X=<tenths> Y=<tenths>" for positions in micrometres; "M" when there are none.
+std::string move_text(std::span<const devices::ms2000::axis_position> to);
+
+bool has_module(const devices::controller_snapshot& s, devices::ms2000::module m);
+// The axis's hardware index (0 = first motor axis; SCAN Y=/Z= and RM Y= use it), -1 when absent.
+int axis_index(const devices::controller_snapshot& s, char letter);
+// The motor axes in hardware order ("XYZ"), for messages.
+std::string motor_axes(const devices::controller_snapshot& s);
+
+}  // namespace gw::jobs
