@@ -7,11 +7,12 @@ namespace gw::jobs {
 
 namespace {
 
-constexpr std::array<std::pair<job_type, std::string_view>, 4> type_names{{
+constexpr std::array<std::pair<job_type, std::string_view>, 5> type_names{{
     {job_type::array, "array"},
     {job_type::scan, "scan"},
     {job_type::ring_buffer, "ring_buffer"},
     {job_type::planar_correction, "planar_correction"},
+    {job_type::gcode, "gcode"},
 }};
 
 constexpr std::array<std::pair<job_state, std::string_view>, 7> state_names{{

@@ -21,8 +21,8 @@
 
 namespace gw::jobs {
 
-enum class job_type : std::uint8_t { array, scan, ring_buffer, planar_correction };
-std::string_view to_string(job_type t);  // "array", "scan", "ring_buffer", "planar_correction"
+enum class job_type : std::uint8_t { array, scan, ring_buffer, planar_correction, gcode };
+std::string_view to_string(job_type t);  // "array", "scan", "ring_buffer", "planar_correction", "gcode"
 std::optional<job_type> parse_job_type(std::string_view s);
 
 enum class job_state : std::uint8_t { queued, running, paused, succeeded, failed, cancelled, interrupted };

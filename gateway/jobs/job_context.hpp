@@ -57,6 +57,9 @@ class job_context {
 
     // Returns at once while running; waits while paused; throws job_cancelled when cancelled.
     virtual boost::asio::awaitable<void> checkpoint() = 0;
+    // A pause was asked for: the next checkpoint() will wait. Lets a job make the stage safe first
+    // (a gcode job switches its TTL output off before it waits).
+    virtual bool pause_requested() const { return false; }
 
     // Progress. step_started sets current_step; step_done(i) marks steps 0..i done (steps_done =
     // i + 1), persists it and publishes a "step" event on jobs/<id> with `detail` merged in (for

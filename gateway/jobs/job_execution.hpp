@@ -94,7 +94,7 @@ class job_execution final : public job_context, public std::enable_shared_from_t
     bool cancelled() const { return cancelled_; }
     bool abandoned() const { return abandoned_; }
     const std::optional<operation_error>& failure() const { return failure_; }
-    bool pause_requested() const { return pause_requested_; }
+    bool pause_requested() const override { return pause_requested_; }
     bool waiting_paused() const { return waiting_paused_; }
     const std::shared_ptr<live_job>& live() const { return job_; }
     const std::string& request_id() const { return request_id_; }

@@ -17,6 +17,9 @@ operation_result<job_plan> plan_job(job_type type, const nlohmann::json& spec, c
         case job_type::planar_correction:
             plan = plan_planar_correction(spec, ctx);
             break;
+        case job_type::gcode:
+            plan = plan_gcode(spec, ctx);
+            break;
     }
     if (!plan) return plan;
     plan->type = type;
@@ -37,6 +40,9 @@ boost::asio::awaitable<void> run_job(job_context& ctx) {
             break;
         case job_type::planar_correction:
             co_await run_planar_correction(ctx);
+            break;
+        case job_type::gcode:
+            co_await run_gcode(ctx);
             break;
     }
 }

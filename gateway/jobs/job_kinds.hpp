@@ -30,6 +30,11 @@ boost::asio::awaitable<void> run_ring_buffer(job_context& ctx);
 operation_result<job_plan> plan_planar_correction(const nlohmann::json& spec, const plan_context& ctx);
 boost::asio::awaitable<void> run_planar_correction(job_context& ctx);
 
+// gcode_job.cpp: a G-code program traced as coordinated straight segments, TTL/analog switches between
+// them.
+operation_result<job_plan> plan_gcode(const nlohmann::json& spec, const plan_context& ctx);
+boost::asio::awaitable<void> run_gcode(job_context& ctx);
+
 // Dispatch on the type.
 operation_result<job_plan> plan_job(job_type type, const nlohmann::json& spec, const plan_context& ctx);
 boost::asio::awaitable<void> run_job(job_context& ctx);
