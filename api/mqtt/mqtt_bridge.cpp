@@ -1,0 +1,368 @@
+#include "api/mqtt/mqtt_bridge.hpp"
+
+#include <utility>
+
+#include <boost/asio/post.hpp>
+#include <spdlog/logger.h>
+
+#include "api/mqtt/mqtt_commands.hpp"
+#include "gateway/controller_registry.hpp"
+#include "gateway/event_hub.hpp"
+#include "gateway/event_json.hpp"
+#include "gateway/metrics.hpp"
+
+namespace gw::api {
+
+namespace net = boost::asio;
+using nlohmann::json;
+
+namespace {
+
+// "controllers/sim1/state" -> {"controllers", "sim1", "state"}.
+std::vector<std::string> split(const std::string& topic) {
+    std::vector<std::string> out;
+    std::size_t start = 0;
+    while (true) {
+        const auto slash = topic.find('/', start);
+        out.push_back(topic.substr(start, slash == std::string::npos ? std::string::npos : slash - start));
+        if (slash == std::string::npos) return out;
+        start = slash + 1;
+    }
+}
+
+void describe_metrics(gw::metrics& m) {
+    m.describe("gw_mqtt_connected", metric_type::gauge, "1 while connected to the MQTT broker");
+    m.describe("gw_mqtt_connects_total", metric_type::counter, "Successful MQTT (re)connects");
+    m.describe("gw_mqtt_published_total", metric_type::counter,
+               "MQTT messages handed to the client, by kind");
+    m.describe("gw_mqtt_dropped_total", metric_type::counter,
+               "Events that did not reach MQTT (disconnected, or the hub reported a gap), by kind");
+    m.describe("gw_mqtt_commands_total", metric_type::counter,
+               "MQTT commands by outcome (ok, refused, failed)");
+    m.describe("gw_mqtt_job_queue", metric_type::gauge, "Job state changes waiting for the broker");
+}
+
+}  // namespace
+
+std::shared_ptr<mqtt_bridge> mqtt_bridge::create(std::shared_ptr<api_context> ctx,
+                                                 mqtt_bridge_settings settings) {
+    return std::shared_ptr<mqtt_bridge>(new mqtt_bridge(std::move(ctx), std::move(settings)));
+}
+
+mqtt_bridge::mqtt_bridge(std::shared_ptr<api_context> ctx, mqtt_bridge_settings settings)
+    : ctx_(std::move(ctx)),
+      settings_(std::move(settings)),
+      topics_(settings_.config.topic_prefix, settings_.gateway_id),
+      strand_(net::make_strand(ctx_->executor)),
+      housekeeping_(strand_) {
+    if (settings_.version.empty()) settings_.version = GW_VERSION;
+    if (ctx_->metrics) {
+        describe_metrics(*ctx_->metrics);
+        ctx_->metrics->set("gw_mqtt_connected", {}, 0);
+        ctx_->metrics->set("gw_mqtt_job_queue", {}, 0);
+    }
+}
+
+mqtt_bridge::~mqtt_bridge() = default;
+
+void mqtt_bridge::start() {
+    const auto& c = settings_.config;
+    mqtt_message_out will{topics_.status(),
+                          offline_payload(settings_.gateway_id, "connection lost", std::nullopt),
+                          c.qos.status,
+                          true,
+                          {}};
+    std::weak_ptr<mqtt_bridge> weak = weak_from_this();
+    mqtt_client_handlers h;
+    h.connected = [weak] {
+        if (auto self = weak.lock()) self->on_connected();
+    };
+    h.disconnected = [weak](std::string) {
+        if (auto self = weak.lock()) self->on_disconnected();
+    };
+    h.message = [weak](mqtt_message_in in) {
+        auto self = weak.lock();
+        if (self && self->commands_ && !self->stopped_) self->commands_->handle(in);
+    };
+    h.publish_done = [weak] {
+        if (auto self = weak.lock()) self->maybe_request_more();
+    };
+    const auto client_id = c.client_id.empty() ? "asi-gateway-" + settings_.gateway_id : c.client_id;
+    client_ = mqtt_client::create(strand_, c, client_id, std::move(will), std::move(h), ctx_->log);
+    if (c.commands_enabled && !ctx_->auth.tokens.empty()) {
+        commands_ = std::make_shared<mqtt_commands>(ctx_, topics_, c.qos.responses, strand_,
+                                                    [weak](mqtt_message_out m) {
+                                                        if (auto self = weak.lock())
+                                                            self->send(std::move(m), "response");
+                                                    });
+    }
+    net::post(strand_, [self = shared_from_this()] {
+        self->subscribe_hub();
+        self->client_->start();
+        self->schedule_housekeeping();
+    });
+}
+
+void mqtt_bridge::subscribe_hub() {
+    subscriber_settings s;
+    s.queue_limit = 4096;
+    s.max_batch_events = 256;
+    s.max_stall = std::chrono::seconds(30);
+    subscriber_ = ctx_->hub->add_subscriber(weak_from_this(), s);
+    ctx_->hub->subscribe(subscriber_, "controllers/+/state");
+    ctx_->hub->subscribe(subscriber_, "controllers/+/position",
+                         {.max_rate_hz = settings_.config.position_max_hz});
+    ctx_->hub->subscribe(subscriber_, "controllers/+/reports");
+    ctx_->hub->subscribe(subscriber_, "controllers/+/ttl");
+    ctx_->hub->subscribe(subscriber_, "jobs/#");
+}
+
+void mqtt_bridge::async_stop(std::function<void()> done) {
+    net::post(strand_, [self = shared_from_this(), done = std::move(done)]() mutable {
+        if (self->stopped_) {
+            if (done) done();
+            return;
+        }
+        self->stopped_ = true;
+        self->housekeeping_.cancel();
+        if (self->subscriber_ != 0) self->ctx_->hub->remove_subscriber(self->subscriber_);
+        self->subscriber_ = 0;
+        if (!self->client_) {
+            if (done) done();
+            return;
+        }
+        mqtt_message_out offline{
+            self->topics_.status(),
+            offline_payload(self->settings_.gateway_id, "shutdown", std::chrono::system_clock::now()),
+            self->settings_.config.qos.status,
+            true,
+            {}};
+        self->client_->stop(std::move(offline), std::chrono::milliseconds(2000),
+                            [self, done = std::move(done)] {
+                                if (self->ctx_->metrics) self->ctx_->metrics->set("gw_mqtt_connected", {}, 0);
+                                if (done) done();
+                            });
+    });
+}
+
+void mqtt_bridge::deliver(std::vector<std::shared_ptr<const event>> batch) {
+    net::post(strand_, [self = shared_from_this(), batch = std::move(batch)]() mutable {
+        self->on_deliver(std::move(batch));
+    });
+}
+
+void mqtt_bridge::close(std::string reason) {
+    net::post(strand_, [self = shared_from_this(), reason = std::move(reason)] {
+        if (self->stopped_) return;
+        // Evicted as too slow (a broker that stalled): join again; latest-value topics come back at
+        // once, what was lost of the stream topics is counted.
+        if (self->ctx_->log)
+            self->ctx_->log->warn("mqtt: the event hub dropped the bridge ({}); subscribing again", reason);
+        self->drop("evicted");
+        self->awaiting_more_ = false;
+        self->subscribe_hub();
+    });
+}
+
+// ---- on the strand ----
+
+void mqtt_bridge::on_connected() {
+    if (stopped_) return;
+    if (ctx_->metrics) {
+        ctx_->metrics->set("gw_mqtt_connected", {}, 1);
+        ctx_->metrics->increment("gw_mqtt_connects_total", {});
+    }
+    publish_birth();
+    for (auto& [id, c] : controllers_)
+        if (c.state)
+            send({topics_.controller(id, "state"), *c.state->message, settings_.config.qos.state, true, {}},
+                 "state");
+    // Job state changes from while we were away, in order; then every tracked job again (retained).
+    while (!job_queue_.empty()) {
+        send(std::move(job_queue_.front()), "jobs");
+        job_queue_.pop_front();
+    }
+    if (ctx_->metrics) ctx_->metrics->set("gw_mqtt_job_queue", {}, 0);
+    for (auto& [id, j] : jobs_)
+        publish_job(id, j);
+    // Frames lost meanwhile are announced at once (an empty batch with "missed").
+    flush_reports();
+    if (commands_) client_->subscribe(topics_.command_filters(), settings_.config.qos.responses);
+    maybe_request_more();
+}
+
+void mqtt_bridge::on_disconnected() {
+    if (ctx_->metrics) ctx_->metrics->set("gw_mqtt_connected", {}, 0);
+    maybe_request_more();  // nothing is in flight any more: keep draining the hub
+}
+
+void mqtt_bridge::publish_birth() {
+    mqtt_birth b;
+    b.gateway = settings_.gateway_id;
+    b.version = settings_.version;
+    b.protocol = settings_.config.protocol == mqtt_protocol::v5 ? "5" : "3.1.1";
+    b.prefix = settings_.config.topic_prefix;
+    b.commands = commands_ != nullptr;
+    for (const auto& s : ctx_->registry.list())
+        b.controllers.push_back(birth_controller(state_json(s)));
+    b.time = std::chrono::system_clock::now();
+    send({topics_.status(), birth_payload(b), settings_.config.qos.status, true, {}}, "status");
+}
+
+void mqtt_bridge::on_deliver(std::vector<std::shared_ptr<const event>> batch) {
+    if (stopped_) return;
+    const auto& qos = settings_.config.qos;
+    for (const auto& e : batch) {
+        const auto l = split(e->topic);
+        if (l.size() == 3 && l[0] == "controllers") {
+            const auto& id = l[1];
+            const auto& leaf = l[2];
+            if (leaf == "state") {
+                if (e->kind == event_kind::data) on_state(id, e);
+            } else if (leaf == "reports") {
+                controllers_[id].reports.add(*e);
+            } else if (leaf == "position" || leaf == "ttl") {
+                if (e->kind == event_kind::gap)
+                    drop(leaf, e->missed());
+                else
+                    send({topics_.controller(id, leaf), *e->message, qos.telemetry, false, {}}, leaf);
+            }
+        } else if (l.size() == 2 && l[0] == "jobs") {
+            if (e->kind == event_kind::gap)
+                drop("jobs", e->missed());
+            else
+                on_job(l[1], e);
+        }
+    }
+    flush_reports();
+    awaiting_more_ = true;
+    maybe_request_more();
+}
+
+void mqtt_bridge::on_state(const std::string& id, const std::shared_ptr<const event>& e) {
+    auto& c = controllers_[id];
+    c.state = e;
+    const auto data = json::parse(*e->data, nullptr, false);
+    const auto connection = data.is_object() ? data.value("state", "") : std::string();
+    const bool changed = connection != c.connection;
+    c.connection = connection;
+    if (!client_->connected()) return;  // republished on reconnect
+    send({topics_.controller(id, "state"), *e->message, settings_.config.qos.state, true, {}}, "state");
+    if (changed) publish_birth();  // the birth lists every controller's connection state
+}
+
+void mqtt_bridge::flush_reports() {
+    const auto now = std::chrono::system_clock::now();
+    for (auto& [id, c] : controllers_) {
+        if (c.reports.empty() && c.dropped_reports == 0) continue;
+        if (!client_->connected()) {
+            const auto lost = c.reports.frames() + c.reports.missed();
+            drop("reports", c.reports.frames());
+            c.dropped_reports += lost;
+            c.reports.take_payload(id, now);  // discarded
+            continue;
+        }
+        c.reports.add_missed(c.dropped_reports);
+        c.dropped_reports = 0;
+        send({topics_.controller(id, "reports"),
+              c.reports.take_payload(id, now),
+              settings_.config.qos.telemetry,
+              false,
+              {}},
+             "reports");
+    }
+}
+
+void mqtt_bridge::on_job(const std::string& id, const std::shared_ptr<const event>& e) {
+    const auto data = json::parse(*e->data, nullptr, false);
+    auto& j = jobs_[id];
+    if (!j.state.apply(data)) {
+        if (!j.state.known()) jobs_.erase(id);  // a step of a job we never saw a state of
+        return;
+    }
+    j.seq = e->sequence;
+    j.time = e->time;
+    if (j.state.terminal() && !j.clear_at)
+        j.clear_at = std::chrono::steady_clock::now() + settings_.config.retain_finished_jobs;
+    publish_job(id, j);
+    // Bounded: beyond max_tracked_jobs, the ended job due to be cleared first goes now.
+    if (jobs_.size() > settings_.max_tracked_jobs) {
+        auto oldest = jobs_.end();
+        for (auto it = jobs_.begin(); it != jobs_.end(); ++it)
+            if (it->second.clear_at &&
+                (oldest == jobs_.end() || *it->second.clear_at < *oldest->second.clear_at))
+                oldest = it;
+        if (oldest != jobs_.end()) clear_job(oldest->first);
+    }
+}
+
+void mqtt_bridge::publish_job(const std::string& id, const tracked_job& job) {
+    mqtt_message_out m{
+        topics_.job_state(id), job.state.payload(job.seq, job.time), settings_.config.qos.jobs, true, {}};
+    if (client_->connected())
+        send(std::move(m), "jobs");
+    else
+        queue_job_message(std::move(m));
+}
+
+void mqtt_bridge::clear_job(const std::string& id) {
+    // An empty retained message deletes the retained state at the broker.
+    mqtt_message_out m{topics_.job_state(id), "", settings_.config.qos.jobs, true, {}};
+    if (client_->connected())
+        send(std::move(m), "jobs");
+    else
+        queue_job_message(std::move(m));
+    jobs_.erase(id);
+}
+
+void mqtt_bridge::queue_job_message(mqtt_message_out m) {
+    job_queue_.push_back(std::move(m));
+    if (job_queue_.size() > settings_.config.job_queue_limit) {
+        job_queue_.pop_front();
+        drop("jobs");
+    }
+    if (ctx_->metrics) ctx_->metrics->set("gw_mqtt_job_queue", {}, static_cast<double>(job_queue_.size()));
+}
+
+bool mqtt_bridge::send(mqtt_message_out m, std::string_view kind) {
+    if (client_ && client_->publish(m)) {
+        if (ctx_->metrics) ctx_->metrics->increment("gw_mqtt_published_total", {{"kind", std::string(kind)}});
+        return true;
+    }
+    drop(kind);
+    return false;
+}
+
+void mqtt_bridge::drop(std::string_view kind, std::uint64_t n) {
+    if (n != 0 && ctx_->metrics)
+        ctx_->metrics->increment("gw_mqtt_dropped_total", {{"kind", std::string(kind)}},
+                                 static_cast<double>(n));
+}
+
+void mqtt_bridge::maybe_request_more() {
+    if (!awaiting_more_ || stopped_ || subscriber_ == 0) return;
+    if (client_->connected() && client_->in_flight() >= settings_.max_in_flight) return;
+    awaiting_more_ = false;
+    ctx_->hub->request_more(subscriber_);
+}
+
+void mqtt_bridge::schedule_housekeeping() {
+    housekeeping_.expires_after(std::chrono::seconds(1));
+    housekeeping_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
+        if (ec) return;
+        if (auto self = weak.lock()) self->on_housekeeping();
+    });
+}
+
+void mqtt_bridge::on_housekeeping() {
+    if (stopped_) return;
+    const auto now = std::chrono::steady_clock::now();
+    std::vector<std::string> due;
+    for (const auto& [id, j] : jobs_)
+        if (j.clear_at && *j.clear_at <= now) due.push_back(id);
+    for (const auto& id : due)
+        clear_job(id);
+    schedule_housekeeping();
+}
+
+}  // namespace gw::api

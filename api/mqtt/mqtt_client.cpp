@@ -1,0 +1,267 @@
+#include "api/mqtt/mqtt_client.hpp"
+
+#include <algorithm>
+#include <mqtt/async_client.h>
+#include <stdexcept>
+#include <utility>
+
+#include <boost/asio/post.hpp>
+#include <spdlog/logger.h>
+
+namespace gw::api {
+
+namespace net = boost::asio;
+
+int paho_mqtt_version(mqtt_protocol p) {
+    return p == mqtt_protocol::v5 ? MQTTVERSION_5 : MQTTVERSION_3_1_1;
+}
+
+namespace {
+
+bool uses_tls(const std::vector<std::string>& brokers) {
+    return std::any_of(brokers.begin(), brokers.end(), [](const std::string& b) {
+        return b.starts_with("ssl://") || b.starts_with("mqtts://");
+    });
+}
+
+std::string describe(const mqtt::token& t) {
+    std::string s = "rc " + std::to_string(t.get_return_code());
+    if (t.get_reason_code() != mqtt::SUCCESS) s += ", reason " + std::to_string(int(t.get_reason_code()));
+    return s;
+}
+
+}  // namespace
+
+// A Paho action listener: called on a Paho thread, posts the outcome onto the client's strand.
+class mqtt_client::listener final : public mqtt::iaction_listener {
+  public:
+    using callback = std::function<void(mqtt_client&, bool ok, std::string what)>;
+    listener(std::weak_ptr<mqtt_client> owner, strand s, callback cb)
+        : owner_(std::move(owner)), strand_(std::move(s)), cb_(std::move(cb)) {}
+
+    void on_success(const mqtt::token&) override { post(true, {}); }
+    void on_failure(const mqtt::token& t) override { post(false, describe(t)); }
+
+  private:
+    void post(bool ok, std::string what) {
+        net::post(strand_, [owner = owner_, cb = cb_, ok, what = std::move(what)]() mutable {
+            if (auto self = owner.lock()) cb(*self, ok, std::move(what));
+        });
+    }
+    std::weak_ptr<mqtt_client> owner_;
+    strand strand_;
+    callback cb_;
+};
+
+std::shared_ptr<mqtt_client> mqtt_client::create(strand executor, const mqtt_config& config,
+                                                 std::string client_id, mqtt_message_out will,
+                                                 mqtt_client_handlers handlers,
+                                                 std::shared_ptr<spdlog::logger> log) {
+    std::shared_ptr<mqtt_client> c(new mqtt_client(std::move(executor), config, std::move(client_id),
+                                                   std::move(will), std::move(handlers), std::move(log)));
+    c->install_callbacks();
+    return c;
+}
+
+mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string client_id,
+                         mqtt_message_out will, mqtt_client_handlers handlers,
+                         std::shared_ptr<spdlog::logger> log)
+    : strand_(std::move(executor)),
+      config_(config),
+      client_id_(std::move(client_id)),
+      will_(std::move(will)),
+      handlers_(std::move(handlers)),
+      log_(std::move(log)),
+      retry_timer_(strand_),
+      backoff_(config.reconnect_min) {
+    const int version = paho_mqtt_version(config_.protocol);
+    try {
+        cli_ = std::make_unique<mqtt::async_client>(config_.brokers.front(), client_id_,
+                                                    mqtt::create_options(version), nullptr);
+    } catch (const mqtt::exception& e) {
+        throw std::runtime_error("mqtt: cannot create the client for " + config_.brokers.front() + ": " +
+                                 e.what());
+    }
+    options_ = std::make_unique<mqtt::connect_options>();
+    auto& o = *options_;
+    o.set_mqtt_version(version);
+    // v5: clean start (no session kept by the broker); v3.1.1: clean session. Subscriptions are made
+    // again after every connect, so nothing is lost by starting clean.
+    if (version == MQTTVERSION_5) {
+        o.set_clean_session(false);
+        o.set_clean_start(true);
+    } else {
+        o.set_clean_start(false);
+        o.set_clean_session(true);
+    }
+    o.set_keep_alive_interval(static_cast<int>(config_.keepalive.count()));
+    o.set_connect_timeout(10);
+    o.set_automatic_reconnect(false);
+    if (config_.brokers.size() > 1) o.set_servers(std::make_shared<mqtt::string_collection>(config_.brokers));
+    if (!config_.username.empty()) o.set_user_name(config_.username);
+    if (!config_.password.empty()) o.set_password(config_.password);
+    mqtt::will_options w(will_.topic, will_.payload, will_.qos, will_.retained);
+    o.set_will(w);
+    if (uses_tls(config_.brokers)) {
+        mqtt::ssl_options ssl;
+        if (!config_.tls.ca_file.empty()) ssl.set_trust_store(config_.tls.ca_file);
+        if (!config_.tls.cert_file.empty()) ssl.set_key_store(config_.tls.cert_file);
+        if (!config_.tls.key_file.empty()) ssl.set_private_key(config_.tls.key_file);
+        ssl.set_enable_server_cert_auth(config_.tls.verify);
+        ssl.set_verify(config_.tls.verify);  // the host name too
+        o.set_ssl(ssl);
+    }
+}
+
+mqtt_client::~mqtt_client() {
+    if (cli_) cli_->disable_callbacks();
+}
+
+void mqtt_client::install_callbacks() {
+    std::weak_ptr<mqtt_client> weak = weak_from_this();
+    connect_listener_ = std::make_unique<listener>(
+        weak, strand_,
+        [](mqtt_client& c, bool ok, std::string what) { c.on_connect_result(ok, std::move(what)); });
+    publish_listener_ =
+        std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
+            if (c.in_flight_ > 0) --c.in_flight_;
+            if (!ok && c.log_) c.log_->debug("publish failed: {}", what);
+            if (c.handlers_.publish_done) c.handlers_.publish_done();
+        });
+    disconnect_listener_ = std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool, std::string) {
+        c.connected_ = false;
+        if (auto done = std::exchange(c.stop_done_, nullptr)) done();
+    });
+    auto s = strand_;
+    cli_->set_connection_lost_handler([weak, s](const std::string& cause) {
+        net::post(s, [weak, cause] {
+            if (auto self = weak.lock()) self->on_lost(cause.empty() ? "connection lost" : cause);
+        });
+    });
+    cli_->set_disconnected_handler([weak, s](const mqtt::properties&, mqtt::ReasonCode rc) {
+        net::post(s, [weak, rc] {
+            if (auto self = weak.lock())
+                self->on_lost("the broker disconnected us (reason " + std::to_string(int(rc)) + ")");
+        });
+    });
+    cli_->set_message_callback([weak, s](mqtt::const_message_ptr msg) {
+        if (!msg) return;
+        mqtt_message_in in;
+        in.topic = msg->get_topic();
+        in.payload = msg->get_payload_str();
+        in.retained = msg->is_retained();
+        const auto& props = msg->get_properties();
+        try {
+            if (props.contains(mqtt::property::RESPONSE_TOPIC))
+                in.response_topic = mqtt::get<std::string>(props, mqtt::property::RESPONSE_TOPIC);
+            if (props.contains(mqtt::property::CORRELATION_DATA))
+                in.correlation_data = mqtt::get<std::string>(props, mqtt::property::CORRELATION_DATA);
+        } catch (const std::exception&) {
+            // a property of an unexpected type: treated as absent
+        }
+        net::post(s, [weak, in = std::move(in)]() mutable {
+            auto self = weak.lock();
+            if (self && !self->stopping_ && self->handlers_.message) self->handlers_.message(std::move(in));
+        });
+    });
+}
+
+void mqtt_client::start() {
+    do_connect();
+}
+
+void mqtt_client::do_connect() {
+    if (stopping_ || connected_ || connecting_) return;
+    connecting_ = true;
+    try {
+        cli_->connect(*options_, nullptr, *connect_listener_);
+    } catch (const mqtt::exception& e) {
+        connecting_ = false;
+        if (log_) log_->warn("connect to {} refused at once: {}", config_.brokers.front(), e.what());
+        schedule_reconnect();
+    }
+}
+
+void mqtt_client::on_connect_result(bool ok, std::string what) {
+    connecting_ = false;
+    if (stopping_) return;
+    if (!ok) {
+        if (log_)
+            log_->warn("cannot connect to {}: {}; next attempt in {} ms", config_.brokers.front(), what,
+                       backoff_.count());
+        return schedule_reconnect();
+    }
+    connected_ = true;
+    ++connects_;
+    backoff_ = config_.reconnect_min;
+    if (log_) log_->info("connected to {} as {}", cli_->get_server_uri(), client_id_);
+    if (handlers_.connected) handlers_.connected();
+}
+
+void mqtt_client::on_lost(std::string cause) {
+    if (stopping_) return;
+    const bool was = connected_;
+    connected_ = false;
+    in_flight_ = 0;  // Paho fails or forgets them; none completes later
+    if (was) {
+        if (log_) log_->warn("connection to the broker lost: {}", cause);
+        if (handlers_.disconnected) handlers_.disconnected(cause);
+    }
+    if (!connecting_) schedule_reconnect();
+}
+
+void mqtt_client::schedule_reconnect() {
+    if (stopping_) return;
+    retry_timer_.expires_after(backoff_);
+    backoff_ = std::min(backoff_ * 2, config_.reconnect_max);
+    retry_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
+        if (ec) return;
+        if (auto self = weak.lock()) self->do_connect();
+    });
+}
+
+bool mqtt_client::publish(const mqtt_message_out& m) {
+    if (!connected_ || stopping_) return false;
+    try {
+        auto msg = mqtt::make_message(m.topic, m.payload, m.qos, m.retained);
+        if (!m.correlation_data.empty() && config_.protocol == mqtt_protocol::v5)
+            msg->set_properties(mqtt::properties{{mqtt::property::CORRELATION_DATA, m.correlation_data}});
+        cli_->publish(msg, nullptr, *publish_listener_);
+        ++in_flight_;
+        return true;
+    } catch (const mqtt::exception& e) {
+        if (log_) log_->debug("publish to {} refused: {}", m.topic, e.what());
+        return false;
+    }
+}
+
+void mqtt_client::subscribe(const std::vector<std::string>& filters, int qos) {
+    if (!connected_ || filters.empty()) return;
+    try {
+        auto topics = std::make_shared<mqtt::string_collection>(filters);
+        cli_->subscribe(topics, mqtt::iasync_client::qos_collection(filters.size(), qos));
+    } catch (const mqtt::exception& e) {
+        if (log_) log_->warn("subscribe refused: {}", e.what());
+    }
+}
+
+void mqtt_client::stop(mqtt_message_out last, std::chrono::milliseconds timeout, std::function<void()> done) {
+    retry_timer_.cancel();
+    if (!connected_) {
+        stopping_ = true;
+        if (done) done();
+        return;
+    }
+    publish(last);
+    stopping_ = true;
+    stop_done_ = std::move(done);
+    try {
+        cli_->disconnect(static_cast<int>(timeout.count()), nullptr, *disconnect_listener_);
+    } catch (const std::exception& e) {
+        if (log_) log_->debug("disconnect: {}", e.what());
+        connected_ = false;
+        if (auto f = std::exchange(stop_done_, nullptr)) f();
+    }
+}
+
+}  // namespace gw::api

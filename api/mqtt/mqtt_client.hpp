@@ -1,0 +1,115 @@
+#pragma once
+// The Paho MQTT C++ client (1.2) behind a small interface the bridge uses. Paho runs its callbacks
+// on its own threads; every one of them only copies what it got and posts it onto this object's
+// strand. Everything else happens on the strand.
+//
+// Connection: MQTT 5 (clean start) or 3.1.1 (clean session), the Last Will given at creation, TLS
+// for mqtts:// and ssl:// brokers. After a failed connect or a lost connection it reconnects forever
+// with capped exponential backoff (reconnect_min doubling up to reconnect_max); Paho's own
+// automatic reconnect is not used, so that the first connect is retried the same way and the bridge
+// learns about every (re)connect. Publishes while disconnected are refused (the caller decides what
+// to keep). Publishes in flight are counted; the bridge stops taking events when too many are.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <boost/asio/any_io_executor.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+
+#include "gateway/config.hpp"
+
+namespace spdlog {
+class logger;
+}
+namespace mqtt {
+class async_client;
+class connect_options;
+}  // namespace mqtt
+
+namespace gw::api {
+
+struct mqtt_message_in {
+    std::string topic;
+    std::string payload;
+    std::string response_topic;    // MQTT 5 property, "" when absent
+    std::string correlation_data;  // MQTT 5 property, "" when absent
+    bool retained = false;
+};
+
+struct mqtt_message_out {
+    std::string topic;
+    std::string payload;
+    int qos = 0;
+    bool retained = false;
+    std::string correlation_data;  // MQTT 5 only; "" for none
+};
+
+struct mqtt_client_handlers {
+    std::function<void()> connected;                      // after every successful (re)connect
+    std::function<void(std::string cause)> disconnected;  // the connection was lost
+    std::function<void(mqtt_message_in)> message;         // a message on a subscribed topic
+    std::function<void()> publish_done;                   // one publish left flight (sent or failed)
+};
+
+class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
+  public:
+    using strand = boost::asio::strand<boost::asio::any_io_executor>;
+
+    // Handlers run on `strand`. Throws std::runtime_error when Paho refuses the settings (a bad URI).
+    static std::shared_ptr<mqtt_client> create(strand executor, const mqtt_config& config,
+                                               std::string client_id, mqtt_message_out will,
+                                               mqtt_client_handlers handlers,
+                                               std::shared_ptr<spdlog::logger> log);
+    ~mqtt_client();
+
+    // On the strand from here on.
+    void start();  // the first connect attempt
+    bool connected() const { return connected_; }
+    std::size_t in_flight() const { return in_flight_; }
+    std::uint64_t connects() const { return connects_; }
+    // False (nothing sent) while disconnected or when Paho refuses it.
+    bool publish(const mqtt_message_out& m);
+    void subscribe(const std::vector<std::string>& filters, int qos);
+    // Publishes `last` (if connected), disconnects (waiting up to `timeout` for in-flight messages),
+    // stops reconnecting and calls `done` on the strand.
+    void stop(mqtt_message_out last, std::chrono::milliseconds timeout, std::function<void()> done);
+
+  private:
+    class listener;
+    mqtt_client(strand executor, const mqtt_config& config, std::string client_id, mqtt_message_out will,
+                mqtt_client_handlers handlers, std::shared_ptr<spdlog::logger> log);
+    void install_callbacks();
+    void do_connect();
+    void on_connect_result(bool ok, std::string what);
+    void on_lost(std::string cause);
+    void schedule_reconnect();
+
+    strand strand_;
+    mqtt_config config_;
+    std::string client_id_;
+    mqtt_message_out will_;
+    mqtt_client_handlers handlers_;
+    std::shared_ptr<spdlog::logger> log_;
+    boost::asio::steady_timer retry_timer_;
+    std::chrono::milliseconds backoff_;
+    bool connected_ = false;
+    bool connecting_ = false;
+    bool stopping_ = false;
+    std::size_t in_flight_ = 0;
+    std::uint64_t connects_ = 0;
+    std::unique_ptr<listener> connect_listener_;  // outlives cli_ (declared before it)
+    std::unique_ptr<listener> publish_listener_;
+    std::unique_ptr<listener> disconnect_listener_;
+    std::unique_ptr<mqtt::connect_options> options_;
+    std::unique_ptr<mqtt::async_client> cli_;
+    std::function<void()> stop_done_;
+};
+
+// Paho's MQTT version number for the config's protocol.
+int paho_mqtt_version(mqtt_protocol p);
+
+}  // namespace gw::api

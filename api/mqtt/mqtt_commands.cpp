@@ -1,0 +1,140 @@
+#include "api/mqtt/mqtt_commands.hpp"
+
+#include <utility>
+#include <variant>
+
+#include <boost/asio/bind_executor.hpp>
+#include <spdlog/logger.h>
+
+#include "api/job_requests.hpp"
+#include "api/mqtt/mqtt_request.hpp"
+#include "api/operation_requests.hpp"
+#include "api/websocket_protocol.hpp"
+#include "gateway/metrics.hpp"
+
+namespace gw::api {
+
+namespace net = boost::asio;
+using nlohmann::json;
+
+mqtt_commands::mqtt_commands(std::shared_ptr<api_context> ctx, mqtt_topics topics, int response_qos, strand s,
+                             publish_fn publish, std::size_t max_in_flight)
+    : ctx_(std::move(ctx)),
+      topics_(std::move(topics)),
+      response_qos_(response_qos),
+      strand_(std::move(s)),
+      publish_(std::move(publish)),
+      max_in_flight_(max_in_flight) {}
+
+mqtt_commands::reply_target mqtt_commands::reply_for(const mqtt_message_in& in,
+                                                     const std::optional<std::string>& reply_to) const {
+    // The MQTT 5 response topic wins; one the gateway may not write to is ignored.
+    if (!in.response_topic.empty() && topics_.is_allowed_reply_topic(in.response_topic))
+        return {in.response_topic, in.correlation_data};
+    if (reply_to) return {*reply_to, in.correlation_data};
+    return {};
+}
+
+void mqtt_commands::count(std::string_view outcome) {
+    if (ctx_->metrics)
+        ctx_->metrics->increment("gw_mqtt_commands_total", {{"outcome", std::string(outcome)}});
+}
+
+void mqtt_commands::answer(const reply_target& to, std::string payload, std::string_view outcome) {
+    count(outcome);
+    if (to.topic.empty()) return;
+    mqtt_message_out m;
+    m.topic = to.topic;
+    m.payload = std::move(payload);
+    m.qos = response_qos_;
+    m.retained = false;
+    m.correlation_data = to.correlation_data;
+    publish_(std::move(m));
+}
+
+void mqtt_commands::answer_error(const reply_target& to, const json& id, problem p, std::string_view topic) {
+    if (p.instance.empty()) p.instance = std::string(topic);
+    if (ctx_->log) ctx_->log->debug("mqtt {}: refused: {}", topic, p.detail);
+    answer(to, ws_error_message(id, p), p.status >= 500 ? "failed" : "refused");
+}
+
+void mqtt_commands::handle(const mqtt_message_in& in) {
+    auto target = topics_.parse_command_topic(in.topic);
+    if (!target) return;  // not ours (a retained leftover on a filter we share)
+    if (in.retained) {
+        // A retained command would run again at every reconnect: never run one.
+        auto p =
+            make_problem(make_error(operation_error_kind::invalid_value,
+                                    "retained command messages are not run (publish with retain=false)"));
+        return answer_error(reply_for(in, std::nullopt), json(), std::move(p), in.topic);
+    }
+    const auto generated = "mqtt-" + std::to_string(next_id_++);
+    auto parsed = parse_mqtt_request(topics_, *target, in.topic, in.payload, generated);
+    if (!parsed) {
+        auto e = std::move(parsed.error());
+        return answer_error(reply_for(in, e.reply_to), e.id, std::move(e.error), in.topic);
+    }
+    auto& request = *parsed;
+    const auto to = reply_for(in, request.reply_to);
+    if (request.token.empty()) {
+        return answer_error(to, request.id,
+                            make_problem(http_error::unauthorized, "every MQTT command needs a \"token\""),
+                            in.topic);
+    }
+    problem auth_error;
+    auto who = authenticate_token(ctx_->auth, request.token, auth_error);
+    if (!who) return answer_error(to, request.id, std::move(auth_error), in.topic);
+    if (in_flight_ >= max_in_flight_) {
+        auto p = make_problem(make_error(
+            operation_error_kind::queue_full,
+            "too many MQTT commands running (" + std::to_string(max_in_flight_) + "); try again later"));
+        return answer_error(to, request.id, std::move(p), in.topic);
+    }
+    run(request, *who, to);
+}
+
+void mqtt_commands::run(mqtt_request& request, const auth_identity& who, reply_target to) {
+    const auto request_id = mqtt_request_id(request.id);
+    const std::string topic = request.target.kind == mqtt_command_kind::controller
+                                  ? topics_.controller(request.target.controller, "cmd")
+                                  : topics_.job_command(request.target.kind);
+    auto self = shared_from_this();
+    if (auto* c = std::get_if<ws_command>(&request.message)) {
+        ++in_flight_;
+        // The same function as REST: role (by operation), lease, validation, request id.
+        return run_operation(
+            *ctx_, c->controller, c->operation, c->args, request_id, who.role, c->lease,
+            net::bind_executor(strand_, [self, to, id = c->id, topic](operation_outcome out) {
+                --self->in_flight_;
+                if (out.error) return self->answer_error(to, id, std::move(*out.error), topic);
+                self->answer(to, ws_result_message(id, out.result), "ok");
+            }));
+    }
+    auto* j = std::get_if<ws_job>(&request.message);
+    if (!j) return;  // parse_mqtt_request only builds commands and jobs
+    if (!has_role(who, gw::role::operator_))
+        return answer_error(to, j->id, forbidden_problem(who, gw::role::operator_), topic);
+    ++in_flight_;
+    auto done = net::bind_executor(strand_, [self, to, id = j->id, topic](api_outcome out) {
+        --self->in_flight_;
+        if (out.error) return self->answer_error(to, id, std::move(*out.error), topic);
+        self->answer(to, ws_result_message(id, out.body, out.replayed), "ok");
+    });
+    if (j->action == "submit") {
+        submit_options options;
+        options.dry_run = j->dry_run;
+        options.idempotency_key = std::move(j->idempotency_key);
+        options.lease_id = std::move(j->lease);
+        options.principal = who.name;
+        options.request_id = request_id;
+        return submit_job(*ctx_, j->args, std::move(options), std::move(done));
+    }
+    jobs::job_action action;
+    action.job_id = j->job;
+    action.lease_id = std::move(j->lease);
+    action.principal = who.name;
+    action.request_id = request_id;
+    control_job(*ctx_, *parse_job_command(j->action), std::move(action), std::move(done));
+}
+
+}  // namespace gw::api

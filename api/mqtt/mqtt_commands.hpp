@@ -1,0 +1,67 @@
+#pragma once
+// Commands received on the MQTT command topics, run through the same functions as REST and
+// WebSocket (api/operation_requests.hpp, api/job_requests.hpp): the same validation, roles, leases
+// and result shapes. Each request carries a bearer token ("token") with the roles of auth.tokens.
+//
+// Answers (the WebSocket "result" / "error" messages) go to the MQTT 5 response topic with the
+// request's correlation data, else to the payload's "reply_to". A request with neither is still run
+// (fire and forget); a malformed one is answered with an error if it can be, never run, and never
+// reaches a serial line. At most max_in_flight commands run at once; more are refused with 503.
+// On the bridge's strand only.
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <boost/asio/any_io_executor.hpp>
+#include <boost/asio/strand.hpp>
+#include <nlohmann/json.hpp>
+
+#include "api/api_context.hpp"
+#include "api/auth.hpp"
+#include "api/mqtt/mqtt_client.hpp"
+#include "api/mqtt/mqtt_topics.hpp"
+#include "api/problem.hpp"
+
+namespace gw::api {
+
+struct mqtt_request;
+
+class mqtt_commands : public std::enable_shared_from_this<mqtt_commands> {
+  public:
+    using strand = boost::asio::strand<boost::asio::any_io_executor>;
+    using publish_fn = std::function<void(mqtt_message_out)>;
+
+    mqtt_commands(std::shared_ptr<api_context> ctx, mqtt_topics topics, int response_qos, strand s,
+                  publish_fn publish, std::size_t max_in_flight = 64);
+
+    // A message on one of the command topics.
+    void handle(const mqtt_message_in& in);
+
+    std::size_t in_flight() const { return in_flight_; }
+
+  private:
+    struct reply_target {
+        std::string topic;  // "" when nobody can be answered
+        std::string correlation_data;
+    };
+    reply_target reply_for(const mqtt_message_in& in, const std::optional<std::string>& reply_to) const;
+    void run(mqtt_request& request, const auth_identity& who, reply_target to);
+    void answer(const reply_target& to, std::string payload, std::string_view outcome);
+    void answer_error(const reply_target& to, const nlohmann::json& id, problem p, std::string_view topic);
+    void count(std::string_view outcome);
+
+    std::shared_ptr<api_context> ctx_;
+    mqtt_topics topics_;
+    int response_qos_;
+    strand strand_;
+    publish_fn publish_;
+    std::size_t max_in_flight_;
+    std::size_t in_flight_ = 0;
+    std::uint64_t next_id_ = 1;
+};
+
+}  // namespace gw::api

@@ -1,0 +1,57 @@
+#pragma once
+// A command received on an MQTT command topic, parsed. Pure.
+//
+// The payload is the WebSocket message without "op" (and without "controller" / "action", which the
+// topic gives), plus the MQTT envelope fields "token" and "reply_to":
+//   <base>/controllers/sim1/cmd   {"id":"c7","operation":"move","args":{"axes":{"X":1000}},
+//                                  "lease":"l-...","token":"<bearer token>","reply_to":"me/replies"}
+//   <base>/jobs/submit            {"id":"s1","args":{"controller":"sim1","type":"array","spec":{...}},
+//                                  "idempotency_key":"plate-7","dry_run":false,"token":"..."}
+//   <base>/jobs/cancel|pause|resume|next   {"id":"x","job":"j-...","lease":"l-...","token":"..."}
+// The message then goes through the WebSocket parser (api/websocket_protocol.hpp), so field checks,
+// operation names, lease and idempotency keys are exactly those of REST and WebSocket. "id" is
+// optional here (MQTT 5 clients correlate by correlation data); without it the gateway names the
+// request "mqtt-<n>" and echoes that.
+// Answers go to the MQTT 5 response topic, else to "reply_to" (3.1.1 clients); the response is the
+// WebSocket "result" or "error" message.
+
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <boost/system/result.hpp>
+#include <nlohmann/json.hpp>
+
+#include "api/mqtt/mqtt_topics.hpp"
+#include "api/problem.hpp"
+#include "api/websocket_protocol.hpp"
+
+namespace gw::api {
+
+inline constexpr std::size_t mqtt_max_token_bytes = 1024;
+
+struct mqtt_request {
+    mqtt_command_target target;
+    std::string token;                    // "" when absent (refused later as 401)
+    std::optional<std::string> reply_to;  // the payload's reply_to, already checked
+    ws_client_message message;            // ws_command or ws_job
+    nlohmann::json id;                    // the message id (given or generated)
+};
+
+struct mqtt_request_error {
+    nlohmann::json id;                    // null when unknown
+    std::optional<std::string> reply_to;  // when the payload named a usable one
+    problem error;                        // instance: the topic
+};
+
+// `topics` checks reply_to; `generated_id` is used when the payload has no "id".
+boost::system::result<mqtt_request, mqtt_request_error> parse_mqtt_request(const mqtt_topics& topics,
+                                                                           const mqtt_command_target& target,
+                                                                           std::string_view topic,
+                                                                           std::string_view payload,
+                                                                           std::string_view generated_id);
+
+// The request id written next to serial commands: "mqtt.<client id>".
+std::string mqtt_request_id(const nlohmann::json& id);
+
+}  // namespace gw::api

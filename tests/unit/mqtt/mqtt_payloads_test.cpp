@@ -1,0 +1,110 @@
+// Payload builders: birth, offline, report batches with gap counts, job state tracking.
+#include "api/mqtt/mqtt_payloads.hpp"
+
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace gw::api {
+namespace {
+
+using nlohmann::json;
+
+const auto t0 = std::chrono::system_clock::time_point(std::chrono::milliseconds(1795322740123));
+
+std::shared_ptr<const event> report(std::uint64_t seq, int counts) {
+    auto data = std::make_shared<const std::string>(
+        json{{"id", "sim1"}, {"controller_seq", seq}, {"counts", counts}}.dump());
+    return make_data_event("controllers/sim1/reports", seq, t0, data);
+}
+
+TEST(mqtt_payloads, birth_lists_controllers_and_capabilities) {
+    mqtt_birth b;
+    b.gateway = "gw";
+    b.version = "0.1.0";
+    b.protocol = "5";
+    b.prefix = "asi";
+    b.commands = true;
+    b.controllers.push_back(birth_controller(json::parse(
+        R"({"id":"sim1","state":"connected","identity":{"build":"STD_XYZ","modules":["array"]},"axes":[]})")));
+    b.controllers.push_back(
+        birth_controller(json::parse(R"({"id":"sim2","state":"connecting","identity":null})")));
+    b.time = t0;
+    const auto j = json::parse(birth_payload(b));
+    EXPECT_EQ(j["state"], "online");
+    EXPECT_EQ(j["gateway"], "gw");
+    EXPECT_EQ(j["version"], "0.1.0");
+    EXPECT_EQ(j["protocol"], "5");
+    EXPECT_EQ(j["capabilities"], json({"state", "position", "reports", "ttl", "jobs", "commands"}));
+    EXPECT_EQ(j["controllers"][0],
+              json::parse(R"({"id":"sim1","state":"connected","build":"STD_XYZ","modules":["array"]})"));
+    EXPECT_EQ(j["controllers"][1],
+              json::parse(R"({"id":"sim2","state":"connecting","build":null,"modules":[]})"));
+    EXPECT_EQ(j["time"], "2026-11-22T02:45:40.123Z");
+    b.commands = false;
+    EXPECT_EQ(json::parse(birth_payload(b))["capabilities"].size(), 5u);
+}
+
+TEST(mqtt_payloads, offline_with_and_without_time) {
+    auto will = json::parse(offline_payload("gw", "connection lost", std::nullopt));
+    EXPECT_EQ(will,
+              json::parse(R"({"state":"offline","gateway":"gw","reason":"connection lost","time":null})"));
+    auto bye = json::parse(offline_payload("gw", "shutdown", t0));
+    EXPECT_EQ(bye["reason"], "shutdown");
+    EXPECT_EQ(bye["time"], "2026-11-22T02:45:40.123Z");
+}
+
+TEST(mqtt_payloads, report_batch_counts_gaps_and_empties) {
+    mqtt_report_batch b;
+    EXPECT_TRUE(b.empty());
+    b.add(*report(5, 100));
+    b.add(*make_gap_event("controllers/sim1/reports", 6, 9, t0));
+    b.add(*report(10, 110));
+    b.add_missed(2);
+    EXPECT_EQ(b.frames(), 2u);
+    EXPECT_EQ(b.missed(), 6u);
+    const auto j = json::parse(b.take_payload("sim1", t0));
+    EXPECT_EQ(j["type"], "reports");
+    EXPECT_EQ(j["controller"], "sim1");
+    EXPECT_EQ(j["from"], 5);
+    EXPECT_EQ(j["to"], 10);
+    EXPECT_EQ(j["missed"], 6);
+    ASSERT_EQ(j["frames"].size(), 2u);
+    EXPECT_EQ(j["frames"][1]["counts"], 110);
+    EXPECT_TRUE(b.empty());
+    // Only a loss to report: an empty batch that still says how much is missing.
+    b.add_missed(3);
+    const auto k = json::parse(b.take_payload("sim1", t0));
+    EXPECT_EQ(k["frames"], json::array());
+    EXPECT_TRUE(k["from"].is_null());
+    EXPECT_EQ(k["missed"], 3);
+}
+
+TEST(mqtt_payloads, job_state_follows_state_and_step_events) {
+    mqtt_job_state s;
+    EXPECT_FALSE(s.apply(json::parse(R"({"type":"step","name":"well A1","steps_done":1})")));  // no job yet
+    EXPECT_FALSE(s.known());
+    ASSERT_TRUE(s.apply(json::parse(
+        R"({"type":"state","state":"running","reason":"","job":{"id":"j-1","state":"running","progress":{"steps_done":0,"steps_total":4}}})")));
+    EXPECT_FALSE(s.terminal());
+    ASSERT_TRUE(s.apply(json::parse(
+        R"({"type":"step","index":0,"name":"well A1","steps_done":1,"steps_total":4,"percent":25.0,"remaining_s":3.0,"elapsed_s":1.0})")));
+    EXPECT_EQ(s.job()["progress"]["steps_done"], 1);
+    EXPECT_EQ(s.job()["progress"]["current_step"], "well A1");
+    EXPECT_EQ(s.job()["progress"]["percent"], 25.0);
+    EXPECT_FALSE(s.apply(json::parse(R"({"type":"other"})")));
+    EXPECT_FALSE(s.apply(json::parse(R"([1,2])")));
+    ASSERT_TRUE(s.apply(
+        json::parse(R"({"type":"state","state":"cancelled","job":{"id":"j-1","state":"cancelled"}})")));
+    EXPECT_TRUE(s.terminal());
+    const auto p = json::parse(s.payload(9, t0));
+    EXPECT_EQ(p["type"], "job");
+    EXPECT_EQ(p["seq"], 9);
+    EXPECT_EQ(p["job"]["state"], "cancelled");
+}
+
+}  // namespace
+}  // namespace gw::api
