@@ -42,6 +42,8 @@ struct live_job {
     bool queued_in_lane = false;          // in its controller's FIFO
     bool stopping = false;                // a cancel is sending HALT / TTL Y=0: the job keeps the controller
     std::vector<std::string> restore_commands;  // job_context::restore_if_stopped, for this run
+    // Paused by a disconnect while it had registered "TTL Y=0": sent when the controller is back.
+    bool ttl_low_on_reconnect = false;
 };
 
 // What an execution reports to the manager (which persists and publishes). Called on the strand.

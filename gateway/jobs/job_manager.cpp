@@ -90,6 +90,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
 
     // Registry observer events (controller strands): posted here.
     void controller_snapshot_changed(const devices::controller_snapshot& s);
+    // The controller is connected (and identified) again after it was not.
+    void controller_reconnected(const std::string& controller);
     void controller_ttl_edge(const std::string& controller);
 
     // execution_host
@@ -131,6 +133,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
     net::awaitable<void> safe_stop(std::shared_ptr<live_job> job);
     // The job's restore_if_stopped commands, newest first; failures are logged.
     net::awaitable<void> restore_settings(std::shared_ptr<live_job> job);
+    // "TTL Y=0" for a job paused by a disconnect (a laser must not stay on): once connected again.
+    void ttl_low_after_disconnect(std::shared_ptr<live_job> job);
     net::awaitable<void> shutdown_coro(std::function<void()> done);
 
     bool controller_connected(const std::string& id) const {
@@ -172,8 +176,19 @@ class core_observer final : public devices::controller_observer {
   public:
     explicit core_observer(std::weak_ptr<manager_core> core) : core_(std::move(core)) {}
     void on_snapshot(const devices::controller_snapshot& s) override {
-        if (s.state == devices::connection_state::connected) return;  // only departures matter
-        if (auto c = core_.lock()) c->controller_snapshot_changed(s);
+        const bool ready = s.state == devices::connection_state::connected && s.identity.has_value();
+        bool came_back = false;
+        {
+            std::lock_guard lock(mutex_);  // controllers call from their own strands
+            auto [it, added] = ready_.try_emplace(s.id, ready);
+            came_back = ready && !added && !it->second;
+            it->second = ready;
+        }
+        auto c = core_.lock();
+        if (!c) return;
+        if (came_back) c->controller_reconnected(s.id);
+        if (s.state == devices::connection_state::connected) return;  // otherwise only departures matter
+        c->controller_snapshot_changed(s);
     }
     void on_report(const devices::report_event& e) override {
         if (auto c = core_.lock()) c->controller_ttl_edge(e.controller_id);
@@ -181,6 +196,8 @@ class core_observer final : public devices::controller_observer {
 
   private:
     std::weak_ptr<manager_core> core_;
+    std::mutex mutex_;
+    std::map<std::string, bool> ready_;  // controller id -> connected and identified
 };
 
 }  // namespace
@@ -570,7 +587,8 @@ void manager_core::dispatch(const std::string& controller) {
 
 void manager_core::launch(std::shared_ptr<live_job> job) {
     const auto first = std::min(job->record.progress.steps_done, job->plan->steps.size());
-    job->restore_commands.clear();  // the new run registers what it changes
+    job->restore_commands.clear();      // the new run registers what it changes
+    job->ttl_low_on_reconnect = false;  // the run owns the output again
     auto exec = std::make_shared<job_execution>(strand_, registry_, weak_from_this(), job, first);
     job->exec = exec;
     job->record.progress.remaining_s = remaining_from(*job->plan, first);
@@ -619,6 +637,11 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
     } else if (disconnected) {
         // The job keeps the controller: resume continues from the last completed step.
         set_state(*job, job_state::paused, "controller disconnected: " + failure);
+        const auto& r = job->restore_commands;
+        if (std::find(r.begin(), r.end(), "TTL Y=0") != r.end()) {
+            job->ttl_low_on_reconnect = true;
+            if (controller_connected(controller)) ttl_low_after_disconnect(job);  // back already
+        }
     } else {
         set_state(*job, job_state::failed, failure);
         // Put back what the job changed before the next job gets the controller.
@@ -849,6 +872,42 @@ void manager_core::controller_snapshot_changed(const devices::controller_snapsho
         job->second->exec->fail(
             make_error(kind::not_connected, fmt::format("{} is {}", id, devices::to_string(state))));
     });
+}
+
+void manager_core::controller_reconnected(const std::string& controller) {
+    net::post(strand_, [self = shared_from_this(), controller] {
+        auto it = self->lanes_.find(controller);
+        if (it == self->lanes_.end() || it->second.holder.empty()) return;
+        auto job = self->jobs_.find(it->second.holder);
+        if (job == self->jobs_.end() || !job->second->ttl_low_on_reconnect) return;
+        self->ttl_low_after_disconnect(job->second);
+    });
+}
+
+void manager_core::ttl_low_after_disconnect(std::shared_ptr<live_job> job) {
+    if (!job->ttl_low_on_reconnect || abandoned_) return;
+    job->ttl_low_on_reconnect = false;
+    net::co_spawn(
+        strand_,
+        [self = shared_from_this(), job]() -> net::awaitable<void> {
+            const std::string controller = job->record.controller;
+            const std::string request_id = "job-" + job->record.id;
+            ttl_request low;
+            low.output_high = false;  // "TTL Y=0"
+            std::string ttl_controller = controller;
+            std::string ttl_request_id = request_id;
+            auto ttl = co_await self->registry_.async_ttl(std::move(ttl_controller), low,
+                                                          std::move(ttl_request_id), net::use_awaitable);
+            if (ttl) {
+                self->log_->info("[{}] {}: connected again; TTL output set low", request_id, controller);
+            } else {
+                self->log_->warn("[{}] {}: TTL Y=0 after the reconnect failed: {}", request_id, controller,
+                                 ttl.error().message);
+                // The next reconnect tries again, unless the job runs again meanwhile.
+                job->ttl_low_on_reconnect = job->record.state == job_state::paused;
+            }
+        },
+        net::detached);
 }
 
 void manager_core::controller_ttl_edge(const std::string& controller) {

@@ -12,7 +12,9 @@
 //
 // Cancel: HALT at once, then "TTL Y=0" (outputs low), state cancelled. Pause: after the current
 // step. A disconnect of the controller pauses a running job with reason "controller disconnected";
-// resume continues from the last completed step once it is connected again.
+// resume continues from the last completed step once it is connected again. A job paused that way
+// which had registered "TTL Y=0" (restore_if_stopped: a gcode job's laser) gets "TTL Y=0" as soon as
+// the controller is connected again.
 //
 // Threads: public methods may be called from any thread. Completion handlers run on their associated
 // executor (or the manager's), never inline.
