@@ -17,6 +17,7 @@ class logger;
 namespace gw {
 class controller_registry;
 class event_hub;
+class gcode_file_store;
 class lease_manager;
 class metrics;
 }  // namespace gw
@@ -27,6 +28,8 @@ class job_manager;
 
 namespace gw::api {
 
+class gcode_worker;
+
 struct api_context {
     boost::asio::any_io_executor executor;  // the io_context's; sessions make their own strands
     controller_registry& registry;          // outlives every session (main keeps it)
@@ -34,9 +37,11 @@ struct api_context {
     std::shared_ptr<gw::metrics> metrics;
     http_limits limits;
     auth_config auth;  // no tokens: every client is admin, and the listener is loopback-only
-    std::shared_ptr<spdlog::logger> log;      // "api"
-    std::shared_ptr<jobs::job_manager> jobs;  // null: the job routes answer 503
-    std::shared_ptr<lease_manager> leases;    // null: no leases (every check passes)
+    std::shared_ptr<spdlog::logger> log;            // "api"
+    std::shared_ptr<jobs::job_manager> jobs;        // null: the job routes answer 503
+    std::shared_ptr<lease_manager> leases;          // null: no leases (every check passes)
+    std::shared_ptr<gcode_file_store> gcode_files;  // null: the /api/v1/gcode/files routes answer 503
+    std::shared_ptr<gcode_worker> gcode_thread;     // plans and uploads run here; null: inline
 };
 
 }  // namespace gw::api

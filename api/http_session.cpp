@@ -3,6 +3,7 @@
 #include <spdlog/logger.h>
 
 #include "api/auth.hpp"
+#include "api/gcode_requests.hpp"
 #include "api/listener.hpp"
 #include "api/request_id.hpp"
 #include "gateway/metrics.hpp"
@@ -71,6 +72,30 @@ void http_session::do_read() {
         static_cast<std::uint32_t>(std::min<std::size_t>(ctx_->limits.max_header_bytes, UINT32_MAX)));
     parser_->body_limit(ctx_->limits.max_body_bytes);
     stream_.expires_after(ctx_->limits.read_timeout);
+    // The header first: the body limit depends on the route (G-code programs may be bigger).
+    http::async_read_header(stream_, buffer_, *parser_,
+                            beast::bind_front_handler(&http_session::on_header, shared_from_this()));
+}
+
+void http_session::on_header(beast::error_code ec, std::size_t bytes) {
+    if (ec) return on_read(ec, bytes);
+    const auto& header = parser_->get();
+    if (auto limit = gcode_body_limit(*ctx_, header.method(), header.target())) parser_->body_limit(*limit);
+    // "Expect: 100-continue" (curl sends it for bodies over 1 MiB): say go on rather than make the client
+    // wait a second. Over the limit, the 413 goes out when the body read stops.
+    if (beast::iequals(header[http::field::expect], "100-continue") && !parser_->is_done()) {
+        auto go_on =
+            std::make_shared<http::response<http::empty_body>>(http::status::continue_, header.version());
+        return http::async_write(stream_, *go_on,
+                                 [self = shared_from_this(), go_on](beast::error_code wec, std::size_t) {
+                                     if (wec) return self->fail(wec, "write 100-continue");
+                                     self->do_read_body();
+                                 });
+    }
+    do_read_body();
+}
+
+void http_session::do_read_body() {
     http::async_read(stream_, buffer_, *parser_,
                      beast::bind_front_handler(&http_session::on_read, shared_from_this()));
 }

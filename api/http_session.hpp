@@ -35,6 +35,8 @@ class http_session : public std::enable_shared_from_this<http_session> {
   private:
     void on_run();
     void do_read();
+    void on_header(beast::error_code ec, std::size_t bytes);
+    void do_read_body();
     void on_read(beast::error_code ec, std::size_t bytes);
     void on_handled(routed_response r);
     void do_write(string_response res, std::string route, bool close_after);

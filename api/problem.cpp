@@ -38,6 +38,8 @@ kind_info info(operation_error_kind k) {
             return {409, "Invalid state"};
         case storage_unavailable:
             return {503, "Storage unavailable"};
+        case unknown_file:
+            return {404, "Unknown G-code file"};
         case internal:
             break;
     }

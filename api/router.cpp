@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/logger.h>
 
+#include "api/gcode_requests.hpp"
 #include "api/job_requests.hpp"
 #include "api/lease_requests.hpp"
 #include "api/openapi_document.hpp"
@@ -168,6 +169,9 @@ void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& re
     if (!path.starts_with(prefix) || (path.size() > prefix.size() && path[prefix.size()] != '/'))
         return fail("unmatched", make_problem(http_error::not_found, "no route for " + path));
     auto segments = split_path(std::string_view(path).substr(prefix.size()));
+    if (is_gcode_path(path))  // api/gcode_requests.hpp
+        return handle_gcode_request(ctx, std::move(req), std::move(request_id), std::move(session_executor),
+                                    std::move(done));
 
     if (segments.size() == 1 && segments[0] == "health") {
         const std::string route = "/api/v1/health";

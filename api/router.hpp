@@ -11,6 +11,7 @@
 //   GET/POST/DELETE /api/v1/controllers/{id}/lease, POST .../lease/renew   (api/lease_requests.hpp)
 //   GET/POST /api/v1/jobs, GET /api/v1/jobs/{id}[/events], POST /api/v1/jobs/{id}/{cancel|pause|resume|next}
 //                                            (api/job_requests.hpp)
+//   /api/v1/gcode/...                         plan, preview, uploaded programs (api/gcode_requests.hpp)
 //   GET  /api/v1/metrics                     viewer; Prometheus text
 //   GET  /api/v1/openapi.yaml, /openapi.yaml public
 // Thread safety: handle() may be called from any session strand; `done` is called exactly once, on

@@ -1,24 +1,38 @@
 #include "api/server.hpp"
 
+#include <filesystem>
 #include <stdexcept>
 
 #include <spdlog/logger.h>
 
 #include "api/controller_metrics.hpp"
+#include "api/gcode_worker.hpp"
 #include "api/listener.hpp"
 #include "gateway/controller_registry.hpp"
+#include "gateway/gcode_files.hpp"
 #include "gateway/logging.hpp"
 #include "gateway/metrics.hpp"
 
 namespace gw::api {
 
+namespace {
+
+// Uploaded G-code programs live next to the job database: <storage.path>/gcode/.
+std::shared_ptr<gcode_file_store> make_gcode_store(const gateway_config& config) {
+    return std::make_shared<gcode_file_store>(
+        gcode_file_store_settings{std::filesystem::path(config.storage.path) / "gcode"});
+}
+
+}  // namespace
+
 server::server(net::any_io_executor executor, const gateway_config& config, controller_registry& registry,
                std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
                std::shared_ptr<jobs::job_manager> jobs, std::shared_ptr<lease_manager> leases)
     : http_(config.http),
-      ctx_(std::make_shared<api_context>(api_context{executor, registry, std::move(hub), std::move(metrics),
-                                                     config.http.limits, config.auth, get_logger("api"),
-                                                     std::move(jobs), std::move(leases)})) {
+      ctx_(std::make_shared<api_context>(
+          api_context{executor, registry, std::move(hub), std::move(metrics), config.http.limits, config.auth,
+                      get_logger("api"), std::move(jobs), std::move(leases), make_gcode_store(config),
+                      std::make_shared<api::gcode_worker>()})) {
     controller_metrics::describe(*ctx_->metrics);
     // Gauges exist from the start (a scrape before the first client sees 0, not nothing).
     ctx_->metrics->set("gw_http_connections", {}, 0);
@@ -57,6 +71,7 @@ void server::start() {
 
 void server::stop() {
     if (listener_) listener_->stop();
+    if (ctx_->gcode_thread) ctx_->gcode_thread->stop();  // the running plan finishes and answers
 }
 
 net::ip::tcp::endpoint server::local_endpoint() const {

@@ -25,6 +25,7 @@
 #include "gateway/controller_events_bridge.hpp"
 #include "gateway/controller_registry.hpp"
 #include "gateway/event_hub.hpp"
+#include "gateway/gcode_cli.hpp"
 #include "gateway/jobs/job_manager.hpp"
 #include "gateway/lease_manager.hpp"
 #include "gateway/log_observer.hpp"
@@ -64,7 +65,9 @@ int main(int argc, char** argv) {
                          ->check(CLI::Range(0, 60000));
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
         ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
+    gw::gcode_cli gcode(app);  // "asi-gateway gcode plan|preview FILE": no controllers, no store
     CLI11_PARSE(app, argc, argv);
+    if (gcode.selected()) return gcode.run(std::cout, std::cerr);
 
     if (!check_file.empty()) return gw::check_config_file(check_file, std::cout, std::cerr);
 

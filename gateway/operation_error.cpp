@@ -32,6 +32,8 @@ std::string_view to_string(operation_error_kind kind) {
             return "invalid_state";
         case operation_error_kind::storage_unavailable:
             return "storage_unavailable";
+        case operation_error_kind::unknown_file:
+            return "unknown_file";
         case operation_error_kind::internal:
             return "internal";
     }

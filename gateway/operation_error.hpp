@@ -24,6 +24,7 @@ enum class operation_error_kind : std::uint8_t {
     unknown_job,         // no job with that id (404)
     invalid_state,       // the job (or lease) is not in a state that allows this: cancel a finished job (409)
     storage_unavailable,  // the job store cannot be written or read: disk full, read-only file (503)
+    unknown_file,         // no uploaded G-code file with that id (404)
     internal,             // a bug or an unexpected condition (500)
 };
 

@@ -1,0 +1,417 @@
+#include "api/gcode_requests.hpp"
+
+#include <algorithm>
+#include <fstream>
+#include <istream>
+#include <ostream>
+#include <sstream>
+#include <streambuf>
+#include <variant>
+
+#include <nlohmann/json.hpp>
+
+#include "api/auth.hpp"
+#include "api/gcode_worker.hpp"
+#include "gateway/gcode/gcode_plan_json.hpp"
+#include "gateway/gcode/gcode_plan_summary_json.hpp"
+#include "gateway/gcode/gcode_planner.hpp"
+#include "gateway/gcode_files.hpp"
+
+namespace gw::api {
+
+namespace {
+
+using nlohmann::json;
+
+constexpr std::string_view gcode_prefix = "/api/v1/gcode/";
+
+// Reads a string in place (a request body of tens of megabytes is not copied), seekable so the
+// planner can check the program before planning it.
+class view_buf final : public std::streambuf {
+  public:
+    explicit view_buf(std::string_view text) {
+        char* p = const_cast<char*>(text.data());  // never written: no overflow, no putback
+        setg(p, p, p + text.size());
+    }
+
+  protected:
+    pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode which) override {
+        if (!(which & std::ios_base::in)) return pos_type(off_type(-1));
+        off_type base = dir == std::ios_base::beg   ? 0
+                        : dir == std::ios_base::cur ? gptr() - eback()
+                                                    : egptr() - eback();
+        return seekpos(pos_type(base + off), which);
+    }
+    pos_type seekpos(pos_type pos, std::ios_base::openmode which) override {
+        const off_type at = off_type(pos);
+        if (!(which & std::ios_base::in) || at < 0 || at > egptr() - eback()) return pos_type(off_type(-1));
+        setg(eback(), eback() + at, egptr());
+        return pos;
+    }
+};
+
+// Collects output up to a cap; past it the stream goes bad and the text stays as it was.
+class capped_buf final : public std::streambuf {
+  public:
+    explicit capped_buf(std::size_t cap) : cap_(cap) {}
+    std::string& text() { return text_; }
+    bool overflowed() const { return overflowed_; }
+
+  protected:
+    int_type overflow(int_type c) override {
+        if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+        const char ch = traits_type::to_char_type(c);
+        return xsputn(&ch, 1) == 1 ? c : traits_type::eof();
+    }
+    std::streamsize xsputn(const char* s, std::streamsize n) override {
+        if (overflowed_ || text_.size() + static_cast<std::size_t>(n) > cap_) {
+            overflowed_ = true;
+            return 0;
+        }
+        text_.append(s, static_cast<std::size_t>(n));
+        return n;
+    }
+
+  private:
+    std::size_t cap_;
+    std::string text_;
+    bool overflowed_ = false;
+};
+
+// What a response needs from its request once the request itself is gone (worker thread).
+struct reply_meta {
+    unsigned version = 11;
+    bool keep_alive = true;
+    std::string target;
+    std::string request_id;
+};
+
+string_response body_response(http::status status, std::string body, std::string_view content_type,
+                              const reply_meta& m) {
+    string_response res{status, m.version};
+    res.set(http::field::server, "asi-gateway");
+    res.set("X-Request-Id", m.request_id);
+    res.set(http::field::cache_control, "no-store");
+    res.keep_alive(m.keep_alive);
+    if (status != http::status::no_content) {
+        res.set(http::field::content_type, content_type);
+        res.body() = std::move(body);
+    }
+    res.prepare_payload();
+    return res;
+}
+
+string_response problem_of(problem p, const reply_meta& m) {
+    return problem_response(std::move(p), m.version, m.keep_alive, m.target, m.request_id);
+}
+
+string_response error_of(const operation_error& e, const reply_meta& m) {
+    return problem_of(make_problem(e), m);
+}
+
+// 422 invalid-gcode: the problem plus the program error's line, column and message.
+string_response gcode_error_response(const gcode::gcode_error& e, const reply_meta& m) {
+    problem p;
+    p.status = 422;
+    p.kind = "invalid_gcode";
+    p.title = "Invalid G-code program";
+    p.detail = e.line > 0 ? "line " + std::to_string(e.line) + ", column " + std::to_string(e.column) + ": " +
+                                e.message
+                          : e.message;
+    p.instance = std::string(target_path(m.target));
+    p.request_id = m.request_id;
+    json j = p.to_json();
+    j["line"] = e.line;
+    j["column"] = e.column;
+    j["message"] = e.message;
+    string_response res{http::status::unprocessable_entity, m.version};
+    res.set(http::field::server, "asi-gateway");
+    res.set(http::field::content_type, problem_content_type);
+    res.set("X-Request-Id", m.request_id);
+    res.set(http::field::cache_control, "no-store");
+    res.keep_alive(m.keep_alive);
+    res.body() = j.dump(-1, ' ', false, json::error_handler_t::replace);
+    res.prepare_payload();
+    return res;
+}
+
+string_response plan_response(std::istream& in, const gcode_query& q, const reply_meta& m) {
+    const auto start = in.tellg();
+    auto checked = gcode::check_program(in, q.options);
+    if (auto* e = std::get_if<gcode::gcode_error>(&checked)) return gcode_error_response(*e, m);
+    const auto& summary = std::get<gcode::plan_summary>(checked);
+    capped_buf buf(max_plan_response_bytes);
+    std::ostream out(&buf);
+    if (!q.moves) {
+        gcode::write_plan_summary_json(out, summary);
+    } else {
+        in.clear();
+        in.seekg(start);
+        gcode::plan_json_writer writer(out);
+        auto planned = gcode::plan_program(in, q.options, writer);
+        if (auto* e = std::get_if<gcode::gcode_error>(&planned)) return gcode_error_response(*e, m);
+        writer.finish(std::get<gcode::plan_summary>(planned));
+    }
+    if (buf.overflowed())
+        return error_of(make_error(operation_error_kind::invalid_value,
+                                   "the plan of " + std::to_string(summary.moves) + " moves is larger than " +
+                                       std::to_string(max_plan_response_bytes / (1024 * 1024)) +
+                                       " MiB: ask for moves=false (the summary), or plan with "
+                                       "`asi-gateway gcode plan`",
+                                   "moves"),
+                        m);
+    return body_response(http::status::ok, std::move(buf.text()), "application/json", m);
+}
+
+string_response preview_response(std::istream& in, const gcode_query& q, const reply_meta& m) {
+    std::ostringstream out;
+    if (auto e = gcode::write_preview_svg(in, q.options, q.preview, out)) return gcode_error_response(*e, m);
+    return body_response(http::status::ok, std::move(out).str(), "image/svg+xml", m);
+}
+
+// The program file of an uploaded id, opened; or the error response.
+std::variant<std::ifstream, string_response> open_file(gcode_file_store& store, const std::string& id,
+                                                       const reply_meta& m) {
+    auto path = store.path_of(id);
+    if (!path) return error_of(path.error(), m);
+    std::ifstream in(*path, std::ios::binary);
+    if (!in)  // deleted in between
+        return error_of(make_error(operation_error_kind::unknown_file, "no G-code file \"" + id + "\""), m);
+    return in;
+}
+
+std::vector<std::string_view> split(std::string_view path) {
+    std::vector<std::string_view> out;
+    while (!path.empty()) {
+        auto slash = path.find('/');
+        out.push_back(path.substr(0, slash));
+        if (slash == std::string_view::npos) break;
+        path.remove_prefix(slash + 1);
+    }
+    return out;
+}
+
+}  // namespace
+
+operation_result<gcode_query> parse_gcode_query(const query_params& q, gcode_output output) {
+    gcode_query r;
+    for (const auto& [name, value] : q) {
+        if (output == gcode_output::plan && name == "moves") {
+            auto flag = query_flag(q, "moves", true);
+            if (!flag) return flag.error();
+            r.moves = *flag;
+            continue;
+        }
+        if (output == gcode_output::preview) {
+            auto p = gcode::set_preview_option(r.preview, name, value);
+            if (p.known) {
+                if (p.error) return make_error(operation_error_kind::invalid_value, *p.error, name);
+                continue;
+            }
+        }
+        if (auto why = gcode::set_option(r.options, name, value))
+            return make_error(operation_error_kind::invalid_value, name + ": " + *why, name);
+    }
+    if (auto why = gcode::validate(r.options)) {
+        const std::string field = why->substr(0, why->find(' '));  // messages start with the option
+        return make_error(operation_error_kind::invalid_value, *why, field);
+    }
+    return r;
+}
+
+bool is_gcode_path(std::string_view path) {
+    return path.starts_with(gcode_prefix);
+}
+
+std::optional<std::uint64_t> gcode_body_limit(const api_context& ctx, http::verb method,
+                                              std::string_view target) {
+    if (method != http::verb::post || !is_gcode_path(target_path(target)) || !ctx.gcode_files)
+        return std::nullopt;
+    return std::max<std::uint64_t>(ctx.gcode_files->settings().max_file_bytes, ctx.limits.max_body_bytes);
+}
+
+void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_request&& req,
+                          std::string request_id, net::any_io_executor session_executor,
+                          response_handler done) {
+    const std::string path(target_path(req.target()));
+    const auto method = req.method();
+    const auto seg = split(std::string_view(path).substr(gcode_prefix.size()));
+    reply_meta meta{req.version(), req.keep_alive(), std::string(req.target()), request_id};
+
+    auto reply = [&](const std::string& route, string_response res) { done({std::move(res), route}); };
+    auto fail = [&](const std::string& route, problem p) { reply(route, problem_of(std::move(p), meta)); };
+    auto methods_ok = [&](const std::string& route, std::initializer_list<http::verb> allowed) {
+        for (auto v : allowed)
+            if (method == v) return true;
+        std::string list;
+        for (auto v : allowed)
+            list += (list.empty() ? "" : ", ") + std::string(http::to_string(v));
+        auto res =
+            problem_of(make_problem(http_error::method_not_allowed,
+                                    std::string(req.method_string()) + " is not allowed here; use " + list),
+                       meta);
+        res.set(http::field::allow, list);
+        reply(route, std::move(res));
+        return false;
+    };
+    auto authorize = [&](const std::string& route, gw::role needed) {
+        problem p;
+        auto who = identify(*ctx, req, p);
+        if (!who) {
+            fail(route, std::move(p));
+            return false;
+        }
+        if (!has_role(*who, needed)) {
+            fail(route, forbidden_problem(*who, needed));
+            return false;
+        }
+        return true;
+    };
+    auto query = [&](const std::string& route) -> std::optional<query_params> {
+        auto q = parse_query(req.target());
+        if (!q) {
+            fail(route, make_problem(q.error()));
+            return std::nullopt;
+        }
+        return std::move(*q);
+    };
+    auto output_query = [&](const std::string& route, gcode_output output) -> std::optional<gcode_query> {
+        auto q = query(route);
+        if (!q) return std::nullopt;
+        auto parsed = parse_gcode_query(*q, output);
+        if (!parsed) {
+            fail(route, make_problem(parsed.error()));
+            return std::nullopt;
+        }
+        return std::move(*parsed);
+    };
+    // The blocking part on the worker thread; its response back on the session's executor.
+    auto run_blocking = [&](const std::string& route, auto work) {
+        // `done` is copied: it answers here when the worker refuses the task.
+        auto task = [work = std::move(work), route, session_executor, done]() mutable {
+            string_response res = work();
+            net::post(session_executor, [done = std::move(done), res = std::move(res), route]() mutable {
+                done({std::move(res), route});
+            });
+        };
+        if (!ctx->gcode_thread) return task();
+        if (!ctx->gcode_thread->try_post(std::move(task))) {
+            problem p;
+            p.status = 503;
+            p.kind = "planner_busy";
+            p.title = "Planner busy";
+            p.detail = std::to_string(ctx->gcode_thread->max_pending()) +
+                       " G-code requests are already waiting; try again shortly";
+            reply(route, problem_of(std::move(p), meta));
+        }
+    };
+    auto need_store = [&](const std::string& route) -> std::shared_ptr<gcode_file_store> {
+        if (!ctx->gcode_files)
+            fail(route, make_problem(make_error(operation_error_kind::storage_unavailable,
+                                                "this gateway has no G-code file store")));
+        return ctx->gcode_files;
+    };
+
+    if (seg.size() == 1 && (seg[0] == "plan" || seg[0] == "preview.svg")) {
+        const bool plan = seg[0] == "plan";
+        const std::string route = plan ? "/api/v1/gcode/plan" : "/api/v1/gcode/preview.svg";
+        if (!methods_ok(route, {http::verb::post}) || !authorize(route, gw::role::viewer)) return;
+        auto q = output_query(route, plan ? gcode_output::plan : gcode_output::preview);
+        if (!q) return;
+        return run_blocking(route, [body = std::move(req.body()), q = std::move(*q), meta, plan]() {
+            view_buf buf(body);
+            std::istream in(&buf);
+            return plan ? plan_response(in, q, meta) : preview_response(in, q, meta);
+        });
+    }
+    if (seg.size() == 1 && seg[0] == "files") {
+        const std::string route = "/api/v1/gcode/files";
+        if (!methods_ok(route, {http::verb::get, http::verb::post})) return;
+        auto q = query(route);
+        if (!q) return;
+        if (method == http::verb::get) {
+            if (!authorize(route, gw::role::viewer)) return;
+            if (auto known = check_known_parameters(*q, {}); !known)
+                return fail(route, make_problem(known.error()));
+            auto store = need_store(route);
+            if (!store) return;
+            return run_blocking(route, [store, meta]() {
+                auto files = store->list();
+                if (!files) return error_of(files.error(), meta);
+                json list = json::array();
+                for (const auto& f : *files)
+                    list.push_back(to_json(f));
+                json body;
+                body["files"] = std::move(list);
+                return body_response(http::status::ok,
+                                     body.dump(-1, ' ', false, json::error_handler_t::replace),
+                                     "application/json", meta);
+            });
+        }
+        if (!authorize(route, gw::role::operator_)) return;
+        if (auto known = check_known_parameters(*q, {"name"}); !known)
+            return fail(route, make_problem(known.error()));
+        auto store = need_store(route);
+        if (!store) return;
+        std::string name = query_value(*q, "name").value_or("");
+        return run_blocking(route, [store, body = std::move(req.body()), name = std::move(name), meta]() {
+            view_buf buf(body);
+            std::istream in(&buf);
+            auto saved = store->save(in, name);
+            if (!saved) return error_of(saved.error(), meta);
+            auto res = body_response(http::status::created,
+                                     to_json(*saved).dump(-1, ' ', false, json::error_handler_t::replace),
+                                     "application/json", meta);
+            res.set(http::field::location, "/api/v1/gcode/files/" + saved->id);
+            return res;
+        });
+    }
+    if (seg.size() >= 2 && seg.size() <= 3 && seg[0] == "files" && !seg[1].empty()) {
+        const std::string id(seg[1]);
+        if (seg.size() == 2) {
+            const std::string route = "/api/v1/gcode/files/{id}";
+            if (!methods_ok(route, {http::verb::get, http::verb::delete_})) return;
+            if (!authorize(route, method == http::verb::get ? gw::role::viewer : gw::role::operator_)) return;
+            auto q = query(route);
+            if (!q) return;
+            if (auto known = check_known_parameters(*q, {}); !known)
+                return fail(route, make_problem(known.error()));
+            auto store = need_store(route);
+            if (!store) return;
+            if (method == http::verb::get)
+                return run_blocking(route, [store, id, meta]() {
+                    auto info = store->get(id);
+                    if (!info) return error_of(info.error(), meta);
+                    return body_response(http::status::ok,
+                                         to_json(*info).dump(-1, ' ', false, json::error_handler_t::replace),
+                                         "application/json", meta);
+                });
+            return run_blocking(route, [store, id, meta]() {
+                auto removed = store->remove(id);
+                if (!removed) return error_of(removed.error(), meta);
+                return body_response(http::status::no_content, {}, {}, meta);
+            });
+        }
+        if (seg[2] == "plan" || seg[2] == "preview.svg") {
+            const bool plan = seg[2] == "plan";
+            const std::string route =
+                plan ? "/api/v1/gcode/files/{id}/plan" : "/api/v1/gcode/files/{id}/preview.svg";
+            if (!methods_ok(route, {plan ? http::verb::post : http::verb::get}) ||
+                !authorize(route, gw::role::viewer))
+                return;
+            auto q = output_query(route, plan ? gcode_output::plan : gcode_output::preview);
+            if (!q) return;
+            auto store = need_store(route);
+            if (!store) return;
+            return run_blocking(route, [store, id, q = std::move(*q), meta, plan]() {
+                auto opened = open_file(*store, id, meta);
+                if (auto* res = std::get_if<string_response>(&opened)) return std::move(*res);
+                auto& in = std::get<std::ifstream>(opened);
+                return plan ? plan_response(in, q, meta) : preview_response(in, q, meta);
+            });
+        }
+    }
+    fail("unmatched", make_problem(http_error::not_found, "no route for " + path));
+}
+
+}  // namespace gw::api

@@ -1,0 +1,61 @@
+#pragma once
+// The /api/v1/gcode routes: planning and previewing programs without a controller, and the store of
+// uploaded programs (gateway/gcode_files.hpp). Planning, previews and uploads run on the gcode_worker
+// thread, never on an I/O thread.
+//
+//   POST   /api/v1/gcode/plan[?moves=false&<option>=<value>...]   viewer    body: the program (text)
+//   POST   /api/v1/gcode/preview.svg[?view=XY&<option>=...]        viewer    body: the program
+//   GET    /api/v1/gcode/files                                     viewer    {"files":[GcodeFile...]}
+//   POST   /api/v1/gcode/files?name=part.ngc                       operator  body: the program; 201
+//   GET    /api/v1/gcode/files/{id}                                viewer    GcodeFile
+//   DELETE /api/v1/gcode/files/{id}                                operator  204
+//   POST   /api/v1/gcode/files/{id}/plan[?...]                     viewer    as /gcode/plan
+//   GET    /api/v1/gcode/files/{id}/preview.svg[?...]              viewer    as /gcode/preview.svg
+//
+// Options are the names of gcode_options (set_option: xyz_scale, speed_scale, arc_tolerance_mm, ...),
+// the same as the command line's --set. A program error is 422 invalid-gcode with line, column and
+// message; a bad option is 422 invalid-value naming it. The plan JSON is the CLI's; a plan bigger
+// than max_plan_response_bytes is refused (422, field "moves": ask for moves=false, the summary).
+// Bodies of these POSTs may be as large as gcode.max_file_mb (http_session asks gcode_body_limit).
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "api/api_context.hpp"
+#include "api/job_requests.hpp"
+#include "api/net.hpp"
+#include "api/router.hpp"
+#include "gateway/gcode/gcode_options.hpp"
+#include "gateway/gcode/gcode_preview_svg.hpp"
+#include "gateway/operation_error.hpp"
+
+namespace gw::api {
+
+inline constexpr std::size_t max_plan_response_bytes = std::size_t{64} * 1024 * 1024;
+
+// What the query string of a plan or preview asks for.
+struct gcode_query {
+    gcode::gcode_options options;
+    gcode::preview_options preview;
+    bool moves = true;  // plan: the move list (false: the summary only)
+};
+enum class gcode_output : std::uint8_t { plan, preview };
+
+// Pure: the query's options, or invalid_value naming the parameter.
+operation_result<gcode_query> parse_gcode_query(const query_params& q, gcode_output output);
+
+// True for the paths handle_gcode_request serves ("/api/v1/gcode/...").
+bool is_gcode_path(std::string_view path);
+// The body limit for a request whose header says `method` and `target`: the G-code POSTs may carry a
+// program up to the store's size cap; nullopt for everything else (the normal limit applies).
+std::optional<std::uint64_t> gcode_body_limit(const api_context& ctx, http::verb method,
+                                              std::string_view target);
+
+void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_request&& request,
+                          std::string request_id, net::any_io_executor session_executor,
+                          response_handler done);
+
+}  // namespace gw::api
