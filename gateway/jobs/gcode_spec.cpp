@@ -57,7 +57,11 @@ operation_result<gcode_spec> parse_gcode_spec(const json& spec) {
             if (!text) return bad("options." + name, "options." + name + " must be a number or a string");
             if (auto why = gcode::set_option(out.options, name, *text)) return bad("options." + name, *why);
         }
-        if (auto why = gcode::validate(out.options)) return bad("options", *why);
+        if (auto why = gcode::validate(out.options)) {
+            // "arc_tolerance_mm must be >= 1e-7": point at the option when the message names one given.
+            const auto name = why->substr(0, why->find(' '));
+            return bad(o.contains(name) ? "options." + name : "options", *why);
+        }
     }
     return out;
 }
