@@ -13,6 +13,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <unistd.h>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -20,6 +21,7 @@
 #include <boost/asio/signal_set.hpp>
 #include <spdlog/spdlog.h>
 
+#include "api/mqtt/mqtt_bridge.hpp"
 #include "api/server.hpp"
 #include "gateway/config.hpp"
 #include "gateway/controller_events_bridge.hpp"
@@ -161,6 +163,23 @@ int main(int argc, char** argv) {
         hub->stop();
         return 1;
     }
+    // MQTT (mqtt.enabled): the fleet interface over the same API context as REST and WebSocket.
+    std::shared_ptr<gw::api::mqtt_bridge> mqtt;
+    if (config.mqtt.enabled) {
+        char host[256] = {};
+        ::gethostname(host, sizeof host - 1);
+        gw::api::mqtt_bridge_settings mqtt_settings;
+        mqtt_settings.config = config.mqtt;
+        mqtt_settings.gateway_id = gw::api::resolve_gateway_id(config.mqtt.gateway_id, host);
+        mqtt_settings.log = gw::get_logger("mqtt");
+        mqtt = gw::api::mqtt_bridge::create(http_server.context(), std::move(mqtt_settings));
+        try {
+            mqtt->start();
+        } catch (const std::exception& e) {
+            log->error("{}", e.what());
+            return 1;
+        }
+    }
 
     // After shutdown, run() ends when the last handler has run; a watchdog (not a timer on ioc, which
     // would itself keep run() going) stops it if something lingers.
@@ -177,11 +196,18 @@ int main(int argc, char** argv) {
         // (the jobs' last state events still go out).
         job_manager->async_shutdown([&] {
             registry.async_shutdown([&] {
-                hub->stop();
-                watchdog = std::thread([&] {
-                    std::unique_lock lock(mutex);
-                    if (!cv.wait_for(lock, std::chrono::seconds(2), [&] { return finished; })) ioc.stop();
-                });
+                auto stop_hub = [&] {
+                    hub->stop();
+                    watchdog = std::thread([&] {
+                        std::unique_lock lock(mutex);
+                        if (!cv.wait_for(lock, std::chrono::seconds(2), [&] { return finished; })) ioc.stop();
+                    });
+                };
+                // MQTT before the hub: it publishes "offline" itself and disconnects.
+                if (mqtt)
+                    mqtt->async_stop(stop_hub);
+                else
+                    stop_hub();
             });
         });
     });

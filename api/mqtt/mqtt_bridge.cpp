@@ -52,6 +52,7 @@ std::shared_ptr<mqtt_bridge> mqtt_bridge::create(std::shared_ptr<api_context> ct
 mqtt_bridge::mqtt_bridge(std::shared_ptr<api_context> ctx, mqtt_bridge_settings settings)
     : ctx_(std::move(ctx)),
       settings_(std::move(settings)),
+      log_(settings_.log ? settings_.log : ctx_->log),
       topics_(settings_.config.topic_prefix, settings_.gateway_id),
       strand_(net::make_strand(ctx_->executor)),
       housekeeping_(strand_) {
@@ -88,7 +89,7 @@ void mqtt_bridge::start() {
         if (auto self = weak.lock()) self->maybe_request_more();
     };
     const auto client_id = c.client_id.empty() ? "asi-gateway-" + settings_.gateway_id : c.client_id;
-    client_ = mqtt_client::create(strand_, c, client_id, std::move(will), std::move(h), ctx_->log);
+    client_ = mqtt_client::create(strand_, c, client_id, std::move(will), std::move(h), log_);
     if (c.commands_enabled && !ctx_->auth.tokens.empty()) {
         commands_ = std::make_shared<mqtt_commands>(ctx_, topics_, c.qos.responses, strand_,
                                                     [weak](mqtt_message_out m) {
@@ -153,11 +154,12 @@ void mqtt_bridge::deliver(std::vector<std::shared_ptr<const event>> batch) {
 
 void mqtt_bridge::close(std::string reason) {
     net::post(strand_, [self = shared_from_this(), reason = std::move(reason)] {
-        if (self->stopped_) return;
+        // "event hub stopped": the gateway is shutting down, nothing to do.
+        if (self->stopped_ || !reason.starts_with("too slow")) return;
         // Evicted as too slow (a broker that stalled): join again; latest-value topics come back at
         // once, what was lost of the stream topics is counted.
-        if (self->ctx_->log)
-            self->ctx_->log->warn("mqtt: the event hub dropped the bridge ({}); subscribing again", reason);
+        if (self->log_)
+            self->log_->warn("mqtt: the event hub dropped the bridge ({}); subscribing again", reason);
         self->drop("evicted");
         self->awaiting_more_ = false;
         self->subscribe_hub();

@@ -39,6 +39,10 @@
 #include "gateway/config.hpp"
 #include "gateway/event_sink.hpp"
 
+namespace spdlog {
+class logger;
+}
+
 namespace gw::api {
 
 class mqtt_commands;
@@ -49,6 +53,7 @@ struct mqtt_bridge_settings {
     std::string version;     // in the birth message; empty: the project version
     std::size_t max_in_flight = 256;
     std::size_t max_tracked_jobs = 10000;  // jobs whose state is kept retained; the oldest ended go first
+    std::shared_ptr<spdlog::logger> log;   // "mqtt"; null: the API's logger
 };
 
 class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_this<mqtt_bridge> {
@@ -104,6 +109,7 @@ class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_
 
     std::shared_ptr<api_context> ctx_;
     mqtt_bridge_settings settings_;
+    std::shared_ptr<spdlog::logger> log_;
     mqtt_topics topics_;
     mqtt_client::strand strand_;
     std::shared_ptr<mqtt_client> client_;
