@@ -19,8 +19,8 @@ namespace {
 
 // Uploaded G-code programs live next to the job database: <storage.path>/gcode/.
 std::shared_ptr<gcode_file_store> make_gcode_store(const gateway_config& config) {
-    return std::make_shared<gcode_file_store>(
-        gcode_file_store_settings{std::filesystem::path(config.storage.path) / "gcode"});
+    return std::make_shared<gcode_file_store>(gcode_file_store_settings{
+        std::filesystem::path(config.storage.path) / "gcode", config.gcode.max_file_mb * 1024 * 1024});
 }
 
 }  // namespace

@@ -341,8 +341,9 @@ void read_mqtt(const json& j, mqtt_config& out) {
 
 gateway_config read_config(const json& j) {
     gateway_config c;
-    object_reader r(
-        j, "", {"http", "controllers", "simulate", "storage", "jobs", "auth", "logging", "shutdown", "mqtt"});
+    object_reader r(j, "",
+                    {"http", "controllers", "simulate", "storage", "jobs", "gcode", "auth", "logging",
+                     "shutdown", "mqtt"});
     if (auto* v = r.get("http")) read_http(*v, c.http);
     if (auto* v = r.get("controllers")) {
         if (!v->is_array()) fail("controllers", "must be an array");
@@ -363,6 +364,11 @@ gateway_config read_config(const json& j) {
         if (auto* m = s.get("max_queued_per_controller"))
             c.jobs.max_queued_per_controller =
                 read_uint(*m, s.path("max_queued_per_controller"), 1, max_queued_jobs_per_controller);
+    }
+    if (auto* v = r.get("gcode")) {
+        object_reader s(*v, "gcode", {"max_file_mb"});
+        if (auto* m = s.get("max_file_mb"))
+            c.gcode.max_file_mb = read_uint(*m, s.path("max_file_mb"), 1, max_gcode_file_mb);
     }
     if (auto* v = r.get("auth")) read_auth(*v, c.auth);
     if (auto* v = r.get("logging")) read_logging(*v, c.logging);

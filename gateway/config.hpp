@@ -6,7 +6,8 @@
 //   {"http": {"listen_address": "127.0.0.1", "port": 8080, "limits": {...}},
 //    "controllers": [{"id": "stage1", "port": "/dev/ttyUSB0", "baud": 115200}],
 //    "simulate": {"count": 0}, "storage": {"path": "...", "max_size_mb": 1024},
-//    "jobs": {"restart_queued": false, "max_queued_per_controller": 1000}, "auth": {"tokens": [...]},
+//    "jobs": {"restart_queued": false, "max_queued_per_controller": 1000}, "gcode": {"max_file_mb": 64},
+//    "auth": {"tokens": [...]},
 //    "logging": {"level": "info", "format": "text", "levels": {"ms2000": "debug"}},
 //    "shutdown": {"halt_on_exit": true}, "mqtt": {"enabled": false, ...} (see mqtt_config)}
 
@@ -53,6 +54,10 @@ struct storage_config {
 struct jobs_config {
     bool restart_queued = false;  // after a restart, start the jobs that were still queued
     std::size_t max_queued_per_controller = 1000;
+};
+
+struct gcode_config {
+    std::size_t max_file_mb = 64;  // uploaded programs and G-code request bodies (MiB)
 };
 
 enum class role : std::uint8_t { viewer, operator_, admin };
@@ -135,6 +140,7 @@ struct gateway_config {
     simulate_config simulate;
     storage_config storage;
     jobs_config jobs;
+    gcode_config gcode;
     auth_config auth;
     logging_config logging;
     shutdown_config shutdown;
@@ -146,6 +152,7 @@ inline constexpr unsigned supported_bauds[] = {9600, 19200, 28800, 38400, 57600,
 inline constexpr std::size_t max_simulated_controllers = 16;
 inline constexpr std::size_t max_storage_size_mb = 1024 * 1024;  // 1 TiB
 inline constexpr std::size_t max_queued_jobs_per_controller = 100000;
+inline constexpr std::size_t max_gcode_file_mb = 4096;
 
 // The embedded default used without a file: three simulated controllers (`--simulate 3`).
 gateway_config default_config();

@@ -31,6 +31,7 @@ TEST(config, empty_object_gives_the_safe_defaults) {
     EXPECT_EQ(c->storage.max_size_mb, 1024u);
     EXPECT_FALSE(c->jobs.restart_queued);
     EXPECT_EQ(c->jobs.max_queued_per_controller, 1000u);
+    EXPECT_EQ(c->gcode.max_file_mb, 64u);
     EXPECT_TRUE(c->auth.tokens.empty());
     EXPECT_EQ(c->logging.level, log_level::info);
     EXPECT_EQ(c->logging.format, log_format::text);
@@ -196,6 +197,10 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
          "jobs.max_queued_per_controller: must be an integer from 1 to 100000"},
         {R"({"jobs": {"max_queued_per_controller": 100001}})",
          "jobs.max_queued_per_controller: must be an integer from 1 to 100000"},
+        // gcode
+        {R"({"gcode": {"max_file_mb": 0}})", "gcode.max_file_mb: must be an integer from 1 to 4096"},
+        {R"({"gcode": {"max_file_mb": 2.5}})", "gcode.max_file_mb: must be an integer from 1 to 4096"},
+        {R"({"gcode": {"max_file_mb": 4097}})", "gcode.max_file_mb: must be an integer from 1 to 4096"},
         // auth
         {R"({"auth": {"tokens": [{"token": "0123456789abcdef"}]}})", "auth.tokens[0].name: required"},
         {R"({"auth": {"tokens": [{"name": "a"}]}})", "auth.tokens[0].token: required"},
@@ -245,6 +250,7 @@ TEST(config, refuses_unknown_keys_at_every_level) {
         {R"({"simulate": {"cont": 1}})", "simulate.cont: unknown key"},
         {R"({"storage": {"dir": "x"}})", "storage.dir: unknown key"},
         {R"({"jobs": {"restart": true}})", "jobs.restart: unknown key"},
+        {R"({"gcode": {"max_file": 1}})", "gcode.max_file: unknown key"},
         {R"({"auth": {"token": []}})", "auth.token: unknown key"},
         {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789abcdef", "roles": "admin"}]}})",
          "auth.tokens[0].roles: unknown key"},
