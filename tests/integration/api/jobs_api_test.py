@@ -117,7 +117,7 @@ def test_examples(c, contract, results, skip=()):
     examples = contract.doc["paths"]["/api/v1/jobs"]["post"]["requestBody"]["content"]["application/json"]["examples"]
     check(len(examples) >= 8, f"only {len(examples)} examples")
     types = {contract.deref(e)["value"]["type"] for e in examples.values()}
-    check(types == {"array", "scan", "ring_buffer", "planar_correction"}, f"example types {types}")
+    check(types == {"array", "scan", "ring_buffer", "planar_correction", "gcode"}, f"example types {types}")
     problems = []
     for name, ex in examples.items():
         if name in skip:
