@@ -2,6 +2,7 @@
 
 #include <utility>
 
+#include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/post.hpp>
 #include <spdlog/logger.h>
 
@@ -119,7 +120,9 @@ void mqtt_bridge::subscribe_hub() {
 }
 
 void mqtt_bridge::async_stop(std::function<void()> done) {
-    net::post(strand_, [self = shared_from_this(), done = std::move(done)]() mutable {
+    // The io_context must not run out of work while Paho finishes the disconnect on its thread.
+    auto work = net::make_work_guard(ctx_->executor);
+    net::post(strand_, [self = shared_from_this(), done = std::move(done), work = std::move(work)]() mutable {
         if (self->stopped_) {
             if (done) done();
             return;
@@ -139,8 +142,10 @@ void mqtt_bridge::async_stop(std::function<void()> done) {
             true,
             {}};
         self->client_->stop(std::move(offline), std::chrono::milliseconds(2000),
-                            [self, done = std::move(done)] {
+                            [self, done = std::move(done), work = std::move(work)]() mutable {
                                 if (self->ctx_->metrics) self->ctx_->metrics->set("gw_mqtt_connected", {}, 0);
+                                if (self->log_) self->log_->info("offline published, disconnected");
+                                work.reset();
                                 if (done) done();
                             });
     });

@@ -128,6 +128,10 @@ void mqtt_client::install_callbacks() {
             if (!ok && c.log_) c.log_->debug("publish failed: {}", what);
             if (c.handlers_.publish_done) c.handlers_.publish_done();
         });
+    subscribe_listener_ =
+        std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
+            if (!ok && c.log_) c.log_->error("subscribe refused: {}", what);
+        });
     disconnect_listener_ = std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool, std::string) {
         c.connected_ = false;
         if (auto done = std::exchange(c.stop_done_, nullptr)) done();
@@ -238,8 +242,12 @@ bool mqtt_client::publish(const mqtt_message_out& m) {
 void mqtt_client::subscribe(const std::vector<std::string>& filters, int qos) {
     if (!connected_ || filters.empty()) return;
     try {
-        auto topics = std::make_shared<mqtt::string_collection>(filters);
-        cli_->subscribe(topics, mqtt::iasync_client::qos_collection(filters.size(), qos));
+        // Retain-as-published (MQTT 5): the retain flag arrives as the sender set it, even on live
+        // messages, so that a retained command can be recognised (and refused) every time.
+        mqtt::subscribe_options options;
+        if (config_.protocol == mqtt_protocol::v5) options.set_retain_as_published(true);
+        for (const auto& f : filters)
+            cli_->subscribe(f, qos, nullptr, *subscribe_listener_, options);
     } catch (const mqtt::exception& e) {
         if (log_) log_->warn("subscribe refused: {}", e.what());
     }

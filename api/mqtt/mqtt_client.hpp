@@ -103,6 +103,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::uint64_t connects_ = 0;
     std::unique_ptr<listener> connect_listener_;  // outlives cli_ (declared before it)
     std::unique_ptr<listener> publish_listener_;
+    std::unique_ptr<listener> subscribe_listener_;
     std::unique_ptr<listener> disconnect_listener_;
     std::unique_ptr<mqtt::connect_options> options_;
     std::unique_ptr<mqtt::async_client> cli_;

@@ -1,0 +1,755 @@
+"""The MQTT fleet interface end to end: a real mosquitto on free loopback ports (a generated config in
+a scratch directory), the real asi-gateway (--simulate, sped up) with mqtt enabled, and Debian's
+python3-paho-mqtt clients (MQTT 5 and 3.1.1).
+
+Checks: the retained birth; retained controller states; rate-limited positions; commands and jobs
+with responses (MQTT 5 response topic + correlation data, 3.1.1 reply_to); bad payloads answered
+with errors (the gateway keeps working); job state retained while active and cleared after
+retain_finished_s; a broker restart (the gateway reconnects, re-subscribes and republishes its
+retained state); two gateways side by side on one broker; the Last Will on kill -9; "offline" on a
+clean shutdown; TLS with a CA, server and client certificates made here with openssl. Every payload
+received is validated against the schemas of openapi/asyncapi.yaml (when given).
+
+Run by ctest (mqtt_api); by hand:
+  /usr/bin/python3 tests/integration/api/mqtt_api_test.py --gateway build/gateway/asi-gateway \
+      --asyncapi openapi/asyncapi.yaml
+"""
+
+import argparse
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from gateway_fixture import (TOKENS, WAIT, Failure, Fixture, auth_tokens, check,  # noqa: E402
+                             free_port, http_request, wait_until)
+
+import paho.mqtt.client as mqtt  # noqa: E402  (Debian python3-paho-mqtt 1.6)
+from paho.mqtt.packettypes import PacketTypes  # noqa: E402
+from paho.mqtt.properties import Properties  # noqa: E402
+
+PREFIX = "asi"
+TIME_SCALE = 10
+MOSQUITTO = "/usr/sbin/mosquitto"
+
+
+# ---------------------------------------------------------------------------------------------
+# The broker
+
+
+class Broker:
+    """mosquitto on 127.0.0.1:<port> (and a TLS listener when `tls` names the PEM files)."""
+
+    def __init__(self, fx, name, tls=None):
+        self.fx = fx
+        self.name = name
+        self.port = free_port()
+        self.tls_port = free_port() if tls else None
+        self.tls = tls
+        self.proc = None
+        self.conf = os.path.join(fx.tmp, name + ".conf")
+        self.log = os.path.join(fx.tmp, name + ".log")
+        lines = ["per_listener_settings false", "allow_anonymous true", "persistence false",
+                 # as root, mosquitto would become user "mosquitto", who cannot read the 0700 scratch dir
+                 *(["user root"] if os.geteuid() == 0 else []),
+                 f"log_dest file {self.log}", "log_type error", "log_type warning", "log_type notice",
+                 f"listener {self.port} 127.0.0.1"]
+        if tls:
+            lines += [f"listener {self.tls_port} 127.0.0.1", f"cafile {tls['ca']}",
+                      f"certfile {tls['cert']}", f"keyfile {tls['key']}", "require_certificate true"]
+        with open(self.conf, "w") as f:
+            f.write("\n".join(lines) + "\n")
+
+    def start(self):
+        self.proc = subprocess.Popen([MOSQUITTO, "-c", self.conf], stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.STDOUT)
+        self.fx.procs.append(self.proc)
+
+        def accepting():
+            with socket.create_connection(("127.0.0.1", self.port), timeout=1):
+                return True
+        wait_until(f"mosquitto {self.name} on {self.port}", accepting)
+
+    def stop(self):
+        self.proc.terminate()
+        self.proc.wait(timeout=WAIT)
+
+
+# ---------------------------------------------------------------------------------------------
+# Clients
+
+
+class Client:
+    """A paho client that records every message; helpers wait for one that matches."""
+
+    def __init__(self, broker_port, name, v5=True, tls=None, port=None):
+        self.v5 = v5
+        self.messages = []  # (topic, payload bytes, retained, properties)
+        self.cv = threading.Condition()
+        self.c = mqtt.Client(client_id=name, protocol=mqtt.MQTTv5 if v5 else mqtt.MQTTv311)
+        if tls:
+            self.c.tls_set(ca_certs=tls["ca"], certfile=tls["cert"], keyfile=tls["key"])
+        self.c.on_message = self._on_message
+        connected = threading.Event()
+        self.c.on_connect = lambda *a: connected.set()
+        self.port = port or broker_port
+        self.c.connect("127.0.0.1" if not tls else "localhost", self.port, keepalive=30)
+        self.c.loop_start()
+        check(connected.wait(WAIT), f"client {name} could not connect")
+
+    def _on_message(self, client, userdata, msg):
+        with self.cv:
+            self.messages.append((msg.topic, msg.payload, bool(msg.retain), getattr(msg, "properties", None)))
+            self.cv.notify_all()
+
+    def subscribe(self, *filters):
+        for f in filters:
+            result, mid = self.c.subscribe(f, qos=1)
+            check(result == mqtt.MQTT_ERR_SUCCESS, f"subscribe {f}: {result}")
+        time.sleep(0.3)  # the SUBACK; retained messages follow it
+
+    def publish(self, topic, payload, response_topic=None, correlation=None, retain=False):
+        props = None
+        if self.v5 and (response_topic or correlation):
+            props = Properties(PacketTypes.PUBLISH)
+            if response_topic:
+                props.ResponseTopic = response_topic
+            if correlation:
+                props.CorrelationData = correlation
+        data = payload if isinstance(payload, (bytes, str)) else json.dumps(payload)
+        info = self.c.publish(topic, data, qos=1, retain=retain, properties=props)
+        info.wait_for_publish(WAIT)
+
+    def wait_for(self, what, pred, timeout=WAIT, start=0):
+        """The first recorded message (from index `start`) with pred(topic, payload, retained, props)."""
+        deadline = time.monotonic() + timeout
+        with self.cv:
+            while True:
+                for m in self.messages[start:]:
+                    if pred(*m):
+                        return m
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise Failure(f"timed out waiting for {what}; got {len(self.messages)} messages: "
+                                  f"{[m[0] for m in self.messages[-8:]]}")
+                self.cv.wait(left)
+
+    def mark(self):
+        with self.cv:
+            return len(self.messages)
+
+    def all(self, topic_pred, start=0):
+        with self.cv:
+            return [m for m in self.messages[start:] if topic_pred(m[0])]
+
+    def close(self):
+        self.c.loop_stop()
+        self.c.disconnect()
+
+
+def c_port(client):
+    return client.port
+
+
+def payload_json(p):
+    return json.loads(p.decode()) if p else None
+
+
+# ---------------------------------------------------------------------------------------------
+# Schemas (openapi/asyncapi.yaml)
+
+
+class Contract:
+    """The AsyncAPI document: structure checks and payload validation per channel."""
+
+    def __init__(self, path):
+        self.doc = None
+        if path:
+            import yaml  # Debian python3-yaml
+            with open(path) as f:
+                self.doc = yaml.safe_load(f)
+        self.checked = 0
+
+    def schema_for(self, topic):
+        """The payload schema of the channel whose address matches `topic`."""
+        if not self.doc:
+            return None
+        levels = topic.split("/")
+        for channel in self.doc["channels"].values():
+            address = channel["address"].split("/")
+            if len(address) != len(levels):
+                continue
+            if all(a.startswith("{") or a == lv for a, lv in zip(address, levels)):
+                msgs = list(channel["messages"].values())
+                schemas = [self.resolve(self.resolve(m)["payload"]) for m in msgs]
+                return {"oneOf": schemas} if len(schemas) > 1 else schemas[0]
+        if levels[0] != PREFIX:  # an answer topic: the channel whose address is one parameter
+            for channel in self.doc["channels"].values():
+                if channel["address"].startswith("{") and "/" not in channel["address"]:
+                    msgs = list(channel["messages"].values())
+                    return {"oneOf": [self.resolve(self.resolve(m)["payload"]) for m in msgs]}
+        raise Failure(f"no channel of asyncapi.yaml matches {topic}")
+
+    def resolve(self, node):
+        while isinstance(node, dict) and "$ref" in node:
+            ref = node["$ref"]
+            check(ref.startswith("#/"), f"only local $refs: {ref}")
+            target = self.doc
+            for part in ref[2:].split("/"):
+                target = target[part]
+            node = target
+        return node
+
+    def validate(self, topic, payload):
+        if not self.doc or not payload:
+            return
+        import jsonschema  # Debian python3-jsonschema
+        schema = self.schema_for(topic)
+        resolver = jsonschema.RefResolver.from_schema(self.doc)
+        try:
+            jsonschema.validate(json.loads(payload), schema, resolver=resolver)
+        except jsonschema.ValidationError as e:
+            raise Failure(f"{topic}: payload does not match asyncapi.yaml: {e.message} at "
+                          f"{list(e.absolute_path)}: {payload[:300]!r}")
+        self.checked += 1
+
+    def check_structure(self):
+        check(self.doc is not None, "no asyncapi document given")
+        d = self.doc
+        check(str(d.get("asyncapi", "")).startswith("3."), "asyncapi: 3.x expected")
+        check("info" in d and "title" in d["info"] and "version" in d["info"], "info.title/version")
+        import jsonschema
+        for name, ch in d["channels"].items():
+            check("address" in ch and ch.get("messages"), f"channel {name}: address and messages")
+            for mname, m in ch["messages"].items():
+                msg = self.resolve(m)
+                check("payload" in msg, f"channel {name} message {mname}: payload")
+                schema = self.resolve(msg["payload"])
+                jsonschema.Draft7Validator.check_schema(schema)
+                for ex in msg.get("examples", []):
+                    jsonschema.validate(ex["payload"], schema,
+                                        resolver=jsonschema.RefResolver.from_schema(self.doc))
+        for name, op in d.get("operations", {}).items():
+            check(op.get("action") in ("send", "receive"), f"operation {name}: action")
+            ref = op.get("channel", {}).get("$ref", "")
+            check(ref.startswith("#/channels/") and ref[len("#/channels/"):] in d["channels"],
+                  f"operation {name}: channel {ref}")
+        # Every topic the gateway publishes or reads has a channel.
+        addresses = {ch["address"] for ch in d["channels"].values()}
+        for needed in ["{prefix}/{gateway}/status", "{prefix}/{gateway}/controllers/{controller}/state",
+                       "{prefix}/{gateway}/controllers/{controller}/position",
+                       "{prefix}/{gateway}/controllers/{controller}/reports",
+                       "{prefix}/{gateway}/controllers/{controller}/ttl",
+                       "{prefix}/{gateway}/jobs/{job}/state", "{prefix}/{gateway}/controllers/{controller}/cmd",
+                       "{prefix}/{gateway}/jobs/submit", "{prefix}/{gateway}/jobs/cancel",
+                       "{prefix}/{gateway}/jobs/pause", "{prefix}/{gateway}/jobs/resume",
+                       "{prefix}/{gateway}/jobs/next", "{reply_topic}"]:
+            check(needed in addresses, f"asyncapi.yaml has no channel {needed}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Gateways
+
+
+class Gateway:
+    """One asi-gateway process with mqtt enabled: its own config, log and job store."""
+
+    def __init__(self, fx, binary, name, brokers, sims=2, mqtt_extra=None):
+        self.fx = fx
+        self.binary = binary
+        self.name = name
+        self.port = free_port()
+        self.proc = None
+        self.config = {
+            "http": {"listen_address": "127.0.0.1", "port": self.port},
+            "storage": {"path": os.path.join(fx.tmp, name + "-store")},
+            "auth": auth_tokens(),
+            "logging": {"level": "info"},
+            "mqtt": {"enabled": True, "brokers": brokers, "gateway_id": name, "topic_prefix": PREFIX,
+                     "keepalive_s": 5, "reconnect": {"min_ms": 100, "max_ms": 1000},
+                     "telemetry": {"position_max_hz": 5}, "jobs": {"retain_finished_s": 3},
+                     "commands": {"enabled": True}, **(mqtt_extra or {})},
+        }
+        self.extra = ["--simulate", str(sims), "--time-scale", str(TIME_SCALE),
+                      "--sim-dir", os.path.join(fx.tmp, name + "-sims")]
+        self.log_path = os.path.join(fx.tmp, name + ".log")
+
+    def start(self, wait_ready=True):
+        cfg = os.path.join(self.fx.tmp, self.name + ".json")
+        with open(cfg, "w") as f:
+            json.dump(self.config, f)
+        log = open(self.log_path, "a")
+        self.proc = subprocess.Popen([self.binary, "--config", cfg, *self.extra], stdout=log,
+                                     stderr=subprocess.STDOUT)
+        log.close()
+        self.fx.procs.append(self.proc)
+        if wait_ready:
+            wait_until(f"gateway {self.name} ready",
+                       lambda: http_request(self.port, "GET", "/api/v1/ready", token=None)[0] == 200)
+
+    def topic(self, *levels):
+        return "/".join([PREFIX, self.name, *levels])
+
+    def tail(self, n=40):
+        with open(self.log_path) as f:
+            return "".join(f.readlines()[-n:])
+
+
+def status_is(gw, state, reason=None):
+    def pred(topic, payload, retained, props):
+        if topic != gw.topic("status") or not payload:
+            return False
+        j = payload_json(payload)
+        return j["state"] == state and (reason is None or j.get("reason") == reason)
+    return pred
+
+
+# ---------------------------------------------------------------------------------------------
+# Tests
+
+
+def test_birth(gw, c, contract):
+    c.subscribe(gw.topic("status"))
+    _, p, _, _ = c.wait_for("birth", status_is(gw, "online"))
+    fresh = Client(c_port(c), "birth-late")
+    try:
+        fresh.subscribe(gw.topic("status"))
+        _, _, retained, _ = fresh.wait_for("retained birth", status_is(gw, "online"))
+        check(retained, "the birth message is retained")
+    finally:
+        fresh.close()
+    contract.validate(gw.topic("status"), p)
+    j = payload_json(p)
+    check(j["gateway"] == gw.name and j["protocol"] == "5" and j["prefix"] == PREFIX, f"birth: {j}")
+    check([x["id"] for x in j["controllers"]] == ["sim1", "sim2"], f"controllers: {j['controllers']}")
+    check("commands" in j["capabilities"] and "jobs" in j["capabilities"], f"capabilities: {j}")
+    check(j["version"], "version")
+
+
+def test_retained_state(gw, broker, contract):
+    # A client that comes later still gets every controller's state at once (retained).
+    def connected_state(cid):
+        def pred(topic, payload, retained, props):
+            if topic != gw.topic("controllers", cid, "state") or not retained:
+                return False
+            return payload_json(payload)["data"]["state"] == "connected"
+        return pred
+    # The retained state is the newest one: wait until both are connected there.
+    for cid in ("sim1", "sim2"):
+        def fresh():
+            late = Client(broker.port, f"late-{cid}-{time.monotonic_ns()}")
+            try:
+                late.subscribe(gw.topic("controllers", "+", "state"))
+                return late.wait_for(f"retained {cid} state", connected_state(cid), timeout=2)
+            except Failure:
+                return None
+            finally:
+                late.close()
+        _, p, _, _ = wait_until(f"retained connected state of {cid}", fresh)
+        contract.validate(gw.topic("controllers", cid, "state"), p)
+        j = payload_json(p)
+        check(j["type"] == "event" and j["seq"] >= 1 and j["data"]["id"] == cid, f"state: {j}")
+        check(isinstance(j["data"]["axes"], list) and j["data"]["axes"], "axes in the state")
+
+
+def command(c, topic, body, reply_topic, correlation=None, v5=True):
+    """Publishes a command and waits for its answer (matched by correlation data or id)."""
+    start = c.mark()
+    if v5:
+        corr = correlation or os.urandom(8)
+        c.publish(topic, body, response_topic=reply_topic, correlation=corr)
+
+        def pred(t, p, r, props):
+            return t == reply_topic and props is not None and getattr(props, "CorrelationData", None) == corr
+    else:
+        c.publish(topic, body)
+        want = body.get("id") if isinstance(body, dict) else None
+
+        def pred(t, p, r, props):
+            return t == reply_topic and (want is None or payload_json(p).get("id") == want)
+    _, p, retained, _ = c.wait_for(f"answer on {reply_topic}", pred, start=start)
+    check(not retained, "answers are not retained")
+    return payload_json(p)
+
+
+def test_commands_v5(gw, c, contract):
+    reply = "clients/v5/replies"
+    c.subscribe(reply, gw.topic("controllers", "sim1", "position"))
+    mark = c.mark()
+    ans = command(c, gw.topic("controllers", "sim1", "cmd"),
+                  {"id": "m1", "operation": "move", "args": {"axes": {"X": 1234}, "wait": True},
+                   "token": TOKENS["operator"]}, reply)
+    contract.validate(reply, json.dumps(ans))
+    check(ans["type"] == "result" and ans["id"] == "m1", f"answer: {ans}")
+    check(ans["result"]["operation"] == "move" and ans["result"]["id"] == "sim1", f"result: {ans}")
+    x = [a for a in ans["result"]["positions"] if a["axis"] == "X"][0]["position_um"]
+    check(abs(x - 1234) < 1, f"moved to X={x}")
+    # Positions arrived meanwhile, at most position_max_hz (5/s) plus slack.
+    pos = c.wait_for("a position", lambda t, p, r, pr: t == gw.topic("controllers", "sim1", "position"),
+                     start=mark)
+    contract.validate(pos[0], pos[1])
+    # An answer without an id: the gateway names it.
+    ans = command(c, gw.topic("controllers", "sim1", "cmd"), {"operation": "halt", "token": TOKENS["operator"]},
+                  reply)
+    check(ans["type"] == "result" and str(ans["id"]).startswith("mqtt-"), f"generated id: {ans}")
+
+
+def test_position_rate(gw, c):
+    topic = gw.topic("controllers", "sim2", "position")
+    c.subscribe(topic)
+    mark = c.mark()
+    status, text = http_request(gw.port, "POST", "/api/v1/controllers/sim2/move", {"axes": {"X": 60000}})
+    check(status == 200, f"move: {status} {text}")
+    time.sleep(3)
+    http_request(gw.port, "POST", "/api/v1/controllers/sim2/halt", {})
+    n = len(c.all(lambda t: t == topic, start=mark))
+    check(2 <= n <= 3 * 5 + 3, f"{n} positions in 3 s at position_max_hz 5")
+
+
+def test_commands_v311(gw, broker, contract):
+    reply = "clients/v311/replies"
+    c = Client(broker.port, "v311-client", v5=False)
+    try:
+        c.subscribe(reply)
+        ans = command(c, gw.topic("controllers", "sim2", "cmd"),
+                      {"id": 7, "operation": "here", "args": {"axes": {"Y": 0}}, "token": TOKENS["operator"],
+                       "reply_to": reply}, reply, v5=False)
+        contract.validate(reply, json.dumps(ans))
+        check(ans["type"] == "result" and ans["id"] == 7 and ans["result"]["operation"] == "here", f"{ans}")
+        ans = command(c, gw.topic("controllers", "sim2", "cmd"),
+                      {"id": 8, "operation": "speed", "args": {"axes": {"X": 99999}}, "token": TOKENS["operator"],
+                       "reply_to": reply}, reply, v5=False)
+        check(ans["type"] == "error" and ans["problem"]["status"] == 422, f"out of range: {ans}")
+    finally:
+        c.close()
+
+
+def test_bad_payloads(gw, c, contract):
+    reply = "clients/v5/bad"
+    c.subscribe(reply)
+    cmd = gw.topic("controllers", "sim1", "cmd")
+    cases = [
+        (b"not json at all", 400, "malformed-json", None),
+        (b"[1,2]", 400, "malformed-json", None),
+        ({"id": "b1", "operation": "fly", "token": TOKENS["admin"]}, 422, "invalid-value", "operation"),
+        ({"id": "b2", "operation": "move", "args": {"axes": {"Q": 1}}, "token": TOKENS["admin"]}, 422,
+         "invalid-value", None),
+        ({"id": "b3", "operation": "move", "args": {"axes": {"X": 1}}}, 401, "unauthorized", None),
+        ({"id": "b4", "operation": "move", "args": {"axes": {"X": 1}}, "token": "wrong-token-0000000"}, 401,
+         "unauthorized", None),
+        ({"id": "b5", "operation": "move", "args": {"axes": {"X": 1}}, "token": TOKENS["viewer"]}, 403,
+         "forbidden", None),
+        ({"id": "b6", "operation": "command", "args": {"command": "W X"}, "token": TOKENS["operator"]}, 403,
+         "forbidden", None),
+        ({"id": "b7", "operation": "halt", "controller": "sim2", "token": TOKENS["admin"]}, 422, "invalid-value",
+         "controller"),
+        ({"id": "b8", "operation": "halt", "token": TOKENS["admin"], "reply_to": "asi/x/status"}, 422,
+         "invalid-value", "reply_to"),
+    ]
+    for body, status, kind, field in cases:
+        ans = command(c, cmd, body, reply)
+        contract.validate(reply, json.dumps(ans))
+        check(ans["type"] == "error", f"{body!r}: {ans}")
+        p = ans["problem"]
+        check(p["status"] == status and p["type"].endswith("/" + kind), f"{body!r}: {p}")
+        check(field is None or p.get("field") == field, f"{body!r}: field {p.get('field')}")
+        check(p["instance"] == cmd, f"instance: {p}")
+    # Unknown controller, an unknown job, a job command without a job.
+    ans = command(c, gw.topic("controllers", "nope", "cmd"), {"operation": "halt", "token": TOKENS["admin"]}, reply)
+    check(ans["type"] == "error" and ans["problem"]["status"] == 404, f"unknown controller: {ans}")
+    ans = command(c, gw.topic("jobs", "cancel"), {"job": "j-00000000000000000000000000", "token": TOKENS["admin"]},
+                  reply)
+    check(ans["type"] == "error" and ans["problem"]["status"] == 404, f"unknown job: {ans}")
+    ans = command(c, gw.topic("jobs", "pause"), {"token": TOKENS["admin"]}, reply)
+    check(ans["type"] == "error" and ans["problem"].get("field") == "job", f"no job: {ans}")
+    # A retained command is never run.
+    ans = None
+    start = c.mark()
+    corr = b"retained-cmd"
+    props = Properties(PacketTypes.PUBLISH)
+    props.ResponseTopic = reply
+    props.CorrelationData = corr
+    c.c.publish(cmd, json.dumps({"operation": "halt", "token": TOKENS["admin"]}), qos=1, retain=True,
+                properties=props).wait_for_publish(WAIT)
+    _, p, _, _ = c.wait_for("retained refusal",
+                            lambda t, p, r, pr: t == reply and getattr(pr, "CorrelationData", None) == corr,
+                            start=start)
+    check(payload_json(p)["type"] == "error", f"retained command: {p}")
+    c.c.publish(cmd, b"", qos=1, retain=True).wait_for_publish(WAIT)  # clear it
+    # Still alive and answering.
+    ans = command(c, cmd, {"operation": "halt", "token": TOKENS["operator"]}, reply)
+    check(ans["type"] == "result", f"after bad payloads: {ans}")
+    check(gw.proc.poll() is None, "the gateway is still running")
+
+
+def job_state_pred(gw, job_id, states):
+    def pred(topic, payload, retained, props):
+        return topic == gw.topic("jobs", job_id, "state") and payload and \
+            payload_json(payload)["job"]["state"] in states
+    return pred
+
+
+def test_jobs(gw, c, broker, contract):
+    reply = "clients/v5/jobs"
+    c.subscribe(reply, gw.topic("jobs", "+", "state"))
+    spec = {"grid": {"columns": 3, "rows": 2, "column_step_mm": 0.2, "row_step_mm": -0.2}, "a1": "current",
+            "advance": "next"}
+    ans = command(c, gw.topic("jobs", "submit"),
+                  {"id": "s1", "args": {"controller": "sim1", "type": "array", "spec": spec},
+                   "idempotency_key": "mqtt-plate-1", "token": TOKENS["operator"]}, reply)
+    contract.validate(reply, json.dumps(ans))
+    check(ans["type"] == "result" and ans["result"]["id"].startswith("j-"), f"submit: {ans}")
+    job = ans["result"]["id"]
+    # Idempotency through MQTT too.
+    again = command(c, gw.topic("jobs", "submit"),
+                    {"id": "s2", "args": {"controller": "sim1", "type": "array", "spec": spec},
+                     "idempotency_key": "mqtt-plate-1", "token": TOKENS["operator"]}, reply)
+    check(again.get("replayed") is True and again["result"]["id"] == job, f"replay: {again}")
+    _, p, _, _ = c.wait_for("job running", job_state_pred(gw, job, {"running"}))
+    fresh = Client(broker.port, "jobs-late")
+    try:
+        fresh.subscribe(gw.topic("jobs", job, "state"))
+        _, _, retained, _ = fresh.wait_for("retained job state", job_state_pred(gw, job, {"running", "paused"}))
+        check(retained, "the job state is retained")
+    finally:
+        fresh.close()
+    contract.validate(gw.topic("jobs", job, "state"), p)
+    ans = command(c, gw.topic("jobs", "pause"), {"id": "p", "job": job, "token": TOKENS["operator"]}, reply)
+    check(ans["type"] == "result", f"pause: {ans}")
+    ans = command(c, gw.topic("jobs", "resume"), {"id": "r", "job": job, "token": TOKENS["viewer"]}, reply)
+    check(ans["type"] == "error" and ans["problem"]["status"] == 403, f"viewer resume: {ans}")
+    ans = command(c, gw.topic("jobs", "cancel"), {"id": "c", "job": job, "token": TOKENS["operator"]}, reply)
+    check(ans["type"] == "result", f"cancel: {ans}")
+    c.wait_for("job cancelled", job_state_pred(gw, job, {"cancelled"}))
+    # Retained while it is recent; cleared (empty retained message) retain_finished_s (3) later.
+    c.wait_for("job state cleared", lambda t, p, r, pr: t == gw.topic("jobs", job, "state") and not p)
+    late = Client(broker.port, "late-jobs")
+    try:
+        late.subscribe(gw.topic("jobs", job, "state"))
+        time.sleep(1)
+        check(not late.all(lambda t: True), "no retained state left for an old job")
+    finally:
+        late.close()
+    # Dry run: the plan, nothing stored.
+    ans = command(c, gw.topic("jobs", "submit"),
+                  {"args": {"controller": "sim1", "type": "array", "spec": spec}, "dry_run": True,
+                   "token": TOKENS["operator"]}, reply)
+    check(ans["type"] == "result" and ans["result"]["dry_run"] is True, f"dry run: {ans}")
+    # Leases hold over MQTT as over REST.
+    status, text = http_request(gw.port, "POST", "/api/v1/controllers/sim2/lease", {"ttl_s": 60},
+                                token=TOKENS["operator"])
+    check(status == 201, f"lease: {status} {text}")
+    lease = json.loads(text)["lease_id"]
+    try:
+        ans = command(c, gw.topic("controllers", "sim2", "cmd"),
+                      {"operation": "move", "args": {"axes": {"X": 10}}, "token": TOKENS["operator"]}, reply)
+        check(ans["type"] == "error" and ans["problem"]["type"].endswith("/leased"), f"leased: {ans}")
+        ans = command(c, gw.topic("controllers", "sim2", "cmd"),
+                      {"operation": "move", "args": {"axes": {"X": 10}}, "lease": lease, "token": TOKENS["operator"]},
+                      reply)
+        check(ans["type"] == "result", f"with the lease: {ans}")
+    finally:
+        http_request(gw.port, "DELETE", "/api/v1/controllers/sim2/lease?force=true", token=TOKENS["admin"])
+
+
+def test_broker_restart(gw, broker, c_factory):
+    # While the broker is down, a job changes state; after the restart (no persistence: every retained
+    # message is gone) the gateway reconnects, publishes its birth, every controller state and the
+    # job's state again, and answers commands (it subscribed again).
+    broker.stop()
+    status, text = http_request(gw.port, "POST", "/api/v1/jobs",
+                                {"controller": "sim2", "type": "array",
+                                 "spec": {"grid": {"columns": 2, "rows": 1, "column_step_mm": 0.1, "row_step_mm": 0.1},
+                                          "a1": "current", "advance": "next"}}, token=TOKENS["operator"])
+    check(status == 201, f"submit while the broker is down: {status} {text}")
+    job = json.loads(text)["id"]
+    time.sleep(1)
+    t0 = time.monotonic()
+    broker.start()
+    c = c_factory("after-restart")
+    try:
+        c.subscribe(gw.topic("#"), "clients/restart")
+        c.wait_for("birth again", status_is(gw, "online"), timeout=15)
+        for cid in ("sim1", "sim2"):
+            c.wait_for(f"{cid} state again", lambda t, p, r, pr, cid=cid: t == gw.topic("controllers", cid, "state"),
+                       timeout=15)
+        c.wait_for("the job's state", job_state_pred(gw, job, {"queued", "running"}), timeout=15)
+        elapsed = time.monotonic() - t0
+        check(elapsed < 10, f"republished after {elapsed:.1f} s")
+        ans = command(c, gw.topic("controllers", "sim1", "cmd"), {"operation": "halt", "token": TOKENS["operator"]},
+                      "clients/restart")
+        check(ans["type"] == "result", f"a command after the restart: {ans}")
+    finally:
+        http_request(gw.port, "POST", f"/api/v1/jobs/{job}/cancel", token=TOKENS["operator"])
+        c.close()
+
+
+def test_two_gateways(gw_a, gw_b, broker, contract):
+    c = Client(broker.port, "fleet-view")
+    try:
+        c.subscribe(f"{PREFIX}/+/status", f"{PREFIX}/+/controllers/+/state")
+        for gw in (gw_a, gw_b):
+            _, p, _, _ = c.wait_for(f"{gw.name} online", status_is(gw, "online"))
+            contract.validate(gw.topic("status"), p)
+        seen = {(t.split("/")[1], t.split("/")[3]) for t, *_ in c.all(lambda t: t.endswith("/state"))}
+        for gw, cids in ((gw_a, ("sim1", "sim2")), (gw_b, ("sim1",))):
+            for cid in cids:
+                check((gw.name, cid) in seen, f"{gw.name}/{cid} state not seen: {sorted(seen)}")
+    finally:
+        c.close()
+
+
+def test_last_will(gw, broker, contract):
+    c = Client(broker.port, "will-watcher")
+    try:
+        c.subscribe(gw.topic("status"))
+        c.wait_for("online", status_is(gw, "online"))
+        mark = c.mark()
+        gw.proc.send_signal(signal.SIGKILL)
+        gw.proc.wait(timeout=WAIT)
+        _, p, _, _ = c.wait_for("the Last Will", status_is(gw, "offline", "connection lost"), start=mark, timeout=20)
+        contract.validate(gw.topic("status"), p)
+        check(payload_json(p)["time"] is None, "the will carries no time")
+    finally:
+        c.close()
+    late = Client(broker.port, "will-late")
+    try:
+        late.subscribe(gw.topic("status"))
+        _, p, r, _ = late.wait_for("retained offline", status_is(gw, "offline"))
+        check(r, "the will is retained")
+    finally:
+        late.close()
+
+
+def test_clean_shutdown(gw, broker, contract):
+    c = Client(broker.port, "shutdown-watcher")
+    try:
+        c.subscribe(gw.topic("status"))
+        c.wait_for("online", status_is(gw, "online"))
+        mark = c.mark()
+        gw.proc.send_signal(signal.SIGTERM)
+        code = gw.proc.wait(timeout=WAIT)
+        check(code == 0, f"exit code {code}")
+        _, p, r, _ = c.wait_for("offline (shutdown)", status_is(gw, "offline", "shutdown"), start=mark, timeout=10)
+        contract.validate(gw.topic("status"), p)
+        check(payload_json(p)["time"], "a clean shutdown says when")
+    finally:
+        c.close()
+
+
+def make_pki(tmp):
+    """A test CA, a server certificate for localhost/127.0.0.1 and a client certificate (openssl)."""
+    d = os.path.join(tmp, "pki")
+    os.makedirs(d)
+
+    def run(*args):
+        subprocess.run(["openssl", *args], cwd=d, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    run("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", "ca.key", "-out", "ca.pem", "-days", "2",
+        "-subj", "/CN=asi-gateway test CA")
+    with open(os.path.join(d, "san.ext"), "w") as f:
+        f.write("subjectAltName=DNS:localhost,IP:127.0.0.1\n")
+    for name, cn in (("server", "localhost"), ("client", "gateway-client")):
+        run("req", "-newkey", "rsa:2048", "-nodes", "-keyout", f"{name}.key", "-out", f"{name}.csr",
+            "-subj", f"/CN={cn}")
+        run("x509", "-req", "-in", f"{name}.csr", "-CA", "ca.pem", "-CAkey", "ca.key", "-CAcreateserial",
+            "-out", f"{name}.pem", "-days", "2", *(["-extfile", "san.ext"] if name == "server" else []))
+    # Another CA, which the broker's certificate does not come from.
+    run("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", "other.key", "-out", "other.pem", "-days", "2",
+        "-subj", "/CN=some other CA")
+    p = lambda n: os.path.join(d, n)  # noqa: E731
+    return {"ca": p("ca.pem"), "server_cert": p("server.pem"), "server_key": p("server.key"),
+            "client_cert": p("client.pem"), "client_key": p("client.key"), "other_ca": p("other.pem")}
+
+
+def test_tls(fx, binary, contract):
+    pki = make_pki(fx.tmp)
+    broker = Broker(fx, "tls-broker", tls={"ca": pki["ca"], "cert": pki["server_cert"], "key": pki["server_key"]})
+    broker.start()
+    gw = Gateway(fx, binary, "gw-tls", [f"mqtts://localhost:{broker.tls_port}"], sims=1,
+                 mqtt_extra={"tls": {"ca_file": pki["ca"], "cert_file": pki["client_cert"],
+                                     "key_file": pki["client_key"], "verify": True}})
+    bad = Gateway(fx, binary, "gw-badca", [f"mqtts://localhost:{broker.tls_port}"], sims=1,
+                  mqtt_extra={"tls": {"ca_file": pki["other_ca"], "cert_file": pki["client_cert"],
+                                      "key_file": pki["client_key"], "verify": True}})
+    # Watched over TLS as well, with the client certificate the broker requires.
+    c = Client(broker.port, "tls-watch", tls={"ca": pki["ca"], "cert": pki["client_cert"], "key": pki["client_key"]},
+               port=broker.tls_port)
+    try:
+        c.subscribe(f"{PREFIX}/+/status")
+        gw.start()
+        bad.start()
+        _, p, _, _ = c.wait_for("birth over TLS", status_is(gw, "online"))
+        contract.validate(gw.topic("status"), p)
+        time.sleep(2)
+        check(not c.all(lambda t: t == bad.topic("status")),
+              "a gateway that does not trust the broker's CA must not connect")
+        for g in (gw, bad):
+            g.proc.send_signal(signal.SIGTERM)
+            g.proc.wait(timeout=WAIT)
+    finally:
+        c.close()
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--gateway", required=True)
+    ap.add_argument("--asyncapi", default="")
+    ap.add_argument("--only", default="", help="test names separated by ; (default: all)")
+    args = ap.parse_args()
+    only = set(filter(None, args.only.split(";")))
+    fx = Fixture("asi-mqtt-test-")
+    contract = Contract(args.asyncapi)
+
+    def run(name, fn, *a):
+        if not only or name in only:
+            fx.run(name, fn, *a)
+
+    gateways = []
+    try:
+        if args.asyncapi:
+            run("asyncapi document is valid", contract.check_structure)
+        broker = Broker(fx, "broker")
+        broker.start()
+        gw = Gateway(fx, args.gateway, "gw-a", [f"mqtt://127.0.0.1:{broker.port}"])
+        gateways.append(gw)
+        c = Client(broker.port, "watcher")
+        gw.start()
+        run("birth", test_birth, gw, c, contract)
+        run("retained controller state", test_retained_state, gw, broker, contract)
+        run("commands over MQTT 5 (response topic, correlation data)", test_commands_v5, gw, c, contract)
+        run("position rate limit", test_position_rate, gw, c)
+        run("commands over MQTT 3.1.1 (reply_to)", test_commands_v311, gw, broker, contract)
+        run("bad payloads", test_bad_payloads, gw, c, contract)
+        run("jobs", test_jobs, gw, c, broker, contract)
+        c.close()
+        run("broker restart", test_broker_restart, gw, broker,
+            lambda name: Client(broker.port, name))
+        gw_b = Gateway(fx, args.gateway, "gw-b", [f"mqtt://127.0.0.1:{broker.port}"], sims=1,
+                       mqtt_extra={"protocol": "3.1.1"})
+        gateways.append(gw_b)
+        gw_b.start()
+        run("two gateways on one broker", test_two_gateways, gw, gw_b, broker, contract)
+        run("Last Will on kill -9", test_last_will, gw, broker, contract)
+        run("offline on a clean shutdown", test_clean_shutdown, gw_b, broker, contract)
+        run("TLS with a test CA", test_tls, fx, args.gateway, contract)
+        if contract.doc:
+            print(f"{contract.checked} payloads validated against asyncapi.yaml")
+    except Exception as e:  # noqa: BLE001
+        fx.failures.append(("setup", e))
+        print(f"[FAIL] setup: {e}")
+    finally:
+        if fx.failures:
+            for g in gateways:
+                print(f"---- {g.name} log (tail) ----\n{g.tail()}")
+        code = fx.report()
+        fx.cleanup()
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())
