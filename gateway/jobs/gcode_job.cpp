@@ -30,6 +30,7 @@
 #include <sstream>
 
 #include "gateway/gcode/gcode_planner.hpp"
+#include "gateway/gcode_files.hpp"
 #include "gateway/jobs/gcode_spec.hpp"
 #include "gateway/jobs/gcode_trace.hpp"
 #include "gateway/jobs/job_commands.hpp"
@@ -61,12 +62,22 @@ struct program_source {
     std::unique_ptr<std::istream> stream;
 };
 
-operation_result<program_source> open_program(const gcode_spec& spec) {
+// The inline text, or the uploaded file (gcode_file_store in `files`).
+operation_result<program_source> open_program(const gcode_spec& spec, const std::filesystem::path& files) {
     if (spec.program) return program_source{std::make_unique<std::istringstream>(*spec.program)};
-    return make_error(operation_error_kind::invalid_value,
-                      "uploaded programs (\"file\") are not available in this build; send the text as "
-                      "\"program\"",
-                      "spec.file");
+    if (files.empty())
+        return make_error(operation_error_kind::invalid_value,
+                          "this gateway keeps no uploaded programs (no storage path); send the text as "
+                          "\"program\"",
+                          "spec.file");
+    gcode_file_store store(gcode_file_store_settings{files});
+    auto path = store.path_of(*spec.file);
+    if (!path) return make_error(operation_error_kind::invalid_value, path.error().message, "spec.file");
+    auto in = std::make_unique<std::ifstream>(*path, std::ios::binary);
+    if (!*in)
+        return make_error(operation_error_kind::invalid_value,
+                          fmt::format("the uploaded program {} cannot be read", *spec.file), "spec.file");
+    return program_source{std::move(in)};
 }
 
 operation_error program_error(const gcode_spec& spec, const gc::gcode_error& e) {
@@ -219,7 +230,7 @@ operation_result<job_plan> plan_gcode(const nlohmann::json& json, const plan_con
         return make_error(operation_error_kind::missing_module,
                           fmt::format("{} has no DAC OUT module: z_mode analog needs WRDAC", s.id),
                           "spec.options.z_mode");
-    auto source = open_program(*spec);
+    auto source = open_program(*spec, ctx.gcode_files);
     if (!source) return source.error();
 
     axis_window window[3];
@@ -407,7 +418,7 @@ boost::asio::awaitable<void> run_gcode(job_context& ctx) {
     const gcode_spec spec = std::move(*parsed);
     const auto& o = spec.options;
     const bool z_axis = o.z == gc::z_mode::axis;
-    auto source = open_program(spec);
+    auto source = open_program(spec, ctx.gcode_files());
     if (!source) throw job_failure(source.error());
     const auto s = ctx.snapshot();
 

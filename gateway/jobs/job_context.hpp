@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cstddef>
 #include <exception>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -71,6 +72,8 @@ class job_context {
     // The stored "step" events of this job, oldest first (earlier runs included): a resumed run reads
     // what the steps before first_step() measured. Empty when the history cannot be read.
     virtual std::vector<nlohmann::json> completed_steps() const { return {}; }
+    // Where uploaded G-code programs are (plan_context::gcode_files); empty: none.
+    virtual std::filesystem::path gcode_files() const { return {}; }
 
     // A command that puts back a setting the job changed (for example "TTL X=0" after "TTL X=1").
     // run() restores its settings itself when it ends normally; when the run is cancelled or fails,

@@ -86,6 +86,11 @@ std::vector<nlohmann::json> job_execution::completed_steps() const {
     return {};
 }
 
+std::filesystem::path job_execution::gcode_files() const {
+    if (auto h = host_.lock()) return h->gcode_files();
+    return {};
+}
+
 void job_execution::restore_if_stopped(std::string command) {
     auto& list = job_->restore_commands;
     if (std::find(list.begin(), list.end(), command) == list.end()) list.push_back(std::move(command));

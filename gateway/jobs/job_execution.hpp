@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -57,6 +58,8 @@ class execution_host {
     virtual void on_paused(live_job& job) = 0;
     // The job's stored "step" events, oldest first.
     virtual std::vector<nlohmann::json> step_events(const live_job& job) const = 0;
+    // plan_context::gcode_files.
+    virtual std::filesystem::path gcode_files() const { return {}; }
 };
 
 class job_execution final : public job_context, public std::enable_shared_from_this<job_execution> {
@@ -76,6 +79,7 @@ class job_execution final : public job_context, public std::enable_shared_from_t
     void step_done(std::size_t index, nlohmann::json detail = {}) override;
     void emit(std::string kind, nlohmann::json detail) override;
     std::vector<nlohmann::json> completed_steps() const override;
+    std::filesystem::path gcode_files() const override;
     void restore_if_stopped(std::string command) override;
     boost::asio::awaitable<devices::ms2000::reply> command(std::string line) override;
     boost::asio::awaitable<move_result> move(move_request request) override;

@@ -51,6 +51,11 @@ std::optional<double> remaining_from(const job_plan& plan, std::size_t first) {
     return s;
 }
 
+// gcode_file_store's directory (api/server.cpp makes the API's store on the same one).
+std::filesystem::path gcode_files_directory(const job_manager_settings& s) {
+    return s.storage_path.empty() ? std::filesystem::path{} : std::filesystem::path(s.storage_path) / "gcode";
+}
+
 std::string describe(const operation_error& e) {
     return e.message.empty() ? std::string(to_string(e.kind)) : e.message;
 }
@@ -100,6 +105,7 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void on_emit(live_job& job, json event) override;
     void on_paused(live_job& job) override;
     std::vector<json> step_events(const live_job& job) const override;
+    std::filesystem::path gcode_files() const override { return gcode_files_directory(settings_); }
 
   private:
     struct lane {
@@ -452,7 +458,8 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
     if (!r.spec.is_object())
         return deliver<submit_result>(std::move(h),
                                       make_error(kind::invalid_value, "spec must be a JSON object", "spec"));
-    auto plan = plan_job(r.type, r.spec, plan_context{*snapshot, std::move(model)});
+    auto plan =
+        plan_job(r.type, r.spec, plan_context{*snapshot, std::move(model), gcode_files_directory(settings_)});
     if (!plan) return deliver<submit_result>(std::move(h), plan.error());
 
     const auto now = job_clock::now();
@@ -535,8 +542,9 @@ void manager_core::plan_again(std::shared_ptr<live_job> job,
                     !snapshot->identity)
                     return done(
                         make_error(kind::not_connected, job->record.controller + " is not connected"));
-                auto plan =
-                    plan_job(job->record.type, job->record.spec, plan_context{*snapshot, std::move(model)});
+                auto plan = plan_job(
+                    job->record.type, job->record.spec,
+                    plan_context{*snapshot, std::move(model), gcode_files_directory(self->settings_)});
                 if (!plan) return done(plan.error());
                 if (plan->steps.size() != job->record.progress.steps_total)
                     self->log_->warn("job {}: the plan now has {} steps, it had {}", job->record.id,

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstddef>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <string>
@@ -60,6 +61,8 @@ void add_preview_command(job_plan& plan, std::string command);
 struct plan_context {
     devices::controller_snapshot snapshot;
     motion_model motion;
+    // Uploaded G-code programs (gcode_file_store's directory, <storage.path>/gcode); empty: none.
+    std::filesystem::path gcode_files;
 };
 
 // invalid_value (422) naming the first step whose target lies outside the controller's soft limits
