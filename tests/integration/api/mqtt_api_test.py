@@ -45,7 +45,7 @@ MOSQUITTO = "/usr/sbin/mosquitto"
 class Broker:
     """mosquitto on 127.0.0.1:<port> (and a TLS listener when `tls` names the PEM files)."""
 
-    def __init__(self, fx, name, tls=None):
+    def __init__(self, fx, name, tls=None, extra=()):
         self.fx = fx
         self.name = name
         self.port = free_port()
@@ -59,6 +59,7 @@ class Broker:
                  *(["user root"] if os.geteuid() == 0 else []),
                  f"log_dest file {self.log}", "log_type error", "log_type warning", "log_type notice",
                  f"listener {self.port} 127.0.0.1"]
+        lines += list(extra)
         if tls:
             lines += [f"listener {self.tls_port} 127.0.0.1", f"cafile {tls['ca']}",
                       f"certfile {tls['cert']}", f"keyfile {tls['key']}", "require_certificate true"]
@@ -87,11 +88,13 @@ class Broker:
 class Client:
     """A paho client that records every message; helpers wait for one that matches."""
 
-    def __init__(self, broker_port, name, v5=True, tls=None, port=None):
+    def __init__(self, broker_port, name, v5=True, tls=None, port=None, user=None):
         self.v5 = v5
         self.messages = []  # (topic, payload bytes, retained, properties)
         self.cv = threading.Condition()
         self.c = mqtt.Client(client_id=name, protocol=mqtt.MQTTv5 if v5 else mqtt.MQTTv311)
+        if user:
+            self.c.username_pw_set(user, user + "-password")
         if tls:
             self.c.tls_set(ca_certs=tls["ca"], certfile=tls["cert"], keyfile=tls["key"])
         self.c.on_message = self._on_message
@@ -695,10 +698,80 @@ def test_tls(fx, binary, contract):
         c.close()
 
 
+README_ACL = """
+# each gateway writes its own tree and answers, reads its own command topics
+user gw-lab3
+topic write asi/lab3/#
+topic read asi/lab3/controllers/+/cmd
+topic read asi/lab3/jobs/+
+topic write clients/#
+# dashboards read everything and command nothing
+user dashboard
+topic read asi/#
+# the scheduler reads everything, commands every gateway, reads its own answers
+user scheduler
+topic read asi/#
+topic write asi/+/controllers/+/cmd
+topic write asi/+/jobs/+
+topic read clients/scheduler/#
+"""
+
+
+def test_acl(fx, binary, readme_path):
+    # The README's ACL, taken from README.md itself, with users and passwords: only the scheduler
+    # may command; the dashboard's commands never reach the gateway.
+    with open(readme_path) as f:
+        check(README_ACL.strip() in f.read(), "README.md shows this ACL")
+    acl = os.path.join(fx.tmp, "acl")
+    with open(acl, "w") as f:
+        f.write(README_ACL)
+    pw = os.path.join(fx.tmp, "passwd")
+    for i, user in enumerate(("gw-lab3", "dashboard", "scheduler")):
+        subprocess.run(["mosquitto_passwd", "-b", *(["-c"] if i == 0 else []), pw, user, user + "-password"],
+                       check=True)
+    broker = Broker(fx, "acl-broker", extra=["allow_anonymous false", f"password_file {pw}", f"acl_file {acl}"])
+    # allow_anonymous false must win over the default line
+    with open(broker.conf) as f:
+        conf = f.read().replace("allow_anonymous true\n", "")
+    with open(broker.conf, "w") as f:
+        f.write(conf)
+    broker.start()
+    gw = Gateway(fx, binary, "lab3", [f"mqtt://127.0.0.1:{broker.port}"], sims=1,
+                 mqtt_extra={"username": "gw-lab3", "password": "gw-lab3-password"})
+    dash = Client(broker.port, "dash", user="dashboard")
+    sched = Client(broker.port, "sched", user="scheduler")
+    try:
+        dash.subscribe(f"{PREFIX}/+/status")
+        sched.subscribe("clients/scheduler/#")
+        gw.start()
+        dash.wait_for("the gateway's birth, read by the dashboard", status_is(gw, "online"))
+        ans = command(sched, gw.topic("controllers", "sim1", "cmd"), {"operation": "halt", "token": TOKENS["operator"]},
+                      "clients/scheduler/replies")
+        check(ans["type"] == "result", f"the scheduler commands: {ans}")
+        # The answer would go where the scheduler listens: had the broker let the command through,
+        # the scheduler would see it.
+        mark = sched.mark()
+        dash.publish(gw.topic("controllers", "sim1", "cmd"), {"operation": "halt", "token": TOKENS["admin"]},
+                     response_topic="clients/scheduler/from-dashboard", correlation=b"d1")
+        sched.publish(gw.topic("controllers", "sim1", "cmd"), {"operation": "halt", "token": TOKENS["admin"]},
+                      response_topic="clients/scheduler/from-scheduler", correlation=b"s1")
+        sched.wait_for("the scheduler's own answer", lambda t, *_: t == "clients/scheduler/from-scheduler",
+                       start=mark)
+        time.sleep(1)
+        check(not sched.all(lambda t: t == "clients/scheduler/from-dashboard", start=mark),
+              "a dashboard command must not reach the gateway")
+        gw.proc.send_signal(signal.SIGTERM)
+        gw.proc.wait(timeout=WAIT)
+    finally:
+        dash.close()
+        sched.close()
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--gateway", required=True)
     ap.add_argument("--asyncapi", default="")
+    ap.add_argument("--readme", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "../../../README.md"))
     ap.add_argument("--only", default="", help="test names separated by ; (default: all)")
     args = ap.parse_args()
     only = set(filter(None, args.only.split(";")))
@@ -737,6 +810,7 @@ def main():
         run("Last Will on kill -9", test_last_will, gw, broker, contract)
         run("offline on a clean shutdown", test_clean_shutdown, gw_b, broker, contract)
         run("TLS with a test CA", test_tls, fx, args.gateway, contract)
+        run("the README's ACL: only the scheduler commands", test_acl, fx, args.gateway, args.readme)
         if contract.doc:
             print(f"{contract.checked} payloads validated against asyncapi.yaml")
     except Exception as e:  # noqa: BLE001
