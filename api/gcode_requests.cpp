@@ -230,6 +230,10 @@ std::optional<std::uint64_t> gcode_body_limit(const api_context& ctx, http::verb
     return std::max<std::uint64_t>(ctx.gcode_files->settings().max_file_bytes, ctx.limits.max_body_bytes);
 }
 
+std::uint64_t max_gcode_body_bytes(const api_context& ctx) {
+    return ctx.gcode_files ? ctx.gcode_files->settings().max_file_bytes : 0;
+}
+
 void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_request&& req,
                           std::string request_id, net::any_io_executor session_executor,
                           response_handler done) {

@@ -54,6 +54,9 @@ bool is_gcode_path(std::string_view path);
 std::optional<std::uint64_t> gcode_body_limit(const api_context& ctx, http::verb method,
                                               std::string_view target);
 
+// The largest of those limits (0 without a G-code store).
+std::uint64_t max_gcode_body_bytes(const api_context& ctx);
+
 void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_request&& request,
                           std::string request_id, net::any_io_executor session_executor,
                           response_handler done);

@@ -70,9 +70,12 @@ void http_session::do_read() {
     parser_.emplace();
     parser_->header_limit(
         static_cast<std::uint32_t>(std::min<std::size_t>(ctx_->limits.max_header_bytes, UINT32_MAX)));
-    parser_->body_limit(ctx_->limits.max_body_bytes);
+    // The header first: the body limit depends on the route (G-code programs may be bigger). Beast checks
+    // Content-Length against the limit while it reads the header, so that read gets the largest limit
+    // of any route; on_header narrows it to the route's.
+    body_limit_ = ctx_->limits.max_body_bytes;
+    parser_->body_limit(std::max<std::uint64_t>(body_limit_, max_gcode_body_bytes(*ctx_)));
     stream_.expires_after(ctx_->limits.read_timeout);
-    // The header first: the body limit depends on the route (G-code programs may be bigger).
     http::async_read_header(stream_, buffer_, *parser_,
                             beast::bind_front_handler(&http_session::on_header, shared_from_this()));
 }
@@ -80,7 +83,11 @@ void http_session::do_read() {
 void http_session::on_header(beast::error_code ec, std::size_t bytes) {
     if (ec) return on_read(ec, bytes);
     const auto& header = parser_->get();
-    if (auto limit = gcode_body_limit(*ctx_, header.method(), header.target())) parser_->body_limit(*limit);
+    body_limit_ =
+        gcode_body_limit(*ctx_, header.method(), header.target()).value_or(ctx_->limits.max_body_bytes);
+    if (auto length = parser_->content_length(); length && *length > body_limit_)
+        return on_read(http::error::body_limit, bytes);
+    parser_->body_limit(body_limit_);  // chunked bodies are counted as they come
     // "Expect: 100-continue" (curl sends it for bodies over 1 MiB): say go on rather than make the client
     // wait a second. Over the limit, the 413 goes out when the body read stops.
     if (beast::iequals(header[http::field::expect], "100-continue") && !parser_->is_done()) {
@@ -111,8 +118,7 @@ void http_session::on_read(beast::error_code ec, std::size_t) {
         method_ = std::string(header.method_string());
         problem p = ec == http::error::body_limit
                         ? make_problem(http_error::payload_too_large,
-                                       "the body is larger than " +
-                                           std::to_string(ctx_->limits.max_body_bytes) + " bytes")
+                                       "the body is larger than " + std::to_string(body_limit_) + " bytes")
                     : ec == http::error::header_limit
                         ? make_problem(http_error::header_too_large,
                                        "the headers are larger than " +

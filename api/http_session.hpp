@@ -54,6 +54,7 @@ class http_session : public std::enable_shared_from_this<http_session> {
     bool reject_;
     std::uint64_t id_ = 0;  // in the listener's table; 0 = not tracked
     std::optional<http::request_parser<http::string_body>> parser_;
+    std::uint64_t body_limit_ = 0;  // of the request being read (its route's)
     std::shared_ptr<void> response_;
     std::size_t lingered_ = 0;  // bytes discarded after the response, before closing  // the message being
                                 // written (kept alive during async_write)
