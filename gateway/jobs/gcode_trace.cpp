@@ -119,6 +119,7 @@ segment_commands trace_commander::segment(const gcode::vec3& to, double feed_mm_
             speeds_[axis] = v;
     }
     std::vector<ms::axis_position> targets;
+    targets.reserve(out.target_mm.size());
     for (const auto& [axis, mm] : out.target_mm)
         targets.push_back({axis, mm * 1000.0});
     out.move = move_text(targets);
@@ -129,6 +130,7 @@ segment_commands trace_commander::segment(const gcode::vec3& to, double feed_mm_
 
 std::string speed_command_text(const std::map<char, double>& mm_s) {
     std::vector<ms::argument> args;
+    args.reserve(mm_s.size());
     for (const auto& [axis, v] : mm_s)
         args.push_back(set_arg(axis, v, speed_decimals));
     return command_text("SPEED", args);
