@@ -155,7 +155,7 @@ string_response plan_response(std::istream& in, const gcode_query& q, const repl
     if (buf.overflowed())
         return error_of(make_error(operation_error_kind::invalid_value,
                                    "the plan of " + std::to_string(summary.moves) + " moves is larger than " +
-                                       std::to_string(max_plan_response_bytes / (1024 * 1024)) +
+                                       std::to_string(max_plan_response_bytes / (std::size_t{1024} * 1024)) +
                                        " MiB: ask for moves=false (the summary), or plan with "
                                        "`asi-gateway gcode plan`",
                                    "moves"),
@@ -240,7 +240,7 @@ void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_reques
     const std::string path(target_path(req.target()));
     const auto method = req.method();
     const auto seg = split(std::string_view(path).substr(gcode_prefix.size()));
-    reply_meta meta{req.version(), req.keep_alive(), std::string(req.target()), request_id};
+    reply_meta meta{req.version(), req.keep_alive(), std::string(req.target()), std::move(request_id)};
 
     auto reply = [&](const std::string& route, string_response res) { done({std::move(res), route}); };
     auto fail = [&](const std::string& route, problem p) { reply(route, problem_of(std::move(p), meta)); };
@@ -287,7 +287,7 @@ void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_reques
             fail(route, make_problem(parsed.error()));
             return std::nullopt;
         }
-        return std::move(*parsed);
+        return *parsed;
     };
     // The blocking part on the worker thread; its response back on the session's executor.
     auto run_blocking = [&](const std::string& route, auto work) {
@@ -322,7 +322,7 @@ void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_reques
         if (!methods_ok(route, {http::verb::post}) || !authorize(route, gw::role::viewer)) return;
         auto q = output_query(route, plan ? gcode_output::plan : gcode_output::preview);
         if (!q) return;
-        return run_blocking(route, [body = std::move(req.body()), q = std::move(*q), meta, plan]() {
+        return run_blocking(route, [body = std::move(req.body()), q = *q, meta, plan]() {
             view_buf buf(body);
             std::istream in(&buf);
             return plan ? plan_response(in, q, meta) : preview_response(in, q, meta);
@@ -407,7 +407,7 @@ void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_reques
             if (!q) return;
             auto store = need_store(route);
             if (!store) return;
-            return run_blocking(route, [store, id, q = std::move(*q), meta, plan]() {
+            return run_blocking(route, [store, id, q = *q, meta, plan]() {
                 auto opened = open_file(*store, id, meta);
                 if (auto* res = std::get_if<string_response>(&opened)) return std::move(*res);
                 auto& in = std::get<std::ifstream>(opened);

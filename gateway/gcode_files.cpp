@@ -143,7 +143,7 @@ operation_result<gcode_file_info> gcode_file_store::save(std::istream& program, 
     temp_file program_tmp(settings_.directory / ("." + info.id + ".gcode.tmp"));
     if (int err = program_tmp.open())
         return storage_error("cannot write " + program_tmp.path().string(), err);
-    std::array<char, 64 * 1024> buf{};
+    std::array<char, std::size_t{64} * 1024> buf{};
     char last = '\n';
     while (program) {
         program.read(buf.data(), buf.size());
