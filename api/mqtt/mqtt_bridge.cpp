@@ -79,10 +79,10 @@ void mqtt_bridge::start() {
     h.connected = [weak] {
         if (auto self = weak.lock()) self->on_connected();
     };
-    h.disconnected = [weak](std::string) {
+    h.disconnected = [weak](const std::string&) {
         if (auto self = weak.lock()) self->on_disconnected();
     };
-    h.message = [weak](mqtt_message_in in) {
+    h.message = [weak](const mqtt_message_in& in) {
         auto self = weak.lock();
         if (self && self->commands_ && !self->stopped_) self->commands_->handle(in);
     };
@@ -93,9 +93,9 @@ void mqtt_bridge::start() {
     client_ = mqtt_client::create(strand_, c, client_id, std::move(will), std::move(h), log_);
     if (c.commands_enabled && !ctx_->auth.tokens.empty()) {
         commands_ = std::make_shared<mqtt_commands>(ctx_, topics_, c.qos.responses, strand_,
-                                                    [weak](mqtt_message_out m) {
+                                                    [weak](const mqtt_message_out& m) {
                                                         if (auto self = weak.lock())
-                                                            self->send(std::move(m), "response");
+                                                            self->send(m, "response");
                                                     });
     }
     net::post(strand_, [self = shared_from_this()] {
@@ -141,7 +141,7 @@ void mqtt_bridge::async_stop(std::function<void()> done) {
             self->settings_.config.qos.status,
             true,
             {}};
-        self->client_->stop(std::move(offline), std::chrono::milliseconds(2000),
+        self->client_->stop(offline, std::chrono::milliseconds(2000),
                             [self, done = std::move(done), work = std::move(work)]() mutable {
                                 if (self->ctx_->metrics) self->ctx_->metrics->set("gw_mqtt_connected", {}, 0);
                                 if (self->log_) self->log_->info("offline published, disconnected");
@@ -152,9 +152,8 @@ void mqtt_bridge::async_stop(std::function<void()> done) {
 }
 
 void mqtt_bridge::deliver(std::vector<std::shared_ptr<const event>> batch) {
-    net::post(strand_, [self = shared_from_this(), batch = std::move(batch)]() mutable {
-        self->on_deliver(std::move(batch));
-    });
+    net::post(strand_,
+              [self = shared_from_this(), batch = std::move(batch)]() mutable { self->on_deliver(batch); });
 }
 
 void mqtt_bridge::close(std::string reason) {
@@ -186,7 +185,7 @@ void mqtt_bridge::on_connected() {
                  "state");
     // Job state changes from while we were away, in order; then every tracked job again (retained).
     while (!job_queue_.empty()) {
-        send(std::move(job_queue_.front()), "jobs");
+        send(job_queue_.front(), "jobs");
         job_queue_.pop_front();
     }
     if (ctx_->metrics) ctx_->metrics->set("gw_mqtt_job_queue", {}, 0);
@@ -216,7 +215,7 @@ void mqtt_bridge::publish_birth() {
     send({topics_.status(), birth_payload(b), settings_.config.qos.status, true, {}}, "status");
 }
 
-void mqtt_bridge::on_deliver(std::vector<std::shared_ptr<const event>> batch) {
+void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& batch) {
     if (stopped_) return;
     const auto& qos = settings_.config.qos;
     for (const auto& e : batch) {
@@ -307,7 +306,7 @@ void mqtt_bridge::publish_job(const std::string& id, const tracked_job& job) {
     mqtt_message_out m{
         topics_.job_state(id), job.state.payload(job.seq, job.time), settings_.config.qos.jobs, true, {}};
     if (client_->connected())
-        send(std::move(m), "jobs");
+        send(m, "jobs");
     else
         queue_job_message(std::move(m));
 }
@@ -316,7 +315,7 @@ void mqtt_bridge::clear_job(const std::string& id) {
     // An empty retained message deletes the retained state at the broker.
     mqtt_message_out m{topics_.job_state(id), "", settings_.config.qos.jobs, true, {}};
     if (client_->connected())
-        send(std::move(m), "jobs");
+        send(m, "jobs");
     else
         queue_job_message(std::move(m));
     jobs_.erase(id);
@@ -331,7 +330,7 @@ void mqtt_bridge::queue_job_message(mqtt_message_out m) {
     if (ctx_->metrics) ctx_->metrics->set("gw_mqtt_job_queue", {}, static_cast<double>(job_queue_.size()));
 }
 
-bool mqtt_bridge::send(mqtt_message_out m, std::string_view kind) {
+bool mqtt_bridge::send(const mqtt_message_out& m, std::string_view kind) {
     if (client_ && client_->publish(m)) {
         if (ctx_->metrics) ctx_->metrics->increment("gw_mqtt_published_total", {{"kind", std::string(kind)}});
         return true;

@@ -92,7 +92,7 @@ class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_
 
     void on_connected();
     void on_disconnected();
-    void on_deliver(std::vector<std::shared_ptr<const event>> batch);
+    void on_deliver(const std::vector<std::shared_ptr<const event>>& batch);
     void on_state(const std::string& id, const std::shared_ptr<const event>& e);
     void on_job(const std::string& id, const std::shared_ptr<const event>& e);
     void publish_birth();
@@ -100,7 +100,7 @@ class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_
     void clear_job(const std::string& id);
     void flush_reports();
     void queue_job_message(mqtt_message_out m);
-    bool send(mqtt_message_out m, std::string_view kind);
+    bool send(const mqtt_message_out& m, std::string_view kind);
     void drop(std::string_view kind, std::uint64_t n = 1);
     void maybe_request_more();
     void subscribe_hub();

@@ -132,10 +132,11 @@ void mqtt_client::install_callbacks() {
         std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
             if (!ok && c.log_) c.log_->error("subscribe refused: {}", what);
         });
-    disconnect_listener_ = std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool, std::string) {
-        c.connected_ = false;
-        if (auto done = std::exchange(c.stop_done_, nullptr)) done();
-    });
+    disconnect_listener_ =
+        std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool, const std::string&) {
+            c.connected_ = false;
+            if (auto done = std::exchange(c.stop_done_, nullptr)) done();
+        });
     auto s = strand_;
     cli_->set_connection_lost_handler([weak, s](const std::string& cause) {
         net::post(s, [weak, cause] {
@@ -148,7 +149,7 @@ void mqtt_client::install_callbacks() {
                 self->on_lost("the broker disconnected us (reason " + std::to_string(int(rc)) + ")");
         });
     });
-    cli_->set_message_callback([weak, s](mqtt::const_message_ptr msg) {
+    cli_->set_message_callback([weak, s](const mqtt::const_message_ptr& msg) {
         if (!msg) return;
         mqtt_message_in in;
         in.topic = msg->get_topic();
@@ -253,7 +254,8 @@ void mqtt_client::subscribe(const std::vector<std::string>& filters, int qos) {
     }
 }
 
-void mqtt_client::stop(mqtt_message_out last, std::chrono::milliseconds timeout, std::function<void()> done) {
+void mqtt_client::stop(const mqtt_message_out& last, std::chrono::milliseconds timeout,
+                       std::function<void()> done) {
     retry_timer_.cancel();
     if (!connected_) {
         stopping_ = true;

@@ -76,7 +76,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     void subscribe(const std::vector<std::string>& filters, int qos);
     // Publishes `last` (if connected), disconnects (waiting up to `timeout` for in-flight messages),
     // stops reconnecting and calls `done` on the strand.
-    void stop(mqtt_message_out last, std::chrono::milliseconds timeout, std::function<void()> done);
+    void stop(const mqtt_message_out& last, std::chrono::milliseconds timeout, std::function<void()> done);
 
   private:
     class listener;

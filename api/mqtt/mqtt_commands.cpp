@@ -93,7 +93,7 @@ void mqtt_commands::handle(const mqtt_message_in& in) {
     run(request, *who, to);
 }
 
-void mqtt_commands::run(mqtt_request& request, const auth_identity& who, reply_target to) {
+void mqtt_commands::run(mqtt_request& request, const auth_identity& who, const reply_target& to) {
     const auto request_id = mqtt_request_id(request.id);
     const std::string topic = request.target.kind == mqtt_command_kind::controller
                                   ? topics_.controller(request.target.controller, "cmd")

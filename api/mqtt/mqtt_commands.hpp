@@ -49,7 +49,7 @@ class mqtt_commands : public std::enable_shared_from_this<mqtt_commands> {
         std::string correlation_data;
     };
     reply_target reply_for(const mqtt_message_in& in, const std::optional<std::string>& reply_to) const;
-    void run(mqtt_request& request, const auth_identity& who, reply_target to);
+    void run(mqtt_request& request, const auth_identity& who, const reply_target& to);
     void answer(const reply_target& to, std::string payload, std::string_view outcome);
     void answer_error(const reply_target& to, const nlohmann::json& id, problem p, std::string_view topic);
     void count(std::string_view outcome);

@@ -71,7 +71,7 @@ boost::system::result<mqtt_request, mqtt_request_error> parse_mqtt_request(const
         msg["op"] = "job";
         msg["action"] = std::string(to_string(target.kind));
     }
-    auto parsed = parse_client_message(msg);
+    auto parsed = parse_client_json(msg);
     if (!parsed) {
         auto e = std::move(parsed.error());
         e.error.instance = std::string(topic);
