@@ -248,10 +248,10 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_client_message
         p.instance = std::string(websocket_path);
         return ws_protocol_error{json(), std::move(p)};
     }
-    return parse_client_message(msg);
+    return parse_client_json(msg);
 }
 
-boost::system::result<ws_client_message, ws_protocol_error> parse_client_message(const json& msg) {
+boost::system::result<ws_client_message, ws_protocol_error> parse_client_json(const json& msg) {
     if (!msg.is_object()) {
         auto p = make_problem(http_error::malformed_json, "a message must be a JSON object");
         p.instance = std::string(websocket_path);

@@ -96,7 +96,7 @@ struct ws_protocol_error {
 boost::system::result<ws_client_message, ws_protocol_error> parse_client_message(std::string_view text);
 // The same for a message already parsed (the MQTT command topics build theirs from a payload and the
 // topic); `msg` that is not an object is malformed_json.
-boost::system::result<ws_client_message, ws_protocol_error> parse_client_message(const nlohmann::json& msg);
+boost::system::result<ws_client_message, ws_protocol_error> parse_client_json(const nlohmann::json& msg);
 
 // A binary frame (the protocol is text only).
 ws_protocol_error binary_frame_error();
