@@ -140,6 +140,9 @@ class Fixture:
         """Writes `config`, starts the gateway (with `extra_args` after --config) with its output in a
         log file and waits until /api/v1/ready answers 200. Returns the process. Called again after
         the gateway stopped (a restart), the log continues in the same file."""
+        # Every test gateway gets its own job store: one gateway per storage directory (storage lock).
+        config = dict(config)
+        config.setdefault("storage", {"path": os.path.join(self.tmp, "store")})
         cfg = os.path.join(self.tmp, "gateway.json")
         with open(cfg, "w") as f:
             json.dump(config, f)
@@ -151,7 +154,16 @@ class Fixture:
                                         stderr=subprocess.STDOUT)
         self.procs.append(self.gateway)
         port = config["http"]["port"]
-        wait_until("gateway ready", lambda: http_request(port, "GET", "/api/v1/ready", token=None)[0] == 200)
+        proc = self.gateway
+
+        def ready():
+            if proc.poll() is not None:  # exited at start-up: say why instead of waiting
+                with open(self.log_path) as log:
+                    tail = log.read()[-2000:]
+                raise Failure(f"the gateway exited with {proc.returncode} at start-up:\n{tail}")
+            return http_request(port, "GET", "/api/v1/ready", token=None)[0] == 200
+
+        wait_until("gateway ready", ready)
         return self.gateway
 
     def expect_exit_0(self):
