@@ -23,7 +23,6 @@ library only; run with Debian's /usr/bin/python3 (see bench/README.md).
 
 import argparse
 import datetime
-import http.client
 import json
 import math
 import os
@@ -35,6 +34,8 @@ import sys
 import tempfile
 import threading
 import time
+
+from bench_gateway import Gateway, parse_time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -169,12 +170,6 @@ def distance_to_path(path, x, y, ttl=None):
 
 # --- processes --------------------------------------------------------------------------------------
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 class Simulator:
     def __init__(self, binary, workdir, time_scale):
         self.link = os.path.join(workdir, "sim", "port")
@@ -224,61 +219,6 @@ class Recorder(threading.Thread):
         self.join(10)
         return self.samples
 
-
-class Gateway:
-    def __init__(self, binary, workdir, sim_port):
-        self.port = free_port()
-        config = {
-            "http": {"listen_address": "127.0.0.1", "port": self.port},
-            "controllers": [{"id": "trace", "port": sim_port, "baud": 115200}],
-            "storage": {"path": os.path.join(workdir, "data")},
-            "logging": {"level": "warn"},
-        }
-        cfg = os.path.join(workdir, "gateway.json")
-        with open(cfg, "w") as f:
-            json.dump(config, f)
-        self.log_path = os.path.join(workdir, "gateway.log")
-        self.log = open(self.log_path, "w")
-        self.proc = subprocess.Popen([binary, "--config", cfg], stdout=self.log, stderr=subprocess.STDOUT)
-
-    def request(self, method, path, body=None, timeout=60):
-        conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout)
-        data = json.dumps(body) if body is not None else None
-        conn.request(method, path, body=data, headers={"Content-Type": "application/json"} if data else {})
-        r = conn.getresponse()
-        text = r.read().decode()
-        conn.close()
-        try:
-            return r.status, json.loads(text) if text else None
-        except ValueError:
-            return r.status, text
-
-    def wait_ready(self, timeout=90):
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                raise RuntimeError(f"the gateway exited with {self.proc.returncode}; see {self.log_path}")
-            try:
-                if self.request("GET", "/api/v1/ready", timeout=5)[0] == 200:
-                    return
-            except (OSError, http.client.HTTPException):
-                pass
-            time.sleep(0.2)
-        raise RuntimeError("the gateway did not become ready")
-
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(30)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self.log.close()
-
-
-def parse_time(text):
-    return datetime.datetime.fromisoformat(text.replace("Z", "+00:00")).timestamp() if text else None
 
 
 def run_case(gw, sim, name, make, time_scale, timeout):
@@ -392,7 +332,7 @@ def main():
     rows = []
     try:
         sim = Simulator(args.sim, workdir, args.time_scale)
-        gw = Gateway(args.gateway, workdir, sim.link)
+        gw = Gateway(args.gateway, workdir, {"controllers": [{"id": "trace", "port": sim.link, "baud": 115200}]})
         gw.wait_ready()
         for name, make in CASES:
             row = run_case(gw, sim, name, make, args.time_scale, timeout=600)

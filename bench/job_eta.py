@@ -17,15 +17,15 @@ only; run with Debian's /usr/bin/python3 (see bench/README.md).
 import argparse
 import datetime
 import http.client
-import json
 import os
 import platform
 import shutil
-import socket
 import subprocess
 import sys
 import tempfile
 import time
+
+from bench_gateway import Gateway, parse_time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -62,75 +62,6 @@ CASES = [
      {"action": "set", "points": [{"X": 0, "Y": 0, "Z": 0}, {"X": 20000, "Y": 0, "Z": 50},
                                   {"X": 0, "Y": -20000, "Z": -30}], "enable": True}),
 ]
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-class Gateway:
-    def __init__(self, binary, time_scale, workdir):
-        self.port = free_port()
-        self.workdir = workdir
-        config = {
-            "http": {"listen_address": "127.0.0.1", "port": self.port},
-            "simulate": {"count": 3, "time_scale": time_scale, "directory": os.path.join(workdir, "sims")},
-            "storage": {"path": os.path.join(workdir, "data")},
-            "logging": {"level": "warn"},
-        }
-        cfg = os.path.join(workdir, "gateway.json")
-        with open(cfg, "w") as f:
-            json.dump(config, f)
-        self.log_path = os.path.join(workdir, "gateway.log")
-        self.log = open(self.log_path, "w")
-        self.proc = subprocess.Popen([binary, "--config", cfg], stdout=self.log, stderr=subprocess.STDOUT)
-
-    def request(self, method, path, body=None, timeout=60):
-        conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout)
-        headers = {}
-        data = None
-        if body is not None:
-            data = json.dumps(body)
-            headers["Content-Type"] = "application/json"
-        conn.request(method, path, body=data, headers=headers)
-        r = conn.getresponse()
-        text = r.read().decode()
-        conn.close()
-        try:
-            return r.status, json.loads(text) if text else None
-        except ValueError:
-            return r.status, text
-
-    def wait_ready(self, timeout=90):
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                raise RuntimeError(f"the gateway exited with {self.proc.returncode}; see {self.log_path}")
-            try:
-                if self.request("GET", "/api/v1/ready", timeout=5)[0] == 200:
-                    return
-            except (OSError, http.client.HTTPException):
-                pass
-            time.sleep(0.2)
-        raise RuntimeError("the gateway did not become ready")
-
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(30)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self.log.close()
-
-
-def parse_time(text):
-    if not text:
-        return None
-    return datetime.datetime.fromisoformat(text.replace("Z", "+00:00")).timestamp()
 
 
 def problem_text(status, body):
@@ -307,7 +238,8 @@ def main():
     workdir = tempfile.mkdtemp(prefix="gw-bench-")
     started = datetime.datetime.utcnow().strftime("%Y-%m-%d %H:%M")
     t0 = time.monotonic()
-    gw = Gateway(args.gateway, args.time_scale, workdir)
+    gw = Gateway(args.gateway, workdir, {
+        "simulate": {"count": 3, "time_scale": args.time_scale, "directory": os.path.join(workdir, "sims")}})
     rows = []
     try:
         gw.wait_ready()
