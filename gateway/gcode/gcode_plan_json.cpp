@@ -16,12 +16,18 @@ void write_point(std::ostream& out, const vec3& p) {
 
 std::string json_number(double v) {
     if (!std::isfinite(v)) return "null";
+    return trimmed_fixed(v, 6);
+}
+
+std::string trimmed_fixed(double v, int decimals) {
     char buf[64];
-    std::snprintf(buf, sizeof buf, "%.6f", v);
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
     std::string s(buf);
-    while (s.back() == '0')
-        s.pop_back();
-    if (s.back() == '.') s.pop_back();
+    if (s.find('.') != std::string::npos) {  // trailing zeros of the fraction only
+        while (s.back() == '0')
+            s.pop_back();
+        if (s.back() == '.') s.pop_back();
+    }
     if (s == "-0") s = "0";
     return s;
 }

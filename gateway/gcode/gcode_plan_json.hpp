@@ -43,5 +43,7 @@ bool write_plan_json(std::istream& in, const gcode_options& options, std::ostrea
 std::string json_string(std::string_view text);
 // A JSON number as the plan writes it ("12.5", "0", "-0.001").
 std::string json_number(double value);
+// `value` with at most `decimals` decimals, trailing zeros dropped, never "-0" (json_number uses 6).
+std::string trimmed_fixed(double value, int decimals);
 
 }  // namespace gw::gcode

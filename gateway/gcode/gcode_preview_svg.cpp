@@ -7,6 +7,7 @@
 #include <variant>
 
 #include "gateway/gcode/gcode_arc.hpp"
+#include "gateway/gcode/gcode_plan_json.hpp"
 
 namespace gw::gcode {
 
@@ -28,14 +29,7 @@ const char* class_name(int s) {
 }
 
 std::string px(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.2f", v);
-    std::string s(buf);
-    while (s.back() == '0')
-        s.pop_back();
-    if (s.back() == '.') s.pop_back();
-    if (s == "-0") s = "0";
-    return s;
+    return trimmed_fixed(v, 2);
 }
 
 std::optional<double> parse_number(const std::string& text) {
