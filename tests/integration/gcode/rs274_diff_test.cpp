@@ -10,6 +10,7 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <unistd.h>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -63,10 +64,15 @@ std::vector<double> args_of(const std::string& line, const std::string& call) {
 }
 
 // The canonical calls of rs274, in millimetres, zero-length straight moves dropped (the planner drops them).
+// rs274 maps its tool table into $HOME/.tool.mmap, so every run gets its own home: parallel runs
+// sharing one truncate each other's mapping and die of SIGBUS with no output.
 std::vector<reference_move> reference(const std::string& rs274, const fs::path& program,
-                                      const fs::path& tools) {
+                                      const fs::path& home) {
     std::vector<reference_move> moves;
-    const std::string out = run(rs274 + " -g -t " + tools.string() + " " + program.string() + " 2>/dev/null");
+    const fs::path tools = home / "tool.tbl";
+    std::ofstream(tools) << "T1 P1 Z0 D0.125 ;dummy\n";
+    const std::string out = run("HOME=" + home.string() + " " + rs274 + " -g -t " + tools.string() + " " +
+                                program.string() + " 2>/dev/null");
     double scale = 1;
     arc_plane plane = arc_plane::xy;
     vec3 at{};
@@ -124,10 +130,11 @@ class rs274_diff_test : public ::testing::TestWithParam<fs::path> {};
 TEST_P(rs274_diff_test, agrees_with_linuxcnc) {
     const std::string rs274 = rs274_path();
     if (rs274.empty()) GTEST_SKIP() << "rs274 not installed (Debian package linuxcnc-uspace)";
-    const fs::path tools = fs::temp_directory_path() / "gw_gcode_rs274_tool.tbl";
-    std::ofstream(tools) << "T1 P1 Z0 D0.125 ;dummy\n";
-
-    const auto expected = reference(rs274, GetParam(), tools);
+    const fs::path home = fs::temp_directory_path() /
+                          ("gw_rs274_" + std::to_string(::getpid()) + "_" + GetParam().stem().string());
+    fs::create_directories(home);
+    const auto expected = reference(rs274, GetParam(), home);
+    fs::remove_all(home);
     ASSERT_FALSE(expected.empty()) << "rs274 printed no motion for " << GetParam();
 
     std::ifstream in(GetParam());
