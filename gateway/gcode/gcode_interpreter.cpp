@@ -270,9 +270,7 @@ std::optional<gcode_error> gcode_interpreter::execute(const gcode_block& block,
     }
     if (c.g_word[g_distance] != nullptr) absolute_ = c.g_code[g_distance] == 90;
     if (c.g_word[g_polar] != nullptr) {
-        const bool polar = c.g_code[g_polar] == 16;
-        if (polar && !polar_) polar_angle_deg_ = 0;
-        polar_ = polar;
+        polar_ = c.g_code[g_polar] == 16;
     }
     if (c.f != nullptr) feed_mm_min_ = c.f->value * (inches_ ? mm_per_inch : 1.0);
     if (c.g_word[g_motion] != nullptr) motion_mode_ = c.g_code[g_motion];
@@ -368,7 +366,9 @@ std::optional<gcode_error> gcode_interpreter::motion(const gcode_block& block, c
     }
     if (polar_) {
         // Plane's first axis word = radius, second = angle (degrees, CCW from the + first axis).
-        // G90: the pole is the work zero; G91: the current position, and the angle adds to the last one.
+        // The pole follows the radius word: absolute or omitted -> the work zero, incremental (G91) -> the
+        // current position. An omitted radius is the current distance from the work zero; the angle (or,
+        // under G91, the angle increment's base) is the current position's angle about the work zero.
         const gcode_word* rw = c.axis[first_axis[plane_index]];
         const gcode_word* aw = c.axis[second_axis[plane_index]];
         if (analog && plane_ != arc_plane::xy) {
@@ -377,20 +377,17 @@ std::optional<gcode_error> gcode_interpreter::motion(const gcode_block& block, c
         }
         if (rw != nullptr || aw != nullptr) {
             const plane_point s = to_plane(start, plane_);
-            double radius = 0;
-            double angle_deg = 0;
+            const double present_deg = std::atan2(s.b, s.a) * 180 / std::numbers::pi;
+            double radius = std::hypot(s.a, s.b);
+            double angle_deg = present_deg;
             double pole_a = 0;
             double pole_b = 0;
-            if (absolute_) {
-                radius = rw != nullptr ? length(*rw) : std::hypot(s.a, s.b);
-                angle_deg = aw != nullptr ? angle(*aw) : std::atan2(s.b, s.a) * 180 / std::numbers::pi;
-            } else {
+            if (rw != nullptr) radius = length(*rw);
+            if (aw != nullptr) angle_deg = absolute_ ? angle(*aw) : present_deg + angle(*aw);
+            if (!absolute_ && rw != nullptr) {
                 pole_a = s.a;
                 pole_b = s.b;
-                radius = rw != nullptr ? length(*rw) : 0.0;
-                angle_deg = polar_angle_deg_ + (aw != nullptr ? angle(*aw) : 0.0);
             }
-            polar_angle_deg_ = angle_deg;
             const double rad = angle_deg * std::numbers::pi / 180;
             plane_point e = to_plane({target[0], target[1], target[2]}, plane_);
             e.a = pole_a + radius * std::cos(rad);

@@ -62,7 +62,6 @@ class gcode_interpreter {
     bool ttl_ = false;
     double analog_z_mm_ = 0;          // analog mode: the programmed Z (mm, not scaled)
     std::optional<double> analog_v_;  // the last voltage set
-    double polar_angle_deg_ = 0;      // the last polar angle (G91 G16 adds to it)
     int line_ = 0;                    // the line of the block being executed
     bool moved_ = false;
     bool ended_ = false;

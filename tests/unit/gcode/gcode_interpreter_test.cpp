@@ -508,7 +508,8 @@ TEST(interpreter, polar_mapping_per_plane_47) {
 }
 
 TEST(interpreter, polar_pole_48) {
-    // G91: the pole is the current position; the angle adds to the last polar angle.
+    // G91 with a radius: the pole is the current position; the angle adds to the current position's
+    // angle (more cases in gcode_polar_incremental_test.cpp).
     auto p = plan("G91 G16 G01 X20. Y20. F60\nX20. Y20.\n");
     ASSERT_TRUE(p.ok());
     const double a = 20 * std::numbers::pi / 180;
