@@ -78,6 +78,13 @@ class capped_buf final : public std::streambuf {
     bool overflowed_ = false;
 };
 
+// For messages and fields: the text itself when printable and short, else "..." (a query string is
+// the client's: control characters or a kilobyte of name do not go into the problem).
+std::string shown(std::string_view s) {
+    const bool printable = std::all_of(s.begin(), s.end(), [](char c) { return c > 0x20 && c < 0x7f; });
+    return s.size() <= 64 && printable ? std::string(s) : "...";
+}
+
 // What a response needs from its request once the request itself is gone (worker thread).
 struct reply_meta {
     unsigned version = 11;
@@ -195,6 +202,9 @@ std::vector<std::string_view> split(std::string_view path) {
 
 operation_result<gcode_query> parse_gcode_query(const query_params& q, gcode_output output) {
     gcode_query r;
+    auto bad_value = [](const std::string& name, const std::string& why, const std::string& value) {
+        return make_error(operation_error_kind::invalid_value, why + ", not \"" + shown(value) + "\"", name);
+    };
     for (const auto& [name, value] : q) {
         if (output == gcode_output::plan && name == "moves") {
             auto flag = query_flag(q, "moves", true);
@@ -205,15 +215,26 @@ operation_result<gcode_query> parse_gcode_query(const query_params& q, gcode_out
         if (output == gcode_output::preview) {
             auto p = gcode::set_preview_option(r.preview, name, value);
             if (p.known) {
-                if (p.error) return make_error(operation_error_kind::invalid_value, *p.error, name);
+                if (p.error) return bad_value(name, *p.error, value);
                 continue;
             }
         }
-        if (auto why = gcode::set_option(r.options, name, value))
-            return make_error(operation_error_kind::invalid_value, name + ": " + *why, name);
+        if (auto why = gcode::set_option(r.options, name, value)) {
+            if (why->starts_with("unknown option"))  // set_option's word for a name it lacks
+                return make_error(
+                    operation_error_kind::invalid_value,
+                    "unknown parameter \"" + shown(name) + "\" (known: " +
+                        (output == gcode_output::plan ? "moves" : "view, width_px, max_points") +
+                        " and the G-code options of gateway/gcode/README.md)",
+                    shown(name));
+            return bad_value(name, *why, value);
+        }
     }
     if (auto why = gcode::validate(r.options)) {
-        const std::string field = why->substr(0, why->find(' '));  // messages start with the option
+        // Messages start with the option; a pair given half names the missing half.
+        std::string field = why->substr(0, why->find(' '));
+        if (why->ends_with("must be given together"))
+            field = query_value(q, "analog_low_um") ? "analog_high_um" : "analog_low_um";
         return make_error(operation_error_kind::invalid_value, *why, field);
     }
     return r;
