@@ -42,6 +42,8 @@ std::optional<std::string> validate(const gcode_options& o) {
     }
     if (!non_negative(o.ramp_ms)) return "ramp_ms must be >= 0";
     if (!non_negative(o.settle_ms)) return "settle_ms must be >= 0";
+    if (o.host.baud == 0) return "baud must be > 0";
+    if (!non_negative(o.host.arrival_poll_ms)) return "arrival_poll_ms must be >= 0";
     if (o.max_line_chars < 16) return "max_line_chars must be >= 16";
     return std::nullopt;
 }
@@ -77,6 +79,13 @@ std::optional<std::string> set_option(gcode_options& o, const std::string& name,
         }
         return std::nullopt;
     }
+    if (name == "baud") {
+        const auto v = parse_number(value);
+        if (!v || !(*v >= 1 && *v <= 10'000'000) || std::floor(*v) != *v)
+            return "baud must be a whole number > 0";
+        o.host.baud = static_cast<unsigned>(*v);
+        return std::nullopt;
+    }
     double* target = nullptr;
     std::optional<double>* optional_target = nullptr;
     if (name == "xyz_scale") target = &o.xyz_scale;
@@ -89,6 +98,7 @@ std::optional<std::string> set_option(gcode_options& o, const std::string& name,
     if (name == "arc_r_deficit_tolerance_mm") target = &o.arc_r_deficit_tolerance_mm;
     if (name == "ramp_ms") target = &o.ramp_ms;
     if (name == "settle_ms") target = &o.settle_ms;
+    if (name == "arrival_poll_ms") target = &o.host.arrival_poll_ms;
     if (name == "analog_low_um") optional_target = &o.analog_low_um;
     if (name == "analog_high_um") optional_target = &o.analog_high_um;
     if (target == nullptr && optional_target == nullptr) return "unknown option " + name;

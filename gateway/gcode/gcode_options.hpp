@@ -7,6 +7,8 @@
 #include <optional>
 #include <string>
 
+#include "devices/ms2000/host_step_timing.hpp"
+
 namespace gw::gcode {
 
 // How a coordinate written without a decimal point is read ("X1000").
@@ -49,6 +51,10 @@ struct gcode_options {
     // The per-move time model (gw::jobs::motion_model defaults): trapezoid with this ramp, then settle.
     double ramp_ms = 20;
     double settle_ms = 14;
+    // The host's cost per segment (devices/ms2000/host_step_timing): each straight segment is one MOVE
+    // (after a SPEED when the speeds change) and the host polls STATUS until it has ended. Without a
+    // controller (`gcode plan`) the defaults: 115200 baud, STATUS every 20 ms.
+    devices::ms2000::host_link_timing host;
 
     std::size_t max_line_chars = 4096;  // longer lines are an error, never truncated
 };
@@ -60,7 +66,7 @@ std::optional<std::string> validate(const gcode_options& options);
 //   xyz_scale, speed_scale, arc_tolerance_mm, max_feed_mm_s, rapid_mm_s, decimal_point
 //   (calculator|least_increment), arc_radius_tolerance_mm, arc_radius_relative_tolerance,
 //   arc_r_deficit_tolerance_mm, z_mode (axis|analog), analog_low_um, analog_high_um,
-//   analog_range (clamp|error), ramp_ms, settle_ms.
+//   analog_range (clamp|error), ramp_ms, settle_ms, baud, arrival_poll_ms.
 // Nullopt on success, otherwise the reason. Call validate() after the last one.
 std::optional<std::string> set_option(gcode_options& options, const std::string& name,
                                       const std::string& value);

@@ -4,17 +4,22 @@
 #include <cmath>
 #include <numbers>
 
+#include "devices/ms2000/host_step_timing.hpp"
 #include "devices/ms2000/motion_profile.hpp"
 
 namespace gw::gcode {
 
 namespace {
 
-double segment_seconds(double length_mm, double speed_mm_s, const gcode_options& o) {
+double motion_seconds(double length_mm, double speed_mm_s, const gcode_options& o) {
     if (length_mm <= 0) return 0;
     return devices::ms2000::move_time_s(length_mm, speed_mm_s, o.ramp_ms) +
            devices::ms2000::settle_after_move_ms(length_mm, o.settle_ms) / 1000.0;
 }
+
+// "TTL Y=1", "WRDAC X=2.500": one command each.
+constexpr std::size_t ttl_chars = 7;
+constexpr std::size_t wrdac_chars = 13;
 
 class null_sink final : public move_sink {
   public:
@@ -23,11 +28,20 @@ class null_sink final : public move_sink {
 
 }  // namespace
 
+double straight_segment_seconds(double length_mm, double speed_mm_s, const gcode_options& o,
+                                bool with_speed) {
+    if (length_mm <= 0) return 0;
+    return motion_seconds(length_mm, speed_mm_s, o) +
+           devices::ms2000::host_move_overhead_s(o.host, with_speed);
+}
+
 double estimate_seconds(const planned_move& m, const gcode_options& o) {
+    namespace ms = devices::ms2000;
     switch (m.kind) {
         case move_kind::rapid:
         case move_kind::linear:
-            return segment_seconds(distance(m.start, m.end), m.feed_mm_s, o);
+            // One SPEED (the direction or the feed changes), then one MOVE.
+            return straight_segment_seconds(distance(m.start, m.end), m.feed_mm_s, o, true);
         case move_kind::arc: {
             if (m.segments == 0) return 0;
             const auto n = static_cast<double>(m.segments);
@@ -39,13 +53,15 @@ double estimate_seconds(const planned_move& m, const gcode_options& o) {
             const double length = std::hypot(chord, rise);
             if (!(chord > 0)) return 0;
             const double speed = std::min(m.feed_mm_s * length / chord, o.max_feed_mm_s);
-            return n * segment_seconds(length, speed, o);
+            // The direction turns at every chord: a SPEED and a MOVE each.
+            return n * straight_segment_seconds(length, speed, o, true);
         }
         case move_kind::dwell:
             return m.dwell_ms / 1000.0;
         case move_kind::ttl:
+            return ms::command_round_trip_s(o.host, ttl_chars);
         case move_kind::analog:
-            break;
+            return ms::command_round_trip_s(o.host, wrdac_chars);
     }
     return 0;
 }

@@ -9,12 +9,15 @@
 //   if (planner.error()) ...            // moves handed out before an error must not be executed:
 //                                      // check_program() first when the stream can be read twice
 //
-// Duration model (compatible with gw::jobs::motion_model): every straight segment is one
-// coordinated move whose axes all arrive together, taking the MS-2000 trapezoid time
-// (devices/ms2000/motion_profile) at the segment's vector speed with `ramp_ms`, then `settle_ms`.
-// Arc segments run at the feed along the arc in its plane (FANUC helical feed: the third axis
-// follows), so a helical segment's vector speed is F * 3-D length / in-plane length. Dwells last
-// their P; TTL and analog switches take no time.
+// Duration model (the one gw::jobs::motion_model and the `gcode` job use): every straight segment is
+// one coordinated move whose axes all arrive together, taking the MS-2000 trapezoid time
+// (devices/ms2000/motion_profile) at the segment's vector speed with `ramp_ms`, then `settle_ms`,
+// plus the host's overhead per segment (devices/ms2000/host_step_timing: a SPEED and a MOVE over the
+// serial line at `host.baud`, and the STATUS polling that notices the stop). Arc segments run at the
+// feed along the arc in its plane (FANUC helical feed: the third axis follows), so a helical segment's
+// vector speed is F * 3-D length / in-plane length. Dwells last their P; TTL and analog switches take
+// one command each. The program is taken to start where its first move starts; the job adds the move
+// from wherever the stage is.
 
 #include <cstdint>
 #include <istream>
@@ -87,5 +90,9 @@ std::variant<plan_summary, gcode_error> check_program(std::istream& in, const gc
 
 // The duration of one move under the model above.
 double estimate_seconds(const planned_move& move, const gcode_options& options);
+// One straight segment of `length_mm` at vector speed `speed_mm_s`: motion, settle and the host's
+// overhead (a SPEED before the MOVE when `with_speed`). 0 for a zero length.
+double straight_segment_seconds(double length_mm, double speed_mm_s, const gcode_options& options,
+                                bool with_speed);
 
 }  // namespace gw::gcode

@@ -218,11 +218,54 @@ std::size_t preview_commands_of(const gc::planned_move& m) {
     return 0;
 }
 
+// The estimate uses the controller's ramp, settle and serial link (what the planner's defaults stand
+// for when there is no controller): the slowest of the axes a program may drive.
+void timed_by_controller(gc::gcode_options& o, const motion_model& motion) {
+    double ramp = 0, settle = 0;
+    for (const char a : axis_letters) {
+        if (a == 'Z' && o.z != gc::z_mode::axis) continue;
+        ramp = std::max(ramp, motion.axis(a).ramp_ms);
+        settle = std::max(settle, motion.axis(a).settle_ms);
+    }
+    o.ramp_ms = ramp;
+    o.settle_ms = settle;
+    o.host = motion.link();
+}
+
+// Commands of every run besides the program's: the SPEED query, "TTL Y=0" at the start, the SPEED
+// restored at the end.
+constexpr std::size_t run_bookends = 3;
+
+// The move a run makes before `m` (see the file comment): none, an approach at the rapid speed to
+// where `m` starts, or (a first rapid move) from wherever the stage is to its end instead of from the
+// program's origin. Returns the seconds to add to `m`'s estimate (negative when the stage is nearer).
+double approach_seconds(const gc::planned_move& m, bool ttl_on, const trace_commander& commander,
+                        const gc::gcode_options& o) {
+    const bool first_rapid = m.kind == gc::move_kind::rapid && !ttl_on;
+    const gc::vec3& to = first_rapid ? m.end : m.start;
+    double d2 = 0;
+    for (int i = 0; i < 3; ++i) {
+        const char axis = axis_letters[i];
+        if (!commander.driven(axis)) continue;
+        const auto at = commander.position(axis);
+        if (!at) return 0;  // unknown: the run reads it; nothing to estimate from
+        const double d = coordinate(to, i) - *at;
+        d2 += d * d;
+    }
+    const double d = std::sqrt(d2);
+    if (first_rapid)
+        return gc::straight_segment_seconds(d, std::min(o.rapid_mm_s, o.max_feed_mm_s), o, true) -
+               m.estimated_s;
+    if (d <= approach_tolerance_mm) return 0;
+    return gc::straight_segment_seconds(d, std::min(o.rapid_mm_s, o.max_feed_mm_s), o, true);
+}
+
 }  // namespace
 
 operation_result<job_plan> plan_gcode(const nlohmann::json& json, const plan_context& ctx) {
     auto spec = parse_gcode_spec(json);
     if (!spec) return spec.error();
+    timed_by_controller(spec->options, ctx.motion);
     const auto& o = spec->options;
     const auto& s = ctx.snapshot;
     const bool z_axis = o.z == gc::z_mode::axis;
@@ -256,12 +299,25 @@ operation_result<job_plan> plan_gcode(const nlohmann::json& json, const plan_con
     bool used[3] = {false, false, false};
     std::optional<operation_error> refusal;
     std::uint64_t ttl_switches = 0;
+    bool positioned = false;  // as in run_gcode: the first move brings the stage to the program
+    bool ttl_on = false;
+    double approach_s = 0;
     gc::gcode_planner planner(*source->stream, o);
-    while (const gc::planned_move* m = planner.next()) {
+    while (const gc::planned_move* found = planner.next()) {
         if (refusal) continue;  // read on: a program error further down wins (nothing would move)
+        gc::planned_move adjusted;
+        const gc::planned_move* m = found;
         mark_driven(*m, used);
         for (int i = 0; i < 3; ++i)
             if (used[i]) commander.drive(axis_letters[i]);
+        if (!positioned) {
+            adjusted = *m;
+            approach_s = approach_seconds(*m, ttl_on, commander, o);
+            adjusted.estimated_s = std::max(0.0, adjusted.estimated_s + approach_s);
+            m = &adjusted;
+            positioned = true;
+        }
+        if (m->kind == gc::move_kind::ttl) ttl_on = m->ttl_on;
         for_each_extreme(*m, [&](const gc::vec3& p) {
             for (int i = 0; i < 3 && !refusal; ++i) {
                 const double um = coordinate(p, i) * 1000.0;
@@ -329,7 +385,9 @@ operation_result<job_plan> plan_gcode(const nlohmann::json& json, const plan_con
         step.estimated_s = st.estimated_s;
         plan.steps.push_back(std::move(step));
     }
-    plan.estimated_s = summary.estimated_s;
+    plan.estimated_s = std::max(0.0, summary.estimated_s + approach_s) +
+                       static_cast<double>(run_bookends) * devices::ms2000::command_round_trip_s(
+                                                               o.host, devices::ms2000::typical_speed_chars);
     plan.bounds.include(to_position(summary.min, used));
     plan.bounds.include(to_position(summary.max, used));
     plan.warnings = summary.warnings;

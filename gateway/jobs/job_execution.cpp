@@ -7,6 +7,7 @@
 #include <boost/asio/use_awaitable.hpp>
 
 #include "devices/ms2000/error.hpp"
+#include "devices/ms2000/host_step_timing.hpp"
 #include "gateway/controller_registry.hpp"
 
 namespace gw::jobs {
@@ -16,8 +17,10 @@ using std::chrono::steady_clock;
 
 namespace {
 
-// STATUS interval of wait_idle (the registry polls arrival at the same pace).
-constexpr std::chrono::milliseconds idle_poll{20};
+// STATUS interval of wait_idle (the registry polls arrival at the same pace); the estimates of
+// host-driven steps assume it (devices/ms2000/host_step_timing).
+constexpr std::chrono::milliseconds idle_poll{
+    static_cast<long>(devices::ms2000::host_link_timing{}.arrival_poll_ms)};
 
 }  // namespace
 

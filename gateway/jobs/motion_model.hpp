@@ -12,6 +12,8 @@
 #include <optional>
 #include <vector>
 
+#include "devices/ms2000/host_step_timing.hpp"
+
 namespace gw::jobs {
 
 struct axis_motion_params {
@@ -55,6 +57,13 @@ class motion_model {
     void set_axis(char letter, axis_motion_params p) { axes_[letter] = p; }
     const std::map<char, axis_motion_params>& axes() const { return axes_; }
 
+    // The serial link and the host's STATUS polling (baud from the controller's settings): what a
+    // host-driven step costs besides its motion (devices/ms2000/host_step_timing). Only the `gcode`
+    // job, with a MOVE per short segment, adds it to its estimate; the other jobs' steps are long
+    // enough for it not to matter (bench/RESULTS.md, job ETA).
+    const devices::ms2000::host_link_timing& link() const { return link_; }
+    void set_link(devices::ms2000::host_link_timing link) { link_ = link; }
+
     // Seconds for one move where every axis starts together ("M X= Y="): the slowest axis, including
     // its settle time. Zero-distance axes take no time (a move of nothing at all returns 0, although
     // the controller would settle for a tenth of the settle time if it were sent).
@@ -67,6 +76,7 @@ class motion_model {
 
   private:
     std::map<char, axis_motion_params> axes_;
+    devices::ms2000::host_link_timing link_;
 };
 
 }  // namespace gw::jobs

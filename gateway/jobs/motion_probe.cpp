@@ -53,6 +53,7 @@ struct probe_state {
     std::map<char, std::optional<double>> counts;           // CNTS from the snapshot
     std::map<char, std::optional<double>> speed, ramp, pc;  // S, AC, PC answers
     std::map<char, double> pc_resolution;                   // half the last printed digit of PC
+    std::optional<unsigned> baud;                           // the controller's serial settings
 };
 
 // "S X? Y? Z?"
@@ -109,6 +110,11 @@ void finish(const std::shared_ptr<probe_state>& s) {
         if (pc && *pc <= 0) pc.reset();
         model.set_axis(a, axis_params_for(*screw, speed, ramp, pc));
     }
+    if (s->baud) {
+        auto link = model.link();
+        link.baud = *s->baud;
+        model.set_link(link);
+    }
     s->done(std::move(model));
 }
 
@@ -125,6 +131,7 @@ void async_read_motion_model(controller_registry& registry, const std::string& c
     } else {
         s->axes = "XYZ";  // the queries will fail and say why; the model gets the default axes
     }
+    if (const auto c = registry.controller(controller_id)) s->baud = c->settings().baud;
     // One at a time: the driver serialises them anyway, and a dead controller fails fast.
     query(s, "S", &probe_state::speed, [s] {
         query(s, "AC", &probe_state::ramp, [s] { query(s, "PC", &probe_state::pc, [s] { finish(s); }); });

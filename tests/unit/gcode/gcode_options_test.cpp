@@ -41,6 +41,22 @@ TEST(options, set_option_reads_text) {
     EXPECT_DOUBLE_EQ(o.xyz_scale, 0.25);  // unchanged by the failures
 }
 
+TEST(options, the_serial_link_of_the_estimate) {
+    gcode_options o;
+    EXPECT_EQ(o.host.baud, 115200u);  // `gcode plan` has no controller: the gateway's usual link
+    EXPECT_DOUBLE_EQ(o.host.arrival_poll_ms, 20);
+    EXPECT_FALSE(set_option(o, "baud", "9600"));
+    EXPECT_FALSE(set_option(o, "arrival_poll_ms", "50"));
+    EXPECT_EQ(o.host.baud, 9600u);
+    EXPECT_DOUBLE_EQ(o.host.arrival_poll_ms, 50);
+    EXPECT_TRUE(set_option(o, "baud", "0"));
+    EXPECT_TRUE(set_option(o, "baud", "9600.5"));
+    EXPECT_TRUE(set_option(o, "baud", "fast"));
+    EXPECT_EQ(o.host.baud, 9600u);
+    o.host.arrival_poll_ms = -1;
+    EXPECT_TRUE(validate(o).has_value());
+}
+
 TEST(options, validate_rejects) {
     auto bad = [](auto change) {
         gcode_options o;

@@ -19,10 +19,14 @@ std::string plan_text(const std::string& program, const gcode_options& o = {}, b
 }
 
 TEST(plan_json, exact_document_for_a_line) {
-    // 1 mm at 1 mm/s: 1 s + 20 ms ramp + 14 ms settle.
-    EXPECT_EQ(plan_text("G01 X1. F60\n"),
+    // 1 mm at 1 mm/s: 1 s + 20 ms ramp + 14 ms settle; on a 100000 baud line with no turnaround and
+    // no poll interval, SPEED (27 + 1 + 2 + 2 characters: 3.2 ms), MOVE (26: 2.6 ms) and the STATUS
+    // that notices the stop (5: 0.5 ms, half a 0.5 ms cycle before it: 0.75 ms): 6.55 ms.
+    gcode_options o;
+    o.host = {100000, 0, 0};
+    EXPECT_EQ(plan_text("G01 X1. F60\n", o),
               R"({"units":"mm","moves":[{"line":1,"kind":"linear","end":[1,0,0],"feed_mm_s":1}],)"
-              R"("segments":1,"estimated_s":1.034,"bounds":{"min":[0,0,0],"max":[1,0,0]},"warnings":[]})");
+              R"("segments":1,"estimated_s":1.04055,"bounds":{"min":[0,0,0],"max":[1,0,0]},"warnings":[]})");
 }
 
 TEST(plan_json, every_kind_has_its_fields) {

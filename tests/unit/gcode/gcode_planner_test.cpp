@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "devices/ms2000/host_step_timing.hpp"
+#include "devices/ms2000/motion_profile.hpp"
 #include "tests/unit/gcode/plan_helper.hpp"
 
 namespace gw::gcode {
@@ -15,15 +17,18 @@ namespace {
 using test::plan;
 
 // Durations from the trapezoid model by hand: long move t = d/v + ramp, short move 2 sqrt(d/a) with
-// a = v / ramp; then the settle time. Defaults: ramp 20 ms, settle 14 ms, rapid 5.5 mm/s.
+// a = v / ramp; then the settle time; then the host's cost of the segment (SPEED, MOVE, the STATUS
+// poll that notices the stop). Defaults: ramp 20 ms, settle 14 ms, rapid 5.5 mm/s, 115200 baud.
+const double host = devices::ms2000::host_move_overhead_s(gcode_options{}.host, true);
+
 TEST(planner, linear_and_rapid_durations) {
     const auto p = plan("G01 X10. F300\nG00 X21.\nG01 X21.01\n");
     ASSERT_TRUE(p.ok());
     ASSERT_EQ(p.moves.size(), 3u);
-    EXPECT_NEAR(p.moves[0].estimated_s, 10.0 / 5 + 0.020 + 0.014, 1e-12);
-    EXPECT_NEAR(p.moves[1].estimated_s, 11.0 / 5.5 + 0.020 + 0.014, 1e-12);
+    EXPECT_NEAR(p.moves[0].estimated_s, 10.0 / 5 + 0.020 + 0.014 + host, 1e-12);
+    EXPECT_NEAR(p.moves[1].estimated_s, 11.0 / 5.5 + 0.020 + 0.014 + host, 1e-12);
     const double a = 5 / 0.020;  // 0.01 mm < v * ramp = 0.1 mm: triangle
-    EXPECT_NEAR(p.moves[2].estimated_s, 2 * std::sqrt(0.01 / a) + 0.014, 1e-9);
+    EXPECT_NEAR(p.moves[2].estimated_s, 2 * std::sqrt(0.01 / a) + 0.014 + host, 1e-9);
     EXPECT_NEAR(p.summary.estimated_s,
                 p.moves[0].estimated_s + p.moves[1].estimated_s + p.moves[2].estimated_s, 1e-12);
 }
@@ -32,8 +37,10 @@ TEST(planner, dwell_and_switches) {
     const auto p = plan("G04 P1500\nM03\nM05\n");
     ASSERT_TRUE(p.ok());
     EXPECT_DOUBLE_EQ(p.moves[0].estimated_s, 1.5);
-    EXPECT_DOUBLE_EQ(p.moves[1].estimated_s, 0);
-    EXPECT_DOUBLE_EQ(p.summary.estimated_s, 1.5);
+    // A switch is one command ("TTL Y=1") and its reply.
+    const double ttl = devices::ms2000::command_round_trip_s(gcode_options{}.host, 7);
+    EXPECT_DOUBLE_EQ(p.moves[1].estimated_s, ttl);
+    EXPECT_DOUBLE_EQ(p.summary.estimated_s, 1.5 + 2 * ttl);
     EXPECT_EQ(p.summary.segments, 0u);
 }
 
@@ -42,7 +49,7 @@ TEST(planner, arc_duration_segments_and_helical_feed_25) {
     gcode_options o;
     o.arc_tolerance_mm = 5;
     const double chord = 10 * std::sqrt(2.0);
-    const double each = chord / 5 + 0.020 + 0.014;
+    const double each = chord / 5 + 0.020 + 0.014 + host;
     auto p = plan("G02 I10. F300\n", o);
     ASSERT_TRUE(p.ok());
     EXPECT_EQ(p.moves[0].segments, 4u);
@@ -59,6 +66,31 @@ TEST(planner, arc_duration_segments_and_helical_feed_25) {
     EXPECT_NEAR(s1.y, 10, 1e-9);
     EXPECT_NEAR(s1.z, 1, 1e-9);
     EXPECT_EQ(segment_end(m, 4), m.end);
+}
+
+// Every chord of an arc is a MOVE of its own, so the host's cost grows with the segment count: a
+// full circle at 1 um tolerance (100 chords of r = 2 mm) pays it 100 times, and a slow serial line
+// makes every chord dearer. Without it the estimate ran 13-27 % short of traced arcs.
+TEST(planner, every_arc_chord_pays_the_host_overhead) {
+    const std::string circle = "G01 X4. F600\nG03 X4. Y0 I-2. F60\n";
+    const auto fast = plan(circle);
+    ASSERT_TRUE(fast.ok());
+    const auto& arc = fast.moves[1];
+    ASSERT_EQ(arc.segments, 100u);
+    const double chord = 2 * 2 * std::sin(std::numbers::pi / 100);
+    const double motion = devices::ms2000::move_time_s(chord, 1, 20) + 0.014;
+    EXPECT_NEAR(arc.estimated_s, 100 * (motion + host), 1e-9);
+    EXPECT_GT(arc.estimated_s - 100 * motion, 100 * 0.015);  // SPEED + MOVE + a poll: well above 15 ms
+    gcode_options slow;
+    slow.host.baud = 9600;
+    const auto at_9600 = plan(circle, slow);
+    ASSERT_TRUE(at_9600.ok());
+    EXPECT_NEAR(at_9600.moves[1].estimated_s - arc.estimated_s,
+                100 * (devices::ms2000::host_move_overhead_s(slow.host, true) - host), 1e-9);
+    EXPECT_GT(at_9600.moves[1].estimated_s, arc.estimated_s + 100 * 0.04);
+    // The straight segment helper is the same model.
+    EXPECT_NEAR(straight_segment_seconds(chord, 1, gcode_options{}, true), motion + host, 1e-12);
+    EXPECT_EQ(straight_segment_seconds(0, 1, gcode_options{}, true), 0);
 }
 
 TEST(planner, bounds_include_start_and_arc_extremes) {

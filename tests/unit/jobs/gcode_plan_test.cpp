@@ -1,11 +1,18 @@
 // The gcode job's pure parts: coordinated per-axis speeds (limits, smallest SPEED, six decimals,
 // helical feed), the trace commander (SPEED only when it changes, undriven axes never commanded),
 // the strict spec, step names, and the planner's bounded step list for long programs.
+#include <cmath>
+#include <numbers>
+#include <sstream>
 #include <string>
+#include <variant>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "devices/ms2000/host_step_timing.hpp"
+#include "devices/ms2000/motion_profile.hpp"
+#include "gateway/gcode/gcode_planner.hpp"
 #include "gateway/jobs/gcode_spec.hpp"
 #include "gateway/jobs/gcode_trace.hpp"
 #include "gateway/jobs/job_kinds.hpp"
@@ -201,6 +208,75 @@ TEST(gcode_plan, a_z_move_on_a_stage_without_z_is_refused_naming_the_line) {
     auto both = plan_gcode({{"program", "G01 X-120 F60\nG99\n"}}, xy_context());
     ASSERT_FALSE(both);
     EXPECT_NE(both.error().message.find("line 2, column 1"), std::string::npos) << both.error().message;
+}
+
+// The job's estimate: the planner's (motion, settle and the host's SPEED/MOVE/STATUS per segment)
+// with the controller's motion parameters and link, the approach from where the stage stands, and the
+// run's own commands (SPEED query, TTL Y=0 at the start, SPEED restored). Each part is checked by
+// taking it away.
+TEST(gcode_plan, the_estimate_has_the_approach_and_the_host_overhead_of_every_segment) {
+    namespace ms = devices::ms2000;
+    const std::string program = "G01 X1 F60\n";  // a feed move: the stage first goes to (0, 0)
+    const auto link = devices::ms2000::host_link_timing{};
+    const double bookends = 3 * ms::command_round_trip_s(link, ms::typical_speed_chars);
+    const double line = ms::move_time_s(1, 1, 20) + 0.014 + ms::host_move_overhead_s(link, true);
+
+    auto at_origin = plan_gcode({{"program", program}}, xy_context());
+    ASSERT_TRUE(at_origin) << at_origin.error().message;
+    EXPECT_NEAR(at_origin->estimated_s, line + bookends, 1e-9);
+
+    // The stage 10 mm away in X: a rapid approach at 5.5 mm/s, with its own overhead.
+    auto away_ctx = xy_context();
+    away_ctx.snapshot.axes[0].position_um = 10'000;
+    auto away = plan_gcode({{"program", program}}, away_ctx);
+    ASSERT_TRUE(away) << away.error().message;
+    const double approach = ms::move_time_s(10, 5.5, 20) + 0.014 + ms::host_move_overhead_s(link, true);
+    EXPECT_NEAR(away->estimated_s - at_origin->estimated_s, approach, 1e-9);
+    EXPECT_NEAR(away->steps.at(0).estimated_s, line + approach, 1e-9);
+
+    // A first rapid move goes from where the stage is, not from the program's origin.
+    auto rapid = plan_gcode({{"program", "G00 X12\n"}}, away_ctx);
+    ASSERT_TRUE(rapid) << rapid.error().message;
+    EXPECT_NEAR(rapid->estimated_s,
+                ms::move_time_s(2, 5.5, 20) + 0.014 + ms::host_move_overhead_s(link, true) + bookends, 1e-9);
+
+    // The controller's parameters, not the planner's defaults: a slower serial line and a longer ramp.
+    auto slow_ctx = xy_context();
+    auto slow_link = link;
+    slow_link.baud = 9600;
+    slow_ctx.motion.set_link(slow_link);
+    for (const char a : {'X', 'Y'}) {
+        auto p = slow_ctx.motion.axis(a);
+        p.ramp_ms = 50;
+        slow_ctx.motion.set_axis(a, p);
+    }
+    auto slow = plan_gcode({{"program", program}}, slow_ctx);
+    ASSERT_TRUE(slow) << slow.error().message;
+    EXPECT_NEAR(slow->estimated_s,
+                ms::move_time_s(1, 1, 50) + 0.014 + ms::host_move_overhead_s(slow_link, true) +
+                    3 * ms::command_round_trip_s(slow_link, ms::typical_speed_chars),
+                1e-9);
+}
+
+// An arc-heavy program: a circle of r = 2 mm at 1 um (100 chords) costs 100 host overheads. The
+// job's estimate is the planner's own (what `gcode plan` prints for the same parameters) plus the
+// run's bookends.
+TEST(gcode_plan, a_circle_costs_a_host_overhead_per_chord_and_matches_the_planner) {
+    namespace ms = devices::ms2000;
+    const std::string program = "G03 X0 Y0 I2 F60\n";
+    auto plan = plan_gcode({{"program", program}}, xy_context());
+    ASSERT_TRUE(plan) << plan.error().message;
+    std::istringstream in(program);
+    const auto checked = gcode::check_program(in, gcode::gcode_options{});
+    ASSERT_TRUE(std::holds_alternative<gcode::plan_summary>(checked));
+    const auto& summary = std::get<gcode::plan_summary>(checked);
+    ASSERT_EQ(summary.segments, 100u);
+    const auto link = ms::host_link_timing{};
+    EXPECT_NEAR(plan->estimated_s,
+                summary.estimated_s + 3 * ms::command_round_trip_s(link, ms::typical_speed_chars), 1e-9);
+    const double chord = 2 * 2 * std::sin(std::numbers::pi / 100);
+    const double motion_only = 100 * (ms::move_time_s(chord, 1, 20) + 0.014);
+    EXPECT_NEAR(summary.estimated_s - motion_only, 100 * ms::host_move_overhead_s(link, true), 1e-9);
 }
 
 }  // namespace
