@@ -27,6 +27,7 @@
 #include "gateway/jobs/job_kinds.hpp"
 #include "gateway/jobs/job_store.hpp"
 #include "gateway/jobs/motion_probe.hpp"
+#include "gateway/jobs/safe_outputs.hpp"
 #include "gateway/lease_manager.hpp"
 #include "gateway/logging.hpp"
 
@@ -97,6 +98,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void controller_snapshot_changed(const devices::controller_snapshot& s);
     // The controller is connected (and identified) again after it was not.
     void controller_reconnected(const std::string& controller);
+    // Connected and identified (the first time or again): sends what start() left pending for it.
+    void controller_came_up(const std::string& controller);
     void controller_ttl_edge(const std::string& controller);
 
     // execution_host
@@ -141,6 +144,9 @@ class manager_core final : public execution_host, public std::enable_shared_from
     net::awaitable<void> restore_settings(std::shared_ptr<live_job> job);
     // "TTL Y=0" for a job paused by a disconnect (a laser must not stay on): once connected again.
     void ttl_low_after_disconnect(std::shared_ptr<live_job> job);
+    // "TTL Y=0" for a job that a crash interrupted (safe_outputs.hpp), once; a failure waits for the
+    // next connect. Sent with safe_output_request_id(), not as the job's.
+    void send_safe_outputs(const std::string& controller);
     net::awaitable<void> shutdown_coro(std::function<void()> done);
 
     bool controller_connected(const std::string& id) const {
@@ -169,6 +175,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
     std::atomic<bool> abandoned_{false};
     mutable std::mutex records_mutex_;
     std::map<std::string, job_record> live_records_;
+    // Controller -> the interrupted job whose TTL output must still be switched off (strand only).
+    std::map<std::string, std::string> safe_output_pending_;
 
     std::shared_ptr<devices::controller_observer> observer_;
 
@@ -184,14 +192,17 @@ class core_observer final : public devices::controller_observer {
     void on_snapshot(const devices::controller_snapshot& s) override {
         const bool ready = s.state == devices::connection_state::connected && s.identity.has_value();
         bool came_back = false;
+        bool came_up = false;  // the first snapshot seen, or came back
         {
             std::lock_guard lock(mutex_);  // controllers call from their own strands
             auto [it, added] = ready_.try_emplace(s.id, ready);
             came_back = ready && !added && !it->second;
+            came_up = ready && (added || came_back);
             it->second = ready;
         }
         auto c = core_.lock();
         if (!c) return;
+        if (came_up) c->controller_came_up(s.id);
         if (came_back) c->controller_reconnected(s.id);
         if (s.state == devices::connection_state::connected) return;  // otherwise only departures matter
         c->controller_snapshot_changed(s);
@@ -321,7 +332,15 @@ void manager_core::start() {
             job->record = std::move(r);
             self->jobs_[job->record.id] = job;
             self->set_state(*job, job_state::interrupted, "gateway restarted");
+            // A laser must never stay on: the crashed gateway could not switch the output off.
+            if (may_leave_ttl_output_high(job->record.type, job->record.spec))
+                self->safe_output_pending_[job->record.controller] = job->record.id;
         }
+        std::vector<std::string> reachable;
+        for (const auto& [controller, id] : self->safe_output_pending_)
+            if (self->controller_connected(controller)) reachable.push_back(controller);
+        for (const auto& controller : reachable)
+            self->send_safe_outputs(controller);
         for (auto& r : queued ? *queued : std::vector<job_record>{}) {
             auto job = std::make_shared<live_job>();
             job->record = std::move(r);
@@ -597,6 +616,8 @@ void manager_core::launch(std::shared_ptr<live_job> job) {
     const auto first = std::min(job->record.progress.steps_done, job->plan->steps.size());
     job->restore_commands.clear();      // the new run registers what it changes
     job->ttl_low_on_reconnect = false;  // the run owns the output again
+    if (may_leave_ttl_output_high(job->record.type, job->record.spec))
+        safe_output_pending_.erase(job->record.controller);  // so does this one: a late "off" must not cut it
     auto exec = std::make_shared<job_execution>(strand_, registry_, weak_from_this(), job, first);
     job->exec = exec;
     job->record.progress.remaining_s = remaining_from(*job->plan, first);
@@ -890,6 +911,39 @@ void manager_core::controller_reconnected(const std::string& controller) {
         if (job == self->jobs_.end() || !job->second->ttl_low_on_reconnect) return;
         self->ttl_low_after_disconnect(job->second);
     });
+}
+
+void manager_core::controller_came_up(const std::string& controller) {
+    net::post(strand_, [self = shared_from_this(), controller] {
+        if (self->safe_output_pending_.contains(controller)) self->send_safe_outputs(controller);
+    });
+}
+
+void manager_core::send_safe_outputs(const std::string& controller) {
+    auto it = safe_output_pending_.find(controller);
+    if (it == safe_output_pending_.end() || abandoned_) return;
+    const std::string job_id = it->second;
+    safe_output_pending_.erase(it);
+    net::co_spawn(
+        strand_,
+        [self = shared_from_this(), controller, job_id]() -> net::awaitable<void> {
+            const std::string request_id = safe_output_request_id(job_id);
+            ttl_request low;
+            low.output_high = false;  // "TTL Y=0"
+            std::string ttl_controller = controller;
+            std::string ttl_request_id = request_id;
+            auto ttl = co_await self->registry_.async_ttl(std::move(ttl_controller), low,
+                                                          std::move(ttl_request_id), net::use_awaitable);
+            if (ttl) {
+                self->log_->info("[{}] {}: job {} was interrupted by a restart; TTL output set low",
+                                 request_id, controller, job_id);
+            } else {
+                self->log_->warn("[{}] {}: TTL Y=0 for the interrupted job {} failed: {}", request_id,
+                                 controller, job_id, ttl.error().message);
+                self->safe_output_pending_.try_emplace(controller, job_id);  // the next connect tries again
+            }
+        },
+        net::detached);
 }
 
 void manager_core::ttl_low_after_disconnect(std::shared_ptr<live_job> job) {

@@ -10,12 +10,16 @@
 // on the B screw) plus a sampling margin of 0.1 um (SPEED's six decimals make the axes' arrival times
 // differ by a few nanoseconds' travel). An uncoordinated trace (every axis at one SPEED) misses by
 // hundreds of micrometres on the diagonals and arcs below.
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "gateway/gcode/gcode_planner.hpp"
 #include "gateway/gcode_files.hpp"
+#include "gateway/jobs/safe_outputs.hpp"
 #include "tests/integration/jobs/manager_fixture.hpp"
 
 namespace gw::jobs::test {
@@ -128,6 +132,18 @@ class gcode_run_test : public manager_fixture {
         return sim_state(sim)["axes"][std::string(1, axis)]["position"].get<double>() / 10.0;
     }
     bool sim_busy(const std::string& sim) { return sim_state(sim)["busy"].get<bool>(); }
+    // Every command on the wire so far (any request id): {request id, wire text without CR}.
+    std::vector<std::pair<std::string, std::string>> all_commands() {
+        return observer_->locked([&] {
+            std::vector<std::pair<std::string, std::string>> out;
+            for (const auto& t : observer_->traces) {
+                auto w = t.wire;
+                if (w.ends_with("\\r")) w.resize(w.size() - 2);
+                out.emplace_back(t.request_id, w);
+            }
+            return out;
+        });
+    }
 
     std::atomic<bool> recording_{false};
     std::thread recorder_;
@@ -264,6 +280,70 @@ TEST_F(gcode_run_test, an_unplugged_controller_gets_its_ttl_output_low_when_it_i
     // The resumed run re-lit the output for line 3 after moving back to where the line starts.
     const auto sent = commands_of(id);
     EXPECT_GE(std::count(sent.begin(), sent.end(), "TTL Y=1"), 2);
+}
+
+// kill -9 of the gateway with the laser on: the new manager finds the job interrupted and switches
+// the output off, under a request id of its own (not the job's, whose trace must stay as the crash
+// left it), and sends nothing of the program again until the job is resumed.
+TEST_F(gcode_run_test, a_crash_with_the_ttl_on_gets_the_output_low_after_the_restart_and_resends_no_move) {
+    add_sim("sim1", "full");
+    start();
+    auto submitted = submit("sim1", job_type::gcode, {{"program", long_lit_line}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_until([&] { return ttl_out("sim1") == 1 && sim_um("sim1", 'X') > 500; }, 30s));
+    const auto is_move = [](const std::string& c) { return c.starts_with("M "); };
+    const auto before = commands_of(id);
+    ASSERT_EQ(std::count_if(before.begin(), before.end(), is_move), 1);  // line 3 is one MOVE
+    restart_manager();  // destroyed without shutdown: nothing of the old one switches the output off
+    ASSERT_TRUE(wait_state(id, job_state::interrupted));
+    ASSERT_TRUE(wait_until([&] { return ttl_out("sim1") == 0; }, 30s)) << "TTL still on after the restart";
+    ASSERT_TRUE(wait_until([&] { return !sim_busy("sim1"); }, 30s));  // the controller ends its move
+    const auto job_commands = commands_of(id);
+    std::this_thread::sleep_for(300ms);
+    EXPECT_EQ(commands_of(id), job_commands);  // nothing sent for the job after the crash
+    EXPECT_EQ(std::count_if(job_commands.begin(), job_commands.end(), is_move), 1);
+    const auto sent = all_commands();
+    std::size_t lows = 0, moves = 0;
+    for (const auto& [rid, wire] : sent) {
+        if (rid == safe_output_request_id(id)) {
+            EXPECT_EQ(wire, "TTL Y=0");
+            ++lows;
+        }
+        if (is_move(wire)) ++moves;
+    }
+    EXPECT_EQ(lows, 1u);   // once, under the recovery's id
+    EXPECT_EQ(moves, 1u);  // the program's one MOVE, before the crash
+    EXPECT_EQ(job(id)->state, job_state::interrupted);
+
+    ASSERT_TRUE(resume(id));
+    ASSERT_TRUE(wait_state(id, job_state::succeeded, 60s));
+    EXPECT_NEAR(sim_um("sim1", 'X'), 20000, 0.1);
+    EXPECT_EQ(ttl_out("sim1"), 0);
+}
+
+// The crash happens while the controller is unplugged (the job paused, the output still on): the new
+// manager cannot reach it at start-up and switches the output off when it is back.
+TEST_F(gcode_run_test, a_crash_while_unplugged_gets_the_output_low_once_the_controller_is_back) {
+    add_sim("sim1", "full");
+    start();
+    auto submitted = submit("sim1", job_type::gcode, {{"program", long_lit_line}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_until([&] { return ttl_out("sim1") == 1 && sim_um("sim1", 'X') > 500; }, 30s));
+    sims_.at("sim1")->unplug();
+    ASSERT_TRUE(wait_state(id, job_state::paused));
+    restart_manager();
+    ASSERT_TRUE(wait_state(id, job_state::interrupted));
+    std::this_thread::sleep_for(200ms);
+    EXPECT_EQ(ttl_out("sim1"), 1);  // unreachable meanwhile
+    sims_.at("sim1")->replug();
+    ASSERT_TRUE(wait_until([&] { return ttl_out("sim1") == 0; }, 30s)) << "TTL still on after the replug";
+    std::size_t lows = 0;
+    for (const auto& [rid, wire] : all_commands())
+        if (rid == safe_output_request_id(id) && wire == "TTL Y=0") ++lows;
+    EXPECT_EQ(lows, 1u);
+    EXPECT_EQ(job(id)->state, job_state::interrupted);
 }
 
 TEST_F(gcode_run_test, pause_waits_between_lines_with_the_ttl_off_and_resume_continues_on_the_path) {

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "gateway/jobs/safe_outputs.hpp"
 #include "tests/integration/jobs/manager_fixture.hpp"
 
 namespace gw::jobs::test {
@@ -160,6 +161,11 @@ TEST_P(job_interruption_test, a_crash_mid_job_leaves_it_interrupted_and_resume_f
     const auto commands_before_resume = commands_of(id).size();
     std::this_thread::sleep_for(300ms);
     EXPECT_EQ(commands_of(id).size(), commands_before_resume);
+    // None of these jobs drives the TTL output: the restart has nothing to switch off either.
+    EXPECT_TRUE(observer_->locked([&] {
+        return std::none_of(observer_->traces.begin(), observer_->traces.end(),
+                            [&](const auto& t) { return t.request_id == safe_output_request_id(id); });
+    }));
 
     auto resumed = resume(id);
     ASSERT_TRUE(resumed) << resumed.error().message;
