@@ -12,7 +12,10 @@ std::optional<double> parse_number(const std::string& text) {
     double v = 0;
     const char* first = text.data();
     const char* last = text.data() + text.size();
-    if (first != last && *first == '+') ++first;
+    if (first != last && *first == '+') {
+        ++first;
+        if (first != last && *first == '-') return std::nullopt;  // "+-1": one sign only
+    }
     const auto [end, ec] = std::from_chars(first, last, v);
     if (ec != std::errc{} || end != last || first == last || !std::isfinite(v)) return std::nullopt;
     return v;

@@ -152,6 +152,8 @@ INSTANTIATE_TEST_SUITE_P(
         // A decoded blank or control character is not echoed.
         bad_case{"escaped_blank", "xyz_scale=%201", plan, "xyz_scale",
                  "xyz_scale must be a number, not \"...\""},
+        bad_case{"double_sign", "xyz_scale=+-1", plan, "xyz_scale",
+                 "xyz_scale must be a number, not \"+-1\""},
         bad_case{"zero_scale", "xyz_scale=0", plan, "xyz_scale", "xyz_scale must be > 0"},
         bad_case{"negative_scale", "xyz_scale=-1", plan, "xyz_scale", "xyz_scale must be > 0"},
         bad_case{"minus_zero", "xyz_scale=-0", plan, "xyz_scale", "xyz_scale must be > 0"},
