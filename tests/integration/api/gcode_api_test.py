@@ -88,7 +88,9 @@ def test_plan_options(c):
     scaled = post_program(c, "/api/v1/gcode/plan?xyz_scale=2&speed_scale=0.5", PROGRAM).json()
     check(scaled["moves"][2]["end"] == [10, 2, 0], f"xyz_scale=2: {scaled['moves'][2]}")
     check(abs(scaled["moves"][2]["feed_mm_s"] - 1) < 1e-9, f"speed_scale=0.5: {scaled['moves'][2]}")
-    check(scaled["estimated_s"] > base["estimated_s"] * 3, "a twice longer path at half the feed")
+    # A twice longer path at half the feed: four times the motion; the dwell and the host's cost per
+    # segment (serial round trips, STATUS polling) do not scale, so a bit less than four times overall.
+    check(scaled["estimated_s"] > base["estimated_s"] * 2.5, "a twice longer path at half the feed")
     s = post_program(c, "/api/v1/gcode/plan?moves=false", PROGRAM).json()
     check("moves" not in s and s["move_count"] == 8 and s["lines"] == 12, f"summary {s}")
     check(s["segments"] == base["segments"] and s["estimated_s"] == base["estimated_s"], "summary totals")
