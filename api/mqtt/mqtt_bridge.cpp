@@ -1,5 +1,6 @@
 #include "api/mqtt/mqtt_bridge.hpp"
 
+#include <algorithm>
 #include <utility>
 
 #include <boost/asio/executor_work_guard.hpp>
@@ -111,12 +112,17 @@ void mqtt_bridge::subscribe_hub() {
     s.max_batch_events = 256;
     s.max_stall = std::chrono::seconds(30);
     subscriber_ = ctx_->hub->add_subscriber(weak_from_this(), s);
-    ctx_->hub->subscribe(subscriber_, "controllers/+/state");
+    ctx_->hub->subscribe(subscriber_, "controllers/+/state");  // the current states come at once
     ctx_->hub->subscribe(subscriber_, "controllers/+/position",
                          {.max_rate_hz = settings_.config.position_max_hz});
-    ctx_->hub->subscribe(subscriber_, "controllers/+/reports");
-    ctx_->hub->subscribe(subscriber_, "controllers/+/ttl");
-    ctx_->hub->subscribe(subscriber_, "jobs/#");
+    // Stream topics resume after the last event seen (nothing the first time): after an eviction the
+    // hub replays what it still has and announces the rest as gaps (counted), so no job change,
+    // report or TTL event disappears without a trace.
+    subscription_options resume;
+    resume.resume = stream_seq_;
+    ctx_->hub->subscribe(subscriber_, "controllers/+/reports", resume);
+    ctx_->hub->subscribe(subscriber_, "controllers/+/ttl", resume);
+    ctx_->hub->subscribe(subscriber_, "jobs/#", resume);
 }
 
 void mqtt_bridge::async_stop(std::function<void()> done) {
@@ -141,7 +147,7 @@ void mqtt_bridge::async_stop(std::function<void()> done) {
             self->settings_.config.qos.status,
             true,
             {}};
-        self->client_->stop(offline, std::chrono::milliseconds(2000),
+        self->client_->stop(offline, std::chrono::milliseconds(1000),
                             [self, done = std::move(done), work = std::move(work)]() mutable {
                                 if (self->ctx_->metrics) self->ctx_->metrics->set("gw_mqtt_connected", {}, 0);
                                 if (self->log_) self->log_->info("offline published, disconnected");
@@ -184,6 +190,13 @@ void mqtt_bridge::on_connected() {
             send({topics_.controller(id, "state"), *c.state->message, settings_.config.qos.state, true, {}},
                  "state");
     // Job state changes from while we were away, in order; then every tracked job again (retained).
+    if (log_ && (!job_queue_.empty() || job_queue_dropped_ != 0))
+        log_->info("mqtt: publishing {} job state changes queued while disconnected ({} older ones dropped)",
+                   job_queue_.size(), job_queue_dropped_);
+    job_queue_dropped_ = 0;
+    for (const auto& topic : lost_clears_)
+        send({topic, "", settings_.config.qos.jobs, true, {}}, "jobs");
+    lost_clears_.clear();
     while (!job_queue_.empty()) {
         send(job_queue_.front(), "jobs");
         job_queue_.pop_front();
@@ -220,6 +233,13 @@ void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& ba
     const auto& qos = settings_.config.qos;
     for (const auto& e : batch) {
         const auto l = split(e->topic);
+        const bool stream =
+            (l.size() == 3 && l[0] == "controllers" && (l[2] == "reports" || l[2] == "ttl")) ||
+            (l.size() == 2 && l[0] == "jobs");
+        if (stream) {
+            auto& seen = stream_seq_[e->topic];
+            seen = std::max(seen, e->kind == event_kind::gap ? e->gap_to : e->sequence);
+        }
         if (l.size() == 3 && l[0] == "controllers") {
             const auto& id = l[1];
             const auto& leaf = l[2];
@@ -283,7 +303,10 @@ void mqtt_bridge::on_job(const std::string& id, const std::shared_ptr<const even
     const auto data = json::parse(*e->data, nullptr, false);
     auto& j = jobs_[id];
     if (!j.state.apply(data)) {
-        if (!j.state.known()) jobs_.erase(id);  // a step of a job we never saw a state of
+        if (!j.state.known()) {  // a step of a job we never saw a state of
+            jobs_.erase(id);
+            stream_seq_.erase(e->topic);
+        }
         return;
     }
     j.seq = e->sequence;
@@ -319,13 +342,22 @@ void mqtt_bridge::clear_job(const std::string& id) {
     else
         queue_job_message(std::move(m));
     jobs_.erase(id);
+    stream_seq_.erase("jobs/" + id);
 }
 
 void mqtt_bridge::queue_job_message(mqtt_message_out m) {
     job_queue_.push_back(std::move(m));
     if (job_queue_.size() > settings_.config.job_queue_limit) {
+        // The oldest change goes: the newest state of every tracked job is published again on the
+        // reconnect anyway, so what is lost is history, and it is counted. A lost clear (an empty
+        // retained message) is remembered, or the broker would keep that job's state for ever.
+        if (job_queue_.front().payload.empty() && lost_clears_.size() < settings_.max_tracked_jobs)
+            lost_clears_.insert(job_queue_.front().topic);
         job_queue_.pop_front();
         drop("jobs");
+        if (job_queue_dropped_++ == 0 && log_)
+            log_->warn("mqtt: job state queue full ({} changes) while disconnected; dropping the oldest",
+                       settings_.config.job_queue_limit);
     }
     if (ctx_->metrics) ctx_->metrics->set("gw_mqtt_job_queue", {}, static_cast<double>(job_queue_.size()));
 }

@@ -11,9 +11,12 @@
 // subscriptions (when enabled). While disconnected: positions, reports and TTL events are dropped
 // and counted (gw_mqtt_dropped_total; reports also in the next batch's "missed"), controller states
 // are kept (the newest per controller), job state changes are queued (mqtt.jobs.queue_limit; the
-// oldest is dropped and counted beyond it).
+// oldest is dropped beyond it: counted in gw_mqtt_dropped_total{kind="jobs"}, logged once per outage;
+// every tracked job's newest state and every dropped clear are published again on the reconnect).
 // Flow control: the bridge asks the hub for more events only while fewer than max_in_flight
-// publishes are in flight, so a slow broker backs up into the hub's bounded queue.
+// publishes are in flight, so a slow broker backs up into the hub's bounded queue. Evicted by the hub
+// as too slow, the bridge subscribes again at once: controller states come back at once (and are
+// published, retained), stream topics resume after the last event seen (replayed, or counted gaps).
 // A job's retained state is cleared (an empty retained message) mqtt.jobs.retain_finished_s after it
 // ends. stop() publishes "offline" (reason "shutdown") itself; the Last Will covers a crash.
 // Everything runs on the bridge's strand; public methods may be called from any thread.
@@ -24,6 +27,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -73,6 +77,9 @@ class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_
     void close(std::string reason) override;
 
     const mqtt_topics& topics() const { return topics_; }
+    // The bridge's current event hub subscriber (0 before start and after stop); read on the strand
+    // or while nothing runs (tests).
+    std::uint64_t hub_subscriber() const { return subscriber_; }
 
   private:
     struct tracked_job {
@@ -119,7 +126,12 @@ class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_
     bool stopped_ = false;
     std::map<std::string, controller_cache> controllers_;
     std::map<std::string, tracked_job> jobs_;
+    // Stream topic (controllers/<id>/reports|ttl, jobs/<id> of a tracked job) -> the last hub
+    // sequence seen: where the hub subscription resumes after an eviction.
+    std::map<std::string, std::uint64_t> stream_seq_;
     std::deque<mqtt_message_out> job_queue_;  // job state changes while disconnected, in order
+    std::uint64_t job_queue_dropped_ = 0;     // oldest changes dropped from it during this outage
+    std::set<std::string> lost_clears_;       // job topics whose clearing was dropped from it
     boost::asio::steady_timer housekeeping_;
 };
 

@@ -73,6 +73,7 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
       handlers_(std::move(handlers)),
       log_(std::move(log)),
       retry_timer_(strand_),
+      stop_timer_(strand_),
       backoff_(config.reconnect_min) {
     const int version = paho_mqtt_version(config_.protocol);
     try {
@@ -132,11 +133,12 @@ void mqtt_client::install_callbacks() {
         std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
             if (!ok && c.log_) c.log_->error("subscribe refused: {}", what);
         });
-    disconnect_listener_ =
-        std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool, const std::string&) {
-            c.connected_ = false;
-            if (auto done = std::exchange(c.stop_done_, nullptr)) done();
-        });
+    last_listener_ = std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
+        if (!ok && c.log_) c.log_->warn("the last message failed: {}", what);
+        c.disconnect_now();
+    });
+    disconnect_listener_ = std::make_unique<listener>(
+        weak, strand_, [](mqtt_client& c, bool, const std::string&) { c.finish_stop(); });
     auto s = strand_;
     cli_->set_connection_lost_handler([weak, s](const std::string& cause) {
         net::post(s, [weak, cause] {
@@ -225,13 +227,17 @@ void mqtt_client::schedule_reconnect() {
     });
 }
 
+std::shared_ptr<const mqtt::message> mqtt_client::make_paho_message(const mqtt_message_out& m) const {
+    auto msg = mqtt::make_message(m.topic, m.payload, m.qos, m.retained);
+    if (!m.correlation_data.empty() && config_.protocol == mqtt_protocol::v5)
+        msg->set_properties(mqtt::properties{{mqtt::property::CORRELATION_DATA, m.correlation_data}});
+    return msg;
+}
+
 bool mqtt_client::publish(const mqtt_message_out& m) {
     if (!connected_ || stopping_) return false;
     try {
-        auto msg = mqtt::make_message(m.topic, m.payload, m.qos, m.retained);
-        if (!m.correlation_data.empty() && config_.protocol == mqtt_protocol::v5)
-            msg->set_properties(mqtt::properties{{mqtt::property::CORRELATION_DATA, m.correlation_data}});
-        cli_->publish(msg, nullptr, *publish_listener_);
+        cli_->publish(make_paho_message(m), nullptr, *publish_listener_);
         ++in_flight_;
         return true;
     } catch (const mqtt::exception& e) {
@@ -257,21 +263,55 @@ void mqtt_client::subscribe(const std::vector<std::string>& filters, int qos) {
 void mqtt_client::stop(const mqtt_message_out& last, std::chrono::milliseconds timeout,
                        std::function<void()> done) {
     retry_timer_.cancel();
-    if (!connected_) {
-        stopping_ = true;
+    if (stopping_) {  // a second stop: the first one calls its own `done`
         if (done) done();
         return;
     }
-    publish(last);
     stopping_ = true;
     stop_done_ = std::move(done);
+    if (!connected_) return finish_stop();
+    // `last` has its own listener: once it is delivered (QoS 1: acknowledged; QoS 0: written), the
+    // disconnect follows at once instead of waiting out Paho's disconnect timeout. The timer bounds
+    // the wait for a broker that does not answer.
     try {
-        cli_->disconnect(static_cast<int>(timeout.count()), nullptr, *disconnect_listener_);
+        cli_->publish(make_paho_message(last), nullptr, *last_listener_);
+    } catch (const mqtt::exception& e) {
+        if (log_) log_->debug("last message refused: {}", e.what());
+        return disconnect_now();
+    }
+    stop_timer_.expires_after(timeout);
+    stop_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
+        if (ec) return;
+        auto self = weak.lock();
+        if (!self) return;
+        if (self->log_) self->log_->warn("the last message was not acknowledged in time; disconnecting");
+        self->disconnect_now();
+    });
+}
+
+void mqtt_client::disconnect_now() {
+    if (disconnecting_) return;
+    disconnecting_ = true;
+    stop_timer_.cancel();
+    try {
+        // Nothing else is worth waiting for: `last` is through (or given up on).
+        cli_->disconnect(0, nullptr, *disconnect_listener_);
     } catch (const std::exception& e) {
         if (log_) log_->debug("disconnect: {}", e.what());
-        connected_ = false;
-        if (auto f = std::exchange(stop_done_, nullptr)) f();
+        return finish_stop();
     }
+    // Paho reports the disconnect on success and failure; this bounds a report that never comes.
+    stop_timer_.expires_after(std::chrono::milliseconds(500));
+    stop_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
+        if (ec) return;
+        if (auto self = weak.lock()) self->finish_stop();
+    });
+}
+
+void mqtt_client::finish_stop() {
+    stop_timer_.cancel();
+    connected_ = false;
+    if (auto done = std::exchange(stop_done_, nullptr)) done();
 }
 
 }  // namespace gw::api

@@ -28,6 +28,7 @@ class logger;
 namespace mqtt {
 class async_client;
 class connect_options;
+class message;
 }  // namespace mqtt
 
 namespace gw::api {
@@ -74,8 +75,9 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     // False (nothing sent) while disconnected or when Paho refuses it.
     bool publish(const mqtt_message_out& m);
     void subscribe(const std::vector<std::string>& filters, int qos);
-    // Publishes `last` (if connected), disconnects (waiting up to `timeout` for in-flight messages),
-    // stops reconnecting and calls `done` on the strand.
+    // Stops reconnecting; if connected, publishes `last`, waits until it is delivered (QoS 1: the
+    // broker acknowledged it) but at most `timeout`, and disconnects without waiting for anything
+    // else. Calls `done` on the strand (at once when not connected).
     void stop(const mqtt_message_out& last, std::chrono::milliseconds timeout, std::function<void()> done);
 
   private:
@@ -87,6 +89,9 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     void on_connect_result(bool ok, std::string what);
     void on_lost(std::string cause);
     void schedule_reconnect();
+    std::shared_ptr<const mqtt::message> make_paho_message(const mqtt_message_out& m) const;
+    void disconnect_now();  // stop(): `last` is through or given up on
+    void finish_stop();     // stop(): disconnected; calls the stop's `done`
 
     strand strand_;
     mqtt_config config_;
@@ -95,16 +100,19 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     mqtt_client_handlers handlers_;
     std::shared_ptr<spdlog::logger> log_;
     boost::asio::steady_timer retry_timer_;
+    boost::asio::steady_timer stop_timer_;  // bounds stop()'s waits
     std::chrono::milliseconds backoff_;
     bool connected_ = false;
     bool connecting_ = false;
     bool stopping_ = false;
+    bool disconnecting_ = false;
     std::size_t in_flight_ = 0;
     std::uint64_t connects_ = 0;
     std::unique_ptr<listener> connect_listener_;  // outlives cli_ (declared before it)
     std::unique_ptr<listener> publish_listener_;
     std::unique_ptr<listener> subscribe_listener_;
     std::unique_ptr<listener> disconnect_listener_;
+    std::unique_ptr<listener> last_listener_;  // the message stop() publishes
     std::unique_ptr<mqtt::connect_options> options_;
     std::unique_ptr<mqtt::async_client> cli_;
     std::function<void()> stop_done_;

@@ -7,12 +7,16 @@ with responses (MQTT 5 response topic + correlation data, 3.1.1 reply_to); bad p
 with errors (the gateway keeps working); job state retained while active and cleared after
 retain_finished_s; a broker restart (the gateway reconnects, re-subscribes and republishes its
 retained state); two gateways side by side on one broker; the Last Will on kill -9; "offline" on a
-clean shutdown; TLS with a CA, server and client certificates made here with openssl. Every payload
-received is validated against the schemas of openapi/asyncapi.yaml (when given).
+clean shutdown; TLS with a CA, server and client certificates made here with openssl. A gateway on
+external ms2000-sims (control sockets, --sim) with its own broker (persistent sessions): encoder
+report batches (every frame, in order; frames missed while the broker is down counted in the next
+batch), TTL events, refused commands that send no serial byte (the simulator's byte counter), and
+the bounded queue of job state changes kept while the broker is down. Every payload received is
+validated against the schemas of openapi/asyncapi.yaml (when given).
 
 Run by ctest (mqtt_api); by hand:
   /usr/bin/python3 tests/integration/api/mqtt_api_test.py --gateway build/gateway/asi-gateway \
-      --asyncapi openapi/asyncapi.yaml
+      --sim build/devices/sim/ms2000-sim --asyncapi openapi/asyncapi.yaml
 """
 
 import argparse
@@ -45,7 +49,7 @@ MOSQUITTO = "/usr/sbin/mosquitto"
 class Broker:
     """mosquitto on 127.0.0.1:<port> (and a TLS listener when `tls` names the PEM files)."""
 
-    def __init__(self, fx, name, tls=None, extra=()):
+    def __init__(self, fx, name, tls=None, extra=(), persistent=False):
         self.fx = fx
         self.name = name
         self.port = free_port()
@@ -54,7 +58,11 @@ class Broker:
         self.proc = None
         self.conf = os.path.join(fx.tmp, name + ".conf")
         self.log = os.path.join(fx.tmp, name + ".log")
-        lines = ["per_listener_settings false", "allow_anonymous true", "persistence false",
+        # persistent: sessions survive a restart (saved on exit), and QoS 0 messages are queued for a
+        # persistent client while it is away, so a watcher misses nothing across a broker restart.
+        persistence = ["persistence true", f"persistence_location {fx.tmp}/", f"persistence_file {name}.db",
+                       "queue_qos0_messages true"] if persistent else ["persistence false"]
+        lines = ["per_listener_settings false", "allow_anonymous true", *persistence,
                  # as root, mosquitto would become user "mosquitto", who cannot read the 0700 scratch dir
                  *(["user root"] if os.geteuid() == 0 else []),
                  f"log_dest file {self.log}", "log_type error", "log_type warning", "log_type notice",
@@ -88,7 +96,7 @@ class Broker:
 class Client:
     """A paho client that records every message; helpers wait for one that matches."""
 
-    def __init__(self, broker_port, name, v5=True, tls=None, port=None, user=None):
+    def __init__(self, broker_port, name, v5=True, tls=None, port=None, user=None, session=False):
         self.v5 = v5
         self.messages = []  # (topic, payload bytes, retained, properties)
         self.cv = threading.Condition()
@@ -101,7 +109,12 @@ class Client:
         connected = threading.Event()
         self.c.on_connect = lambda *a: connected.set()
         self.port = port or broker_port
-        self.c.connect("127.0.0.1" if not tls else "localhost", self.port, keepalive=30)
+        kw = {}
+        if session:  # MQTT 5: keep (or resume) the session and its queued messages for an hour
+            props = Properties(PacketTypes.CONNECT)
+            props.SessionExpiryInterval = 3600
+            kw = {"clean_start": False, "properties": props}
+        self.c.connect("127.0.0.1" if not tls else "localhost", self.port, keepalive=30, **kw)
         self.c.loop_start()
         check(connected.wait(WAIT), f"client {name} could not connect")
 
@@ -645,6 +658,329 @@ def test_clean_shutdown(gw, broker, contract):
         c.close()
 
 
+# ---------------------------------------------------------------------------------------------
+# A gateway on external simulators (control sockets): encoder reports, TTL events, job state changes
+# queued while the broker is away, and no serial byte for a refused command. It has its own broker
+# with persistent sessions, so that a watcher that was away while the broker restarted still gets
+# every message (non-retained ones included) in order.
+
+
+def metrics(gw):
+    """/api/v1/metrics as {(name, frozenset(labels)): value}."""
+    status, text = http_request(gw.port, "GET", "/api/v1/metrics", token=TOKENS["viewer"])
+    check(status == 200, f"metrics: {status}")
+    out = {}
+    for line in text.splitlines():
+        if not line or line.startswith("#"):
+            continue
+        key, value = line.rsplit(" ", 1)
+        name, _, labels = key.partition("{")
+        pairs = frozenset(tuple(kv.split("=", 1)) for kv in labels.rstrip("}").split(",") if kv)
+        out[(name, frozenset((k, v.strip('"')) for k, v in pairs))] = float(value)
+    return out
+
+
+def metric(gw, name, **labels):
+    return metrics(gw).get((name, frozenset(labels.items())), 0.0)
+
+
+def sim_bytes_in(sim):
+    """Bytes the simulated controller received on its serial port (complete command lines)."""
+    return json.loads(sim.control("state"))["port"]["bytes_in"]
+
+
+def broker_outage(gw, broker, watcher_name, topics, during):
+    """The watcher (a persistent session) leaves, the broker stops, `during()` runs once the gateway
+    knows it is disconnected, the broker starts again; returns the watcher, back on its session."""
+    w = Client(broker.port, watcher_name, session=True)
+    w.subscribe(*topics)
+    w.close()
+    broker.stop()
+    wait_until("the gateway sees the broker gone", lambda: metric(gw, "gw_mqtt_connected") == 0, timeout=20)
+    during()
+    broker.start()
+    return Client(broker.port, watcher_name, session=True)
+
+
+def reports_of(c, gw, cid, start=0):
+    msgs = c.all(lambda t: t == gw.topic("controllers", cid, "reports"), start=start)
+    return [payload_json(p) for _, p, _, _ in msgs], msgs
+
+
+def check_report_batches(batches):
+    """Batch structure: frames in hub order with from/to their first and last sequence numbers, and
+    every frame in between either in a batch or counted in a "missed" (at the latest in the batch that
+    follows the loss). Returns the frames."""
+    frames = []
+    prev_to = None
+    pending = 0  # missed frames announced by empty batches, before the next frame
+    for b in batches:
+        check(b["type"] == "reports" and isinstance(b["frames"], list), f"batch: {b}")
+        if not b["frames"]:
+            check(b["from"] is None and b["to"] is None and b["missed"] > 0, f"an empty batch says why: {b}")
+            pending += b["missed"]
+            continue
+        span = b["to"] - b["from"] + 1
+        check(len(b["frames"]) <= span <= len(b["frames"]) + b["missed"],
+              f"from/to vs frames: {b['from']}..{b['to']} with {len(b['frames'])} frames, missed {b['missed']}")
+        if prev_to is not None:
+            check(b["to"] - prev_to == len(b["frames"]) + b["missed"] + pending,
+                  f"after {prev_to}: {b['from']}..{b['to']}, {len(b['frames'])} frames, missed {b['missed']}"
+                  f" (+{pending} announced before)")
+        prev_to = b["to"]
+        pending = 0
+        frames += b["frames"]
+    return frames
+
+
+def test_reports(gw, sims, broker, contract):
+    # A burst of TTL pulses on the controller with TTL_REPORT: every frame arrives, batched, in order.
+    topic = gw.topic("controllers", "extr", "reports")
+    c = Client(broker.port, "reports-watch")
+    try:
+        c.subscribe(topic)
+        status, text = http_request(gw.port, "POST", "/api/v1/controllers/extr/ttl", {"in0_mode": 1},
+                                    token=TOKENS["operator"])
+        check(status == 200, f"ttl in0_mode 1: {status} {text}")
+        frames_before = metric(gw, "gw_controller_report_frames_total", controller="extr")
+        n = 40
+        check(sims["extr"].control(f"pulse {n} 200") == "ok", "pulse")
+
+        def decoded():
+            return int(metric(gw, "gw_controller_report_frames_total", controller="extr") - frames_before)
+        # What the gateway decoded (a loaded machine may make the simulator drop a frame itself:
+        # TTL_REPORT overrun) must all reach MQTT.
+        last = [-1]
+
+        def settled():
+            d = decoded()
+            done, last[0] = d == last[0] and d > 0, d
+            return done
+        wait_until("the frames decoded", lambda: time.sleep(0.5) or settled())
+        got = decoded()
+        check(got >= n - 2, f"the gateway decoded {got} frames of {n} pulses")
+        try:
+            wait_until(f"{got} report frames over MQTT",
+                       lambda: sum(len(b["frames"]) for b in reports_of(c, gw, "extr")[0]) >= got)
+        except Failure:
+            batches = reports_of(c, gw, "extr")[0]
+            raise Failure(f"{sum(len(b['frames']) for b in batches)} frames in {len(batches)} batches "
+                          f"(missed {sum(b['missed'] for b in batches)}); the gateway decoded {got}")
+        time.sleep(0.5)  # nothing more may come
+        batches, msgs = reports_of(c, gw, "extr")
+        for t, p, r, _ in msgs:
+            check(not r, "reports are not retained")
+            contract.validate(t, p)
+        check(all(b["controller"] == "extr" and b["missed"] == 0 for b in batches), f"no loss: {batches}")
+        frames = check_report_batches(batches)
+        check(len(frames) == got, f"{len(frames)} frames over MQTT, {got} decoded")
+        seqs = [f["controller_seq"] for f in frames]
+        check(seqs == list(range(seqs[0], seqs[0] + got)), f"the controller's frames, in order: {seqs}")
+        check(all(f["id"] == "extr" and [a["axis"] for a in f["axes"]] == ["X", "Y", "Z"] and
+                  all(isinstance(a["counts"], int) for a in f["axes"]) for f in frames), f"frame: {frames[0]}")
+        print(f"    {got} frames ({n} pulses) in {len(batches)} batches "
+              f"(largest {max(len(b['frames']) for b in batches)})")
+    finally:
+        c.close()
+
+
+def test_report_gap(gw, sims, broker, contract):
+    # Frames that arrive while the broker is down cannot be published: the first batch after the
+    # reconnect says how many ("missed"), /metrics counts them, and the sequence numbers agree.
+    topic = gw.topic("controllers", "extr", "reports")
+    pre = Client(broker.port, "gap-pre")
+    pre.subscribe(topic)
+    check(sims["extr"].control("pulse 3 100") == "ok", "pulse")
+    pre.wait_for("frames before the outage",
+                 lambda t, p, r, pr: sum(len(b["frames"]) for b in reports_of(pre, gw, "extr")[0]) >= 3)
+    last_to = reports_of(pre, gw, "extr")[0][-1]["to"]
+    pre.close()
+    dropped_before = metric(gw, "gw_mqtt_dropped_total", kind="reports")
+    n = 15
+
+    lost = {}
+
+    def pulses():
+        before = metric(gw, "gw_controller_report_frames_total", controller="extr")
+        check(sims["extr"].control(f"pulse {n} 100") == "ok", "pulse")
+        last = [-1]
+
+        def settled():  # every frame the simulator sent is decoded (one may be lost to an overrun)
+            d = int(metric(gw, "gw_controller_report_frames_total", controller="extr") - before)
+            done, last[0] = d == last[0] and d >= n - 2, d
+            return done
+        wait_until("the frames decoded while the broker is down", lambda: time.sleep(0.5) or settled())
+        lost["n"] = last[0]
+    c = broker_outage(gw, broker, "gap-watch", [topic], pulses)
+    n = lost["n"]
+    try:
+        c.wait_for("the missed-frames batch", lambda t, p, r, pr: t == topic and payload_json(p)["missed"] > 0)
+        check(sims["extr"].control("pulse 4 100") == "ok", "pulse")
+        wait_until("frames after the outage", lambda: sum(len(b["frames"]) for b in reports_of(c, gw, "extr")[0]) >= 4)
+        time.sleep(0.5)
+        batches, msgs = reports_of(c, gw, "extr")
+        for t, p, _, _ in msgs:
+            contract.validate(t, p)
+        check(sum(b["missed"] for b in batches) == n, f"missed {[b['missed'] for b in batches]}, expected {n}")
+        check(batches[0]["frames"] == [] and batches[0]["missed"] == n, f"announced at once: {batches[0]}")
+        frames = check_report_batches(batches)
+        check(len(frames) == 4, f"{len(frames)} frames after the outage")
+        check(batches[1]["from"] == last_to + n + 1, f"hub sequence after the gap: {batches[1]['from']}, "
+              f"expected {last_to} + {n} + 1")
+        check(metric(gw, "gw_mqtt_dropped_total", kind="reports") - dropped_before == n,
+              "gw_mqtt_dropped_total{kind=reports} counts them")
+    finally:
+        c.close()
+
+
+def test_ttl_events(gw, sims, broker, contract):
+    # TTL IN0 mode 5: an edge starts serial position reports ("T: ..." lines), the next edge stops them.
+    topic = gw.topic("controllers", "extt", "ttl")
+    c = Client(broker.port, "ttl-watch")
+    try:
+        c.subscribe(topic)
+        status, text = http_request(gw.port, "POST", "/api/v1/controllers/extt/ttl", {"in0_mode": 5},
+                                    token=TOKENS["operator"])
+        check(status == 200, f"ttl in0_mode 5: {status} {text}")
+        check(sims["extt"].control("pulse") == "ok", "pulse: reports on")
+        wait_until("TTL events", lambda: len(c.all(lambda t: t == topic)) >= 4)
+        check(sims["extt"].control("pulse") == "ok", "pulse: reports off")
+        time.sleep(1)  # the last ones in flight
+        n = len(c.all(lambda t: t == topic))
+        time.sleep(1)
+        msgs = c.all(lambda t: t == topic)
+        check(len(msgs) == n, f"TTL events go on after the second edge: {n} -> {len(msgs)}")
+        events = []
+        for t, p, r, _ in msgs:
+            check(not r, "TTL events are not retained")
+            contract.validate(t, p)
+            events.append(payload_json(p))
+        check(all(e["type"] == "event" and e["topic"] == "controllers/extt/ttl" for e in events), f"{events[0]}")
+        seqs = [e["seq"] for e in events]
+        check(seqs == list(range(seqs[0], seqs[0] + len(seqs))), f"every TTL event, in order: {seqs}")
+        data = [e["data"] for e in events]
+        # "T: <ms> <x> <y>": the position report carries X and Y.
+        check(all(d["id"] == "extt" and [a["axis"] for a in d["axes"]] == ["X", "Y"] for d in data), f"{data[0]}")
+        ms = [d["controller_ms"] for d in data]
+        check(ms == sorted(ms) and ms[-1] > ms[0], f"the controller's time stamps advance: {ms}")
+    finally:
+        c.close()
+
+
+def test_no_serial_byte(gw, sims, broker, contract):
+    # extt is not polled (poll_ms 0): only commands reach its serial port. A valid command moves its
+    # byte counter; a batch of refused ones (malformed, unauthorized, invalid) must not.
+    reply = "clients/ext/bad"
+    cmd = gw.topic("controllers", "extt", "cmd")
+    c = Client(broker.port, "serial-watch")
+    try:
+        c.subscribe(reply)
+        before = sim_bytes_in(sims["extt"])
+        ans = command(c, cmd, {"operation": "halt", "token": TOKENS["operator"]}, reply)
+        check(ans["type"] == "result", f"halt: {ans}")
+        wait_until("the valid command on the serial port", lambda: sim_bytes_in(sims["extt"]) > before)
+        time.sleep(0.3)
+        before = sim_bytes_in(sims["extt"])
+        user_before = metric(gw, "gw_controller_commands_total", controller="extt", origin="user")
+        move = {"axes": {"X": 100}}
+        bad = [
+            b"not json", b"", b"\xff\xfe\x00", b"[]", b"null", b'{"operation": "move"', b"{" * 5000,
+            {"operation": "move", "args": move},  # no token
+            {"operation": "move", "args": move, "token": "wrong-token-0000000"},
+            {"operation": "move", "args": move, "token": TOKENS["viewer"]},
+            {"operation": "command", "args": {"command": "M X=100"}, "token": TOKENS["operator"]},
+            {"operation": "move", "args": {"axes": {"Q": 1}}, "token": TOKENS["admin"]},
+            {"operation": "move", "args": {"axes": {"X": "far"}}, "token": TOKENS["admin"]},
+            {"operation": "move", "args": {"axes": {"X": 1e300}}, "token": TOKENS["admin"]},
+            {"operation": "move", "args": move, "token": TOKENS["admin"], "extra": 1},
+            {"operation": "speed", "args": {"axes": {"X": -5}}, "token": TOKENS["admin"]},
+            {"operation": "ttl", "args": {"in0_mode": "x"}, "token": TOKENS["admin"]},
+            {"operation": "command", "args": {"command": "M X=1\rM Y=2"}, "token": TOKENS["admin"]},
+            {"operation": "fly", "token": TOKENS["admin"]},
+            {"operation": 7, "token": TOKENS["admin"]},
+            {"operation": "halt", "token": TOKENS["admin"], "controller": "sim1"},
+            {"operation": "halt", "token": TOKENS["admin"], "reply_to": "asi/x/status"},
+        ]
+        for body in bad:
+            ans = command(c, cmd, body, reply)
+            check(ans["type"] == "error", f"{body!r:.80}: {ans}")
+            contract.validate(reply, json.dumps(ans))
+        # A retained command and one without any way to answer: refused (or ignored), never run.
+        c.c.publish(cmd, json.dumps({"operation": "move", "args": move, "token": TOKENS["admin"]}), qos=1,
+                    retain=True).wait_for_publish(WAIT)
+        c.c.publish(cmd, b"", qos=1, retain=True).wait_for_publish(WAIT)
+        c.c.publish(cmd, json.dumps({"operation": "move", "args": move}), qos=1).wait_for_publish(WAIT)
+        time.sleep(1)
+        check(sim_bytes_in(sims["extt"]) == before, f"serial bytes: {before} -> {sim_bytes_in(sims['extt'])}")
+        check(metric(gw, "gw_controller_commands_total", controller="extt", origin="user") == user_before,
+              "no user command reached the controller")
+        check(gw.proc.poll() is None, "the gateway is still running")
+    finally:
+        c.close()
+
+
+def test_job_queue(gw, sims, broker, contract):
+    # While the broker is down a job runs through all its states; the bridge keeps the newest
+    # queue_limit (4) changes, drops the oldest (counted), and publishes the kept ones in order on the
+    # reconnect, then the job's current state again.
+    limit = gw.config["mqtt"]["jobs"]["queue_limit"]
+    topics = [gw.topic("jobs", "+", "state")]
+    dropped_before = metric(gw, "gw_mqtt_dropped_total", kind="jobs")
+    job = {}
+
+    def run_job():
+        status, text = http_request(gw.port, "POST", "/api/v1/jobs",
+                                    {"controller": "extr", "type": "array",
+                                     "spec": {"grid": {"columns": 3, "rows": 1, "column_step_mm": 0.05,
+                                                       "row_step_mm": 0.05}, "a1": "current", "advance": "timer",
+                                              "dwell_ms": 50}},
+                                    token=TOKENS["operator"])
+        check(status == 201, f"submit: {status} {text}")
+        job["id"] = json.loads(text)["id"]
+        def done():
+            j = json.loads(http_request(gw.port, "GET", f"/api/v1/jobs/{job['id']}", token=TOKENS["viewer"])[1])
+            check(j["state"] in ("queued", "running", "succeeded"), f"job: {j}")
+            return j["state"] == "succeeded"
+        wait_until("the job done", done)
+        time.sleep(0.3)
+        check(metric(gw, "gw_mqtt_job_queue") == limit, f"the queue holds {limit}")
+    c = broker_outage(gw, broker, "jobs-watch", topics, run_job)
+    try:
+        topic = gw.topic("jobs", job["id"], "state")
+        c.wait_for("the republished job", lambda t, p, r, pr: t == topic and len(c.all(lambda x: x == topic)) > limit)
+        time.sleep(0.5)
+        msgs = c.all(lambda t: t == topic)
+        for t, p, _, _ in msgs:
+            contract.validate(t, p)
+        states = [payload_json(p) for _, p, _, _ in msgs]
+        seqs = [s["seq"] for s in states]
+        last = seqs[limit - 1]
+        check(seqs[:limit] == list(range(last - limit + 1, last + 1)), f"the newest {limit}, in order: {seqs}")
+        check(states[limit - 1]["job"]["state"] == "succeeded", f"the last queued: {states[limit - 1]['job']['state']}")
+        check(seqs[limit:] == [last] * (len(seqs) - limit), f"then the current state again: {seqs}")
+        dropped = metric(gw, "gw_mqtt_dropped_total", kind="jobs") - dropped_before
+        check(dropped == last - limit, f"dropped {dropped}, expected {last} changes - {limit} kept")
+        check(metric(gw, "gw_mqtt_job_queue") == 0, "the queue is empty again")
+        with open(gw.log_path) as f:
+            check("job state queue full" in f.read(), "the overflow is logged")
+    finally:
+        c.close()
+
+
+def start_ext_gateway(fx, binary, sim_bin):
+    broker = Broker(fx, "ext-broker", persistent=True)
+    broker.start()
+    sims = {"extr": fx.start_sim(sim_bin, "extr", "full", report=True),
+            "extt": fx.start_sim(sim_bin, "extt", "plain")}
+    gw = Gateway(fx, binary, "gw-ext", [f"mqtt://127.0.0.1:{broker.port}"], sims=0,
+                 mqtt_extra={"jobs": {"retain_finished_s": 600, "queue_limit": 4}})
+    gw.config["controllers"] = [
+        {"id": "extr", "port": sims["extr"].link, "report_port": sims["extr"].report_link, "baud": 115200},
+        {"id": "extt", "port": sims["extt"].link, "baud": 115200, "poll_ms": 0}]
+    gw.start()
+    return gw, broker, sims
+
+
 def make_pki(tmp):
     """A test CA, a server certificate for localhost/127.0.0.1 and a client certificate (openssl)."""
     d = os.path.join(tmp, "pki")
@@ -771,6 +1107,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--gateway", required=True)
     ap.add_argument("--asyncapi", default="")
+    ap.add_argument("--sim", required=True, help="the ms2000-sim executable (external simulators)")
     ap.add_argument("--readme", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "../../../README.md"))
     ap.add_argument("--only", default="", help="test names separated by ; (default: all)")
     args = ap.parse_args()
@@ -809,6 +1146,15 @@ def main():
         run("two gateways on one broker", test_two_gateways, gw, gw_b, broker, contract)
         run("Last Will on kill -9", test_last_will, gw, broker, contract)
         run("offline on a clean shutdown", test_clean_shutdown, gw_b, broker, contract)
+        gw_x, broker_x, sims = start_ext_gateway(fx, args.gateway, args.sim)
+        gateways.append(gw_x)
+        run("encoder reports: batched, every frame, in order", test_reports, gw_x, sims, broker_x, contract)
+        run("encoder reports: frames missed while the broker is down are counted", test_report_gap, gw_x, sims,
+            broker_x, contract)
+        run("TTL events", test_ttl_events, gw_x, sims, broker_x, contract)
+        run("refused commands send no serial byte", test_no_serial_byte, gw_x, sims, broker_x, contract)
+        run("job state changes queued while the broker is down (bounded, in order)", test_job_queue, gw_x, sims,
+            broker_x, contract)
         run("TLS with a test CA", test_tls, fx, args.gateway, contract)
         run("the README's ACL: only the scheduler commands", test_acl, fx, args.gateway, args.readme)
         if contract.doc:
