@@ -311,6 +311,9 @@ TEST_F(gcode_run_test, a_crash_with_the_ttl_on_gets_the_output_low_after_the_res
     std::this_thread::sleep_for(300ms);
     EXPECT_EQ(commands_of(id), job_commands);  // nothing sent for the job after the crash
     EXPECT_EQ(std::count_if(job_commands.begin(), job_commands.end(), is_move), 1);
+    // The job's own "TTL Y=0" is only the one every run starts with: the output went low by the
+    // recovery's command.
+    EXPECT_EQ(std::count(job_commands.begin(), job_commands.end(), "TTL Y=0"), 1);
     const auto sent = all_commands();
     std::size_t lows = 0, moves = 0;
     for (const auto& [rid, wire] : sent) {
