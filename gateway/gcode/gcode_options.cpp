@@ -26,13 +26,23 @@ std::optional<double> parse_number(const std::string& text) {
 std::optional<std::string> validate(const gcode_options& o) {
     auto positive = [](double v) { return std::isfinite(v) && v > 0; };
     auto non_negative = [](double v) { return std::isfinite(v) && v >= 0; };
+    // Upper (and scale lower) bounds: beyond them a plan is meaningless (a feed of 0 mm/s, a
+    // 60-digit duration), and no stage the gateway drives comes near them.
+    constexpr double max_scale = 1e6;
+    constexpr double max_speed_mm_s = 1000;
+    constexpr double max_wait_ms = 60'000;
     if (!positive(o.xyz_scale)) return "xyz_scale must be > 0";
+    if (o.xyz_scale < 1 / max_scale || o.xyz_scale > max_scale) return "xyz_scale must be within 1e-6..1e6";
     if (!positive(o.speed_scale)) return "speed_scale must be > 0";
+    if (o.speed_scale < 1 / max_scale || o.speed_scale > max_scale)
+        return "speed_scale must be within 1e-6..1e6";
     // Below 0.1 nm the segment count of a large arc explodes without any physical meaning.
     if (!std::isfinite(o.arc_tolerance_mm) || o.arc_tolerance_mm < 1e-7)
         return "arc_tolerance_mm must be >= 1e-7";
     if (!positive(o.max_feed_mm_s)) return "max_feed_mm_s must be > 0";
+    if (o.max_feed_mm_s > max_speed_mm_s) return "max_feed_mm_s must be <= 1000";
     if (!positive(o.rapid_mm_s)) return "rapid_mm_s must be > 0";
+    if (o.rapid_mm_s > max_speed_mm_s) return "rapid_mm_s must be <= 1000";
     if (!non_negative(o.arc_radius_tolerance_mm)) return "arc_radius_tolerance_mm must be >= 0";
     if (!non_negative(o.arc_radius_relative_tolerance)) return "arc_radius_relative_tolerance must be >= 0";
     if (!non_negative(o.arc_r_deficit_tolerance_mm)) return "arc_r_deficit_tolerance_mm must be >= 0";
@@ -44,9 +54,12 @@ std::optional<std::string> validate(const gcode_options& o) {
             return "analog_low_um must be below analog_high_um";
     }
     if (!non_negative(o.ramp_ms)) return "ramp_ms must be >= 0";
+    if (o.ramp_ms > max_wait_ms) return "ramp_ms must be <= 60000";
     if (!non_negative(o.settle_ms)) return "settle_ms must be >= 0";
+    if (o.settle_ms > max_wait_ms) return "settle_ms must be <= 60000";
     if (o.host.baud == 0) return "baud must be > 0";
     if (!non_negative(o.host.arrival_poll_ms)) return "arrival_poll_ms must be >= 0";
+    if (o.host.arrival_poll_ms > max_wait_ms) return "arrival_poll_ms must be <= 60000";
     if (o.max_line_chars < 16) return "max_line_chars must be >= 16";
     return std::nullopt;
 }

@@ -173,6 +173,17 @@ INSTANTIATE_TEST_SUITE_P(
                  "arc_r_deficit_tolerance_mm must be >= 0"},
         bad_case{"negative_ramp", "ramp_ms=-1", plan, "ramp_ms", "ramp_ms must be >= 0"},
         bad_case{"negative_settle", "settle_ms=-0.5", plan, "settle_ms", "settle_ms must be >= 0"},
+        // Upper bounds: past them a plan means nothing (a 0 mm/s feed, a 60-digit duration).
+        bad_case{"tiny_speed_scale", "speed_scale=1e-300", plan, "speed_scale",
+                 "speed_scale must be within 1e-6..1e6"},
+        bad_case{"huge_scale", "xyz_scale=1e7", plan, "xyz_scale", "xyz_scale must be within 1e-6..1e6"},
+        bad_case{"huge_max_feed", "max_feed_mm_s=1001", plan, "max_feed_mm_s",
+                 "max_feed_mm_s must be <= 1000"},
+        bad_case{"huge_rapid", "rapid_mm_s=1e4", plan, "rapid_mm_s", "rapid_mm_s must be <= 1000"},
+        bad_case{"huge_ramp", "ramp_ms=1e300", plan, "ramp_ms", "ramp_ms must be <= 60000"},
+        bad_case{"huge_settle", "settle_ms=60001", plan, "settle_ms", "settle_ms must be <= 60000"},
+        bad_case{"huge_poll", "arrival_poll_ms=1e5", plan, "arrival_poll_ms",
+                 "arrival_poll_ms must be <= 60000"},
         // The first bad parameter is named, in query order.
         bad_case{"first_of_two", "speed_scale=x&xyz_scale=y", plan, "speed_scale",
                  "speed_scale must be a number, not \"x\""}),
