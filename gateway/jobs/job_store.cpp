@@ -1,5 +1,6 @@
 #include "gateway/jobs/job_store.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <fmt/format.h>
 #include <limits>
@@ -59,6 +60,18 @@ CREATE TABLE job_events (
     PRIMARY KEY (job_id, seq)
 ) WITHOUT ROWID;
 PRAGMA user_version = 1;
+)sql";
+
+// Schema version 2: the commands that undo what a running job changed on its controller
+// (job_context::restore_if_stopped), so that a gateway started after a crash can send them. A JSON
+// array in registration order; no row when there is nothing to undo.
+constexpr const char* migration_v2 = R"sql(
+CREATE TABLE job_restore_commands (
+    job_id     TEXT PRIMARY KEY REFERENCES jobs(id) ON DELETE CASCADE,
+    commands   TEXT NOT NULL,
+    updated_ms INTEGER NOT NULL
+) WITHOUT ROWID;
+PRAGMA user_version = 2;
 )sql";
 
 constexpr std::string_view job_columns =
@@ -311,14 +324,17 @@ operation_result<void> configure(const connection& c, const job_store_options& o
         if (auto r = pragma_integer(c, sql.c_str(), "set max_page_count"); !r) return r.error();
     }
 
-    if (*version == 0) {
+    if (*version < job_store_schema_version) {
         transaction tx(c);
         if (auto r = tx.begin(true); !r) return r.error();
-        // Another process may have created it while we waited for the lock.
+        // Another process may have created or migrated it while we waited for the lock.
         auto again = pragma_integer(c, "PRAGMA user_version", "read schema version");
         if (!again) return again.error();
         if (*again == 0) {
             if (auto r = c.exec(schema_v1, "create schema"); !r) return r.error();
+        }
+        if (*again <= 1) {
+            if (auto r = c.exec(migration_v2, "migrate schema to version 2"); !r) return r.error();
         }
         if (auto r = tx.commit(); !r) return r.error();
     }
@@ -600,6 +616,58 @@ operation_result<std::vector<job_record>> job_store::in_states(const std::vector
     if (!jobs) return jobs.error();
     if (auto r = tx.commit(); !r) return r.error();
     return std::move(*jobs);
+}
+
+operation_result<void> job_store::set_restore_commands(const std::string& job_id,
+                                                       const std::vector<std::string>& commands) {
+    std::lock_guard lock(mutex_);
+    connection c{db_, path_};
+    transaction tx(c);
+    if (auto r = tx.begin(true); !r) return r.error();
+    if (commands.empty()) {
+        auto d = c.prepare("DELETE FROM job_restore_commands WHERE job_id = ?1");
+        if (!d) return d.error();
+        d->text(1, job_id);
+        if (d->step() != SQLITE_DONE) return c.error(fmt::format("clear restore commands of job {}", job_id));
+        return tx.commit();
+    }
+    auto s = c.prepare(
+        "INSERT INTO job_restore_commands (job_id, commands, updated_ms) VALUES (?1, ?2, ?3) "
+        "ON CONFLICT(job_id) DO UPDATE SET commands = excluded.commands, updated_ms = excluded.updated_ms");
+    if (!s) return s.error();
+    s->text(1, job_id).text(2, dump(nlohmann::json(commands))).integer(3, epoch_ms(job_clock::now()));
+    if (s->step() != SQLITE_DONE) {
+        if (is_constraint(db_, SQLITE_CONSTRAINT_FOREIGNKEY))
+            return make_error(operation_error_kind::unknown_job, fmt::format("no job {}", job_id));
+        return c.error(fmt::format("store restore commands of job {}", job_id));
+    }
+    return tx.commit();
+}
+
+operation_result<std::vector<std::string>> job_store::restore_commands(const std::string& job_id) const {
+    std::lock_guard lock(mutex_);
+    connection c{db_, path_};
+    transaction tx(c);
+    if (auto r = tx.begin(false); !r) return r.error();
+    auto s = c.prepare("SELECT commands FROM job_restore_commands WHERE job_id = ?1");
+    if (!s) return s.error();
+    s->text(1, job_id);
+    std::vector<std::string> out;
+    int rc = s->step();
+    if (rc == SQLITE_ROW) {
+        auto list = nlohmann::json::parse(s->text(0), nullptr, false);
+        const bool strings = list.is_array() && std::all_of(list.begin(), list.end(),
+                                                            [](const auto& e) { return e.is_string(); });
+        if (!strings)
+            return corrupt(
+                path_, fmt::format("the restore commands of job {} are not a JSON array of strings", job_id));
+        for (const auto& e : list)
+            out.push_back(e.get<std::string>());
+    } else if (rc != SQLITE_DONE) {
+        return c.error(fmt::format("read restore commands of job {}", job_id));
+    }
+    if (auto r = tx.commit(); !r) return r.error();
+    return out;
 }
 
 operation_result<void> job_store::flush() {

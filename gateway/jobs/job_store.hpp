@@ -29,7 +29,7 @@ struct sqlite3;
 
 namespace gw::jobs {
 
-inline constexpr int job_store_schema_version = 1;
+inline constexpr int job_store_schema_version = 2;
 inline constexpr const char* job_store_file_name = "jobs.sqlite3";
 
 struct job_store_options {
@@ -42,7 +42,8 @@ struct job_store_options {
 
 class job_store {
   public:
-    // Creates the directory and the database (schema versioned with PRAGMA user_version) if needed.
+    // Creates the directory and the database (schema versioned with PRAGMA user_version) if needed, and
+    // migrates an older schema (version 1: no job_restore_commands table) in one transaction.
     // storage_unavailable when the directory cannot be created, the file is not a SQLite database,
     // or its schema version is newer than job_store_schema_version.
     static operation_result<std::unique_ptr<job_store>> open(const std::string& directory,
@@ -72,6 +73,14 @@ class job_store {
     operation_result<std::vector<nlohmann::json>> transitions(const std::string& job_id) const;
     // Jobs in any of these states (startup recovery), oldest first.
     operation_result<std::vector<job_record>> in_states(const std::vector<job_state>& states) const;
+
+    // The commands that undo what the job's current run changed on its controller
+    // (job_context::restore_if_stopped), in registration order, kept so that a gateway started after a
+    // crash can send them. An empty list removes them. unknown_job when the job is not stored.
+    operation_result<void> set_restore_commands(const std::string& job_id,
+                                                const std::vector<std::string>& commands);
+    // Empty when none are stored (or the job is unknown).
+    operation_result<std::vector<std::string>> restore_commands(const std::string& job_id) const;
 
     // Checkpoints the WAL into the main file (clean shutdown).
     operation_result<void> flush();

@@ -544,16 +544,18 @@ TEST_F(store_test, a_schema_version_from_the_future_is_refused) {
     }
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open((dir_ / "jobs.sqlite3").c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db, "PRAGMA user_version = 2", nullptr, nullptr, nullptr), SQLITE_OK);
+    const auto future = std::to_string(job_store_schema_version + 1);
+    const auto set_version = "PRAGMA user_version = " + future;
+    ASSERT_EQ(sqlite3_exec(db, set_version.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
     sqlite3_close(db);
 
     auto r = job_store::open(dir_.string());
     ASSERT_FALSE(r);
     EXPECT_EQ(r.error().kind, operation_error_kind::storage_unavailable);
-    EXPECT_NE(r.error().message.find("schema version 2"), std::string::npos) << r.error().message;
+    EXPECT_NE(r.error().message.find("schema version " + future), std::string::npos) << r.error().message;
 }
 
-TEST_F(store_test, the_schema_version_is_1) {
+TEST_F(store_test, the_schema_version_is_the_current_one) {
     { ASSERT_TRUE(open_store()); }
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open((dir_ / "jobs.sqlite3").c_str(), &db), SQLITE_OK);
