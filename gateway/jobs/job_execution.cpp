@@ -96,7 +96,10 @@ std::filesystem::path job_execution::gcode_files() const {
 
 void job_execution::restore_if_stopped(std::string command) {
     auto& list = job_->restore_commands;
-    if (std::find(list.begin(), list.end(), command) == list.end()) list.push_back(std::move(command));
+    if (std::find(list.begin(), list.end(), command) != list.end()) return;
+    list.push_back(std::move(command));
+    if (abandoned_) return;
+    if (auto h = host_.lock()) h->on_restore_commands_changed(*job_);
 }
 
 net::awaitable<devices::ms2000::reply> job_execution::command(std::string line) {

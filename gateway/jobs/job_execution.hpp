@@ -60,6 +60,8 @@ class execution_host {
     virtual std::vector<nlohmann::json> step_events(const live_job& job) const = 0;
     // plan_context::gcode_files.
     virtual std::filesystem::path gcode_files() const { return {}; }
+    // The run registered another restore command (job.restore_commands): the manager persists the list.
+    virtual void on_restore_commands_changed(live_job& /*job*/) {}
 };
 
 class job_execution final : public job_context, public std::enable_shared_from_this<job_execution> {

@@ -109,8 +109,16 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void on_paused(live_job& job) override;
     std::vector<json> step_events(const live_job& job) const override;
     std::filesystem::path gcode_files() const override { return gcode_files_directory(settings_); }
+    void on_restore_commands_changed(live_job& job) override;
 
   private:
+    // What start() found a crashed run left on a controller, sent once the controller is connected.
+    struct recovery {
+        std::string job_id;
+        bool ttl_low = false;              // "TTL Y=0" (safe_outputs.hpp)
+        std::vector<std::string> restore;  // the run's stored restore commands, registration order
+    };
+
     struct lane {
         std::deque<std::string> queue;  // FIFO of queued job ids
         std::string holder;             // the job that has the controller: running, or paused
@@ -132,6 +140,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void set_state(live_job& job, job_state s, std::string reason);
     void save(const job_record& r);
     void record_event(const std::string& id, const json& event);
+    // Persists the job's restore commands (empty: removes them); a storage error is logged.
+    void store_restore_commands(const std::string& id, const std::vector<std::string>& commands);
     void publish(const std::string& id, const json& event);
 
     void dispatch(const std::string& controller);
@@ -144,9 +154,13 @@ class manager_core final : public execution_host, public std::enable_shared_from
     net::awaitable<void> restore_settings(std::shared_ptr<live_job> job);
     // "TTL Y=0" for a job paused by a disconnect (a laser must not stay on): once connected again.
     void ttl_low_after_disconnect(std::shared_ptr<live_job> job);
-    // "TTL Y=0" for a job that a crash interrupted (safe_outputs.hpp), once; a failure waits for the
+    // For a job that a crash interrupted: "TTL Y=0" (safe_outputs.hpp), then its stored restore
+    // commands newest first (as safe_stop does), once; what fails to reach the controller waits for the
     // next connect. Sent with safe_output_request_id(), not as the job's.
-    void send_safe_outputs(const std::string& controller);
+    void send_recovery(const std::string& controller);
+    // A run starts on the controller: it owns the controller's settings (and its output, when it may
+    // drive it), so a late recovery must not cut into it.
+    void drop_recovery_for(const live_job& launched);
     net::awaitable<void> shutdown_coro(std::function<void()> done);
 
     bool controller_connected(const std::string& id) const {
@@ -175,8 +189,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
     std::atomic<bool> abandoned_{false};
     mutable std::mutex records_mutex_;
     std::map<std::string, job_record> live_records_;
-    // Controller -> the interrupted job whose TTL output must still be switched off (strand only).
-    std::map<std::string, std::string> safe_output_pending_;
+    // Controller -> what an interrupted job left on it that must still be undone (strand only).
+    std::map<std::string, recovery> recovery_pending_;
 
     std::shared_ptr<devices::controller_observer> observer_;
 
@@ -250,6 +264,13 @@ void manager_core::record_event(const std::string& id, const json& event) {
     if (!store_) return;
     if (auto ok = store_->append_event(id, event); !ok)
         log_->error("job {}: cannot store an event: {}", id, ok.error().message);
+}
+
+void manager_core::store_restore_commands(const std::string& id, const std::vector<std::string>& commands) {
+    std::lock_guard lock(store_mutex_);
+    if (!store_) return;
+    if (auto ok = store_->set_restore_commands(id, commands); !ok)
+        log_->error("job {}: cannot store its restore commands: {}", id, ok.error().message);
 }
 
 void manager_core::publish(const std::string& id, const json& event) {
@@ -332,15 +353,35 @@ void manager_core::start() {
             job->record = std::move(r);
             self->jobs_[job->record.id] = job;
             self->set_state(*job, job_state::interrupted, "gateway restarted");
+            recovery rec;
+            rec.job_id = job->record.id;
             // A laser must never stay on: the crashed gateway could not switch the output off.
-            if (may_leave_ttl_output_high(job->record.type, job->record.spec))
-                self->safe_output_pending_[job->record.controller] = job->record.id;
+            rec.ttl_low = may_leave_ttl_output_high(job->record.type, job->record.spec);
+            // Nor may the settings the run changed stay changed (an IN0 mode that still steps the stage).
+            operation_result<std::vector<std::string>> stored = std::vector<std::string>{};
+            {
+                std::lock_guard lock(self->store_mutex_);
+                if (self->store_) stored = self->store_->restore_commands(job->record.id);
+            }
+            if (stored)
+                rec.restore = std::move(*stored);
+            else
+                self->log_->error("restart recovery: job {}: cannot read its restore commands: {}",
+                                  job->record.id, stored.error().message);
+            if (rec.ttl_low || !rec.restore.empty()) {
+                auto [it, added] = self->recovery_pending_.try_emplace(job->record.controller, rec);
+                if (!added) {
+                    self->log_->warn("restart recovery: jobs {} and {} were both active on {}; recovering {}",
+                                     it->second.job_id, rec.job_id, job->record.controller, rec.job_id);
+                    it->second = std::move(rec);
+                }
+            }
         }
         std::vector<std::string> reachable;
-        for (const auto& [controller, id] : self->safe_output_pending_)
+        for (const auto& [controller, pending] : self->recovery_pending_)
             if (self->controller_connected(controller)) reachable.push_back(controller);
         for (const auto& controller : reachable)
-            self->send_safe_outputs(controller);
+            self->send_recovery(controller);
         for (auto& r : queued ? *queued : std::vector<job_record>{}) {
             auto job = std::make_shared<live_job>();
             job->record = std::move(r);
@@ -614,10 +655,10 @@ void manager_core::dispatch(const std::string& controller) {
 
 void manager_core::launch(std::shared_ptr<live_job> job) {
     const auto first = std::min(job->record.progress.steps_done, job->plan->steps.size());
-    job->restore_commands.clear();      // the new run registers what it changes
+    job->restore_commands.clear();  // the new run registers what it changes
+    store_restore_commands(job->record.id, job->restore_commands);
     job->ttl_low_on_reconnect = false;  // the run owns the output again
-    if (may_leave_ttl_output_high(job->record.type, job->record.spec))
-        safe_output_pending_.erase(job->record.controller);  // so does this one: a late "off" must not cut it
+    drop_recovery_for(*job);
     auto exec = std::make_shared<job_execution>(strand_, registry_, weak_from_this(), job, first);
     job->exec = exec;
     job->record.progress.remaining_s = remaining_from(*job->plan, first);
@@ -659,6 +700,7 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
     }
     if (!e) {
         set_state(*job, job_state::succeeded, "");
+        store_restore_commands(id, {});  // the run put its settings back itself
         release(controller, id);
     } else if (cancelled) {
         set_state(*job, job_state::cancelled, "cancelled");
@@ -724,6 +766,7 @@ net::awaitable<void> manager_core::restore_settings(std::shared_ptr<live_job> jo
             log_->warn("[{}] {}: restoring with \"{}\" failed: {}", request_id, controller, *it,
                        r.error().message);
     }
+    if (!restore.empty()) store_restore_commands(job->record.id, {});  // sent: nothing left to recover
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -915,33 +958,93 @@ void manager_core::controller_reconnected(const std::string& controller) {
 
 void manager_core::controller_came_up(const std::string& controller) {
     net::post(strand_, [self = shared_from_this(), controller] {
-        if (self->safe_output_pending_.contains(controller)) self->send_safe_outputs(controller);
+        if (self->recovery_pending_.contains(controller)) self->send_recovery(controller);
     });
 }
 
-void manager_core::send_safe_outputs(const std::string& controller) {
-    auto it = safe_output_pending_.find(controller);
-    if (it == safe_output_pending_.end() || abandoned_) return;
-    const std::string job_id = it->second;
-    safe_output_pending_.erase(it);
+void manager_core::drop_recovery_for(const live_job& launched) {
+    auto it = recovery_pending_.find(launched.record.controller);
+    if (it == recovery_pending_.end()) return;
+    auto& pending = it->second;
+    if (!pending.restore.empty()) {
+        if (pending.job_id != launched.record.id) {
+            log_->warn(
+                "job {} starts on {} before the restore commands of the interrupted job {} could be "
+                "sent; they are dropped",
+                launched.record.id, launched.record.controller, pending.job_id);
+            store_restore_commands(pending.job_id, {});
+        }
+        pending.restore.clear();  // the job's own new run stored an empty list in launch()
+    }
+    if (may_leave_ttl_output_high(launched.record.type, launched.record.spec)) pending.ttl_low = false;
+    if (!pending.ttl_low) recovery_pending_.erase(it);
+}
+
+void manager_core::send_recovery(const std::string& controller) {
+    auto it = recovery_pending_.find(controller);
+    if (it == recovery_pending_.end() || abandoned_) return;
+    recovery pending = std::move(it->second);
+    recovery_pending_.erase(it);
     net::co_spawn(
         strand_,
-        [self = shared_from_this(), controller, job_id]() -> net::awaitable<void> {
+        [self = shared_from_this(), controller, pending = std::move(pending)]() -> net::awaitable<void> {
+            const std::string job_id = pending.job_id;
             const std::string request_id = safe_output_request_id(job_id);
-            ttl_request low;
-            low.output_high = false;  // "TTL Y=0"
-            std::string ttl_controller = controller;
-            std::string ttl_request_id = request_id;
-            auto ttl = co_await self->registry_.async_ttl(std::move(ttl_controller), low,
-                                                          std::move(ttl_request_id), net::use_awaitable);
-            if (ttl) {
-                self->log_->info("[{}] {}: job {} was interrupted by a restart; TTL output set low",
-                                 request_id, controller, job_id);
-            } else {
-                self->log_->warn("[{}] {}: TTL Y=0 for the interrupted job {} failed: {}", request_id,
-                                 controller, job_id, ttl.error().message);
-                self->safe_output_pending_.try_emplace(controller, job_id);  // the next connect tries again
+            recovery left;  // what did not reach the controller: the next connect tries again
+            left.job_id = job_id;
+            if (pending.ttl_low) {
+                ttl_request low;
+                low.output_high = false;  // "TTL Y=0"
+                std::string ttl_controller = controller;
+                std::string ttl_request_id = request_id;
+                auto ttl = co_await self->registry_.async_ttl(std::move(ttl_controller), low,
+                                                              std::move(ttl_request_id), net::use_awaitable);
+                if (ttl) {
+                    self->log_->info("[{}] {}: job {} was interrupted by a restart; TTL output set low",
+                                     request_id, controller, job_id);
+                } else {
+                    self->log_->warn("[{}] {}: TTL Y=0 for the interrupted job {} failed: {}", request_id,
+                                     controller, job_id, ttl.error().message);
+                    left.ttl_low = true;
+                }
             }
+            const auto& restore = pending.restore;
+            for (auto r = restore.rbegin(); r != restore.rend(); ++r) {
+                // Sent just above (or kept for the next try) when the output is switched off anyway.
+                if (pending.ttl_low && *r == "TTL Y=0") {
+                    if (left.ttl_low) left.restore.insert(left.restore.begin(), *r);
+                    continue;
+                }
+                std::string restore_controller = controller;
+                std::string restore_request_id = request_id;
+                raw_command_request request{*r};
+                auto sent = co_await self->registry_.async_raw_command(
+                    std::move(restore_controller), std::move(request), std::move(restore_request_id),
+                    net::use_awaitable);
+                if (!sent) {
+                    self->log_->warn("[{}] {}: restoring with \"{}\" for the interrupted job {} failed: {}",
+                                     request_id, controller, *r, job_id, sent.error().message);
+                    left.restore.insert(left.restore.begin(), *r);
+                } else if (sent->reply.what == devices::ms2000::reply::kind::error) {
+                    // The controller answered: sending it again would get the same answer.
+                    self->log_->warn(
+                        "[{}] {}: the controller refused \"{}\" (restore of the interrupted "
+                        "job {}): {}",
+                        request_id, controller, *r, job_id, sent->raw_reply);
+                }
+            }
+            if (!restore.empty())
+                self->log_->info(
+                    "[{}] {}: job {} was interrupted by a restart; {} of its {} restore "
+                    "command(s) sent",
+                    request_id, controller, job_id, restore.size() - left.restore.size(), restore.size());
+            // A run that started on the controller meanwhile owns its settings (drop_recovery_for); when
+            // it is this job's, its list in the store is the new run's.
+            const auto lane = self->lanes_.find(controller);
+            const std::string holder = lane != self->lanes_.end() ? lane->second.holder : std::string();
+            if (!holder.empty()) left.restore.clear();
+            if (!restore.empty() && holder != job_id) self->store_restore_commands(job_id, left.restore);
+            if (left.ttl_low || !left.restore.empty()) self->recovery_pending_.try_emplace(controller, left);
         },
         net::detached);
 }
@@ -1019,6 +1122,11 @@ std::vector<json> manager_core::step_events(const live_job& job) const {
     for (auto& e : *stored)
         if (e.is_object() && e.value("type", "") == "step") out.push_back(std::move(e));
     return out;
+}
+
+void manager_core::on_restore_commands_changed(live_job& job) {
+    if (abandoned_) return;
+    store_restore_commands(job.record.id, job.restore_commands);
 }
 
 void manager_core::on_paused(live_job& job) {

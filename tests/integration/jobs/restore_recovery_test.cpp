@@ -1,0 +1,206 @@
+// A crash (the manager destroyed without shutdown, like kill -9 of the gateway) while a job has changed
+// controller settings: the new manager finds the job's restore commands in the store and sends them
+// under the recovery's request id, never as the job's. Without that an array's IN0 stays in ARRAY mode
+// (TTL X=7) and a ring-buffer tour's in TTL X=1, so a later TTL edge moves the stage; a scan leaves its
+// scan SPEED.
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "gateway/jobs/safe_outputs.hpp"
+#include "tests/integration/jobs/manager_fixture.hpp"
+
+namespace gw::jobs::test {
+namespace {
+
+using json = nlohmann::json;
+
+class restore_recovery_test : public manager_fixture {
+  protected:
+    double sim_um(const std::string& sim, char axis) {
+        return sim_state(sim)["axes"][std::string(1, axis)]["position"].get<double>() / 10.0;
+    }
+    double sim_speed(const std::string& sim, char axis) {
+        return sim_state(sim)["axes"][std::string(1, axis)]["speed"].get<double>();
+    }
+    int in0_mode(const std::string& sim) { return sim_state(sim)["ttl"]["in0_mode"].get<int>(); }
+    bool wait_steps(const std::string& id, std::size_t n) {
+        return wait_until([&] {
+            auto j = job(id);
+            return j && j->progress.steps_done >= n;
+        });
+    }
+    // Commands sent under the recovery's request id (wire text without CR), in order.
+    std::vector<std::string> recovery_of(const std::string& id) {
+        return observer_->locked([&] {
+            std::vector<std::string> out;
+            for (const auto& t : observer_->traces)
+                if (t.request_id == safe_output_request_id(id)) {
+                    auto w = t.wire;
+                    if (w.ends_with("\\r")) w.resize(w.size() - 2);
+                    out.push_back(w);
+                }
+            return out;
+        });
+    }
+    // The simulated controller has stood still (no move, no scan, no autoplay) for 300 ms.
+    bool wait_quiet(const std::string& sim) {
+        int still = 0;
+        return wait_until([&] {
+            const auto s = sim_state(sim);
+            const auto flag = [&](const char* module, const char* key) {
+                return s.contains(module) && s[module].value(key, false);
+            };
+            const bool quiet =
+                !s.value("busy", true) && !flag("scan", "running") && !flag("ring_buffer", "autoplay");
+            still = quiet ? still + 1 : 0;
+            return still >= 30;
+        });
+    }
+    // After the restart: nothing is sent as the job, and an IN0 edge moves nothing.
+    void expect_no_job_commands_and_edges_move_nothing(const std::string& sim, const std::string& id) {
+        ASSERT_TRUE(wait_quiet(sim));
+        const auto as_job = commands_of(id);
+        const double x = sim_um(sim, 'X');
+        const double y = sim_um(sim, 'Y');
+        sims_.at(sim)->ttl_pulse();
+        std::this_thread::sleep_for(300ms);
+        EXPECT_FALSE(sim_state(sim)["busy"].get<bool>());
+        EXPECT_NEAR(sim_um(sim, 'X'), x, 1);
+        EXPECT_NEAR(sim_um(sim, 'Y'), y, 1);
+        EXPECT_EQ(commands_of(id), as_job);
+        EXPECT_EQ(job(id)->state, job_state::interrupted);
+    }
+};
+
+TEST_F(restore_recovery_test, a_crashed_firmware_array_run_gets_in0_back_and_later_edges_move_nothing) {
+    add_sim("sim1", "full", 5);
+    start();
+    const int in0_before = in0_mode("sim1");
+    auto submitted =
+        submit("sim1", job_type::array, json::parse(R"({"grid": {"columns": 4, "rows": 3, "column_step_mm": 4,
+                                                     "row_step_mm": 4}, "a1": {"X": 0, "Y": 0}})"));
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    ASSERT_EQ(submitted->job.plan_path, "firmware");
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_steps(id, 2));
+    ASSERT_EQ(in0_mode("sim1"), 7);  // the ARRAY module steps on IN0 edges
+
+    restart_manager();
+    ASSERT_TRUE(wait_state(id, job_state::interrupted));
+    const std::vector<std::string> expected{"TTL X=" + std::to_string(in0_before)};
+    ASSERT_TRUE(wait_until([&] { return recovery_of(id) == expected; }, 10s))
+        << testing::PrintToString(recovery_of(id));
+    EXPECT_EQ(in0_mode("sim1"), in0_before);
+    expect_no_job_commands_and_edges_move_nothing("sim1", id);
+    EXPECT_EQ(recovery_of(id), expected);  // once
+
+    // A resumed run owns IN0 again and puts it back itself when it ends.
+    ASSERT_TRUE(resume(id));
+    ASSERT_TRUE(wait_state(id, job_state::succeeded, 120s));
+    EXPECT_EQ(in0_mode("sim1"), in0_before);
+    EXPECT_EQ(recovery_of(id), expected);
+}
+
+TEST_F(restore_recovery_test, a_crashed_ttl_ring_buffer_tour_gets_in0_back_and_later_edges_move_nothing) {
+    auto sim = add_sim("sim3", "planar");
+    start();
+    const int in0_before = in0_mode("sim3");
+    auto spec = json::parse(R"({"positions": [{"X": 500, "Y": 0}, {"X": 1000, "Y": 500}, {"X": 0, "Y": 1000}],
+                                "trigger": "ttl"})");
+    auto submitted = submit("sim3", job_type::ring_buffer, spec);
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    ASSERT_EQ(submitted->job.plan_path, "firmware");
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_until([&] { return in0_mode("sim3") == 1; }));
+    sim->ttl_pulse();
+    ASSERT_TRUE(wait_steps(id, 1));
+
+    restart_manager();
+    ASSERT_TRUE(wait_state(id, job_state::interrupted));
+    const std::vector<std::string> expected{"TTL X=" + std::to_string(in0_before)};
+    ASSERT_TRUE(wait_until([&] { return recovery_of(id) == expected; }, 10s))
+        << testing::PrintToString(recovery_of(id));
+    EXPECT_EQ(in0_mode("sim3"), in0_before);
+    expect_no_job_commands_and_edges_move_nothing("sim3", id);
+    EXPECT_EQ(recovery_of(id), expected);
+}
+
+// Both scan paths change the fast axis's SPEED; the firmware path (ENC_INT) changes IN0 too.
+class scan_restore_recovery_test : public restore_recovery_test,
+                                   public ::testing::WithParamInterface<const char*> {};
+
+TEST_P(scan_restore_recovery_test, a_crashed_scan_gets_its_speed_back) {
+    const std::string preset = GetParam();
+    add_sim("sim1", preset, 5);
+    start();
+    const double speed_before = sim_speed("sim1", 'X');
+    const int in0_before = in0_mode("sim1");
+    auto submitted = submit("sim1", job_type::scan,
+                            json::parse(R"({"fast": {"start_mm": 0, "stop_mm": 0.2, "encoder_divide": 24},
+                                            "slow": {"start_mm": 0, "stop_mm": 0.9, "lines": 10},
+                                            "speed_mm_s": 0.1})"));
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    ASSERT_EQ(submitted->job.plan_path, preset == "full" ? "firmware" : "host");
+    const auto id = submitted->job.id;
+    // The host path sets the scan speed for each line and puts it back for the return: crash mid-line.
+    ASSERT_TRUE(wait_until([&] {
+        auto j = job(id);
+        return j && j->progress.steps_done >= 1 && std::abs(sim_speed("sim1", 'X') - 0.1) < 1e-6;
+    })) << "the scan's speed never seen";
+
+    restart_manager();
+    ASSERT_TRUE(wait_state(id, job_state::interrupted));
+    ASSERT_TRUE(wait_until([&] { return std::abs(sim_speed("sim1", 'X') - speed_before) < 1e-3; }, 10s))
+        << "SPEED still " << sim_speed("sim1", 'X') << "; recovery sent "
+        << testing::PrintToString(recovery_of(id));
+    ASSERT_TRUE(wait_quiet("sim1"));
+    const auto recovery = recovery_of(id);
+    ASSERT_FALSE(recovery.empty());
+    EXPECT_TRUE(std::any_of(recovery.begin(), recovery.end(),
+                            [](const std::string& c) { return c.starts_with("SPEED X="); }));
+    EXPECT_TRUE(std::all_of(recovery.begin(), recovery.end(), [](const std::string& c) {
+        return c.starts_with("SPEED X=") || c.starts_with("TTL X=");
+    })) << testing::PrintToString(recovery);
+    EXPECT_EQ(std::count(recovery.begin(), recovery.end(), "TTL Y=0"), 0);  // no output to switch off
+    EXPECT_EQ(in0_mode("sim1"), in0_before);
+    EXPECT_NEAR(sim_speed("sim1", 'X'), speed_before, 1e-3);
+    const auto as_job = commands_of(id);
+    std::this_thread::sleep_for(300ms);
+    EXPECT_EQ(commands_of(id), as_job);
+    EXPECT_EQ(recovery_of(id), recovery);
+}
+
+INSTANTIATE_TEST_SUITE_P(paths, scan_restore_recovery_test, ::testing::Values("full", "plain"),
+                         [](const auto& info) {
+                             return std::string(info.param) == "full" ? "firmware" : "host";
+                         });
+
+// A crash while the controller is unplugged: nothing can be sent at start-up; the restore commands go
+// once it is back, and a resume before that would own the settings (not tested here).
+TEST_F(restore_recovery_test, a_crash_while_unplugged_restores_in0_once_the_controller_is_back) {
+    auto sim = add_sim("sim1", "full", 5);
+    start();
+    const int in0_before = in0_mode("sim1");
+    auto submitted =
+        submit("sim1", job_type::array, json::parse(R"({"grid": {"columns": 4, "rows": 3, "column_step_mm": 4,
+                                                     "row_step_mm": 4}, "a1": {"X": 0, "Y": 0}})"));
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_steps(id, 2));
+    sim->unplug();
+    ASSERT_TRUE(wait_state(id, job_state::paused));
+    restart_manager();
+    ASSERT_TRUE(wait_state(id, job_state::interrupted));
+    std::this_thread::sleep_for(200ms);
+    EXPECT_EQ(in0_mode("sim1"), 7);  // unreachable meanwhile
+    sim->replug();
+    const std::vector<std::string> expected{"TTL X=" + std::to_string(in0_before)};
+    ASSERT_TRUE(wait_until([&] { return recovery_of(id) == expected; }, 30s))
+        << testing::PrintToString(recovery_of(id));
+    EXPECT_EQ(in0_mode("sim1"), in0_before);
+    expect_no_job_commands_and_edges_move_nothing("sim1", id);
+}
+
+}  // namespace
+}  // namespace gw::jobs::test
