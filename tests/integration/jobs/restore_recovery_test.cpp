@@ -4,6 +4,7 @@
 // (TTL X=7) and a ring-buffer tour's in TTL X=1, so a later TTL edge moves the stage; a scan leaves its
 // scan SPEED.
 #include <algorithm>
+#include <sqlite3.h>
 #include <string>
 #include <vector>
 
@@ -124,6 +125,56 @@ TEST_F(restore_recovery_test, a_crashed_ttl_ring_buffer_tour_gets_in0_back_and_l
     EXPECT_EQ(in0_mode("sim3"), in0_before);
     expect_no_job_commands_and_edges_move_nothing("sim3", id);
     EXPECT_EQ(recovery_of(id), expected);
+}
+
+// The store holds a run's restore commands only while they may be needed: from the registration until
+// the run ends normally (it restores itself) or a cancel has sent them.
+TEST_F(restore_recovery_test,
+       the_stored_list_lives_while_the_run_does_and_is_cleared_when_it_ends_or_is_cancelled) {
+    add_sim("sim1", "full", 5);
+    start();
+    const auto rows = [&](const std::string& id) {
+        sqlite3* db = nullptr;
+        EXPECT_EQ(sqlite3_open((dir_ + "/store/jobs.sqlite3").c_str(), &db), SQLITE_OK);
+        sqlite3_stmt* s = nullptr;
+        EXPECT_EQ(sqlite3_prepare_v2(db, "SELECT commands FROM job_restore_commands WHERE job_id = ?1", -1,
+                                     &s, nullptr),
+                  SQLITE_OK);
+        sqlite3_bind_text(s, 1, id.c_str(), -1, SQLITE_TRANSIENT);
+        std::vector<std::string> out;
+        while (sqlite3_step(s) == SQLITE_ROW)
+            out.emplace_back(reinterpret_cast<const char*>(sqlite3_column_text(s, 0)));
+        sqlite3_finalize(s);
+        sqlite3_close(db);
+        return out;
+    };
+    const auto spec =
+        json::parse(R"({"grid": {"columns": 3, "rows": 2, "column_step_mm": 4, "row_step_mm": 4},
+                                      "a1": {"X": 0, "Y": 0}})");
+    const std::vector<std::string> while_running{R"(["TTL X=0"])"};
+
+    auto finished = submit("sim1", job_type::array, spec);
+    ASSERT_TRUE(finished) << finished.error().message;
+    const auto done_id = finished->job.id;
+    ASSERT_TRUE(wait_steps(done_id, 1));
+    EXPECT_EQ(rows(done_id), while_running);
+    ASSERT_TRUE(wait_state(done_id, job_state::succeeded, 60s));
+    EXPECT_TRUE(rows(done_id).empty());
+
+    auto cancelled = submit("sim1", job_type::array, spec);
+    ASSERT_TRUE(cancelled) << cancelled.error().message;
+    const auto cancel_id = cancelled->job.id;
+    ASSERT_TRUE(wait_steps(cancel_id, 1));
+    EXPECT_EQ(rows(cancel_id), while_running);
+    ASSERT_TRUE(cancel(cancel_id));
+    ASSERT_TRUE(wait_state(cancel_id, job_state::cancelled));
+    EXPECT_TRUE(rows(cancel_id).empty());
+
+    // Neither is recovered by a restart.
+    restart_manager();
+    std::this_thread::sleep_for(300ms);
+    EXPECT_TRUE(recovery_of(done_id).empty());
+    EXPECT_TRUE(recovery_of(cancel_id).empty());
 }
 
 // Both scan paths change the fast axis's SPEED; the firmware path (ENC_INT) changes IN0 too.
