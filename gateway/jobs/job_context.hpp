@@ -78,7 +78,8 @@ class job_context {
     // A command that puts back a setting the job changed (for example "TTL X=0" after "TTL X=1").
     // run() restores its settings itself when it ends normally; when the run is cancelled or fails,
     // the manager sends these (after HALT and "TTL Y=0" for a cancel), newest first. A command that
-    // is already registered is kept once.
+    // is already registered is kept once. The list is stored with the job at once, so that a gateway
+    // started after a crash sends it too (job_manager::start).
     virtual void restore_if_stopped(std::string command) = 0;
 
     // Serial work, tagged with the job's request id. command() throws job_failure on ":N-<code>".

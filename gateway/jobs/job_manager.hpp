@@ -106,7 +106,10 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
 
     // Marks jobs that were running or paused when the gateway stopped as interrupted (reason
     // "gateway restarted", their last completed step kept), and queues the queued ones again if
-    // settings say so. Then starts dispatching.
+    // settings say so. Then starts dispatching. For each interrupted job, once its controller is
+    // connected: "TTL Y=0" when it may have left the output high (safe_outputs.hpp), then the restore
+    // commands its run had stored (job_context::restore_if_stopped), newest first, all under
+    // safe_output_request_id(); a run that starts on the controller first owns its settings instead.
     void start();
     // Running jobs: HALT, TTL Y=0, state interrupted ("gateway shutting down"); then the store is
     // flushed and closed, then `done` runs on the manager's executor.

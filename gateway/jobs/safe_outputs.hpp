@@ -5,7 +5,8 @@
 //
 //   gcode  M03 lights the output along the path (always a candidate: the program may switch it on)
 //   array  "ttl_pulse": true pulses it (TTL Y=1 then TTL Y=0) at every well
-// The other jobs' restore commands switch TTL *input* modes (TTL X=), which are not outputs.
+// The other jobs' restore commands switch TTL *input* modes (TTL X=), which are not outputs; the same
+// recovery sends those from the job store.
 
 #include <nlohmann/json.hpp>
 
