@@ -184,6 +184,9 @@ void mqtt_bridge::on_connected() {
         ctx_->metrics->set("gw_mqtt_connected", {}, 1);
         ctx_->metrics->increment("gw_mqtt_connects_total", {});
     }
+    // Subscribe before the birth: the broker handles one connection's packets in order, so a client
+    // that sees the birth and sends a command at once finds the subscription in place.
+    if (commands_) client_->subscribe(topics_.command_filters(), settings_.config.qos.responses);
     publish_birth();
     for (auto& [id, c] : controllers_)
         if (c.state)
@@ -206,7 +209,6 @@ void mqtt_bridge::on_connected() {
         publish_job(id, j);
     // Frames lost meanwhile are announced at once (an empty batch with "missed").
     flush_reports();
-    if (commands_) client_->subscribe(topics_.command_filters(), settings_.config.qos.responses);
     maybe_request_more();
 }
 
