@@ -43,15 +43,18 @@ TEST_F(manager_recovery_test, a_crash_mid_job_leaves_it_interrupted_and_resume_f
         return j && j->progress.steps_done >= 1;
     }));
     restart_manager();  // no shutdown: like kill -9
-    const auto actions_at_restart = actions_in(commands_of(id));
 
     ASSERT_TRUE(wait_state(id, job_state::interrupted));
     auto j = job(id);
     EXPECT_EQ(j->reason, "gateway restarted");
     EXPECT_GE(j->progress.steps_done, 1u);
     const auto done_at_restart = j->progress.steps_done;
-    // The new manager sends nothing for it (the old manager's last move may still finish by itself).
+    // The new manager sends nothing for it. The old manager's last command may still be on the wire
+    // at the restart (its trace lands when the reply comes), so the count starts once all is still.
     ASSERT_TRUE(wait_until([&] { return !registry_->get("sim3")->busy; }));
+    std::this_thread::sleep_for(300ms);
+    const auto actions_at_restart = actions_in(commands_of(id));
+    std::this_thread::sleep_for(300ms);
     EXPECT_EQ(actions_in(commands_of(id)), actions_at_restart);
     EXPECT_EQ(job(id)->state, job_state::interrupted);
 
