@@ -380,7 +380,9 @@ TEST_F(gcode_run_test, pause_waits_between_lines_with_the_ttl_off_and_resume_con
     ASSERT_TRUE(pause(id));
     ASSERT_TRUE(wait_state(id, job_state::paused));
     const auto paused = job(id);
-    EXPECT_GE(paused->progress.steps_done, 3u);
+    // The pause can land while M03 (step 2) is still being acknowledged: then the run stops right
+    // after it, and the resume lights the output again before the first lit side.
+    EXPECT_GE(paused->progress.steps_done, 2u);
     EXPECT_LT(paused->progress.steps_done, 7u);
     EXPECT_EQ(ttl_out("sim1"), 0);
     EXPECT_FALSE(sim_busy("sim1"));
