@@ -154,6 +154,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
     net::awaitable<void> restore_settings(std::shared_ptr<live_job> job);
     // "TTL Y=0" for a job paused by a disconnect (a laser must not stay on): once connected again.
     void ttl_low_after_disconnect(std::shared_ptr<live_job> job);
+    // Sends "TTL Y=0"; the error message when it failed, empty when it went through.
+    net::awaitable<std::string> ttl_output_low(std::string controller, std::string request_id);
     // For a job that a crash interrupted: "TTL Y=0" (safe_outputs.hpp), then its stored restore
     // commands newest first (as safe_stop does), once; what fails to reach the controller waits for the
     // next connect. Sent with safe_output_request_id(), not as the job's.
@@ -742,13 +744,8 @@ net::awaitable<void> manager_core::safe_stop(std::shared_ptr<live_job> job) {
     auto halted = co_await registry_.async_halt(std::move(halt_controller), std::move(halt_request_id),
                                                 net::use_awaitable);
     if (!halted) log_->warn("[{}] {}: HALT failed: {}", request_id, controller, halted.error().message);
-    ttl_request low;
-    low.output_high = false;  // "TTL Y=0"
-    std::string ttl_controller = controller;
-    std::string ttl_request_id = request_id;
-    auto ttl = co_await registry_.async_ttl(std::move(ttl_controller), low, std::move(ttl_request_id),
-                                            net::use_awaitable);
-    if (!ttl) log_->warn("[{}] {}: TTL Y=0 failed: {}", request_id, controller, ttl.error().message);
+    const std::string ttl_failed = co_await ttl_output_low(controller, request_id);
+    if (!ttl_failed.empty()) log_->warn("[{}] {}: TTL Y=0 failed: {}", request_id, controller, ttl_failed);
     co_await restore_settings(std::move(job));
 }
 
@@ -993,18 +990,13 @@ void manager_core::send_recovery(const std::string& controller) {
             recovery left;  // what did not reach the controller: the next connect tries again
             left.job_id = job_id;
             if (pending.ttl_low) {
-                ttl_request low;
-                low.output_high = false;  // "TTL Y=0"
-                std::string ttl_controller = controller;
-                std::string ttl_request_id = request_id;
-                auto ttl = co_await self->registry_.async_ttl(std::move(ttl_controller), low,
-                                                              std::move(ttl_request_id), net::use_awaitable);
-                if (ttl) {
+                const std::string ttl_failed = co_await self->ttl_output_low(controller, request_id);
+                if (ttl_failed.empty()) {
                     self->log_->info("[{}] {}: job {} was interrupted by a restart; TTL output set low",
                                      request_id, controller, job_id);
                 } else {
                     self->log_->warn("[{}] {}: TTL Y=0 for the interrupted job {} failed: {}", request_id,
-                                     controller, job_id, ttl.error().message);
+                                     controller, job_id, ttl_failed);
                     left.ttl_low = true;
                 }
             }
@@ -1049,6 +1041,14 @@ void manager_core::send_recovery(const std::string& controller) {
         net::detached);
 }
 
+net::awaitable<std::string> manager_core::ttl_output_low(std::string controller, std::string request_id) {
+    ttl_request low;
+    low.output_high = false;  // "TTL Y=0"
+    auto ttl =
+        co_await registry_.async_ttl(std::move(controller), low, std::move(request_id), net::use_awaitable);
+    co_return ttl ? std::string() : ttl.error().message;
+}
+
 void manager_core::ttl_low_after_disconnect(std::shared_ptr<live_job> job) {
     if (!job->ttl_low_on_reconnect || abandoned_) return;
     job->ttl_low_on_reconnect = false;
@@ -1057,17 +1057,12 @@ void manager_core::ttl_low_after_disconnect(std::shared_ptr<live_job> job) {
         [self = shared_from_this(), job]() -> net::awaitable<void> {
             const std::string controller = job->record.controller;
             const std::string request_id = "job-" + job->record.id;
-            ttl_request low;
-            low.output_high = false;  // "TTL Y=0"
-            std::string ttl_controller = controller;
-            std::string ttl_request_id = request_id;
-            auto ttl = co_await self->registry_.async_ttl(std::move(ttl_controller), low,
-                                                          std::move(ttl_request_id), net::use_awaitable);
-            if (ttl) {
+            const std::string ttl_failed = co_await self->ttl_output_low(controller, request_id);
+            if (ttl_failed.empty()) {
                 self->log_->info("[{}] {}: connected again; TTL output set low", request_id, controller);
             } else {
                 self->log_->warn("[{}] {}: TTL Y=0 after the reconnect failed: {}", request_id, controller,
-                                 ttl.error().message);
+                                 ttl_failed);
                 // The next reconnect tries again, unless the job runs again meanwhile.
                 job->ttl_low_on_reconnect = job->record.state == job_state::paused;
             }
