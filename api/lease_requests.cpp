@@ -2,12 +2,19 @@
 
 #include <cmath>
 
+#include <boost/asio/append.hpp>
+#include <boost/asio/bind_executor.hpp>
+#include <boost/asio/dispatch.hpp>
+#include <boost/asio/post.hpp>
+
 #include "gateway/controller_registry.hpp"
+#include "gateway/jobs/job_manager.hpp"
 #include "gateway/timestamp.hpp"
 
 namespace gw::api {
 
 using nlohmann::json;
+namespace net = boost::asio;
 
 namespace {
 
@@ -87,19 +94,32 @@ json lease_json(const lease& l, bool with_id, std::chrono::system_clock::time_po
     return j;
 }
 
-api_outcome acquire_lease(api_context& ctx, const std::string& controller, const json& body,
-                          const std::string& principal, const std::string& request_id) {
-    if (auto bad = check_controller(ctx, controller, request_id)) return std::move(*bad);
+void acquire_lease(api_context& ctx, const std::string& controller, const json& body,
+                   const std::string& principal, const std::string& request_id, api_handler handler) {
+    auto finish_now = [&](api_outcome out) {
+        net::post(ctx.executor, net::append(std::move(handler), std::move(out)));
+    };
+    if (auto bad = check_controller(ctx, controller, request_id)) return finish_now(std::move(*bad));
     auto parsed = parse_lease_body(body, true);
-    if (!parsed) return failed(parsed.error(), request_id);
+    if (!parsed) return finish_now(failed(parsed.error(), request_id));
     std::string holder = principal + (parsed->label ? "/" + *parsed->label : std::string());
-    auto l = ctx.leases->acquire(controller, std::move(holder), parsed->ttl);
-    if (!l) return failed(l.error(), request_id);
-    api_outcome out;
-    out.status = 201;
-    out.body = lease_json(*l, true, std::chrono::system_clock::now());
-    out.location = "/api/v1/controllers/" + controller + "/lease";
-    return out;
+    auto answer = [controller, request_id](operation_result<lease> l) {
+        if (!l) return failed(l.error(), request_id);
+        api_outcome out;
+        out.status = 201;
+        out.body = lease_json(*l, true, std::chrono::system_clock::now());
+        out.location = "/api/v1/controllers/" + controller + "/lease";
+        return out;
+    };
+    if (!ctx.jobs) return finish_now(answer(ctx.leases->acquire(controller, std::move(holder), parsed->ttl)));
+    // Through the job manager: it refuses while jobs from before the lease hold or wait for the controller.
+    auto shared = std::make_shared<api_handler>(std::move(handler));
+    auto ex = ctx.executor;
+    ctx.jobs->async_acquire_lease(controller, std::move(holder), parsed->ttl,
+                                  net::bind_executor(ex, [shared, ex, answer](operation_result<lease> l) {
+                                      net::dispatch(ex,
+                                                    net::append(std::move(*shared), answer(std::move(l))));
+                                  }));
 }
 
 api_outcome renew_lease(api_context& ctx, const std::string& controller,

@@ -2,7 +2,8 @@
 // The lease routes without the transport (gateway/lease_manager.hpp holds the leases):
 //
 //   POST   /api/v1/controllers/{id}/lease         operator  {"ttl_s":60,"holder":"notebook-3"} (both
-//          optional) -> 201 {"lease_id","controller","holder","acquired","expires"}; 409 leased
+//          optional) -> 201 {"lease_id","controller","holder","acquired","expires"}; 409 leased;
+//          409 busy while jobs submitted without the lease run, are paused or wait on the controller
 //   POST   /api/v1/controllers/{id}/lease/renew   operator  Lease-Id header, {"ttl_s":60} -> 200 lease
 //   DELETE /api/v1/controllers/{id}/lease         operator  Lease-Id header -> 204;
 //          ?force=true (admin) ends whoever's lease
@@ -33,8 +34,10 @@ operation_result<lease_body> parse_lease_body(const nlohmann::json& body, bool a
 // {"lease_id"(when with_id),"controller","holder","acquired","expires","expires_in_s"}.
 nlohmann::json lease_json(const lease& l, bool with_id, std::chrono::system_clock::time_point now);
 
-api_outcome acquire_lease(api_context& ctx, const std::string& controller, const nlohmann::json& body,
-                          const std::string& principal, const std::string& request_id);
+// Completes on ctx.executor. 409 busy while jobs submitted without the lease hold or wait for the
+// controller (job_manager::async_acquire_lease).
+void acquire_lease(api_context& ctx, const std::string& controller, const nlohmann::json& body,
+                   const std::string& principal, const std::string& request_id, api_handler handler);
 api_outcome renew_lease(api_context& ctx, const std::string& controller,
                         const std::optional<std::string>& lease_id, const nlohmann::json& body,
                         const std::string& request_id);

@@ -392,7 +392,7 @@ void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& re
             if (!who || !known_only(route, *q, {})) return;
             auto body = json_body(route);
             if (!body) return;
-            return reply_outcome(route, acquire_lease(*ctx, controller, *body, who->name, request_id));
+            return acquire_lease(*ctx, controller, *body, who->name, request_id, async_reply(route));
         }
         auto who = authorize(route, gw::role::operator_);
         if (!who || !known_only(route, *q, {"force"})) return;

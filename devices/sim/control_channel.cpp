@@ -152,6 +152,13 @@ std::string control_channel::execute(std::string_view line) const {
         target->delay_next_reply(std::chrono::milliseconds(ms));
         return "ok";
     }
+    if (argc == 2 && verb == "refuse-next") {
+        long code = 0;
+        if (!number(w[2], code) || code >= 0 || code < -99)
+            return "error: usage: refuse-next VERB CODE (CODE -1..-99)";
+        target->refuse_next_command(std::string(w[1]), static_cast<int>(code));
+        return "ok";
+    }
     if (argc == 1 && verb == "garbage") {
         std::size_t n = 0;
         if (!number(w[1], n) || n > 65536) return "error: usage: garbage N (N <= 65536)";

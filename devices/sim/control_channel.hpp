@@ -5,6 +5,7 @@
 //   "unplug" / "replug"                                          -> "ok"
 //   "drop-next" / "corrupt-next" / "delay-next MS"               -> "ok"
 //   "garbage N"        N random bytes (never CR/LF) on the port  -> "ok"
+//   "refuse-next VERB CODE"  the next VERB command gets ":N<CODE>" (CODE -1..-99), not run -> "ok"
 //   "state"            the simulator's state as one JSON line
 //   "list"             the simulator names, space-separated
 //   "help"             the command list on one line

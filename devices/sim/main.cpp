@@ -113,6 +113,7 @@ int main(int argc, char** argv) {
         "  corrupt-next       the next reply's first byte is changed\n"
         "  delay-next MS      the next reply leaves MS real milliseconds late\n"
         "  garbage N          N random bytes (never CR or LF) on the main port\n"
+        "  refuse-next VERB CODE  the next VERB command (M, CCB, ...) is answered :N<CODE> (-1..-99)\n"
         "  state              the controller state as one JSON line\n"
         "  list               the controller names\n"
         "  help               this list\n"

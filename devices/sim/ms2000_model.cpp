@@ -199,6 +199,11 @@ std::string ms2000_model::feed(std::string_view bytes, sim_time now) {
     return out;
 }
 
+void ms2000_model::refuse_next(std::string_view verb, int code) {
+    auto parsed = parse_command_line(verb);  // "M" -> "MOVE"
+    refuse_next_ = {parsed ? parsed->verb : std::string(verb), code};
+}
+
 std::string ms2000_model::handle_line(std::string_view line, sim_time now) {
     advance(now);
     auto parsed = parse_command_line(line);
@@ -210,6 +215,11 @@ std::string ms2000_model::handle_line(std::string_view line, sim_time now) {
     }
     if (const auto needed = required_module(parsed->verb); needed && !has_module(config_, *needed))
         return error(ms2000::unknown_command);
+    if (refuse_next_ && refuse_next_->first == parsed->verb) {
+        const int code = refuse_next_->second;
+        refuse_next_.reset();
+        return error(code);
+    }
     return dispatch(*parsed, now);
 }
 

@@ -22,6 +22,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json_fwd.hpp>
@@ -78,6 +79,10 @@ class ms2000_model {
     int ttl_in_mode() const { return ttl_.in0_mode; }
     std::uint64_t reports_sent() const { return reports_sent_; }
     nlohmann::json state(sim_time now) const;
+
+    // Fault injection: the next command with this verb (canonical: "MOVE" also for "M") is answered
+    // ":N<code>" and not carried out, as a controller that refuses it would.
+    void refuse_next(std::string_view verb, int code);
 
   private:
     struct axis {
@@ -222,6 +227,7 @@ class ms2000_model {
     long build_counter_ = 0;
     sim_time report_busy_until_{0};
     std::uint64_t reports_sent_ = 0;
+    std::optional<std::pair<std::string, int>> refuse_next_;
 };
 
 }  // namespace gw::devices::sim

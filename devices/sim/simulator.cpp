@@ -137,6 +137,11 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
     bool corrupt_next = false;
     std::chrono::milliseconds delay_next{0};
 
+    void refuse_next(std::string verb, int code) {
+        std::lock_guard lock(mutex_);
+        model_.refuse_next(std::move(verb), code);
+    }
+
     void garbage(std::size_t n) {
         std::string bytes;
         bytes.reserve(n);
@@ -358,6 +363,13 @@ void simulator::corrupt_next_reply() {
 
 void simulator::delay_next_reply(std::chrono::milliseconds by) {
     if (impl_) impl_->post([by](simulator_impl& s) { s.delay_next = by; });
+}
+
+void simulator::refuse_next_command(std::string verb, int code) {
+    if (impl_)
+        impl_->post([verb = std::move(verb), code](simulator_impl& s) mutable {
+            s.refuse_next(std::move(verb), code);
+        });
 }
 
 void simulator::emit_garbage(std::size_t bytes) {

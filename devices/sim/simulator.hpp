@@ -59,6 +59,9 @@ class simulator : public std::enable_shared_from_this<simulator> {
     void corrupt_next_reply();                            // first byte changed: unparseable line
     void delay_next_reply(std::chrono::milliseconds by);  // real (unscaled) milliseconds
     void emit_garbage(std::size_t bytes);                 // random bytes, never CR or LF
+    // The next command with this verb ("MOVE", "CCB"; abbreviations count) is answered ":N<code>"
+    // (code negative, ms2000/error.hpp) and not carried out.
+    void refuse_next_command(std::string verb, int code);
 
     // A JSON snapshot of the model (positions, targets, busy, modules, TTL modes, ring buffer,
     // array, scan, error buffer) plus I/O counters. Synchronous; safe from any thread.

@@ -61,6 +61,27 @@ std::string describe(const operation_error& e) {
     return e.message.empty() ? std::string(to_string(e.kind)) : e.message;
 }
 
+// The answer to a submission whose Idempotency-Key is already stored: the first job, when this is the
+// same submission again (same client, controller, type and spec). A key reused for another request is
+// refused rather than answered with a job that is not what was asked for; another client's job is not
+// named.
+operation_result<submit_result> replay(job_record first, const submit_request& r) {
+    if (first.submitted_by != r.principal)
+        return make_error(kind::invalid_value,
+                          "this Idempotency-Key was used by another client: use a new key for this request",
+                          "Idempotency-Key");
+    if (first.controller != r.controller || first.type != r.type || first.spec != r.spec)
+        return make_error(kind::invalid_value,
+                          fmt::format("this Idempotency-Key was used for a different request (job {}): "
+                                      "use a new key for a new request",
+                                      first.id),
+                          "Idempotency-Key");
+    submit_result out;
+    out.job = std::move(first);
+    out.replayed = true;
+    return out;
+}
+
 }  // namespace
 
 // Everything the manager does, on one strand. Shared with the run() coroutines and the registry
@@ -89,6 +110,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void pause(job_action a, job_manager::handler<job_record> h);
     void resume(job_action a, job_manager::handler<job_record> h);
     void next(job_action a, job_manager::handler<job_record> h);
+    void acquire_lease(std::string controller, std::string holder, std::chrono::seconds ttl,
+                       job_manager::handler<lease> h);
 
     operation_result<job_record> get(const std::string& id) const;
     operation_result<job_page> list(const job_filter& f) const;
@@ -132,6 +155,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
 
     operation_result<std::shared_ptr<live_job>> find_live(const std::string& id);
     operation_result<void> check_lease(const std::string& controller, const job_action& a) const;
+    // "j-1 running, j-2 queued": the jobs that hold the controller or wait for it; empty when none.
+    std::string jobs_in_lane(const std::string& controller) const;
 
     void submit_planned(submit_request r, job_manager::handler<submit_result> h, motion_model model);
     void plan_again(std::shared_ptr<live_job> job, std::function<void(operation_result<void>)> done);
@@ -485,12 +510,7 @@ void manager_core::submit(submit_request r, job_manager::handler<submit_result> 
                                       : operation_result<std::optional<job_record>>(
                                             make_error(kind::storage_unavailable, "the job store is closed"));
             if (!found) return self->deliver<submit_result>(std::move(h), found.error());
-            if (*found) {
-                submit_result out;
-                out.job = std::move(**found);
-                out.replayed = true;
-                return self->deliver<submit_result>(std::move(h), std::move(out));
-            }
+            if (*found) return self->deliver<submit_result>(std::move(h), replay(std::move(**found), r));
         }
         const auto controller = r.controller;
         const auto rid = r.request_id;
@@ -545,6 +565,12 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
         return deliver<submit_result>(std::move(h), std::move(out));
     }
 
+    // Again, on the strand where leases are granted: one may have been taken while the job planned.
+    if (leases_) {
+        auto lease = leases_->check(r.controller,
+                                    r.lease_id ? std::optional<std::string_view>(*r.lease_id) : std::nullopt);
+        if (!lease) return deliver<submit_result>(std::move(h), lease.error());
+    }
     auto& l = lanes_[r.controller];
     if (l.queue.size() >= settings_.max_queued_per_controller)
         return deliver<submit_result>(
@@ -556,12 +582,7 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
         // Idempotency again: another submission with the key may have been stored while this one planned.
         if (store_ && r.idempotency_key) {
             auto found = store_->find_by_idempotency_key(*r.idempotency_key);
-            if (found && *found) {
-                submit_result first;
-                first.job = std::move(**found);
-                first.replayed = true;
-                return deliver<submit_result>(std::move(h), std::move(first));
-            }
+            if (found && *found) return deliver<submit_result>(std::move(h), replay(std::move(**found), r));
         }
         auto inserted =
             store_ ? store_->insert(rec)
@@ -764,6 +785,45 @@ net::awaitable<void> manager_core::restore_settings(std::shared_ptr<live_job> jo
                        r.error().message);
     }
     if (!restore.empty()) store_restore_commands(job->record.id, {});  // sent: nothing left to recover
+}
+
+// ---------------------------------------------------------------------------------------------
+// Leases.
+
+void manager_core::acquire_lease(std::string controller, std::string holder, std::chrono::seconds ttl,
+                                 job_manager::handler<lease> h) {
+    net::post(strand_, [self = shared_from_this(), controller = std::move(controller),
+                        holder = std::move(holder), ttl, h = std::move(h)]() mutable {
+        if (!self->leases_)
+            return self->deliver<lease>(std::move(h),
+                                        make_error(kind::invalid_state, "leases are not enabled"));
+        // Jobs submitted before the lease were not submitted under it: they must not move the stage
+        // while it is exclusive, so the lease waits for them (submissions are checked on this strand).
+        if (auto busy = self->jobs_in_lane(controller); !busy.empty())
+            return self->deliver<lease>(
+                std::move(h),
+                make_error(kind::busy, fmt::format("{} has jobs that were submitted without this lease ({}): "
+                                                   "wait for them to end or cancel them, then take the lease",
+                                                   controller, busy)));
+        self->deliver<lease>(std::move(h), self->leases_->acquire(controller, std::move(holder), ttl));
+    });
+}
+
+std::string manager_core::jobs_in_lane(const std::string& controller) const {
+    auto it = lanes_.find(controller);
+    if (it == lanes_.end()) return {};
+    std::vector<std::string> parts;
+    if (!it->second.holder.empty()) {
+        auto job = jobs_.find(it->second.holder);
+        const std::string_view state = job != jobs_.end() ? to_string(job->second->record.state) : "running";
+        parts.push_back(fmt::format("{} {}", it->second.holder, state));
+    }
+    for (const auto& id : it->second.queue)
+        parts.push_back(id + " queued");
+    std::string out;
+    for (const auto& p : parts)
+        out += (out.empty() ? "" : ", ") + p;
+    return out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1201,6 +1261,11 @@ void job_manager::async_resume(job_action a, handler<job_record> h) {
 
 void job_manager::async_next(job_action a, handler<job_record> h) {
     impl_->core->next(std::move(a), std::move(h));
+}
+
+void job_manager::async_acquire_lease(std::string controller, std::string holder, std::chrono::seconds ttl,
+                                      handler<lease> h) {
+    impl_->core->acquire_lease(std::move(controller), std::move(holder), ttl, std::move(h));
 }
 
 }  // namespace gw::jobs

@@ -33,6 +33,7 @@
 
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_plan.hpp"
+#include "gateway/lease_manager.hpp"
 #include "gateway/operation_error.hpp"
 
 namespace gw {
@@ -127,6 +128,10 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
     void async_pause(job_action a, handler<job_record> h);   // running (takes effect after the step)
     void async_resume(job_action a, handler<job_record> h);  // paused / interrupted -> queued/running
     void async_next(job_action a, handler<job_record> h);    // a running job that advances on `next`
+    // Takes an exclusive lease (lease_manager::acquire). Refused (busy) while a job holds the controller
+    // or waits in its queue: those were submitted without the lease and must not run under it.
+    void async_acquire_lease(std::string controller, std::string holder, std::chrono::seconds ttl,
+                             handler<lease> h);
 
   private:
     job_manager(boost::asio::any_io_executor executor, controller_registry& registry,

@@ -1,7 +1,10 @@
 // The job manager's queueing and control: FIFO per controller, controllers in parallel, cancel with
-// HALT and TTL low, pause after the current step and resume, idempotency, leases, queue bound.
+// HALT and TTL low, pause after the current step and resume, a refused command failing the job,
+// idempotency, leases (and jobs from before a lease), queue bound.
+#include <algorithm>
 #include <cmath>
 
+#include "devices/ms2000/error.hpp"
 #include "tests/integration/jobs/manager_fixture.hpp"
 
 namespace gw::jobs::test {
@@ -180,11 +183,19 @@ TEST_F(manager_control_test, the_same_idempotency_key_returns_the_first_job) {
     ASSERT_TRUE(again) << again.error().message;
     EXPECT_TRUE(again->replayed);
     EXPECT_EQ(again->job.id, first->job.id);
-    // A different body with the same key: still the first job (documented).
+    // The key reused for a different request, or by another client: refused, not answered with a job
+    // that is not what was asked for.
     auto other = submit("sim3", job_type::planar_correction, {{"action", "disable"}}, "key-1");
-    ASSERT_TRUE(other) << other.error().message;
-    EXPECT_TRUE(other->replayed);
-    EXPECT_EQ(other->job.id, first->job.id);
+    ASSERT_FALSE(other);
+    EXPECT_EQ(other.error().kind, kind::invalid_value);
+    EXPECT_EQ(other.error().field, "Idempotency-Key");
+    EXPECT_NE(other.error().message.find(first->job.id), std::string::npos) << other.error().message;
+    auto other_client = submit("sim3", job_type::planar_correction, {{"action", "clear"}}, "key-1",
+                               std::nullopt, false, "bob");
+    ASSERT_FALSE(other_client);
+    EXPECT_EQ(other_client.error().field, "Idempotency-Key");
+    EXPECT_EQ(other_client.error().message.find(first->job.id), std::string::npos)
+        << "another client's job is named: " << other_client.error().message;
     auto different = submit("sim3", job_type::planar_correction, {{"action", "clear"}}, "key-2");
     ASSERT_TRUE(different);
     EXPECT_NE(different->job.id, first->job.id);
@@ -220,6 +231,107 @@ TEST_F(manager_control_test, a_leased_controller_takes_jobs_only_from_the_lease_
     auto page = manager_->list(job_filter{});
     ASSERT_TRUE(page);
     EXPECT_EQ(page->jobs.size(), 1u);
+}
+
+TEST_F(manager_control_test, a_lease_is_refused_while_jobs_from_before_it_hold_or_wait_for_the_controller) {
+    add_sim("sim3", "planar", 4);
+    start();
+    auto running = submit("sim3", job_type::planar_correction, far_points(3000));
+    ASSERT_TRUE(running) << running.error().message;
+    ASSERT_TRUE(wait_state(running->job.id, job_state::running));
+    auto queued = submit("sim3", job_type::planar_correction, {{"action", "clear"}});
+    ASSERT_TRUE(queued) << queued.error().message;
+
+    auto busy = acquire_lease("sim3", "alice");
+    ASSERT_FALSE(busy) << "a lease was granted while another client's jobs hold and wait for sim3";
+    EXPECT_EQ(busy.error().kind, kind::busy);
+    EXPECT_NE(busy.error().message.find(running->job.id + " running"), std::string::npos)
+        << busy.error().message;
+    EXPECT_NE(busy.error().message.find(queued->job.id + " queued"), std::string::npos)
+        << busy.error().message;
+    EXPECT_FALSE(leases_->current("sim3"));
+
+    ASSERT_TRUE(cancel(running->job.id));
+    ASSERT_TRUE(wait_state(running->job.id, job_state::cancelled));
+    ASSERT_TRUE(wait_state(queued->job.id, job_state::succeeded));
+    // Nothing left on the controller: granted, and a job without the lease is refused again.
+    auto granted = acquire_lease("sim3", "alice");
+    ASSERT_TRUE(granted) << granted.error().message;
+    auto refused = submit("sim3", job_type::planar_correction, {{"action", "clear"}});
+    ASSERT_FALSE(refused);
+    EXPECT_EQ(refused.error().kind, kind::leased);
+}
+
+TEST_F(manager_control_test, a_queued_job_cannot_slip_under_a_lease_taken_while_it_planned) {
+    add_sim("sim3", "planar", 4);
+    start();
+    // Submit and lease at the same time, many times: either the lease is refused (the job got queued
+    // first) or the job is refused (the lease came first); never both granted.
+    for (int i = 0; i < 20; ++i) {
+        auto job = call<submit_result>([&](auto h) {
+            submit_request r;
+            r.controller = "sim3";
+            r.type = job_type::planar_correction;
+            r.spec = {{"action", "clear"}};
+            r.request_id = "race";
+            manager_->async_submit(std::move(r), std::move(h));
+        });
+        auto l = acquire_lease("sim3", "alice");
+        auto submitted = await(std::move(job));
+        EXPECT_FALSE(submitted && l) << "round " << i << ": job " << submitted->job.id
+                                     << " was queued and a lease granted";
+        if (l) {
+            ASSERT_TRUE(leases_->release("sim3", l->id, false));
+        } else {
+            ASSERT_TRUE(submitted) << submitted.error().message;
+            ASSERT_TRUE(wait_state(submitted->job.id, job_state::succeeded));
+        }
+    }
+}
+
+TEST_F(manager_control_test, a_command_the_controller_refuses_fails_the_job_and_the_queue_goes_on) {
+    auto sim = add_sim("sim1", "full", 50);
+    start();
+    auto a = submit("sim1", job_type::array,
+                    {{"plate", "6"},
+                     {"a1", {{"X", 500}, {"Y", 500}}},
+                     {"advance", "next"},
+                     {"mode", "host"},
+                     {"ttl_pulse", true}});
+    auto b = submit("sim1", job_type::array,
+                    {{"plate", "6"}, {"a1", {{"X", 0}, {"Y", 0}}}, {"wells", {"A1"}}, {"mode", "host"}});
+    ASSERT_TRUE(a && b);
+    const auto id = a->job.id;
+    ASSERT_TRUE(wait_until([&] {
+        auto j = job(id);
+        return j && j->progress.steps_done == 1;
+    })) << "the first well was never reached";
+    // The move to the second well is refused by the controller (not a disconnect): the job fails.
+    sim->refuse_next_command("MOVE", devices::ms2000::parameter_out_of_range);
+    ASSERT_TRUE(next(id));
+    ASSERT_TRUE(wait_state(id, job_state::failed));
+    const auto failed = job(id);
+    EXPECT_EQ(failed->progress.steps_done, 1u);
+    EXPECT_NE(failed->reason.find("-4"), std::string::npos) << failed->reason;
+    ASSERT_TRUE(failed->finished);
+    // It ended with the output low, and the queue went on to the next job.
+    ASSERT_TRUE(wait_state(b->job.id, job_state::succeeded));
+    EXPECT_EQ(sim_state("sim1")["ttl"]["out0_mode"], 0);
+    const auto sent = commands_of(id);
+    ASSERT_FALSE(sent.empty());
+    EXPECT_EQ(std::count(sent.begin(), sent.end(), "TTL Y=1"), 1) << "one pulse, at the first well";
+    // A failed job is final: resume and cancel are refused, and its history says why.
+    auto again = resume(id);
+    ASSERT_FALSE(again);
+    EXPECT_EQ(again.error().kind, kind::invalid_state);
+    std::vector<std::string> states;
+    ASSERT_TRUE(wait_until([&] {
+        states.clear();
+        for (const auto& e : sink_->of(id))
+            if (e.value("type", "") == "state") states.push_back(e.value("state", ""));
+        return !states.empty() && states.back() == "failed";
+    }));
+    EXPECT_EQ(states, (std::vector<std::string>{"queued", "running", "failed"}));
 }
 
 TEST_F(manager_control_test, a_full_queue_refuses_more_jobs) {

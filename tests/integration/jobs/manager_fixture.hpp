@@ -168,8 +168,9 @@ class manager_fixture : public ::testing::Test {
     operation_result<submit_result> submit(const std::string& controller, job_type type, nlohmann::json spec,
                                            std::optional<std::string> key = std::nullopt,
                                            std::optional<std::string> lease = std::nullopt,
-                                           bool dry_run = false) {
+                                           bool dry_run = false, std::string principal = "anonymous") {
         submit_request r;
+        r.principal = std::move(principal);
         r.controller = controller;
         r.type = type;
         r.spec = std::move(spec);
@@ -193,6 +194,12 @@ class manager_fixture : public ::testing::Test {
     operation_result<job_record> pause(const std::string& id) { return act(&job_manager::async_pause, id); }
     operation_result<job_record> resume(const std::string& id) { return act(&job_manager::async_resume, id); }
     operation_result<job_record> next(const std::string& id) { return act(&job_manager::async_next, id); }
+
+    operation_result<lease> acquire_lease(const std::string& controller, const std::string& holder) {
+        return await(call<lease>([&](auto h) {
+            manager_->async_acquire_lease(controller, holder, std::chrono::seconds(60), std::move(h));
+        }));
+    }
 
     template <typename T, typename F>
     std::future<operation_result<T>> call(F&& start) {
