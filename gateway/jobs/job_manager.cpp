@@ -814,12 +814,14 @@ std::string manager_core::jobs_in_lane(const std::string& controller) const {
     if (it == lanes_.end()) return {};
     std::vector<std::string> parts;
     if (!it->second.holder.empty()) {
+        // A cancelled job keeps the controller until its stop has been sent: it moves nothing more.
         auto job = jobs_.find(it->second.holder);
-        const std::string_view state = job != jobs_.end() ? to_string(job->second->record.state) : "running";
-        parts.push_back(fmt::format("{} {}", it->second.holder, state));
+        const auto state = job != jobs_.end() ? job->second->record.state : job_state::running;
+        if (!is_terminal(state)) parts.push_back(fmt::format("{} {}", it->second.holder, to_string(state)));
     }
     for (const auto& id : it->second.queue)
-        parts.push_back(id + " queued");
+        if (auto job = jobs_.find(id); job != jobs_.end() && job->second->record.state == job_state::queued)
+            parts.push_back(id + " queued");
     std::string out;
     for (const auto& p : parts)
         out += (out.empty() ? "" : ", ") + p;

@@ -205,6 +205,7 @@ def test_dry_run_moves_nothing(c):
     d = r.json()
     check(d["dry_run"] is True and d["plan"]["steps_total"] == 24 and d["plan"]["commands"], f"dry run {d}")
     check(d["plan"]["bounds"]["min"]["X"] <= 5000 <= d["plan"]["bounds"]["max"]["X"], f"bounds {d['plan']['bounds']}")
+    time.sleep(0.3)  # a job launched by mistake would be moving by now
     after, busy = position(c, "sim2")
     check(not busy and after == before, f"sim2 moved: {before} -> {after}")
     listed_after = len(c.request("GET", "/api/v1/jobs?controller=sim2&limit=500", token=VIEW).json()["jobs"])
@@ -226,6 +227,13 @@ def test_idempotency(c):
     check(other.json()["id"] != first.json()["id"], "another key, another job")
     c.problem("POST", "/api/v1/jobs", 422, "invalid-value", body=body, token=OP,
               headers={"Idempotency-Key": "has space"})
+    # The key reused for another request, or by another client: refused, not answered with the first job.
+    p = c.problem("POST", "/api/v1/jobs", 422, "invalid-value", body=small_next_array("sim2", 3), token=OP,
+                  headers={"Idempotency-Key": "e2e-key-1"})
+    check(p.get("field") == "Idempotency-Key" and first.json()["id"] in p["detail"], f"reused key: {p}")
+    p = c.problem("POST", "/api/v1/jobs", 422, "invalid-value", body=body, token=ADMIN,
+                  headers={"Idempotency-Key": "e2e-key-1"})
+    check(first.json()["id"] not in p["detail"], f"another client's job is named: {p['detail']}")
     for j in (first.json(), other.json()):
         control(c, j["id"], "cancel")
 
@@ -291,6 +299,26 @@ def test_leases(c):
     c.problem("GET", "/api/v1/controllers/nope/lease", 404, "unknown-controller", token=VIEW)
     c.problem("POST", base + "/lease", 422, "invalid-value", body={"ttl_s": 60, "color": "red"}, token=OP)
     c.problem("PUT", base + "/lease", 405, "method-not-allowed", token=OP)
+
+
+def test_lease_waits_for_earlier_jobs(c):
+    # Jobs submitted before a lease were not submitted under it: while one holds the controller or waits
+    # for it, the lease is refused (409 busy, naming them) rather than letting them move a leased stage.
+    base = "/api/v1/controllers/sim2"
+    running = submit(c, small_next_array("sim2", 2)).json()
+    wait_until("the first job to run", lambda: waiting_for_next(get_job(c, running["id"])))
+    queued = submit(c, small_next_array("sim2", 2)).json()
+    p = c.problem("POST", base + "/lease", 409, "busy", body={}, token=ADMIN)
+    check(running["id"] in p["detail"] and queued["id"] in p["detail"], f"busy names the jobs: {p['detail']}")
+    c.problem("GET", base + "/lease", 404, "not-found", token=VIEW)
+    control(c, running["id"], "cancel")
+    c.problem("POST", base + "/lease", 409, "busy", body={}, token=ADMIN)  # the queued one would run next
+    control(c, queued["id"], "cancel")
+    wait_state(c, queued["id"], "cancelled")
+    r = c.request("POST", base + "/lease", {"ttl_s": 60}, token=ADMIN)
+    check(r.status == 201, f"lease on a free controller: {r.status} {r.body}")
+    r = c.request("DELETE", base + "/lease", token=ADMIN, headers={"Lease-Id": r.json()["lease_id"]}, validate=False)
+    check(r.status == 204, f"release: {r.status}")
 
 
 def test_cancel_pause_resume_next(c):
@@ -548,6 +576,7 @@ def main():
         run("dry run moves nothing", test_dry_run_moves_nothing, c)
         run("idempotency", test_idempotency, c)
         run("leases", test_leases, c)
+        run("a lease waits for earlier jobs", test_lease_waits_for_earlier_jobs, c)
         run("cancel, pause, resume, next", test_cancel_pause_resume_next, c)
         run("websocket job commands and events", test_websocket, c, port)
         run("every openapi example (dry run and real run)", test_examples, c, contract, results,

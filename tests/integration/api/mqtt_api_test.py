@@ -569,6 +569,22 @@ def test_jobs(gw, c, broker, contract):
                       {"operation": "move", "args": {"axes": {"X": 10}}, "lease": lease, "token": TOKENS["operator"]},
                       reply)
         check(ans["type"] == "result", f"with the lease: {ans}")
+        # Jobs: submit and control actions need the lease too.
+        body = {"controller": "sim2", "type": "array",
+                "spec": {"grid": {"columns": 2, "rows": 1, "column_step_mm": 0.1, "row_step_mm": 0.1},
+                         "a1": "current", "advance": "next"}}
+        ans = command(c, gw.topic("jobs", "submit"), {"id": "ls1", "args": body, "token": TOKENS["operator"]}, reply)
+        check(ans["type"] == "error" and ans["problem"]["type"].endswith("/leased"), f"job without the lease: {ans}")
+        ans = command(c, gw.topic("jobs", "submit"),
+                      {"id": "ls2", "args": body, "lease": lease, "token": TOKENS["operator"]}, reply)
+        check(ans["type"] == "result", f"job with the lease: {ans}")
+        leased_job = ans["result"]["id"]
+        ans = command(c, gw.topic("jobs", "cancel"), {"id": "lc1", "job": leased_job, "token": TOKENS["operator"]},
+                      reply)
+        check(ans["type"] == "error" and ans["problem"]["type"].endswith("/leased"), f"cancel without the lease: {ans}")
+        ans = command(c, gw.topic("jobs", "cancel"),
+                      {"id": "lc2", "job": leased_job, "lease": lease, "token": TOKENS["operator"]}, reply)
+        check(ans["type"] == "result" and ans["result"]["state"] == "cancelled", f"cancel with the lease: {ans}")
     finally:
         http_request(gw.port, "DELETE", "/api/v1/controllers/sim2/lease?force=true", token=TOKENS["admin"])
 
