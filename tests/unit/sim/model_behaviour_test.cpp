@@ -22,6 +22,17 @@ TEST(model_motion, halt_during_a_move_answers_n21_and_stops) {
     EXPECT_EQ(send(m, "HALT", milliseconds(600)), ":A\r\n");
 }
 
+TEST(model_faults, refuse_next_answers_the_code_once_and_does_not_run_the_command) {
+    ms2000_model m(config_for("plain"));
+    m.refuse_next("M", -4);  // the abbreviation names the verb: MOVE
+    EXPECT_EQ(send(m, "W X", sim_time{0}), ":A 0.0 \r\n") << "another verb is not refused";
+    EXPECT_EQ(send(m, "MOVE X=1000", sim_time{0}), ":N-4\r\n");
+    EXPECT_DOUBLE_EQ(m.position_units('X', milliseconds(2000)), 0) << "the refused move ran";
+    EXPECT_EQ(send(m, "M X=1000", milliseconds(2000)), ":A\r\n") << "only the next one is refused";
+    const auto done = run_to_completion(m);
+    EXPECT_NEAR(m.position_units('X', done), 1000, 0.5);
+}
+
 TEST(model_motion, movrel_is_relative_to_the_target) {
     ms2000_model m(config_for("plain"));
     send(m, "M X=100000", sim_time{0});
