@@ -475,7 +475,11 @@ def test_websocket(c, port):
     check(r["type"] == "error" and r["problem"]["type"].endswith("/leased"), f"ws job while leased {r}")
     r = ws.request({"op": "job", "id": "s3", "action": "submit", "args": small_next_array("sim3", 2), "lease": lid})
     check(r["type"] == "result", f"ws job with the lease {r}")
-    r = ws.request({"op": "job", "id": "s4", "action": "cancel", "job": r["result"]["id"], "lease": lid})
+    leased_job = r["result"]["id"]
+    for action in ("next", "pause", "cancel"):
+        r = ws.request({"op": "job", "id": f"x-{action}", "action": action, "job": leased_job})
+        check(r["type"] == "error" and r["problem"]["type"].endswith("/leased"), f"ws {action} without the lease {r}")
+    r = ws.request({"op": "job", "id": "s4", "action": "cancel", "job": leased_job, "lease": lid})
     check(r["type"] == "result", f"ws cancel with the lease {r}")
     c.request("DELETE", "/api/v1/controllers/sim3/lease", token=ADMIN, headers={"Lease-Id": lid}, validate=False)
     viewer = WsClient(port, VIEW, "viewer")
