@@ -13,7 +13,21 @@ namespace {
 using json = nlohmann::json;
 using kind = operation_error_kind;
 
-class manager_control_test : public manager_fixture {};
+class manager_control_test : public manager_fixture {
+  protected:
+    // The states the hub published for the job, once the last one is `last` (the hub delivers later).
+    std::vector<std::string> published_states(const std::string& id, const std::string& last) {
+        std::vector<std::string> states;
+        const bool ended = wait_until([&] {
+            states.clear();
+            for (const auto& e : sink_->of(id))
+                if (e.value("type", "") == "state") states.push_back(e.value("state", ""));
+            return !states.empty() && states.back() == last;
+        });
+        EXPECT_TRUE(ended) << "no \"" << last << "\" state event for " << id;
+        return states;
+    }
+};
 
 // Three given points far apart: a few seconds of motion per point at a low time scale.
 json far_points(double span_um, bool enable = true) {
@@ -158,14 +172,7 @@ TEST_F(manager_control_test, pause_takes_effect_after_the_current_step_and_resum
     EXPECT_EQ(sim_state("sim3")["planar_correction"]["points"], 3);
     EXPECT_EQ(sim_state("sim3")["planar_correction"]["enabled"], true);
     // The transitions: running -> paused -> queued -> running -> succeeded (the hub delivers later).
-    std::vector<std::string> states;
-    ASSERT_TRUE(wait_until([&] {
-        states.clear();
-        for (const auto& e : sink_->of(id))
-            if (e.value("type", "") == "state") states.push_back(e.value("state", ""));
-        return !states.empty() && states.back() == "succeeded";
-    }));
-    EXPECT_EQ(states,
+    EXPECT_EQ(published_states(id, "succeeded"),
               (std::vector<std::string>{"queued", "running", "paused", "queued", "running", "succeeded"}));
     // Resume of a finished job is refused.
     auto late = resume(id);
@@ -320,18 +327,11 @@ TEST_F(manager_control_test, a_command_the_controller_refuses_fails_the_job_and_
     const auto sent = commands_of(id);
     ASSERT_FALSE(sent.empty());
     EXPECT_EQ(std::count(sent.begin(), sent.end(), "TTL Y=1"), 1) << "one pulse, at the first well";
-    // A failed job is final: resume and cancel are refused, and its history says why.
+    // A failed job is final: resume is refused.
     auto again = resume(id);
     ASSERT_FALSE(again);
     EXPECT_EQ(again.error().kind, kind::invalid_state);
-    std::vector<std::string> states;
-    ASSERT_TRUE(wait_until([&] {
-        states.clear();
-        for (const auto& e : sink_->of(id))
-            if (e.value("type", "") == "state") states.push_back(e.value("state", ""));
-        return !states.empty() && states.back() == "failed";
-    }));
-    EXPECT_EQ(states, (std::vector<std::string>{"queued", "running", "failed"}));
+    EXPECT_EQ(published_states(id, "failed"), (std::vector<std::string>{"queued", "running", "failed"}));
 }
 
 TEST_F(manager_control_test, a_full_queue_refuses_more_jobs) {
