@@ -1,5 +1,7 @@
 #include "api/problem.hpp"
 
+#include <iterator>
+
 #include <gtest/gtest.h>
 
 namespace gw::api {
@@ -23,8 +25,15 @@ TEST(problem, every_operation_error_kind_has_its_status_and_type) {
         {operation_error_kind::timeout, 504, "https://asi-gateway.dev/problems/timeout"},
         {operation_error_kind::controller_error, 502, "https://asi-gateway.dev/problems/controller-error"},
         {operation_error_kind::queue_full, 503, "https://asi-gateway.dev/problems/queue-full"},
+        {operation_error_kind::unknown_job, 404, "https://asi-gateway.dev/problems/unknown-job"},
+        {operation_error_kind::invalid_state, 409, "https://asi-gateway.dev/problems/invalid-state"},
+        {operation_error_kind::storage_unavailable, 503,
+         "https://asi-gateway.dev/problems/storage-unavailable"},
+        {operation_error_kind::unknown_file, 404, "https://asi-gateway.dev/problems/unknown-file"},
         {operation_error_kind::internal, 500, "https://asi-gateway.dev/problems/internal"},
     };
+    // internal is the last kind: a kind added without a row here fails this.
+    EXPECT_EQ(std::size(cases), static_cast<std::size_t>(operation_error_kind::internal) + 1);
     for (const auto& c : cases) {
         auto p = make_problem(make_error(c.kind, "why"));
         EXPECT_EQ(p.status, c.status) << to_string(c.kind);
