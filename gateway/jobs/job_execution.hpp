@@ -45,6 +45,9 @@ struct live_job {
     std::vector<std::string> restore_commands;  // job_context::restore_if_stopped, for this run
     // Paused by a disconnect while it had registered "TTL Y=0": sent when the controller is back.
     bool ttl_low_on_reconnect = false;
+    // The store refused this job's history while it ran (SQLite's message): it pauses at the next
+    // checkpoint with the reason "storage unavailable: <message>".
+    std::string storage_failure;
 };
 
 // What an execution reports to the manager (which persists and publishes). Called on the strand.

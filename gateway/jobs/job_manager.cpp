@@ -42,6 +42,9 @@ namespace {
 // How long shutdown waits for running jobs to stop after their HALT before closing the store anyway.
 constexpr std::chrono::milliseconds shutdown_grace{5000};
 
+// How often writes that the job store refused are tried again.
+constexpr std::chrono::milliseconds store_retry_interval{1000};
+
 // Seconds the steps from `first` on still need; empty when one of them waits for a trigger.
 std::optional<double> remaining_from(const job_plan& plan, std::size_t first) {
     double s = 0;
@@ -142,6 +145,19 @@ class manager_core final : public execution_host, public std::enable_shared_from
         std::vector<std::string> restore;  // the run's stored restore commands, registration order
     };
 
+    // A write the store refused: a job record (state, progress; save) or one of its events.
+    struct unstored_write {
+        std::optional<job_record> record;
+        json event;  // when there is no record
+    };
+    // A job's writes that are not stored yet, oldest first, and the store's last error. Bounded by the
+    // job's run: a running job pauses at its next checkpoint, so at most the steps until then (two
+    // writes each) wait here; consecutive records of the same state are merged.
+    struct unstored_history {
+        std::deque<unstored_write> writes;
+        std::string error;
+    };
+
     struct lane {
         std::deque<std::string> queue;  // FIFO of queued job ids
         std::string holder;             // the job that has the controller: running, or paused
@@ -165,6 +181,16 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void set_state(live_job& job, job_state s, std::string reason);
     void save(const job_record& r);
     void record_event(const std::string& id, const json& event);
+    // Writes go through the job's queue of unstored writes, so that they reach the store in order:
+    // appends `w`, then writes what is queued. A refusal keeps the rest queued (store_refused).
+    void store_write(const std::string& id, unstored_write w);
+    // Writes the job's queued writes, oldest first, until one fails: its error. Forgets the job when
+    // all are stored.
+    operation_result<void> write_unstored(const std::string& id);
+    // The store refused a write of the job: a running job pauses at its next checkpoint (nothing may run
+    // unrecorded), and the writes are retried every store_retry_interval.
+    void store_refused(const std::string& id, const operation_error& e);
+    void retry_unstored_later();
     // Persists the job's restore commands (empty: removes them); a storage error is logged.
     void store_restore_commands(const std::string& id, const std::vector<std::string>& commands);
     void publish(const std::string& id, const json& event);
@@ -218,6 +244,11 @@ class manager_core final : public execution_host, public std::enable_shared_from
     std::map<std::string, job_record> live_records_;
     // Controller -> what an interrupted job left on it that must still be undone (strand only).
     std::map<std::string, recovery> recovery_pending_;
+    // Job id -> its writes the store refused (disk full, read-only file), retried in order (strand
+    // only). Kept after the job has ended: its final state must reach the store too.
+    std::map<std::string, unstored_history> unstored_;
+    net::steady_timer store_retry_{strand_};
+    bool store_retry_armed_ = false;
 
     std::shared_ptr<devices::controller_observer> observer_;
 
@@ -268,29 +299,101 @@ void manager_core::attach() {
 // ---------------------------------------------------------------------------------------------
 // Persistence and publication (strand).
 
+// A write the store refuses (disk full, read-only file) is never dropped: it waits in the job's
+// unstored_ queue, later writes of the job queue behind it (the history stays in order), and the queue is
+// written again every store_retry_interval, before a resume (which is refused until it is stored) and at
+// a clean shutdown. Meanwhile the record in memory is the truth, and get() answers from it.
+
 void manager_core::save(const job_record& r) {
-    bool saved = false;
+    // get() answers from memory for active jobs, and for ended ones until the store has their end.
     {
-        std::lock_guard lock(store_mutex_);
-        if (store_) {
-            auto ok = store_->save(r);
-            saved = ok.has_value();
-            if (!ok) log_->error("job {}: cannot save its state: {}", r.id, ok.error().message);
-        }
-    }
-    // get() answers from memory for active jobs, and for ended ones the store could not take.
-    std::lock_guard lock(records_mutex_);
-    if (is_terminal(r.state) && saved)
-        live_records_.erase(r.id);
-    else
+        std::lock_guard lock(records_mutex_);
         live_records_[r.id] = r;
+    }
+    store_write(r.id, unstored_write{r, nullptr});
 }
 
 void manager_core::record_event(const std::string& id, const json& event) {
-    std::lock_guard lock(store_mutex_);
-    if (!store_) return;
-    if (auto ok = store_->append_event(id, event); !ok)
-        log_->error("job {}: cannot store an event: {}", id, ok.error().message);
+    store_write(id, unstored_write{std::nullopt, event});
+}
+
+void manager_core::store_write(const std::string& id, unstored_write w) {
+    auto& writes = unstored_[id].writes;
+    // Two records in a row with the same state: the later one has everything (no transition between).
+    const bool merge =
+        w.record && !writes.empty() && writes.back().record && writes.back().record->state == w.record->state;
+    if (merge)
+        writes.back() = std::move(w);
+    else
+        writes.push_back(std::move(w));
+    if (auto stored = write_unstored(id); !stored) store_refused(id, stored.error());
+}
+
+operation_result<void> manager_core::write_unstored(const std::string& id) {
+    auto it = unstored_.find(id);
+    if (it == unstored_.end()) return {};
+    auto& writes = it->second.writes;
+    std::optional<job_record> last_record;
+    while (!writes.empty()) {
+        const auto& w = writes.front();
+        operation_result<void> ok;
+        {
+            std::lock_guard lock(store_mutex_);
+            if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
+            ok = w.record ? store_->save(*w.record) : store_->append_event(id, w.event);
+        }
+        if (!ok && ok.error().kind == kind::storage_unavailable) return ok.error();  // kept: tried again
+        // Any other error (the job is not stored at all) would come back every time.
+        if (!ok) log_->error("job {}: cannot store its history: {}", id, describe(ok.error()));
+        if (w.record) last_record = w.record;
+        writes.pop_front();
+    }
+    if (!it->second.error.empty())
+        log_->info("job {}: the job store takes its history again; it is stored up to date", id);
+    unstored_.erase(it);
+    // An ended job is read from the store from now on.
+    if (last_record && is_terminal(last_record->state)) {
+        std::lock_guard lock(records_mutex_);
+        live_records_.erase(id);
+    }
+    return {};
+}
+
+void manager_core::store_refused(const std::string& id, const operation_error& e) {
+    auto& history = unstored_[id];
+    if (history.error.empty())
+        log_->error("job {}: the job store refused its history ({} write(s) kept, retried every {} ms): {}",
+                    id, history.writes.size(), store_retry_interval.count(), e.message);
+    history.error = e.message;
+    retry_unstored_later();
+    // A step that cannot be recorded would be sent again by a resume after a restart: the run stops at
+    // its next checkpoint (after the current step), as a client's pause does, and a resume continues once
+    // the store takes the history again.
+    auto it = jobs_.find(id);
+    if (it == jobs_.end()) return;
+    auto& job = *it->second;
+    if (job.record.state != job_state::running || !job.exec || job.exec->cancelled()) return;
+    if (job.storage_failure.empty())
+        log_->warn("job {}: pausing after the current step: its history cannot be stored", id);
+    job.storage_failure = e.message;
+    job.exec->request_pause();
+}
+
+void manager_core::retry_unstored_later() {
+    if (store_retry_armed_ || abandoned_) return;
+    store_retry_armed_ = true;
+    store_retry_.expires_after(store_retry_interval);
+    store_retry_.async_wait([self = shared_from_this()](boost::system::error_code ec) {
+        self->store_retry_armed_ = false;
+        if (ec || self->abandoned_) return;
+        std::vector<std::string> ids;
+        for (const auto& [id, history] : self->unstored_)
+            ids.push_back(id);
+        for (const auto& id : ids)
+            if (auto stored = self->write_unstored(id); !stored)
+                self->unstored_[id].error = stored.error().message;
+        if (!self->unstored_.empty()) self->retry_unstored_later();
+    });
 }
 
 void manager_core::store_restore_commands(const std::string& id, const std::vector<std::string>& commands) {
@@ -460,6 +563,17 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
         co_await timer.async_wait(net::redirect_error(net::use_awaitable, ec));
     }
     if (running_ > 0) log_->warn("shutdown: {} job(s) did not stop in time", running_);
+    // A last try for what the store refused; what it still refuses is lost, and said so.
+    store_retry_.cancel();
+    std::vector<std::string> unstored;
+    for (const auto& [id, history] : unstored_)
+        unstored.push_back(id);
+    for (const auto& id : unstored)
+        if (auto stored = write_unstored(id); !stored)
+            log_->error(
+                "shutdown: job {}: {} write(s) of its history are lost (after a restart it shows its last "
+                "stored state): {}",
+                id, unstored_[id].writes.size(), stored.error().message);
     {
         std::lock_guard lock(store_mutex_);
         if (store_) {
@@ -481,6 +595,7 @@ void manager_core::abandon() {
         store_.reset();  // like a crash: what was committed stays, nothing more is written
     }
     net::post(strand_, [self = shared_from_this()] {
+        self->store_retry_.cancel();
         for (auto& [id, job] : self->jobs_)
             if (job->exec) job->exec->abandon();
     });
@@ -577,6 +692,9 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
             std::move(h), make_error(kind::queue_full, fmt::format("{} already has {} queued jobs",
                                                                    r.controller, l.queue.size())));
     rec.id = make_job_id();
+    // Stored with the job, in one transaction: a store that cannot take the job's history refuses the
+    // job, rather than letting it run unrecorded.
+    const auto queued_event = state_event(rec, now);
     {
         std::lock_guard lock(store_mutex_);
         // Idempotency again: another submission with the key may have been stored while this one planned.
@@ -585,7 +703,7 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
             if (found && *found) return deliver<submit_result>(std::move(h), replay(std::move(**found), r));
         }
         auto inserted =
-            store_ ? store_->insert(rec)
+            store_ ? store_->insert(rec, queued_event)
                    : operation_result<void>(make_error(kind::storage_unavailable, "the job store is closed"));
         if (!inserted) {
             auto e = inserted.error();
@@ -603,7 +721,7 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
         std::lock_guard lock(records_mutex_);
         live_records_[rec.id] = rec;
     }
-    publish(rec.id, state_event(rec, now));
+    if (hub_) hub_->publish(job_topic(rec.id), queued_event);  // stored by insert()
     log_->info("job {} ({} on {}) queued: {} steps, {:.1f} s estimated", rec.id, to_string(rec.type),
                rec.controller, rec.progress.steps_total, rec.estimated_s);
     l.queue.push_back(rec.id);
@@ -833,6 +951,13 @@ std::string manager_core::jobs_in_lane(const std::string& controller) const {
 
 operation_result<std::shared_ptr<live_job>> manager_core::find_live(const std::string& id) {
     if (auto it = jobs_.find(id); it != jobs_.end()) return it->second;
+    {
+        // Ended, but the store does not have its end yet (it refused it): the record in memory counts.
+        std::lock_guard lock(records_mutex_);
+        if (auto it = live_records_.find(id); it != live_records_.end() && is_terminal(it->second.state))
+            return make_error(kind::invalid_state,
+                              fmt::format("job {} has ended ({})", id, to_string(it->second.state)), "state");
+    }
     std::optional<job_record> found;
     {
         std::lock_guard lock(store_mutex_);
@@ -926,6 +1051,15 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
         const auto controller = job->record.controller;
         if (auto lease = self->check_lease(controller, a); !lease)
             return self->deliver<job_record>(std::move(h), lease.error());
+        // Its history must be stored up to date before it runs on: its pause, and every step before it.
+        if (auto stored = self->write_unstored(a.job_id); !stored)
+            return self->deliver<job_record>(
+                std::move(h),
+                make_error(kind::storage_unavailable,
+                           fmt::format("job {} cannot be resumed while the job store refuses its "
+                                       "history: {}",
+                                       a.job_id, stored.error().message)));
+        job->storage_failure.clear();
         const auto st = job->record.state;
         auto& l = self->lanes_[controller];
         if (st == job_state::running && job->exec && job->exec->pause_requested()) {
@@ -1175,6 +1309,10 @@ std::vector<json> manager_core::step_events(const live_job& job) const {
     if (!store_) return {};
     auto stored = store_->events(job.record.id, all);
     if (!stored) return {};
+    // Then those the store has not taken yet, which follow them.
+    if (auto it = unstored_.find(job.record.id); it != unstored_.end())
+        for (const auto& w : it->second.writes)
+            if (!w.record) stored->push_back(w.event);
     std::vector<json> out;
     for (auto& e : *stored)
         if (e.is_object() && e.value("type", "") == "step") out.push_back(std::move(e));
@@ -1187,7 +1325,8 @@ void manager_core::on_restore_commands_changed(live_job& job) {
 }
 
 void manager_core::on_paused(live_job& job) {
-    set_state(job, job_state::paused, "paused");
+    set_state(job, job_state::paused,
+              job.storage_failure.empty() ? "paused" : "storage unavailable: " + job.storage_failure);
 }
 
 // ---------------------------------------------------------------------------------------------

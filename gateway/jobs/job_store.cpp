@@ -381,7 +381,7 @@ operation_result<std::unique_ptr<job_store>> job_store::open(const std::string& 
     return std::unique_ptr<job_store>(new job_store(db, std::move(path)));
 }
 
-operation_result<void> job_store::insert(const job_record& job) {
+operation_result<void> job_store::insert(const job_record& job, const nlohmann::json& first_event) {
     std::lock_guard lock(mutex_);
     connection c{db_, path_};
     transaction tx(c);
@@ -428,6 +428,13 @@ operation_result<void> job_store::insert(const job_record& job) {
     if (!t) return t.error();
     t->text(1, job.id).text(2, to_string(job.state)).text(3, job.reason).integer(4, epoch_ms(job.created));
     if (t->step() != SQLITE_DONE) return c.error(fmt::format("record transition of job {}", job.id));
+
+    if (!first_event.is_null()) {
+        auto e = c.prepare("INSERT INTO job_events (job_id, seq, event, at_ms) VALUES (?1, 1, ?2, ?3)");
+        if (!e) return e.error();
+        e->text(1, job.id).text(2, dump(first_event)).integer(3, epoch_ms(job.created));
+        if (e->step() != SQLITE_DONE) return c.error(fmt::format("append event of job {}", job.id));
+    }
     return tx.commit();
 }
 

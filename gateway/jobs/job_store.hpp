@@ -52,9 +52,11 @@ class job_store {
     job_store(const job_store&) = delete;
     job_store& operator=(const job_store&) = delete;
 
-    // A new job; also records its first transition. invalid_state when the id or the idempotency key
-    // already exists (the manager calls find_by_idempotency_key first, on its strand).
-    operation_result<void> insert(const job_record& job);
+    // A new job; also records its first transition and, unless it is null, its first event (seq 1), all
+    // in one transaction: a store that cannot take the job's history refuses the job itself.
+    // invalid_state when the id or the idempotency key already exists (the manager calls
+    // find_by_idempotency_key first, on its strand).
+    operation_result<void> insert(const job_record& job, const nlohmann::json& first_event = nullptr);
     // Writes the job's mutable columns; appends a transition row when the state differs from the
     // stored one (from, to, reason, time).
     operation_result<void> save(const job_record& job);

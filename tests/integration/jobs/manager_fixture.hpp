@@ -163,6 +163,15 @@ class manager_fixture : public ::testing::Test {
         std::promise<void> done;
         manager_->async_shutdown([&] { done.set_value(); });
         ASSERT_EQ(done.get_future().wait_for(30s), std::future_status::ready) << "shutdown did not finish";
+        expect_wal_checkpointed();
+    }
+
+    // A clean shutdown checkpoints the WAL into the database file: the -wal file is gone or empty.
+    void expect_wal_checkpointed() {
+        const auto wal = std::filesystem::path(settings().storage_path) / "jobs.sqlite3-wal";
+        std::error_code ec;
+        const auto size = std::filesystem::file_size(wal, ec);
+        EXPECT_TRUE(ec || size == 0) << wal << " holds " << size << " bytes after a clean shutdown";
     }
 
     operation_result<submit_result> submit(const std::string& controller, job_type type, nlohmann::json spec,
@@ -269,7 +278,7 @@ class manager_fixture : public ::testing::Test {
         if (manager_ && !manager_shut_) {
             std::promise<void> done;
             manager_->async_shutdown([&] { done.set_value(); });
-            done.get_future().wait_for(30s);
+            if (done.get_future().wait_for(30s) == std::future_status::ready) expect_wal_checkpointed();
         }
         if (registry_) registry_->stop();
         if (hub_) hub_->stop();

@@ -213,9 +213,33 @@ TEST_F(manager_storage_test, a_full_store_fails_the_submission_and_the_service_k
     ASSERT_TRUE(page) << page.error().message;
     EXPECT_EQ(page->jobs.size(), std::min<std::size_t>(stored, 50));
     EXPECT_TRUE(job(first->job.id));
-    // The stored jobs still run; dry runs still plan.
-    for (const auto& j : page->jobs)
-        EXPECT_TRUE(wait_state(j.id, job_state::succeeded));
+    // The stored jobs run while the store takes their history. One whose history it refuses pauses at
+    // its next checkpoint (nothing runs unrecorded) and keeps the controller: the jobs after it wait.
+    const auto settled = [&] {
+        bool paused = false, queued = false;
+        for (const auto& j : page->jobs) {
+            auto r = job(j.id);
+            if (!r || r->state == job_state::running) return false;
+            paused = paused || r->state == job_state::paused;
+            queued = queued || r->state == job_state::queued;
+        }
+        return !queued || paused;
+    };
+    ASSERT_TRUE(wait_until(settled));
+    bool held = false;
+    for (auto it = page->jobs.rbegin(); it != page->jobs.rend(); ++it) {  // oldest first
+        auto r = job(it->id);
+        ASSERT_TRUE(r);
+        if (held) {
+            EXPECT_EQ(r->state, job_state::queued) << it->id;
+        } else if (r->state == job_state::paused) {
+            EXPECT_TRUE(r->reason.starts_with("storage unavailable: ")) << r->reason;
+            held = true;
+        } else {
+            EXPECT_EQ(r->state, job_state::succeeded) << it->id << ": " << r->reason;
+        }
+    }
+    // Dry runs still plan.
     EXPECT_TRUE(
         submit("sim3", job_type::planar_correction, {{"action", "clear"}}, std::nullopt, std::nullopt, true));
 }

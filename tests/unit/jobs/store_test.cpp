@@ -268,6 +268,37 @@ TEST_F(store_test, events_are_kept_in_order_with_a_limit) {
     EXPECT_TRUE(none->empty());
 }
 
+TEST_F(store_test, insert_stores_the_first_event_with_the_job_or_neither) {
+    auto store = open_store({.max_size_mb = 1});
+    ASSERT_TRUE(store);
+    const auto id = make_job_id();
+    const nlohmann::json queued = {{"type", "state"}, {"state", "queued"}};
+    ASSERT_TRUE(store->insert(make_job(id), queued));
+    ASSERT_TRUE(store->append_event(id, {{"type", "step"}, {"index", 0}}));
+    auto e = store->events(id, 10);
+    ASSERT_TRUE(e) << e.error().message;
+    ASSERT_EQ(e->size(), 2u);
+    EXPECT_EQ((*e)[0], queued);
+    EXPECT_EQ((*e)[1].value("type", ""), "step");
+
+    // A first event the store cannot take (larger than the 1 MB file may grow): no job either.
+    const auto refused_id = make_job_id();
+    const nlohmann::json huge = {{"type", "state"}, {"filler", std::string(2 * 1024 * 1024, 'x')}};
+    auto r = store->insert(make_job(refused_id), huge);
+    ASSERT_FALSE(r);
+    EXPECT_EQ(r.error().kind, operation_error_kind::storage_unavailable);
+    EXPECT_NE(r.error().message.find("full"), std::string::npos) << r.error().message;
+    auto found = store->find(refused_id);
+    ASSERT_TRUE(found) << found.error().message;
+    EXPECT_FALSE(found->has_value());
+    auto transitions = store->transitions(refused_id);
+    ASSERT_TRUE(transitions);
+    EXPECT_TRUE(transitions->empty());
+    auto events = store->events(refused_id, 10);
+    ASSERT_TRUE(events);
+    EXPECT_TRUE(events->empty());
+}
+
 TEST_F(store_test, an_event_of_an_unknown_job_is_refused) {
     auto store = open_store();
     ASSERT_TRUE(store);
