@@ -14,7 +14,10 @@
 // step. A disconnect of the controller pauses a running job with reason "controller disconnected";
 // resume continues from the last completed step once it is connected again. A job paused that way
 // which had registered "TTL Y=0" (restore_if_stopped: a gcode job's laser) gets "TTL Y=0" as soon as
-// the controller is connected again.
+// the controller is connected again. A running job whose history the store refuses (disk full, read-only
+// file) pauses after the current step, as for a client's pause, with reason "storage unavailable: <message>";
+// its refused writes are kept in order and retried (every second, before a resume, at shutdown), and a resume
+// is refused (storage_unavailable) until they are stored.
 //
 // Threads: public methods may be called from any thread. Completion handlers run on their associated
 // executor (or the manager's), never inline.
