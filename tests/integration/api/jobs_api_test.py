@@ -18,6 +18,7 @@ Exit code 0 when every check passed; the failures are listed otherwise.
 
 import argparse
 import os
+import sqlite3
 import sys
 import time
 
@@ -532,6 +533,52 @@ def test_restart(fx, c, args, config, extra):
     check(len(names) == len(set(names)), f"no well was visited twice: {names}")
 
 
+def check_wal_checkpointed(store_dir):
+    """After a clean exit the WAL has been checkpointed into the database: jobs.sqlite3-wal is gone or empty."""
+    wal = os.path.join(store_dir, "jobs.sqlite3-wal")
+    size = os.path.getsize(wal) if os.path.exists(wal) else 0
+    check(size == 0, f"{wal} holds {size} bytes after a clean exit")
+
+
+def test_full_store(fx, args, contract):
+    """Another program fills the store beyond storage.max_size_mb: a submission is refused with 503
+    storage-unavailable (nothing stored, nothing queued) and the gateway keeps answering."""
+    port = free_port()
+    store = os.path.join(fx.tmp, "store-full")
+    config = {
+        "http": {"listen_address": "127.0.0.1", "port": port},
+        "storage": {"path": store, "max_size_mb": 1},
+        "auth": auth_tokens(),
+        "logging": {"level": "info"},
+    }
+    extra = ["--simulate", "3", "--time-scale", str(TIME_SCALE), "--sim-dir", os.path.join(fx.tmp, "sims-full")]
+    gateway = fx.start_gateway(args.gateway, config, extra)
+    c = Client(port, contract)
+    # Every well of a 16 x 24 grid named: the job's first event is over 1 KiB, more than a page of the
+    # events index holds, so storing it needs a new page (a fresh store has room in the pages it has).
+    wells = [f"{chr(ord('A') + r)}{col + 1}" for r in range(16) for col in range(24)]
+    body = job_body("sim2", "array", {"grid": {"columns": 24, "rows": 16, "column_step_mm": 0.2, "row_step_mm": -0.2},
+                                      "a1": {"X": 0, "Y": 0}, "wells": wells, "advance": "next", "mode": "host"})
+    submit(c, body, status=200, query="?dry_run=true")  # a valid job: only the store can refuse it
+    filler = sqlite3.connect(os.path.join(store, "jobs.sqlite3"), timeout=10)
+    try:
+        filler.execute("CREATE TABLE filler (b BLOB)")
+        filler.execute("INSERT INTO filler VALUES (zeroblob(?))", (2 * 1024 * 1024,))
+        filler.commit()
+    finally:
+        filler.close()
+    p = c.problem("POST", "/api/v1/jobs", 503, "storage-unavailable", body=body, token=OP)
+    check("full" in p["detail"], f"the problem says why: {p['detail']}")
+    check(c.request("GET", "/api/v1/jobs?controller=sim2", token=VIEW).json()["jobs"] == [],
+          "the refused job was not stored")
+    r = c.request("GET", "/api/v1/ready", token=None, validate=False)
+    check(r.status == 200, f"ready after the refusal: {r.status}")
+    gateway.terminate()
+    code = gateway.wait(timeout=WAIT)
+    check(code == 0, f"SIGTERM exit code {code}")
+    check_wal_checkpointed(store)
+
+
 def cancel_leftovers(c):
     """Cancels every job a failed test left active, so that its controller is free for the next test."""
     r = c.request("GET", "/api/v1/jobs?limit=500", token=VIEW, validate=False)
@@ -592,6 +639,8 @@ def main():
                 print(f"  {name}: {what}")
         fx.gateway.terminate()
         fx.expect_exit_0()
+        run("the WAL is checkpointed at a clean exit", check_wal_checkpointed, config["storage"]["path"])
+        run("a full store refuses submissions and the gateway answers", test_full_store, fx, args, contract)
         fx.finish_log(80)
     finally:
         fx.cleanup()
