@@ -137,6 +137,36 @@ std::string in0_command(int mode) {
     return command_text("TTL", {set_arg('X', mode, 0)});
 }
 
+// The fast and slow axes' start and stop positions against the soft limits; the error's field is
+// the setting (spec.fast.start_mm, spec.fast.stop_mm or spec.fast.pixels, spec.slow.start_mm,
+// spec.slow.stop_mm) whose position is beyond them.
+operation_result<void> check_scan_extent(const scan_setup& u, const devices::controller_snapshot& s) {
+    const auto& g = u.geometry;
+    const char f = u.spec.fast_axis, w = u.spec.slow_axis;
+    struct setting {
+        const char* field;
+        char axis;
+        double mm;
+    };
+    const setting settings[] = {
+        {"fast.start_mm", f, g.fast_start_mm},
+        {u.spec.pixels ? "fast.pixels" : "fast.stop_mm", f, g.fast_stop_mm},
+        {"slow.start_mm", w, g.slow_start_mm},
+        {"slow.stop_mm", w, g.slow_stop_mm},
+    };
+    for (const auto& one : settings) {
+        job_plan point;
+        point.steps.push_back({fmt::format("scan {} ({} axis)", one.field, one.axis),
+                               position_um{{one.axis, one.mm * 1000.0}}, 0, false});
+        if (auto limits = check_soft_limits(point, s); !limits) {
+            auto e = limits.error();
+            e.field = std::string("spec.") + one.field;
+            return e;
+        }
+    }
+    return {};
+}
+
 }  // namespace
 
 operation_result<job_plan> plan_scan(const nlohmann::json& json, const plan_context& ctx) {
@@ -187,18 +217,9 @@ operation_result<job_plan> plan_scan(const nlohmann::json& json, const plan_cont
         plan.bounds.include(line_point(u, g.fast_start_mm, slow));
         plan.bounds.include(line_point(u, g.fast_stop_mm, slow));
     }
-    // Line ends are not step targets; check the far corners against the soft limits too.
-    {
-        job_plan corners;
-        corners.steps.push_back({"line 1 end", line_point(u, g.fast_end(0), g.slow_at(0)), 0, false});
-        corners.steps.push_back({fmt::format("line {} end", g.lines),
-                                 line_point(u, g.fast_end(g.lines - 1), g.slow_at(g.lines - 1)), 0, false});
-        if (auto limits = check_soft_limits(corners, s); !limits) {
-            auto e = limits.error();
-            e.field = "spec.fast.stop_mm";
-            return e;
-        }
-    }
+    // Every line lies within the four settings' positions (line ends are not step targets): each is
+    // checked against its own axis's soft limits, so a refusal names the setting to change.
+    if (auto limits = check_scan_extent(u, s); !limits) return limits.error();
 
     const std::string speed_text = fmt::format("{:g} mm/s", scan_speed);
     if (u.firmware) {

@@ -232,9 +232,26 @@ const refusal_row refusal_table[] = {
     {"same_axes", R"({"fast_axis":"Y","fast":{"stop_mm":1},"slow":{"lines":1}})", "spec.slow_axis"},
     {"axis_not_on_controller", R"({"slow_axis":"F","fast":{"stop_mm":1},"slow":{"lines":1}})",
      "spec.slow_axis"},
+    // Soft limits (+-110 mm on every axis): the field is the setting whose position is beyond them.
     {"beyond_soft_limit", R"({"fast":{"stop_mm":120,"encoder_divide":1000},"slow":{"lines":1}})",
      "spec.fast.stop_mm"},
+    {"fast_start_beyond_soft_limit",
+     R"({"fast":{"start_mm":-115,"stop_mm":0,"encoder_divide":1000},"slow":{"lines":1}})",
+     "spec.fast.start_mm"},
+    {"pixels_end_beyond_soft_limit",  // 1000 pixels of 1000 counts = 22.03 mm from 100 mm
+     R"({"fast":{"start_mm":100,"pixels":1000,"encoder_divide":1000},"slow":{"lines":1}})",
+     "spec.fast.pixels"},
     {"slow_beyond_soft_limit", R"({"fast":{"stop_mm":1},"slow":{"lines":2,"start_mm":100,"stop_mm":111}})",
+     "spec.slow.stop_mm"},
+    {"slow_start_beyond_soft_limit",
+     R"({"fast":{"stop_mm":1},"slow":{"lines":2,"start_mm":-111,"stop_mm":0}})", "spec.slow.start_mm"},
+    {"one_line_beyond_soft_limit", R"({"fast":{"stop_mm":1},"slow":{"lines":1,"start_mm":120}})",
+     "spec.slow.start_mm"},
+    {"slow_axis_x_beyond_soft_limit",
+     R"({"fast_axis":"Y","slow_axis":"X","fast":{"stop_mm":1},"slow":{"lines":3,"start_mm":0,"stop_mm":-112}})",
+     "spec.slow.stop_mm"},
+    {"fast_axis_z_beyond_soft_limit",
+     R"({"fast_axis":"Z","slow_axis":"X","fast":{"start_mm":105,"stop_mm":111,"encoder_divide":100},"slow":{"lines":1}})",
      "spec.fast.stop_mm"},
 };
 
@@ -250,6 +267,34 @@ TEST_P(scan_refusals, invalid_value_names_the_field) {
 
 INSTANTIATE_TEST_SUITE_P(table, scan_refusals, ::testing::ValuesIn(refusal_table),
                          [](const auto& info) { return std::string(info.param.name); });
+
+// Each setting is checked against its own axis's limits: Y (the slow axis) allows only 0..5 mm here,
+// X (the fast axis) +-110 mm.
+TEST(scan_plan, soft_limits_use_the_axis_of_each_setting) {
+    auto ctx = make_context(true);
+    ctx.snapshot.axes[1].lower_limit_mm = 0;
+    ctx.snapshot.axes[1].upper_limit_mm = 5;
+    json fits = {{"fast", {{"start_mm", 0.0}, {"stop_mm", 8.0}, {"encoder_divide", 100}}},
+                 {"slow", {{"start_mm", 0.0}, {"stop_mm", 5.0}, {"lines", 2}}}};
+    auto plan = plan_job(job_type::scan, fits, ctx);
+    EXPECT_TRUE(plan) << plan.error().message;  // fast 8 mm is within X's limits
+
+    json slow_out = fits;
+    slow_out["slow"]["stop_mm"] = 6.0;
+    plan = plan_job(job_type::scan, slow_out, ctx);
+    ASSERT_FALSE(plan);
+    EXPECT_EQ(plan.error().kind, operation_error_kind::invalid_value);
+    EXPECT_EQ(plan.error().field, "spec.slow.stop_mm") << plan.error().message;
+    EXPECT_NE(plan.error().message.find("Y=6000.0 um"), std::string::npos) << plan.error().message;
+    EXPECT_NE(plan.error().message.find("upper soft limit 5 mm"), std::string::npos) << plan.error().message;
+
+    json slow_below = fits;
+    slow_below["slow"]["start_mm"] = -0.5;
+    plan = plan_job(job_type::scan, slow_below, ctx);
+    ASSERT_FALSE(plan);
+    EXPECT_EQ(plan.error().field, "spec.slow.start_mm") << plan.error().message;
+    EXPECT_NE(plan.error().message.find("lower soft limit 0 mm"), std::string::npos) << plan.error().message;
+}
 
 TEST(scan_plan, host_path_without_the_module_summarises_the_preview) {
     auto plan = plan_job(job_type::scan, seed_spec(), make_context(false));
