@@ -232,6 +232,18 @@ operation_result<job_plan> plan_planar_correction(const json& spec, const plan_c
         if (!plane_through(pts))
             return invalid("spec.points", "the three points lie on one line in XY: no plane");
     }
+    // The given points against the travel range and the soft limits here, so that a refusal names the
+    // point's field (spec.points[i]) rather than the plan step's.
+    for (std::size_t i = 0; i < 3; ++i) {
+        if (!plan.steps[i].target) continue;
+        job_plan one;
+        one.steps.push_back(plan.steps[i]);
+        if (auto limits = check_soft_limits(one, s); !limits) {
+            auto e = limits.error();
+            e.field = "spec.points[" + std::to_string(i) + "]";
+            return e;
+        }
+    }
     if (parsed->enable) {
         plan.steps.push_back({"enable", std::nullopt, 0, false});
         add_preview_command(plan, "CCB Z=4");

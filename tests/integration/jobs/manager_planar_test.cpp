@@ -4,6 +4,7 @@
 
 #include "gateway/jobs/job_json.hpp"
 #include "tests/integration/jobs/manager_fixture.hpp"
+#include "tests/support/sim_serial_client.hpp"
 
 namespace gw::jobs::test {
 namespace {
@@ -193,6 +194,7 @@ TEST_F(manager_planar_test, refusals_name_the_problem_and_store_nothing) {
                                  json{{"X", 0}, {"Y", 100}, {"Z", 0}}})}});
     ASSERT_FALSE(beyond);
     EXPECT_EQ(beyond.error().kind, kind::invalid_value);
+    EXPECT_EQ(beyond.error().field, "spec.points[1]");
     EXPECT_NE(beyond.error().message.find("point 2"), std::string::npos) << beyond.error().message;
 
     auto nobody = submit("nope", job_type::planar_correction, {{"action", "clear"}});
@@ -202,6 +204,60 @@ TEST_F(manager_planar_test, refusals_name_the_problem_and_store_nothing) {
     auto page = manager_->list(job_filter{});
     ASSERT_TRUE(page) << page.error().message;
     EXPECT_TRUE(page->jobs.empty());
+}
+
+// The controller's own soft limits (SU/SL, read by the registry), well inside the travel range: a given
+// point beyond them is refused naming that point, and nothing is sent to the controller.
+TEST_F(manager_planar_test, points_beyond_the_controllers_soft_limits_are_refused_naming_the_point) {
+    auto sim = add_sim("sim3", "planar");
+    {
+        gw::tests::sim_serial_client client(sim->port_path());
+        ASSERT_TRUE(client.command("SU X=5"));
+        ASSERT_TRUE(client.command("SL Y=-3"));
+    }
+    start();
+    const auto point = [](double x, double y, double z) { return json{{"X", x}, {"Y", y}, {"Z", z}}; };
+    struct row {
+        json points;
+        const char* field;
+        const char* name;
+    };
+    const row rows[] = {
+        {json::array({point(0, 0, 0), point(6000, 0, 10), point(0, 2000, -5)}), "spec.points[1]", "point 2"},
+        {json::array({point(0, 0, 0), point(2000, 0, 10), point(0, -4000, -5)}), "spec.points[2]", "point 3"},
+        {json::array({point(5001, 0, 0), point(2000, 0, 10), point(0, 2000, -5)}), "spec.points[0]",
+         "point 1"},
+    };
+    for (const auto& r : rows) {
+        auto refused = submit("sim3", job_type::planar_correction,
+                              {{"action", "set"}, {"points", r.points}, {"enable", true}});
+        ASSERT_FALSE(refused) << r.field;
+        EXPECT_EQ(refused.error().kind, kind::invalid_value) << refused.error().message;
+        EXPECT_EQ(refused.error().field, r.field) << refused.error().message;
+        EXPECT_NE(refused.error().message.find(r.name), std::string::npos) << refused.error().message;
+        EXPECT_NE(refused.error().message.find("soft limit"), std::string::npos) << refused.error().message;
+    }
+    // Within the limits the same controller takes a plane (the limits are the reason, not the points).
+    auto fits = submit("sim3", job_type::planar_correction,
+                       {{"action", "set"},
+                        {"points", json::array({point(0, 0, 0), point(5000, 0, 10), point(0, -3000, -5)})},
+                        {"enable", false}},
+                       std::nullopt, std::nullopt, true);
+    EXPECT_TRUE(fits) << fits.error().message;
+
+    // Nothing stored, nothing sent as a job, the stage and the correction untouched.
+    auto page = manager_->list(job_filter{});
+    ASSERT_TRUE(page) << page.error().message;
+    EXPECT_TRUE(page->jobs.empty());
+    const auto job_traces = observer_->locked([&] {
+        std::size_t n = 0;
+        for (const auto& t : observer_->traces)
+            if (t.request_id.starts_with("job-")) ++n;
+        return n;
+    });
+    EXPECT_EQ(job_traces, 0u);
+    EXPECT_EQ(sim_state("sim3")["planar_correction"]["points"], 0);
+    EXPECT_NEAR(sim_state("sim3")["axes"]["X"]["position"].get<double>(), 0, 1);
 }
 
 TEST_F(manager_planar_test, dry_run_returns_the_plan_and_moves_nothing) {
