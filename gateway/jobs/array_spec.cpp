@@ -146,7 +146,8 @@ operation_result<array_spec> parse_array_spec(const json& spec) {
         }
     }
     if (spec.contains("dwell_ms")) {
-        auto d = spec_number(spec["dwell_ms"], "dwell_ms", 0, max_array_dwell_ms);
+        // Whole milliseconds, as the schema says (and as RT Z= takes them).
+        auto d = spec_integer(spec["dwell_ms"], "dwell_ms", 0, max_array_dwell_ms);
         if (!d) return d.error();
         s.dwell_ms = *d;
     }

@@ -23,7 +23,7 @@ struct array_spec {
     double rotation_deg = 0;
     well_order order = well_order::serpentine;
     std::vector<well_index> wells;  // subset as given (validated, unique); empty = every well
-    double dwell_ms = 0;
+    double dwell_ms = 0;            // whole milliseconds (an integer in the spec)
     advance_source advance = advance_source::timer;
     bool ttl_pulse = false;
     std::optional<well_index> resume_from;
@@ -34,7 +34,7 @@ struct array_spec {
 };
 
 inline constexpr double max_array_step_mm = 1000;
-inline constexpr double max_array_dwell_ms = 24.0 * 3600 * 1000;
+inline constexpr long long max_array_dwell_ms = 24LL * 3600 * 1000;  // whole milliseconds
 inline constexpr std::size_t max_array_wells = 100000;
 
 operation_result<array_spec> parse_array_spec(const nlohmann::json& spec);

@@ -79,6 +79,16 @@ std::vector<std::pair<double, double>> plate_targets(const std::string& plate, d
     return out;
 }
 
+std::vector<std::pair<double, double>> grid_targets(const plate_geometry& g, double x0, double y0,
+                                                    well_order order) {
+    std::vector<std::pair<double, double>> out;
+    for (const auto& w : visit_order(g, order)) {
+        const auto [dx, dy] = well_offset_um(g, w, 0);
+        out.emplace_back(x0 + dx, y0 + dy);
+    }
+    return out;
+}
+
 std::vector<std::string> plate_names(const std::string& plate, well_order order) {
     std::vector<std::string> out;
     for (const auto& w : visit_order(*plate_preset(plate), order))
@@ -142,6 +152,109 @@ TEST_F(array_run_test, host_run_with_rotation_subset_dwell_and_pulse) {
     EXPECT_EQ(commands_starting(id, "TTL Y=1").size(), 4u);  // one pulse per arrival
     EXPECT_EQ(commands_starting(id, "TTL Y=0").size(), 4u);
     EXPECT_EQ(sim_state("sim1")["ttl"]["out0_mode"], 0);  // the output ends low
+}
+
+// dwell_ms holds the stage at each well (real time, after the arrival and before the step event):
+// each well's step event comes at least one dwell after the previous one (the first at least one
+// dwell after the start), on both paths. The 0.5 mm grid keeps the moves themselves short, so the
+// gaps would be far below 300 ms if the run ignored the dwell. No upper bound: the machine may be slow.
+TEST_F(array_run_test, dwell_holds_every_well_on_both_paths) {
+    add_sim("sim1", "full", 50);
+    start();
+    constexpr double dwell_s = 0.3;
+    constexpr double rounding_s = 0.002;  // elapsed_s is rounded to the millisecond
+    for (const std::string mode : {"firmware", "host"}) {
+        SCOPED_TRACE(mode);
+        auto submitted =
+            submit("sim1", job_type::array,
+                   {{"grid", {{"columns", 3}, {"rows", 2}, {"column_step_mm", 0.5}, {"row_step_mm", -0.5}}},
+                    {"a1", {{"X", 1000}, {"Y", 1000}}},
+                    {"dwell_ms", 300},
+                    {"mode", mode}});
+        ASSERT_TRUE(submitted) << submitted.error().message;
+        const auto id = submitted->job.id;
+        EXPECT_EQ(submitted->job.plan_path, mode);
+        ASSERT_TRUE(wait_state(id, job_state::succeeded, 120s));
+        ASSERT_EQ(wells(id, 6).size(), 6u);
+        const auto s = steps(id);
+        double previous = 0;
+        for (const auto& e : s) {
+            const double elapsed = e["elapsed_s"].get<double>();
+            EXPECT_GE(elapsed - previous, dwell_s - rounding_s) << e.dump();
+            previous = elapsed;
+        }
+        const auto done = job(id);
+        ASSERT_TRUE(done && done->started && done->finished);
+        EXPECT_GE(std::chrono::duration<double>(*done->finished - *done->started).count(),
+                  6 * dwell_s - rounding_s);
+    }
+}
+
+// The TTL OUT0 pulse on arrival on the firmware path (ARRAY module, RM stepping): one "TTL Y=1" then
+// "TTL Y=0" after each well's arrival was confirmed, before the next RM; the output ends low.
+TEST_F(array_run_test, firmware_run_pulses_ttl_on_every_arrival) {
+    add_sim("sim1", "full", 50);
+    start();
+    auto submitted =
+        submit("sim1", job_type::array,
+               {{"plate", "6"}, {"a1", {{"X", 0}, {"Y", 0}}}, {"ttl_pulse", true}, {"mode", "firmware"}});
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    EXPECT_EQ(submitted->job.plan_path, "firmware");
+    ASSERT_TRUE(wait_state(id, job_state::succeeded, 120s));
+    expect_arrivals(id, plate_targets("6", 0, 0, well_order::serpentine));
+    EXPECT_EQ(commands_starting(id, "TTL Y=1").size(), 6u);
+    EXPECT_EQ(commands_starting(id, "TTL Y=0").size(), 6u);
+    EXPECT_TRUE(commands_starting(id, "M ").empty());  // still the ARRAY module's moves
+    // Each pulse follows its well's move command (RM X=0 for A1, RM after) and precedes the next one.
+    std::vector<std::string> sequence;
+    for (const auto& c : commands_of(id))
+        if (c.starts_with("RM") || c.starts_with("TTL Y=")) sequence.push_back(c);
+    std::vector<std::string> expected{"RM X=0", "TTL Y=1", "TTL Y=0"};
+    for (int i = 1; i < 6; ++i)
+        expected.insert(expected.end(), {"RM", "TTL Y=1", "TTL Y=0"});
+    EXPECT_EQ(sequence, expected);
+    EXPECT_EQ(sim_state("sim1")["ttl"]["out0_mode"], 0);  // the output ends low
+}
+
+// a1 "current": A1 is where the stage stands when the job starts. Both simulators are first moved to
+// (x0, y0) = (5000, -3000) um over their own serial port; every arrival is then relative to that.
+TEST_F(array_run_test, a1_current_is_the_position_at_the_start_on_both_paths) {
+    constexpr double x0 = 5000, y0 = -3000;
+    const std::vector<std::pair<std::string, std::string>> runs{{"sim1", "firmware"}, {"sim5", "host"}};
+    for (const auto& run : runs) {
+        const std::string& controller = run.first;
+        auto sim = add_sim(controller, "full", 50);
+        gw::tests::sim_serial_client client(sim->port_path());
+        ASSERT_TRUE(client.command("M X=50000 Y=-30000"));  // tenths of a micrometre
+        ASSERT_TRUE(wait_until([&] { return !sim_state(controller).value("busy", true); }, 10s));
+    }
+    start();
+    const plate_geometry g{3, 2, 0.5, -0.5};
+    for (const auto& run : runs) {
+        const std::string& controller = run.first;
+        const std::string& mode = run.second;
+        SCOPED_TRACE(mode);
+        ASSERT_TRUE(wait_until([&] {
+            const auto x = position(controller, 'X'), y = position(controller, 'Y');
+            return x && y && std::abs(*x - x0) < 1 && std::abs(*y - y0) < 1;
+        })) << "the registry never saw the stage at (x0, y0)";
+        auto submitted =
+            submit(controller, job_type::array,
+                   {{"grid", {{"columns", 3}, {"rows", 2}, {"column_step_mm", 0.5}, {"row_step_mm", -0.5}}},
+                    {"a1", "current"},
+                    {"mode", mode}});
+        ASSERT_TRUE(submitted) << submitted.error().message;
+        const auto id = submitted->job.id;
+        EXPECT_EQ(submitted->job.plan_path, mode);
+        ASSERT_TRUE(wait_state(id, job_state::succeeded, 120s));
+        expect_arrivals(id, grid_targets(g, x0, y0, well_order::serpentine));
+        if (mode == "firmware") {
+            EXPECT_EQ(commands_starting(id, "AHOME"), (std::vector<std::string>{"AHOME X=5 Y=-3"}));
+        } else {
+            EXPECT_EQ(commands_starting(id, "M ").size(), 6u);
+        }
+    }
 }
 
 // A crash can fall between a pulse's "TTL Y=1" and its "TTL Y=0": after the restart the new manager

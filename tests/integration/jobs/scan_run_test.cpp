@@ -73,6 +73,40 @@ TEST_F(scan_run_test, firmware_scan_reports_every_line_and_ends_at_the_last_line
     EXPECT_EQ(done->progress.current_step, "line 5");
 }
 
+// A line given by its pixel count (fast.pixels, SCANR F=): the SCAN module takes the count as given and
+// derives the stop from it (start + pixels x divide / counts per mm); every line ends there.
+TEST_F(scan_run_test, firmware_scan_given_a_pixel_count) {
+    add_sim("sim1", "full");
+    start();
+    json spec = {{"fast", {{"start_mm", 0.05}, {"pixels", 400}, {"encoder_divide", 24}}},
+                 {"slow", {{"start_mm", 0.0}, {"stop_mm", 0.1}, {"lines", 3}}},
+                 {"speed_mm_s", 0.1},
+                 {"mode", "firmware"}};
+    auto submitted = submit("sim1", job_type::scan, spec);
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    EXPECT_EQ(submitted->job.plan_path, "firmware");
+    EXPECT_EQ(submitted->job.progress.steps_total, 3u);
+    ASSERT_TRUE(wait_state(id, job_state::succeeded));
+
+    const auto* x = registry_->get("sim1")->axis('X');
+    ASSERT_TRUE(x && x->counts_per_mm);
+    const double stop_um = 50 + 400.0 * 24 / *x->counts_per_mm * 1000;  // about 261.5 um
+    EXPECT_TRUE(contains(commands_of(id), "SCANR X=0.05 F=400 Z=24"));
+    EXPECT_EQ(sim_state("sim1")["scan"]["pixels"], 400);
+    EXPECT_EQ(sim_state("sim1")["scan"]["lines"], 3);
+    ASSERT_TRUE(wait_until([&] { return steps_of(id).size() >= 3; })) << steps_of(id).size();
+    const auto steps = steps_of(id);
+    ASSERT_EQ(steps.size(), 3u);
+    for (std::size_t i = 0; i < steps.size(); ++i)
+        EXPECT_EQ(steps[i]["name"], "line " + std::to_string(i + 1)) << steps[i].dump();
+    EXPECT_EQ(steps.back()["measured"], true);
+    EXPECT_NEAR(steps.back()["position"]["X"].get<double>(), stop_um, 1) << steps.back().dump();
+    EXPECT_NEAR(steps.back()["position"]["Y"].get<double>(), 100, 1);
+    EXPECT_NEAR(sim_um("sim1", 'X'), stop_um, 1);
+    EXPECT_NEAR(sim_state("sim1")["axes"]["X"]["speed"].get<double>(), 5.5, 1e-6);  // restored
+}
+
 TEST_F(scan_run_test, firmware_serpentine_ends_where_the_even_line_count_returns) {
     add_sim("sim1", "full");
     start();

@@ -79,6 +79,8 @@ TEST(ArraySpec, Errors) {
         {{{"plate", "96"}, {"wells", {"A1", 7}}}, "spec.wells[1]"},
         {{{"plate", "96"}, {"dwell_ms", -1}}, "spec.dwell_ms"},
         {{{"plate", "96"}, {"dwell_ms", "100"}}, "spec.dwell_ms"},
+        {{{"plate", "96"}, {"dwell_ms", 2.5}}, "spec.dwell_ms"},  // whole milliseconds (openapi: integer)
+        {{{"plate", "96"}, {"dwell_ms", 86400001}}, "spec.dwell_ms"},
         {{{"plate", "96"}, {"advance", "button"}}, "spec.advance"},
         {{{"plate", "96"}, {"ttl_pulse", 1}}, "spec.ttl_pulse"},
         {{{"plate", "96"}, {"resume_from", "Z99"}}, "spec.resume_from"},
