@@ -111,6 +111,32 @@ def wait_idle(c, controller):
 # The tests
 
 
+def expected_path(c, body):
+    """The path an example must run on: the one its spec's mode names, else what the controller's
+    build and the spec allow (the planners' rules: sim1/sim3 have ARRAY and RING BUFFER, sim1 SCAN,
+    sim2 none), so that an example that silently falls back to the host path fails."""
+    spec = body["spec"]
+    if spec.get("mode", "auto") in ("firmware", "host"):
+        return spec["mode"]
+    if body["type"] == "planar_correction":
+        return "firmware"  # no host path
+    if body["type"] == "gcode":
+        return "host"  # always traced by the gateway
+    r = c.request("GET", f"/api/v1/controllers/{body['controller']}", token=VIEW)
+    modules = set((r.json().get("identity") or {}).get("modules", []))
+    if body["type"] == "array":  # the ARRAY module: no rotation, no subset, serpentine only
+        fits = spec.get("rotation_deg", 0) == 0 and "wells" not in spec and spec.get("order") != "raster"
+        return "firmware" if "array" in modules and fits else "host"
+    if body["type"] == "scan":
+        return "firmware" if "scan" in modules else "host"
+    if body["type"] == "ring_buffer":  # IN0 only latches reports on TTL_REPORT builds
+        trigger = spec.get("trigger", "autoplay")
+        fits = (trigger == "autoplay" or "ttl_report" not in modules) and not (
+            trigger == "ttl" and len(spec["positions"]) < 2)
+        return "firmware" if "ring_buffer" in modules and fits else "host"
+    raise Failure(f"no expected path for an example of type {body['type']}")
+
+
 def test_examples(c, contract, results, skip=()):
     """Every named example of POST /api/v1/jobs: a dry run (200, a plan), then a real run to a final
     state (succeeded; plans over 20 steps are cancelled after their first steps). Records per
@@ -126,6 +152,7 @@ def test_examples(c, contract, results, skip=()):
             problems.append(name)
             continue
         body = contract.deref(ex)["value"]
+        path = expected_path(c, body)
         r = c.request("POST", "/api/v1/jobs?dry_run=true", body, token=OP)
         if r.status != 200:
             results[name] = f"dry run {r.status}: {r.json().get('detail', '')[:160]}"
@@ -135,6 +162,10 @@ def test_examples(c, contract, results, skip=()):
         if plan["steps_total"] < 1 or plan["estimated_s"] < 0:
             problems.append(name)
             results[name] = f"dry run plan without steps: {plan['summary']}"
+            continue
+        if plan["path"] != path:
+            problems.append(name)
+            results[name] = f"dry run planned the {plan['path']} path, not {path}: {plan.get('warnings')}"
             continue
         r = c.request("POST", "/api/v1/jobs", body, token=OP)
         if r.status != 201:
@@ -148,8 +179,8 @@ def test_examples(c, contract, results, skip=()):
             results[name] = f"run: {e}"
             problems.append(name)
             continue
-        ok = final["state"] == ("cancelled" if plan["steps_total"] > 20 else "succeeded")
-        results[name] = (f"{final['state']} ({final['path']}, {final['progress']['steps_done']}/"
+        ok = final["state"] == ("cancelled" if plan["steps_total"] > 20 else "succeeded") and final["path"] == path
+        results[name] = (f"{final['state']} ({final['path']}, expected {path}, {final['progress']['steps_done']}/"
                          f"{final['progress']['steps_total']} steps) {final['reason']}").strip()
         if not ok:
             problems.append(name)
