@@ -145,14 +145,14 @@ class manager_core final : public execution_host, public std::enable_shared_from
         std::vector<std::string> restore;  // the run's stored restore commands, registration order
     };
 
-    // A write the store refused: a job record (state, progress; save) or one of its events.
+    // A write of save(): the job record (state, progress) and/or one of its events (null: none).
     struct unstored_write {
         std::optional<job_record> record;
-        json event;  // when there is no record
+        json event;
     };
     // A job's writes that are not stored yet, oldest first, and the store's last error. Bounded by the
-    // job's run: a running job pauses at its next checkpoint, so at most the steps until then (two
-    // writes each) wait here; consecutive records of the same state are merged.
+    // job's run: a running job pauses at its next checkpoint, so at most the steps until then (one write
+    // each) wait here.
     struct unstored_history {
         std::deque<unstored_write> writes;
         std::string error;
@@ -179,8 +179,9 @@ class manager_core final : public execution_host, public std::enable_shared_from
 
     // Changes the state, persists it (transition) and publishes {"type":"state",...}.
     void set_state(live_job& job, job_state s, std::string reason);
-    void save(const job_record& r);
-    void record_event(const std::string& id, const json& event);
+    // Stores the job's record (state, progress, a transition) and/or one of its events, in one
+    // transaction, behind the job's writes that the store refused before (store_write).
+    void save(const std::string& id, std::optional<job_record> record, const json& event);
     // Writes go through the job's queue of unstored writes, so that they reach the store in order:
     // appends `w`, then writes what is queued. A refusal keeps the rest queued (store_refused).
     void store_write(const std::string& id, unstored_write w);
@@ -193,6 +194,7 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void retry_unstored_later();
     // Persists the job's restore commands (empty: removes them); a storage error is logged.
     void store_restore_commands(const std::string& id, const std::vector<std::string>& commands);
+    // On the hub, for the job's topic (after save: a client never sees what is not stored first).
     void publish(const std::string& id, const json& event);
 
     void dispatch(const std::string& controller);
@@ -304,28 +306,21 @@ void manager_core::attach() {
 // written again every store_retry_interval, before a resume (which is refused until it is stored) and at
 // a clean shutdown. Meanwhile the record in memory is the truth, and get() answers from it.
 
-void manager_core::save(const job_record& r) {
-    // get() answers from memory for active jobs, and for ended ones until the store has their end.
-    {
-        std::lock_guard lock(records_mutex_);
-        live_records_[r.id] = r;
-    }
-    store_write(r.id, unstored_write{r, nullptr});
-}
-
-void manager_core::record_event(const std::string& id, const json& event) {
-    store_write(id, unstored_write{std::nullopt, event});
+void manager_core::save(const std::string& id, std::optional<job_record> record, const json& event) {
+    const std::optional<job_record> saved = record;
+    store_write(id, unstored_write{std::move(record), event});
+    if (!saved) return;
+    // get() answers from memory for active jobs, and for ended ones until the store has their end. Set
+    // after the write: what get() shows of a step is stored (unless the store refused it).
+    std::lock_guard lock(records_mutex_);
+    if (is_terminal(saved->state) && !unstored_.contains(id))
+        live_records_.erase(id);
+    else
+        live_records_[id] = *saved;
 }
 
 void manager_core::store_write(const std::string& id, unstored_write w) {
-    auto& writes = unstored_[id].writes;
-    // Two records in a row with the same state: the later one has everything (no transition between).
-    const bool merge =
-        w.record && !writes.empty() && writes.back().record && writes.back().record->state == w.record->state;
-    if (merge)
-        writes.back() = std::move(w);
-    else
-        writes.push_back(std::move(w));
+    unstored_[id].writes.push_back(std::move(w));
     if (auto stored = write_unstored(id); !stored) store_refused(id, stored.error());
 }
 
@@ -340,7 +335,7 @@ operation_result<void> manager_core::write_unstored(const std::string& id) {
         {
             std::lock_guard lock(store_mutex_);
             if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
-            ok = w.record ? store_->save(*w.record) : store_->append_event(id, w.event);
+            ok = w.record ? store_->save(*w.record, w.event) : store_->append_event(id, w.event);
         }
         if (!ok && ok.error().kind == kind::storage_unavailable) return ok.error();  // kept: tried again
         // Any other error (the job is not stored at all) would come back every time.
@@ -405,7 +400,6 @@ void manager_core::store_restore_commands(const std::string& id, const std::vect
 
 void manager_core::publish(const std::string& id, const json& event) {
     if (abandoned_) return;
-    record_event(id, event);
     if (hub_) hub_->publish(job_topic(id), event);
 }
 
@@ -419,8 +413,9 @@ void manager_core::set_state(live_job& job, job_state s, std::string reason) {
     if (s == job_state::running && !r.started) r.started = now;
     if (is_terminal(s)) r.finished = now;
     if (s == job_state::succeeded) r.progress.remaining_s = 0.0;
-    save(r);
-    publish(r.id, state_event(r, now));
+    const auto event = state_event(r, now);
+    save(r.id, r, event);
+    publish(r.id, event);
     log_->info("job {} ({} on {}): {}{}{}", r.id, to_string(r.type), r.controller, to_string(s),
                r.reason.empty() ? "" : ": ", r.reason);
     if (is_terminal(s)) jobs_.erase(r.id);
@@ -1295,11 +1290,14 @@ void manager_core::on_step_done(live_job& job, std::size_t index, json detail) {
     p.current_step = name;
     p.remaining_s = remaining_from(*job.plan, index + 1);
     job.record.updated = now;
-    save(job.record);
-    publish(job.record.id, step_event(job.record, index, name, detail, now));
+    const auto event = step_event(job.record, index, name, detail, now);
+    save(job.record.id, job.record, event);
+    publish(job.record.id, event);
 }
 
 void manager_core::on_emit(live_job& job, json event) {
+    if (abandoned_) return;
+    save(job.record.id, std::nullopt, event);
     publish(job.record.id, event);
 }
 
@@ -1312,7 +1310,7 @@ std::vector<json> manager_core::step_events(const live_job& job) const {
     // Then those the store has not taken yet, which follow them.
     if (auto it = unstored_.find(job.record.id); it != unstored_.end())
         for (const auto& w : it->second.writes)
-            if (!w.record) stored->push_back(w.event);
+            if (!w.event.is_null()) stored->push_back(w.event);
     std::vector<json> out;
     for (auto& e : *stored)
         if (e.is_object() && e.value("type", "") == "step") out.push_back(std::move(e));

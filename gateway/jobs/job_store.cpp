@@ -345,6 +345,22 @@ bool is_constraint(sqlite3* db, int extended) {
     return sqlite3_extended_errcode(db) == extended;
 }
 
+// Appends an event numbered after the job's last one, in the caller's transaction.
+operation_result<void> insert_event(const connection& c, const std::string& job_id,
+                                    const nlohmann::json& event) {
+    auto s = c.prepare(
+        "INSERT INTO job_events (job_id, seq, event, at_ms) "
+        "SELECT ?1, COALESCE(MAX(seq), 0) + 1, ?2, ?3 FROM job_events WHERE job_id = ?1");
+    if (!s) return s.error();
+    s->text(1, job_id).text(2, dump(event)).integer(3, epoch_ms(job_clock::now()));
+    if (s->step() != SQLITE_DONE) {
+        if (is_constraint(c.db, SQLITE_CONSTRAINT_FOREIGNKEY))
+            return make_error(operation_error_kind::unknown_job, fmt::format("no job {}", job_id));
+        return c.error(fmt::format("append event of job {}", job_id));
+    }
+    return {};
+}
+
 }  // namespace
 
 job_store::job_store(sqlite3* db, std::string path) : db_(db), path_(std::move(path)) {}
@@ -438,7 +454,7 @@ operation_result<void> job_store::insert(const job_record& job, const nlohmann::
     return tx.commit();
 }
 
-operation_result<void> job_store::save(const job_record& job) {
+operation_result<void> job_store::save(const job_record& job, const nlohmann::json& event) {
     std::lock_guard lock(mutex_);
     connection c{db_, path_};
     transaction tx(c);
@@ -484,6 +500,8 @@ operation_result<void> job_store::save(const job_record& job) {
             .integer(5, epoch_ms(job.updated));
         if (t->step() != SQLITE_DONE) return c.error(fmt::format("record transition of job {}", job.id));
     }
+    if (!event.is_null())
+        if (auto r = insert_event(c, job.id, event); !r) return r.error();
     return tx.commit();
 }
 
@@ -492,16 +510,7 @@ operation_result<void> job_store::append_event(const std::string& job_id, const 
     connection c{db_, path_};
     transaction tx(c);
     if (auto r = tx.begin(true); !r) return r.error();
-    auto s = c.prepare(
-        "INSERT INTO job_events (job_id, seq, event, at_ms) "
-        "SELECT ?1, COALESCE(MAX(seq), 0) + 1, ?2, ?3 FROM job_events WHERE job_id = ?1");
-    if (!s) return s.error();
-    s->text(1, job_id).text(2, dump(event)).integer(3, epoch_ms(job_clock::now()));
-    if (s->step() != SQLITE_DONE) {
-        if (is_constraint(db_, SQLITE_CONSTRAINT_FOREIGNKEY))
-            return make_error(operation_error_kind::unknown_job, fmt::format("no job {}", job_id));
-        return c.error(fmt::format("append event of job {}", job_id));
-    }
+    if (auto r = insert_event(c, job_id, event); !r) return r.error();
     return tx.commit();
 }
 

@@ -58,8 +58,9 @@ class job_store {
     // find_by_idempotency_key first, on its strand).
     operation_result<void> insert(const job_record& job, const nlohmann::json& first_event = nullptr);
     // Writes the job's mutable columns; appends a transition row when the state differs from the
-    // stored one (from, to, reason, time).
-    operation_result<void> save(const job_record& job);
+    // stored one (from, to, reason, time); and, unless it is null, appends `event` (as append_event), all
+    // in one transaction: a state or a step is never stored without its event, nor the event without it.
+    operation_result<void> save(const job_record& job, const nlohmann::json& event = nullptr);
     // Stored as given, numbered per job (seq 1, 2, ...), with the time it was appended. unknown_job when
     // the job is not stored.
     operation_result<void> append_event(const std::string& job_id, const nlohmann::json& event);

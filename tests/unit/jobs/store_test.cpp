@@ -299,6 +299,38 @@ TEST_F(store_test, insert_stores_the_first_event_with_the_job_or_neither) {
     EXPECT_TRUE(events->empty());
 }
 
+TEST_F(store_test, save_stores_the_event_with_the_record_or_neither) {
+    auto store = open_store({.max_size_mb = 1});
+    ASSERT_TRUE(store);
+    const auto id = make_job_id();
+    auto j = make_job(id);
+    ASSERT_TRUE(store->insert(j));
+    j.state = job_state::running;
+    j.progress.steps_done = 1;
+    ASSERT_TRUE(store->save(j, {{"type", "step"}, {"index", 0}}));
+    auto e = store->events(id, 10);
+    ASSERT_TRUE(e);
+    ASSERT_EQ(e->size(), 1u);
+    EXPECT_EQ((*e)[0].value("index", -1), 0);
+
+    // An event the store cannot take: the step's progress and the transition are not stored either.
+    j.state = job_state::paused;
+    j.progress.steps_done = 2;
+    auto r = store->save(j, {{"type", "step"}, {"filler", std::string(2 * 1024 * 1024, 'x')}});
+    ASSERT_FALSE(r);
+    EXPECT_EQ(r.error().kind, operation_error_kind::storage_unavailable);
+    auto found = store->find(id);
+    ASSERT_TRUE(found && found->has_value());
+    EXPECT_EQ((*found)->state, job_state::running);
+    EXPECT_EQ((*found)->progress.steps_done, 1u);
+    auto transitions = store->transitions(id);
+    ASSERT_TRUE(transitions);
+    EXPECT_EQ(transitions->size(), 2u);  // queued, running
+    e = store->events(id, 10);
+    ASSERT_TRUE(e);
+    EXPECT_EQ(e->size(), 1u);
+}
+
 TEST_F(store_test, an_event_of_an_unknown_job_is_refused) {
     auto store = open_store();
     ASSERT_TRUE(store);
