@@ -89,7 +89,9 @@ TEST_F(scan_run_test, firmware_scan_given_a_pixel_count) {
     EXPECT_EQ(submitted->job.progress.steps_total, 3u);
     ASSERT_TRUE(wait_state(id, job_state::succeeded));
 
-    const auto* x = registry_->get("sim1")->axis('X');
+    const auto snapshot = registry_->get("sim1");  // a copy: the axis pointer below points into it
+    ASSERT_TRUE(snapshot);
+    const auto* x = snapshot->axis('X');
     ASSERT_TRUE(x && x->counts_per_mm);
     const double stop_um = 50 + 400.0 * 24 / *x->counts_per_mm * 1000;  // about 261.5 um
     EXPECT_TRUE(contains(commands_of(id), "SCANR X=0.05 F=400 Z=24"));
