@@ -213,6 +213,12 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // commands newest first (as safe_stop does), once; what fails to reach the controller waits for the
     // next connect. Sent with safe_output_request_id(), not as the job's.
     void send_recovery(const std::string& controller);
+    // Keeps `rec` to send once the controller is connected; a pending recovery of another (older) job
+    // on the controller is dropped, in the store too.
+    void add_recovery(const std::string& controller, recovery rec);
+    // start(): the stored restore commands of jobs that were not active (ended or interrupted before),
+    // which an earlier run of the gateway could not deliver.
+    void recover_undelivered_restores(const std::vector<job_record>& active);
     // A run starts on the controller: it owns the controller's settings (and its output, when it may
     // drive it), so a late recovery must not cut into it.
     void drop_recovery_for(const live_job& launched);
@@ -471,6 +477,9 @@ void manager_core::start() {
             self->log_->error("restart recovery: cannot read the job store: {}", active.error().message);
         if (!queued)
             self->log_->error("restart recovery: cannot read the job store: {}", queued.error().message);
+        // Restore commands an earlier run of the gateway could not deliver (a job cancelled, or stopped
+        // by a shutdown, while its controller was unplugged): sent once the controller is connected.
+        self->recover_undelivered_restores(active ? *active : std::vector<job_record>{});
         // A job that was active when the gateway stopped is not continued by itself: nothing is sent
         // twice to a controller. A client may resume it.
         for (auto& r : active ? *active : std::vector<job_record>{}) {
@@ -493,14 +502,8 @@ void manager_core::start() {
             else
                 self->log_->error("restart recovery: job {}: cannot read its restore commands: {}",
                                   job->record.id, stored.error().message);
-            if (rec.ttl_low || !rec.restore.empty()) {
-                auto [it, added] = self->recovery_pending_.try_emplace(job->record.controller, rec);
-                if (!added) {
-                    self->log_->warn("restart recovery: jobs {} and {} were both active on {}; recovering {}",
-                                     it->second.job_id, rec.job_id, job->record.controller, rec.job_id);
-                    it->second = std::move(rec);
-                }
-            }
+            if (rec.ttl_low || !rec.restore.empty())
+                self->add_recovery(job->record.controller, std::move(rec));
         }
         std::vector<std::string> reachable;
         for (const auto& [controller, pending] : self->recovery_pending_)
@@ -879,7 +882,14 @@ net::awaitable<void> manager_core::safe_stop(std::shared_ptr<live_job> job) {
                                                 net::use_awaitable);
     if (!halted) log_->warn("[{}] {}: HALT failed: {}", request_id, controller, halted.error().message);
     const std::string ttl_failed = co_await ttl_output_low(controller, request_id);
-    if (!ttl_failed.empty()) log_->warn("[{}] {}: TTL Y=0 failed: {}", request_id, controller, ttl_failed);
+    if (!ttl_failed.empty()) {
+        log_->warn("[{}] {}: TTL Y=0 failed: {}", request_id, controller, ttl_failed);
+        // Not delivered: it waits with the restore commands for the controller to be back.
+        auto& r = job->restore_commands;
+        if (may_leave_ttl_output_high(job->record.type, job->record.spec) &&
+            std::find(r.begin(), r.end(), "TTL Y=0") == r.end())
+            r.emplace_back("TTL Y=0");
+    }
     co_await restore_settings(std::move(job));
 }
 
@@ -887,17 +897,30 @@ net::awaitable<void> manager_core::restore_settings(std::shared_ptr<live_job> jo
     const std::string controller = job->record.controller;
     const std::string request_id = "job-" + job->record.id;
     const auto restore = job->restore_commands;
+    std::vector<std::string> undelivered;  // registration order, as stored
     for (auto it = restore.rbegin(); it != restore.rend(); ++it) {
         std::string restore_controller = controller;
         std::string restore_request_id = request_id;
         raw_command_request request{*it};
         auto r = co_await registry_.async_raw_command(std::move(restore_controller), std::move(request),
                                                       std::move(restore_request_id), net::use_awaitable);
-        if (!r)
+        if (!r) {
             log_->warn("[{}] {}: restoring with \"{}\" failed: {}", request_id, controller, *it,
                        r.error().message);
+            // It did not reach the controller (an answer, even a refusal, is not an error here).
+            undelivered.insert(undelivered.begin(), *it);
+        }
     }
-    if (!restore.empty()) store_restore_commands(job->record.id, {});  // sent: nothing left to recover
+    if (restore.empty()) co_return;
+    // Kept in the store for the next start when the gateway is shutting down; otherwise sent once the
+    // controller is connected again (unless a new run on it comes first).
+    store_restore_commands(job->record.id, undelivered);
+    if (undelivered.empty() || shutting_down_) co_return;
+    recovery rec;
+    rec.job_id = job->record.id;
+    rec.restore = std::move(undelivered);
+    add_recovery(controller, std::move(rec));
+    if (controller_connected(controller)) send_recovery(controller);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1148,6 +1171,48 @@ void manager_core::controller_came_up(const std::string& controller) {
     net::post(strand_, [self = shared_from_this(), controller] {
         if (self->recovery_pending_.contains(controller)) self->send_recovery(controller);
     });
+}
+
+void manager_core::add_recovery(const std::string& controller, recovery rec) {
+    auto [it, added] = recovery_pending_.try_emplace(controller, rec);
+    if (added) return;
+    if (it->second.job_id != rec.job_id) {
+        // The newer job's run changed the controller after the older one: its list is the one to undo.
+        log_->warn("{}: the restore commands of job {} are dropped for those of the later job {}", controller,
+                   it->second.job_id, rec.job_id);
+        store_restore_commands(it->second.job_id, {});
+    }
+    it->second = std::move(rec);
+}
+
+void manager_core::recover_undelivered_restores(const std::vector<job_record>& active) {
+    operation_result<std::vector<std::string>> ids = std::vector<std::string>{};
+    {
+        std::lock_guard lock(store_mutex_);
+        if (store_) ids = store_->jobs_with_restore_commands();
+    }
+    if (!ids) {
+        log_->error("restart recovery: cannot list the stored restore commands: {}", ids.error().message);
+        return;
+    }
+    for (const auto& id : *ids) {
+        const bool was_active =
+            std::any_of(active.begin(), active.end(), [&](const job_record& r) { return r.id == id; });
+        if (was_active) continue;  // start() recovers those with their TTL output
+        operation_result<std::optional<job_record>> found = std::optional<job_record>{};
+        operation_result<std::vector<std::string>> commands = std::vector<std::string>{};
+        {
+            std::lock_guard lock(store_mutex_);
+            if (!store_) return;
+            found = store_->find(id);
+            commands = store_->restore_commands(id);
+        }
+        if (!found || !*found || !commands || commands->empty()) continue;
+        recovery rec;
+        rec.job_id = id;
+        rec.restore = std::move(*commands);
+        add_recovery((*found)->controller, std::move(rec));
+    }
 }
 
 void manager_core::drop_recovery_for(const live_job& launched) {

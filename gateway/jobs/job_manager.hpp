@@ -114,6 +114,8 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
     // connected: "TTL Y=0" when it may have left the output high (safe_outputs.hpp), then the restore
     // commands its run had stored (job_context::restore_if_stopped), newest first, all under
     // safe_output_request_id(); a run that starts on the controller first owns its settings instead.
+    // The same for restore commands that could not be delivered before (a cancel, failure or shutdown
+    // while the controller was unplugged): kept in the store and sent once the controller is connected.
     void start();
     // Running jobs: HALT, TTL Y=0, state interrupted ("gateway shutting down"); then the store is
     // flushed and closed, then `done` runs on the manager's executor.

@@ -660,6 +660,22 @@ operation_result<void> job_store::set_restore_commands(const std::string& job_id
     return tx.commit();
 }
 
+operation_result<std::vector<std::string>> job_store::jobs_with_restore_commands() const {
+    std::lock_guard lock(mutex_);
+    connection c{db_, path_};
+    transaction tx(c);
+    if (auto r = tx.begin(false); !r) return r.error();
+    auto s = c.prepare("SELECT job_id FROM job_restore_commands ORDER BY updated_ms, job_id");
+    if (!s) return s.error();
+    std::vector<std::string> out;
+    int rc = SQLITE_ROW;
+    while ((rc = s->step()) == SQLITE_ROW)
+        out.emplace_back(s->text(0));
+    if (rc != SQLITE_DONE) return c.error("list the jobs with restore commands");
+    if (auto r = tx.commit(); !r) return r.error();
+    return out;
+}
+
 operation_result<std::vector<std::string>> job_store::restore_commands(const std::string& job_id) const {
     std::lock_guard lock(mutex_);
     connection c{db_, path_};

@@ -84,6 +84,8 @@ class job_store {
                                                 const std::vector<std::string>& commands);
     // Empty when none are stored (or the job is unknown).
     operation_result<std::vector<std::string>> restore_commands(const std::string& job_id) const;
+    // The jobs that have restore commands stored, the least recently updated first.
+    operation_result<std::vector<std::string>> jobs_with_restore_commands() const;
 
     // Checkpoints the WAL into the main file (clean shutdown).
     operation_result<void> flush();

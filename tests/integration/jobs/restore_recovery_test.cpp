@@ -253,5 +253,61 @@ TEST_F(restore_recovery_test, a_crash_while_unplugged_restores_in0_once_the_cont
     expect_no_job_commands_and_edges_move_nothing("sim1", id);
 }
 
+// A clean shutdown while the controller is unplugged cannot send the paused job's restore commands:
+// they stay stored and the next start sends them once the controller is back.
+TEST_F(restore_recovery_test, a_shutdown_while_unplugged_restores_in0_after_the_next_start) {
+    auto sim = add_sim("sim1", "full", 5);
+    start();
+    const int in0_before = in0_mode("sim1");
+    auto submitted =
+        submit("sim1", job_type::array, json::parse(R"({"grid": {"columns": 4, "rows": 3, "column_step_mm": 4,
+                                                     "row_step_mm": 4}, "a1": {"X": 0, "Y": 0}})"));
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_steps(id, 2));
+    sim->unplug();
+    ASSERT_TRUE(wait_state(id, job_state::paused));
+    shutdown_manager();
+    manager_.reset();
+    open_manager();
+    std::this_thread::sleep_for(200ms);
+    EXPECT_EQ(in0_mode("sim1"), 7);  // unreachable meanwhile
+    sim->replug();
+    const std::vector<std::string> expected{"TTL X=" + std::to_string(in0_before)};
+    ASSERT_TRUE(wait_until([&] { return recovery_of(id) == expected; }, 30s))
+        << testing::PrintToString(recovery_of(id));
+    EXPECT_EQ(in0_mode("sim1"), in0_before);
+    expect_no_job_commands_and_edges_move_nothing("sim1", id);
+}
+
+// A cancel while unplugged: HALT, TTL Y=0 and the restore commands cannot be sent; the restore
+// commands (and TTL Y=0 for a job that drives the output) go out once the controller is back.
+TEST_F(restore_recovery_test,
+       a_cancel_while_unplugged_restores_in0_and_the_output_once_the_controller_is_back) {
+    auto sim = add_sim("sim1", "full", 5);
+    start();
+    const int in0_before = in0_mode("sim1");
+    auto submitted =
+        submit("sim1", job_type::array, json::parse(R"({"grid": {"columns": 4, "rows": 3, "column_step_mm": 4,
+                                            "row_step_mm": 4}, "a1": {"X": 0, "Y": 0}, "ttl_pulse": true})"));
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    ASSERT_EQ(submitted->job.plan_path, "firmware");
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_steps(id, 2));
+    sim->unplug();
+    ASSERT_TRUE(wait_state(id, job_state::paused));
+    auto cancelled = cancel(id);
+    ASSERT_TRUE(cancelled) << cancelled.error().message;
+    ASSERT_TRUE(wait_state(id, job_state::cancelled));
+    sim->replug();
+    const std::vector<std::string> expected{"TTL Y=0", "TTL X=" + std::to_string(in0_before)};
+    ASSERT_TRUE(wait_until([&] { return recovery_of(id) == expected; }, 30s))
+        << testing::PrintToString(recovery_of(id));
+    EXPECT_EQ(in0_mode("sim1"), in0_before);
+    EXPECT_EQ(sim_state("sim1")["ttl"]["out0_mode"], 0);
+    ASSERT_TRUE(wait_quiet("sim1"));
+    EXPECT_EQ(recovery_of(id), expected);  // once
+}
+
 }  // namespace
 }  // namespace gw::jobs::test
