@@ -20,8 +20,13 @@ operation_result<double> spec_number(const nlohmann::json& v, const std::string&
 
 operation_result<int> spec_integer(const nlohmann::json& v, const std::string& field, long long lo,
                                    long long hi) {
-    if (!v.is_number_integer()) return spec_error(field, fmt::format("{} must be an integer", field));
-    const auto i = v.get<long long>();
+    // As JSON Schema counts integers: 20.0 is one (some clients write every number as a float).
+    const bool whole_float = v.is_number_float() && std::isfinite(v.get<double>()) &&
+                             std::trunc(v.get<double>()) == v.get<double>() &&
+                             std::fabs(v.get<double>()) < 9e15;
+    if (!v.is_number_integer() && !whole_float)
+        return spec_error(field, fmt::format("{} must be an integer", field));
+    const auto i = whole_float ? static_cast<long long>(v.get<double>()) : v.get<long long>();
     if (i < lo || i > hi)
         return spec_error(field, fmt::format("{} must be between {} and {}", field, lo, hi));
     return static_cast<int>(i);

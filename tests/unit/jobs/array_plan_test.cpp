@@ -96,6 +96,18 @@ TEST(ArraySpec, Errors) {
     }
 }
 
+TEST(ArraySpec, AWholeNumberWrittenAsAFloatIsAnInteger) {
+    // JSON Schema counts 250.0 as an integer; some clients write every number as a float.
+    const auto whole = parse_array_spec({{"plate", "96"}, {"dwell_ms", 250.0}});
+    ASSERT_TRUE(whole) << whole.error().message;
+    EXPECT_EQ(whole->dwell_ms, 250);
+    for (const double bad : {250.5, 86400001.0, 1e300, -1.0}) {
+        const auto r = parse_array_spec({{"plate", "96"}, {"dwell_ms", bad}});
+        ASSERT_FALSE(r) << bad;
+        EXPECT_EQ(r.error().field, "spec.dwell_ms") << bad;
+    }
+}
+
 TEST(ArraySpec, DefaultsAndEveryField) {
     const auto d = parse_array_spec({{"plate", "96"}});
     ASSERT_TRUE(d);
