@@ -227,21 +227,45 @@ INSTANTIATE_TEST_SUITE_P(paths, scan_restore_recovery_test, ::testing::Values("f
                              return std::string(info.param) == "full" ? "firmware" : "host";
                          });
 
-// A crash while the controller is unplugged: nothing can be sent at start-up; the restore commands go
-// once it is back, and a resume before that would own the settings (not tested here).
-TEST_F(restore_recovery_test, a_crash_while_unplugged_restores_in0_once_the_controller_is_back) {
+// A firmware array (IN0 in ARRAY mode) two wells in, then its controller unplugged: the job pauses.
+class unplugged_restore_test : public restore_recovery_test {
+  protected:
+    std::string run_then_unplug(bool ttl_pulse) {
+        auto spec = json::parse(R"({"grid": {"columns": 4, "rows": 3, "column_step_mm": 4, "row_step_mm": 4},
+                                    "a1": {"X": 0, "Y": 0}})");
+        spec["ttl_pulse"] = ttl_pulse;
+        auto submitted = submit("sim1", job_type::array, spec);
+        EXPECT_TRUE(submitted) << submitted.error().message;
+        if (!submitted) return {};
+        EXPECT_EQ(submitted->job.plan_path, "firmware");
+        const auto id = submitted->job.id;
+        EXPECT_TRUE(wait_steps(id, 2));
+        sims_.at("sim1")->unplug();
+        EXPECT_TRUE(wait_state(id, job_state::paused));
+        return id;
+    }
+};
+
+// The gateway stops while the controller is unplugged, by a crash or a clean shutdown: nothing can be
+// sent then or at start-up; the restore commands go once the controller is back, and a resume before
+// that would own the settings (not tested here).
+class stopped_while_unplugged_test : public unplugged_restore_test,
+                                     public ::testing::WithParamInterface<bool> {};
+
+TEST_P(stopped_while_unplugged_test, restores_in0_once_the_controller_is_back) {
+    const bool crash = GetParam();
     auto sim = add_sim("sim1", "full", 5);
     start();
     const int in0_before = in0_mode("sim1");
-    auto submitted =
-        submit("sim1", job_type::array, json::parse(R"({"grid": {"columns": 4, "rows": 3, "column_step_mm": 4,
-                                                     "row_step_mm": 4}, "a1": {"X": 0, "Y": 0}})"));
-    ASSERT_TRUE(submitted) << submitted.error().message;
-    const auto id = submitted->job.id;
-    ASSERT_TRUE(wait_steps(id, 2));
-    sim->unplug();
-    ASSERT_TRUE(wait_state(id, job_state::paused));
-    restart_manager();
+    const auto id = run_then_unplug(false);
+    ASSERT_FALSE(id.empty());
+    if (crash) {
+        restart_manager();
+    } else {
+        shutdown_manager();
+        manager_.reset();
+        open_manager();
+    }
     ASSERT_TRUE(wait_state(id, job_state::interrupted));
     std::this_thread::sleep_for(200ms);
     EXPECT_EQ(in0_mode("sim1"), 7);  // unreachable meanwhile
@@ -253,49 +277,18 @@ TEST_F(restore_recovery_test, a_crash_while_unplugged_restores_in0_once_the_cont
     expect_no_job_commands_and_edges_move_nothing("sim1", id);
 }
 
-// A clean shutdown while the controller is unplugged cannot send the paused job's restore commands:
-// they stay stored and the next start sends them once the controller is back.
-TEST_F(restore_recovery_test, a_shutdown_while_unplugged_restores_in0_after_the_next_start) {
-    auto sim = add_sim("sim1", "full", 5);
-    start();
-    const int in0_before = in0_mode("sim1");
-    auto submitted =
-        submit("sim1", job_type::array, json::parse(R"({"grid": {"columns": 4, "rows": 3, "column_step_mm": 4,
-                                                     "row_step_mm": 4}, "a1": {"X": 0, "Y": 0}})"));
-    ASSERT_TRUE(submitted) << submitted.error().message;
-    const auto id = submitted->job.id;
-    ASSERT_TRUE(wait_steps(id, 2));
-    sim->unplug();
-    ASSERT_TRUE(wait_state(id, job_state::paused));
-    shutdown_manager();
-    manager_.reset();
-    open_manager();
-    std::this_thread::sleep_for(200ms);
-    EXPECT_EQ(in0_mode("sim1"), 7);  // unreachable meanwhile
-    sim->replug();
-    const std::vector<std::string> expected{"TTL X=" + std::to_string(in0_before)};
-    ASSERT_TRUE(wait_until([&] { return recovery_of(id) == expected; }, 30s))
-        << testing::PrintToString(recovery_of(id));
-    EXPECT_EQ(in0_mode("sim1"), in0_before);
-    expect_no_job_commands_and_edges_move_nothing("sim1", id);
-}
+INSTANTIATE_TEST_SUITE_P(crash_or_shutdown, stopped_while_unplugged_test, ::testing::Bool(),
+                         [](const auto& info) { return info.param ? "crash" : "clean_shutdown"; });
 
 // A cancel while unplugged: HALT, TTL Y=0 and the restore commands cannot be sent; the restore
 // commands (and TTL Y=0 for a job that drives the output) go out once the controller is back.
-TEST_F(restore_recovery_test,
+TEST_F(unplugged_restore_test,
        a_cancel_while_unplugged_restores_in0_and_the_output_once_the_controller_is_back) {
     auto sim = add_sim("sim1", "full", 5);
     start();
     const int in0_before = in0_mode("sim1");
-    auto submitted =
-        submit("sim1", job_type::array, json::parse(R"({"grid": {"columns": 4, "rows": 3, "column_step_mm": 4,
-                                            "row_step_mm": 4}, "a1": {"X": 0, "Y": 0}, "ttl_pulse": true})"));
-    ASSERT_TRUE(submitted) << submitted.error().message;
-    ASSERT_EQ(submitted->job.plan_path, "firmware");
-    const auto id = submitted->job.id;
-    ASSERT_TRUE(wait_steps(id, 2));
-    sim->unplug();
-    ASSERT_TRUE(wait_state(id, job_state::paused));
+    const auto id = run_then_unplug(true);
+    ASSERT_FALSE(id.empty());
     auto cancelled = cancel(id);
     ASSERT_TRUE(cancelled) << cancelled.error().message;
     ASSERT_TRUE(wait_state(id, job_state::cancelled));
