@@ -27,10 +27,10 @@
 namespace gw {
 
 struct http_limits {
-    std::size_t max_header_bytes = 16 * 1024;
-    std::size_t max_body_bytes = 1024 * 1024;
+    std::size_t max_header_bytes = std::size_t{16} * 1024;
+    std::size_t max_body_bytes = std::size_t{1024} * 1024;
     std::chrono::milliseconds read_timeout{30000};
-    std::size_t max_websocket_message_bytes = 64 * 1024;
+    std::size_t max_websocket_message_bytes = std::size_t{64} * 1024;
     std::size_t max_connections = 256;
 };
 
@@ -150,7 +150,7 @@ struct gateway_config {
 // Limits of the values the file may hold.
 inline constexpr unsigned supported_bauds[] = {9600, 19200, 28800, 38400, 57600, 115200};
 inline constexpr std::size_t max_simulated_controllers = 16;
-inline constexpr std::size_t max_storage_size_mb = 1024 * 1024;  // 1 TiB
+inline constexpr std::size_t max_storage_size_mb = std::size_t{1024} * 1024;  // 1 TiB
 inline constexpr std::size_t max_queued_jobs_per_controller = 100000;
 inline constexpr std::size_t max_gcode_file_mb = 4096;
 

@@ -131,18 +131,18 @@ class controller_registry {
     }
     template <typename Token>
     auto async_ttl(std::string id, ttl_request r, std::string request_id, Token&& token) {
-        return initiate<operation_done>(&controller_registry::run_simple<ttl_request>, std::move(id),
-                                        std::move(r), std::move(request_id), std::forward<Token>(token));
+        return initiate<operation_done>(&controller_registry::run_simple<ttl_request>, std::move(id), r,
+                                        std::move(request_id), std::forward<Token>(token));
     }
     template <typename Token>
     auto async_dac(std::string id, dac_request r, std::string request_id, Token&& token) {
-        return initiate<operation_done>(&controller_registry::run_simple<dac_request>, std::move(id),
-                                        std::move(r), std::move(request_id), std::forward<Token>(token));
+        return initiate<operation_done>(&controller_registry::run_simple<dac_request>, std::move(id), r,
+                                        std::move(request_id), std::forward<Token>(token));
     }
     template <typename Token>
     auto async_led(std::string id, led_request r, std::string request_id, Token&& token) {
-        return initiate<operation_done>(&controller_registry::run_simple<led_request>, std::move(id),
-                                        std::move(r), std::move(request_id), std::forward<Token>(token));
+        return initiate<operation_done>(&controller_registry::run_simple<led_request>, std::move(id), r,
+                                        std::move(request_id), std::forward<Token>(token));
     }
     // Completes with success when the controller answered at all, even ":N-<code>" (the parsed reply
     // says so): an expert wants to see the reply.
