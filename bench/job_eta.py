@@ -190,8 +190,23 @@ def git_commit():
         return ""
 
 
+OWN_SECTIONS = ("Per-step elapsed time", "Analysis")
+
+
+def other_sections(path):
+    """The sections other benchmarks wrote into RESULTS.md ("## G-code ..."), kept as they are."""
+    try:
+        with open(path) as f:
+            old = f.read()
+    except OSError:
+        return ""
+    parts = old.split("\n## ")[1:]  # the first part is this benchmark's header and table
+    return "".join("\n## " + p.rstrip("\n") + "\n" for p in parts if not p.startswith(OWN_SECTIONS))
+
+
 def write_results(path, rows, args, started, elapsed):
     m = machine()
+    kept = other_sections(path)
     with open(path, "w") as f:
         f.write("# Job ETA benchmark: estimated vs simulated durations\n\n")
         f.write("Written by `bench/job_eta.py` (see README.md). Figures are simulated seconds: the gateway's\n"
@@ -200,6 +215,8 @@ def write_results(path, rows, args, started, elapsed):
                 f"|error| <= {TARGET * 100:.0f} %.\n\n")
         f.write(f"- run: {started} UTC, {elapsed:.0f} s, commit {git_commit()}\n")
         gateway = os.path.relpath(os.path.abspath(args.gateway), ROOT)  # no machine paths in RESULTS.md
+        if gateway.startswith(".."):
+            gateway = os.path.basename(gateway) + " (built outside this checkout)"
         f.write(f"- gateway: `{gateway}` --config (simulate 3, time scale {args.time_scale})\n")
         for k, v in m.items():
             f.write(f"- {k}: {v}\n")
@@ -216,6 +233,7 @@ def write_results(path, rows, args, started, elapsed):
         if args.notes and os.path.exists(args.notes):
             with open(args.notes) as n:
                 f.write("\n" + n.read())
+        f.write(kept)
 
 
 def main():
