@@ -35,6 +35,17 @@ class manager_storage_failure_test : public manager_fixture {
         return j ? j->progress.steps_done : 0;
     }
 
+    // A row of `wells` wells that waits for `next` at each, submitted and at its first well; empty when
+    // that failed (the failure is reported).
+    std::string run_row_to_first_well(std::size_t wells) {
+        auto submitted = submit("sim1", job_type::array, next_row(static_cast<int>(wells)));
+        EXPECT_TRUE(submitted) << submitted.error().message;
+        if (!submitted) return {};
+        const auto id = submitted->job.id;
+        EXPECT_TRUE(wait_until([&] { return steps_done(id) == 1; })) << "the first well was never reached";
+        return id;
+    }
+
     // One `next`, then the step it allows: true when the job paused after it.
     bool step_once(const std::string& id) {
         const auto before = steps_done(id);
@@ -123,10 +134,8 @@ TEST_F(manager_storage_failure_test, a_store_that_fills_up_pauses_the_running_jo
     storage_max_size_mb_ = 1;
     add_sim("sim1", "full", 50);
     start();
-    auto submitted = submit("sim1", job_type::array, next_row(static_cast<int>(wells)));
-    ASSERT_TRUE(submitted) << submitted.error().message;
-    const auto id = submitted->job.id;
-    ASSERT_TRUE(wait_until([&] { return steps_done(id) == 1; })) << "the first well was never reached";
+    const auto id = run_row_to_first_well(wells);
+    ASSERT_FALSE(id.empty());
 
     // Another program fills the file beyond the gateway's 1 MB: every new page the gateway needs is
     // refused ("database or disk is full"); its steps fill the pages it has first.
@@ -211,10 +220,8 @@ TEST_F(manager_failing_writes_test, a_running_job_pauses_when_writes_fail_and_re
     constexpr std::size_t wells = 5;
     add_sim("sim1", "full", 50);
     start();
-    auto submitted = submit("sim1", job_type::array, next_row(static_cast<int>(wells)));
-    ASSERT_TRUE(submitted) << submitted.error().message;
-    const auto id = submitted->job.id;
-    ASSERT_TRUE(wait_until([&] { return steps_done(id) == 1; }));
+    const auto id = run_row_to_first_well(wells);
+    ASSERT_FALSE(id.empty());
 
     vfs_.fail_writes(SQLITE_READONLY);
     ASSERT_TRUE(step_once(id)) << "the job went on although its step could not be stored";
@@ -242,10 +249,8 @@ TEST_F(manager_failing_writes_test, an_end_the_store_refused_is_stored_once_it_c
     constexpr std::size_t wells = 3;
     add_sim("sim1", "full", 50);
     start();
-    auto submitted = submit("sim1", job_type::array, next_row(static_cast<int>(wells)));
-    ASSERT_TRUE(submitted) << submitted.error().message;
-    const auto id = submitted->job.id;
-    ASSERT_TRUE(wait_until([&] { return steps_done(id) == 1; }));
+    const auto id = run_row_to_first_well(wells);
+    ASSERT_FALSE(id.empty());
     ASSERT_FALSE(step_once(id));
     ASSERT_EQ(steps_done(id), wells - 1);
 
