@@ -150,12 +150,13 @@ class manager_core final : public execution_host, public std::enable_shared_from
         std::optional<job_record> record;
         json event;
     };
-    // A job's writes that are not stored yet, oldest first, and the store's last error. Bounded by the
-    // job's run: a running job pauses at its next checkpoint, so at most the steps until then (one write
-    // each) wait here.
+    // A job's writes that are not stored yet, oldest first, and the store's last error. A running job
+    // pauses at its next checkpoint, so usually only the steps until then wait here; a run without
+    // checkpoints is bounded by settings_.max_unstored_writes_per_job (the oldest writes are given up).
     struct unstored_history {
         std::deque<unstored_write> writes;
         std::string error;
+        std::size_t given_up = 0;
     };
 
     struct lane {
@@ -326,7 +327,18 @@ void manager_core::save(const std::string& id, std::optional<job_record> record,
 }
 
 void manager_core::store_write(const std::string& id, unstored_write w) {
-    unstored_[id].writes.push_back(std::move(w));
+    auto& history = unstored_[id];
+    history.writes.push_back(std::move(w));
+    if (history.writes.size() > std::max<std::size_t>(settings_.max_unstored_writes_per_job, 1)) {
+        // Memory is bounded too. A later record carries the job's state and progress, so what is lost is
+        // the oldest event.
+        history.writes.pop_front();
+        if (history.given_up++ == 0)
+            log_->error(
+                "job {}: more than {} writes of its history wait for the job store; the oldest are "
+                "given up",
+                id, settings_.max_unstored_writes_per_job);
+    }
     if (auto stored = write_unstored(id); !stored) store_refused(id, stored.error());
 }
 
@@ -349,7 +361,11 @@ operation_result<void> manager_core::write_unstored(const std::string& id) {
         if (w.record) last_record = w.record;
         writes.pop_front();
     }
-    if (!it->second.error.empty())
+    if (it->second.given_up > 0)
+        log_->error(
+            "job {}: the job store takes its history again; {} write(s) of it were given up meanwhile", id,
+            it->second.given_up);
+    else if (!it->second.error.empty())
         log_->info("job {}: the job store takes its history again; it is stored up to date", id);
     unstored_.erase(it);
     // An ended job is read from the store from now on.

@@ -55,6 +55,9 @@ struct job_manager_settings {
     bool restart_queued = false;             // after a restart, start the jobs that were queued
     std::size_t max_queued_per_controller = 1000;
     std::chrono::milliseconds idle_timeout{120000};  // one step's motion must end within this
+    // Per job, the writes the store refused that wait in memory; beyond it the oldest is given up
+    // (logged). A run that cannot pause between steps (autoplay, a firmware scan) could fill it.
+    std::size_t max_unstored_writes_per_job = 10000;
 };
 
 struct submit_request {

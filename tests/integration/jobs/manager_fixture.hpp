@@ -132,6 +132,7 @@ class manager_fixture : public ::testing::Test {
         s.restart_queued = restart_queued_;
         s.max_queued_per_controller = max_queued_;
         s.storage_max_size_mb = storage_max_size_mb_;
+        s.max_unstored_writes_per_job = max_unstored_writes_;
         return s;
     }
 
@@ -309,6 +310,7 @@ class manager_fixture : public ::testing::Test {
     bool manager_shut_ = false;
     std::size_t max_queued_ = 1000;
     std::size_t storage_max_size_mb_ = 64;
+    std::size_t max_unstored_writes_ = 10000;
 };
 
 }  // namespace gw::jobs::test

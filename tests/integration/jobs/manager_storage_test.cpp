@@ -245,6 +245,31 @@ TEST_F(manager_failing_writes_test, a_running_job_pauses_when_writes_fail_and_re
               (std::vector<std::string>{"queued", "running", "paused", "queued", "running", "succeeded"}));
 }
 
+// The writes that wait in memory are bounded: beyond the bound the oldest is given up; the job's state
+// and progress still reach the store with the later writes.
+TEST_F(manager_failing_writes_test, the_unstored_writes_are_bounded_and_the_oldest_is_given_up) {
+    max_unstored_writes_ = 2;
+    add_sim("sim1", "full", 50);
+    start();
+    const auto id = run_row_to_first_well(4);
+    ASSERT_FALSE(id.empty());
+
+    vfs_.fail_writes(SQLITE_READONLY);
+    ASSERT_TRUE(step_once(id));  // kept: the second well's step, then the pause
+    ASSERT_TRUE(cancel(id));     // the cancel's state is the third write: the step is given up
+    ASSERT_TRUE(wait_state(id, job_state::cancelled));
+    vfs_.fail_writes(0);
+    ASSERT_TRUE(wait_until([&] {
+        const auto states = stored_states(id);
+        return !states.empty() && states.back() == "cancelled";
+    }));
+    EXPECT_EQ(stored_states(id), (std::vector<std::string>{"queued", "running", "paused", "cancelled"}));
+    EXPECT_EQ(stored_steps(id), all_steps(1)) << "the second well's step event was kept beyond the bound";
+    const auto j = job(id);
+    EXPECT_EQ(j->state, job_state::cancelled);
+    EXPECT_EQ(j->progress.steps_done, 2u);
+}
+
 TEST_F(manager_failing_writes_test, an_end_the_store_refused_is_stored_once_it_can_be_and_survives_a_crash) {
     constexpr std::size_t wells = 3;
     add_sim("sim1", "full", 50);
