@@ -445,12 +445,8 @@ operation_result<void> job_store::insert(const job_record& job, const nlohmann::
     t->text(1, job.id).text(2, to_string(job.state)).text(3, job.reason).integer(4, epoch_ms(job.created));
     if (t->step() != SQLITE_DONE) return c.error(fmt::format("record transition of job {}", job.id));
 
-    if (!first_event.is_null()) {
-        auto e = c.prepare("INSERT INTO job_events (job_id, seq, event, at_ms) VALUES (?1, 1, ?2, ?3)");
-        if (!e) return e.error();
-        e->text(1, job.id).text(2, dump(first_event)).integer(3, epoch_ms(job.created));
-        if (e->step() != SQLITE_DONE) return c.error(fmt::format("append event of job {}", job.id));
-    }
+    if (!first_event.is_null())
+        if (auto r = insert_event(c, job.id, first_event); !r) return r.error();
     return tx.commit();
 }
 
