@@ -965,12 +965,11 @@ std::string manager_core::jobs_in_lane(const std::string& controller) const {
     auto it = lanes_.find(controller);
     if (it == lanes_.end()) return {};
     std::vector<std::string> parts;
-    if (!it->second.holder.empty()) {
-        // A cancelled job keeps the controller until its stop has been sent: it moves nothing more.
-        auto job = jobs_.find(it->second.holder);
-        const auto state = job != jobs_.end() ? job->second->record.state : job_state::running;
-        if (!is_terminal(state)) parts.push_back(fmt::format("{} {}", it->second.holder, to_string(state)));
-    }
+    // A job that has ended (jobs_ keeps only the others) may hold the controller a little longer, until
+    // its stop has been sent: it moves nothing more.
+    if (auto job = jobs_.find(it->second.holder);
+        job != jobs_.end() && !is_terminal(job->second->record.state))
+        parts.push_back(fmt::format("{} {}", it->second.holder, to_string(job->second->record.state)));
     for (const auto& id : it->second.queue)
         if (auto job = jobs_.find(id); job != jobs_.end() && job->second->record.state == job_state::queued)
             parts.push_back(id + " queued");

@@ -315,7 +315,7 @@ def test_leases(c):
     check(r.status == 200, f"move after release: {r.status}")
     # Expiry.
     r = c.request("POST", base + "/lease", {"ttl_s": 1}, token=OP)
-    check(r.status == 201, f"short lease: {r.status}")
+    check(r.status == 201, f"short lease: {r.status} {r.body}")
     wait_until("the 1 s lease to expire", lambda: c.request("GET", base + "/lease", token=VIEW).status == 404)
     r = c.request("POST", base + "/halt", token=OP)
     r = c.request("POST", base + "/zero", token=OP)

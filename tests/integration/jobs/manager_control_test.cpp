@@ -269,6 +269,20 @@ TEST_F(manager_control_test, a_lease_is_refused_while_jobs_from_before_it_hold_o
     EXPECT_EQ(refused.error().kind, kind::leased);
 }
 
+TEST_F(manager_control_test, a_lease_can_be_taken_as_soon_as_the_cancel_of_the_last_job_answered) {
+    add_sim("sim3", "planar", 4);
+    start();
+    for (int i = 0; i < 5; ++i) {
+        auto running = submit("sim3", job_type::planar_correction, far_points(3000));
+        ASSERT_TRUE(running) << running.error().message;
+        ASSERT_TRUE(wait_state(running->job.id, job_state::running));
+        ASSERT_TRUE(cancel(running->job.id));
+        auto l = acquire_lease("sim3", "alice");
+        ASSERT_TRUE(l) << "round " << i << ": " << l.error().message;
+        ASSERT_TRUE(leases_->release("sim3", l->id, false));
+    }
+}
+
 TEST_F(manager_control_test, a_queued_job_cannot_slip_under_a_lease_taken_while_it_planned) {
     add_sim("sim3", "planar", 4);
     start();
