@@ -47,6 +47,9 @@ void controller_metrics::describe(gw::metrics& m) {
                "Serial commands finished, by origin (user, internal)");
     m.describe("gw_controller_command_errors_total", counter, "Serial commands that failed, by error");
     m.describe("gw_controller_command_timeouts_total", counter, "Serial commands without a reply in time");
+    m.describe("gw_controller_link_faults_total", counter,
+               "Serial line faults by kind: timeout, mismatch (a reply that did not fit its command), "
+               "noise, unexpected (bytes nobody asked for), resynced, resync_failed, contained");
     m.describe("gw_controller_reconnects_total", counter,
                "Times a controller connected again after losing it");
     m.describe("gw_controller_connected", gauge, "1 when the controller is connected and identified");
@@ -105,6 +108,11 @@ void controller_metrics::on_trace(const devices::command_trace& t) {
     }
     metrics_->observe("gw_controller_command_duration_seconds", controller,
                       std::chrono::duration<double>(t.latency).count());
+}
+
+void controller_metrics::on_link_fault(const devices::link_fault& f) {
+    metrics_->increment("gw_controller_link_faults_total",
+                        {{"controller", f.controller_id}, {"kind", std::string(devices::to_string(f.what))}});
 }
 
 }  // namespace gw::api

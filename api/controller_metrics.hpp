@@ -24,6 +24,7 @@ class controller_metrics final : public devices::controller_observer {
     void on_snapshot(const devices::controller_snapshot& snapshot) override;
     void on_report(const devices::report_event& event) override;
     void on_trace(const devices::command_trace& trace) override;
+    void on_link_fault(const devices::link_fault& fault) override;
 
   private:
     struct per_controller {

@@ -12,6 +12,7 @@
 
 #include "devices/ms2000/error.hpp"
 #include "gateway/controller_registry.hpp"
+#include "gateway/event_json.hpp"
 #include "gateway/lease_manager.hpp"
 #include "gateway/operations.hpp"
 
@@ -303,40 +304,6 @@ operation_result<any_request> parse_request(std::string_view op, const json& bod
     if (op == "command") return parse_command(body);
     return make_error(operation_error_kind::invalid_value, "unknown operation \"" + std::string(op) + "\"",
                       "op");
-}
-
-std::string_view kind_name(devices::ms2000::reply::kind k) {
-    using kind = devices::ms2000::reply::kind;
-    switch (k) {
-        case kind::ack:
-            return "ack";
-        case kind::error:
-            return "error";
-        case kind::status:
-            return "status";
-        case kind::text:
-            return "text";
-    }
-    return "text";
-}
-
-json reply_json(const devices::ms2000::reply& r) {
-    json j = {{"kind", kind_name(r.what)}};
-    if (r.what == devices::ms2000::reply::kind::error) {
-        j["error_code"] = r.error_code;
-        j["error_name"] = devices::ms2000::controller_error_name(r.error_code);
-    }
-    if (r.what == devices::ms2000::reply::kind::status) j["busy"] = r.busy;
-    j["values"] = r.values;
-    json axes = json::array();
-    for (const auto& a : r.axes) {
-        json aj = {{"axis", std::string(1, a.axis)}, {"text", a.text}};
-        aj["number"] = a.number ? json(*a.number) : json(nullptr);
-        axes.push_back(std::move(aj));
-    }
-    j["axes"] = std::move(axes);
-    j["lines"] = r.lines;
-    return j;
 }
 
 json base_result(std::string_view id, std::string_view op, const std::string& request_id) {

@@ -12,6 +12,7 @@
 #include "gateway/controller_registry.hpp"
 #include "gateway/event_hub.hpp"
 #include "gateway/event_json.hpp"
+#include "gateway/json_text.hpp"
 #include "gateway/metrics.hpp"
 
 namespace gw::api {
@@ -37,7 +38,7 @@ string_response make_response(http::status status, std::string body, std::string
 
 string_response json_response(http::status status, const json& body, const string_request& req,
                               const std::string& request_id) {
-    return make_response(status, body.dump(), "application/json", req, request_id);
+    return make_response(status, to_json_text(body), "application/json", req, request_id);
 }
 
 // "/controllers/sim1/move" -> {"controllers", "sim1", "move"}; empty segments kept (so "//" fails).
@@ -108,7 +109,7 @@ string_response problem_response(problem p, unsigned version, bool keep_alive, s
     res.set(http::field::cache_control, "no-store");
     if (p.status == 401) res.set(http::field::www_authenticate, "Bearer realm=\"asi-gateway\"");
     res.keep_alive(keep_alive);
-    res.body() = p.to_json().dump();
+    res.body() = to_json_text(p.to_json());
     res.prepare_payload();
     return res;
 }
@@ -443,7 +444,7 @@ void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& re
                           res.set("X-Request-Id", request_id);
                           res.set(http::field::cache_control, "no-store");
                           res.keep_alive(keep_alive);
-                          res.body() = o.result.dump();
+                          res.body() = to_json_text(o.result);
                           res.prepare_payload();
                           done({std::move(res), route});
                       }));

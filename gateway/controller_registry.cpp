@@ -67,6 +67,10 @@ class controller_registry::store final : public devices::controller_observer {
         for (const auto& o : live())
             o->on_trace(t);
     }
+    void on_link_fault(const devices::link_fault& f) override {
+        for (const auto& o : live())
+            o->on_link_fault(f);
+    }
 
   private:
     // Called outside the lock, so an observer may call back into the registry.

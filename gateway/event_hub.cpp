@@ -6,6 +6,7 @@
 #include <boost/asio/post.hpp>
 #include <nlohmann/json.hpp>
 
+#include "gateway/json_text.hpp"
 #include "gateway/timestamp.hpp"
 
 namespace gw {
@@ -65,7 +66,7 @@ event_hub_counters event_hub::counters() const {
 boost::system::error_code event_hub::publish(std::string topic, const nlohmann::json& data,
                                              std::optional<std::chrono::system_clock::time_point> time) {
     if (auto ec = validate_topic_name(topic)) return ec;
-    return publish(std::move(topic), std::make_shared<const std::string>(data.dump()), time);
+    return publish(std::move(topic), std::make_shared<const std::string>(to_json_text(data)), time);
 }
 
 boost::system::error_code event_hub::publish(std::string topic, std::shared_ptr<const std::string> data_json,

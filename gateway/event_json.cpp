@@ -5,6 +5,7 @@
 #include <string>
 
 #include "devices/ms2000/build_info.hpp"
+#include "devices/ms2000/error.hpp"
 #include "gateway/timestamp.hpp"
 
 namespace gw {
@@ -47,6 +48,21 @@ nlohmann::json identity_json(const devices::controller_identity& id) {
             {"modules", std::move(modules)},
             {"module_lines", id.build.module_lines},
             {"ring_buffer_size", id.build.ring_buffer_size}};
+}
+
+std::string_view kind_name(devices::ms2000::reply::kind k) {
+    using kind = devices::ms2000::reply::kind;
+    switch (k) {
+        case kind::ack:
+            return "ack";
+        case kind::error:
+            return "error";
+        case kind::status:
+            return "status";
+        case kind::text:
+            return "text";
+    }
+    return "text";
 }
 
 }  // namespace
@@ -111,6 +127,25 @@ nlohmann::json ttl_json(const devices::ttl_event& e) {
             {"time", format_timestamp(e.system_time)},
             {"controller_ms", e.controller_ms},
             {"axes", std::move(axes)}};
+}
+
+nlohmann::json reply_json(const devices::ms2000::reply& r) {
+    nlohmann::json j = {{"kind", kind_name(r.what)}};
+    if (r.what == devices::ms2000::reply::kind::error) {
+        j["error_code"] = r.error_code;
+        j["error_name"] = devices::ms2000::controller_error_name(r.error_code);
+    }
+    if (r.what == devices::ms2000::reply::kind::status) j["busy"] = r.busy;
+    j["values"] = r.values;
+    nlohmann::json axes = nlohmann::json::array();
+    for (const auto& a : r.axes) {
+        nlohmann::json aj = {{"axis", std::string(1, a.axis)}, {"text", a.text}};
+        aj["number"] = a.number ? nlohmann::json(*a.number) : nlohmann::json(nullptr);
+        axes.push_back(std::move(aj));
+    }
+    j["axes"] = std::move(axes);
+    j["lines"] = r.lines;
+    return j;
 }
 
 }  // namespace gw

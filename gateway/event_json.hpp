@@ -33,5 +33,7 @@ nlohmann::json state_json(const devices::controller_snapshot& snapshot);
 nlohmann::json position_json(const devices::controller_snapshot& snapshot);
 nlohmann::json report_json(const devices::report_event& event);
 nlohmann::json ttl_json(const devices::ttl_event& event);
+// A parsed controller reply, as the raw command operation returns it: kind, values, axes, lines.
+nlohmann::json reply_json(const devices::ms2000::reply& reply);
 
 }  // namespace gw

@@ -211,7 +211,15 @@ int main(int argc, char** argv) {
             });
         });
     });
-    ioc.run();
+    // One handler that throws must not take every controller, job and client down: log and go on.
+    for (;;) {
+        try {
+            ioc.run();
+            break;
+        } catch (const std::exception& e) {
+            log->critical("unhandled exception in an I/O handler, continuing: {}", e.what());
+        }
+    }
     {
         std::lock_guard lock(mutex);
         finished = true;

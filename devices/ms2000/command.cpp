@@ -49,8 +49,73 @@ bool is_halt_verb(std::string_view verb) {
     return verb == "\\" || verb == "HALT";
 }
 
+std::vector<std::string> upper_words(std::string_view text) {
+    std::vector<std::string> words;
+    while (!text.empty()) {
+        const auto start = text.find_first_not_of(' ');
+        if (start == std::string_view::npos) break;
+        text.remove_prefix(start);
+        const auto end = std::min(text.find(' '), text.size());
+        words.push_back(upper(text.substr(0, end)));
+        text.remove_prefix(end);
+    }
+    return words;
+}
+
+bool is_one_of(std::string_view verb, std::initializer_list<std::string_view> verbs) {
+    return std::find(verbs.begin(), verbs.end(), verb) != verbs.end();
+}
+
+// The letters of arguments that are all "L" (suffix '\0') or all "L?" (suffix '?'); empty otherwise.
+std::string letters_if_all(const std::vector<std::string>& words, char suffix) {
+    std::string letters;
+    for (const std::string& w : words) {
+        const bool bare = w.size() == 1 && suffix == '\0';
+        const bool query = w.size() == 2 && suffix != '\0' && w[1] == suffix;
+        if (!is_letter(w[0]) || !(bare || query)) return {};
+        letters.push_back(w[0]);
+    }
+    return letters;
+}
+
+// Reply contents known from the protocol reference (../shared/docs/ms2000-protocol.md, sections 2.5
+// to 2.7): WHERE, VERSION, BUILD X, the motion commands and the parameter queries of section 2.6.
+// Everything else keeps kind::any, because a firmware may answer it in a shape not listed there.
+reply_form infer_form(std::string_view verb, std::string_view args) {
+    const std::vector<std::string> words = upper_words(args);
+    reply_form form;
+    if (is_one_of(verb, {"W", "WHERE"})) {
+        form.axes = letters_if_all(words, '\0');
+        if (!form.axes.empty()) form.what = reply_form::kind::numbers;
+    } else if (is_one_of(verb, {"V", "VERSION"}) && words.empty()) {
+        form.what = reply_form::kind::version;
+    } else if (is_one_of(verb, {"BU", "BUILD"}) && words.size() == 1 && words[0] == "X") {
+        form.what = reply_form::kind::build_text;
+    } else if (is_one_of(verb,
+                         {"M", "MOVE", "R", "MOVREL", "H", "HERE", "Z", "ZERO", "!", "HOME", "\\", "HALT"})) {
+        const bool queries = std::any_of(words.begin(), words.end(), [](const std::string& w) {
+            return w.find('?') != std::string::npos;
+        });
+        if (!queries) form.what = reply_form::kind::bare_ack;
+    } else if (is_one_of(verb,
+                         {"S",     "SPEED", "PC",       "OS", "KP",   "KI", "KD",     "AA", "VE",    "HM",
+                          "UL",    "Z2B",   "LR",       "AL", "CNTS", "SL", "SETLOW", "SU", "SETUP", "AC",
+                          "ACCEL", "B",     "BACKLASH", "WT", "WAIT", "E",  "ERROR",  "LED"})) {
+        form.axes = letters_if_all(words, '?');
+        if (!form.axes.empty()) form.what = reply_form::kind::axis_values;
+    } else if (is_one_of(verb, {"TTL", "RS", "RDSTAT", "LK", "LOCK"})) {
+        form.axes = letters_if_all(words, '?');
+        if (!form.axes.empty()) {
+            form.what = reply_form::kind::axis_values;
+            form.positional = true;
+        }
+    }
+    return form;
+}
+
 command finish(std::string verb, std::string wire, reply_shape expect) {
     command c;
+    c.form = infer_form(verb, std::string_view(wire).substr(std::min(verb.size(), wire.size())));
     c.is_halt = is_halt_verb(verb);
     c.verb = std::move(verb);
     c.wire = std::move(wire);

@@ -22,10 +22,32 @@ enum class reply_shape : std::uint8_t {
     two_phase,  // SAVESET "SS Z": ":" at once, "A" + CR LF when the flash write is done
 };
 
+// What a reply must hold to be taken as the answer to its command, beyond its shape. A reply of the
+// right shape but the wrong content ("W X Y" answered ":A 1234.5", a move answered ":A 12 34") is
+// another command's reply or noise: the driver fails the command and resynchronises the link. An
+// error reply ":N-<code>" fits every command. Inferred from the verb and its arguments by every
+// builder (raw lines too), so a command of a verb whose reply is not known gets kind::any.
+struct reply_form {
+    enum class kind : std::uint8_t {
+        any,          // the shape alone
+        bare_ack,     // ":A" with nothing after it: moves, HERE, ZERO, HOME, HALT
+        numbers,      // ":A" then exactly one number per letter of `axes` (WHERE)
+        axis_values,  // "L=value" for every letter of `axes` (parameter queries "S X? Y?")
+        version,      // ":A Version: USB-9.52" or ":A v9.54" (VERSION)
+        build_text,   // the multi-line BUILD X text, not a one-line ":A .." reply
+    };
+    kind what = kind::any;
+    std::string axes;  // upper-case letters in request order (numbers, axis_values)
+    // axis_values only: the firmware may answer positionally, one token per axis (":A 0 0" for
+    // "TTL X? Y?") or one character per axis with no space (":A NB" for "RS X? Y?").
+    bool positional = false;
+};
+
 struct command {
     std::string verb;  // as sent, upper case: "W", "MOVE", "\\", "SS"
     std::string wire;  // the exact bytes to write, ending with CR
     reply_shape expect = reply_shape::standard;
+    reply_form form;          // what the reply must contain (see reply_form)
     bool is_halt = false;     // HALT jumps the driver's queue
     bool long_reply = false;  // multiline or two_phase: the driver uses its longer timeout
 };

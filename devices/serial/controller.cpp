@@ -12,7 +12,9 @@
 
 #include "devices/ms2000/build_info.hpp"
 #include "devices/ms2000/error.hpp"
+#include "devices/ms2000/reply_check.hpp"
 #include "devices/serial/escape.hpp"
+#include "devices/serial/snapshot_update.hpp"
 
 namespace gw::devices {
 namespace net = boost::asio;
@@ -43,9 +45,15 @@ bool aborted(error_code ec) {
            ec == ms2000::error::not_connected;
 }
 
-std::optional<double> axis_number(const ms2000::reply& r, char axis) {
-    if (const auto* a = r.axis(axis)) return a->number;
-    return std::nullopt;
+// A failure of one identification step: the controller refused the command (an older firmware
+// without it), or something else (timeout, a reply that did not fit) that calls for starting over.
+bool identify_failed(error_code ec) {
+    return ec && ec != ms2000::error::controller_rejected;
+}
+
+// "TTL X=7", "TTL Y=1": a command that changes the TTL modes the snapshot shows.
+bool sets_ttl_mode(const ms2000::command& cmd) {
+    return cmd.verb == "TTL" && cmd.wire.find('=') != std::string::npos;
 }
 
 }  // namespace
@@ -62,6 +70,10 @@ controller::controller(const net::any_io_executor& ex, controller_settings setti
       reconnect_timer_(strand_),
       poll_timer_(strand_),
       presence_timer_(strand_),
+      guard_timer_(strand_),
+      // Three characters at the baud rate (10 bits each) and scheduling slack.
+      reply_guard_(std::chrono::microseconds(30'000'000 / std::max(settings_.baud, 1u)) +
+                   std::chrono::microseconds(100)),
       backoff_(settings_.reconnect_min),
       report_port_(strand_) {
     snapshot_.id = settings_.id;
@@ -138,25 +150,74 @@ std::optional<controller::pending> controller::take_next() {
 }
 
 void controller::pump() {
-    if (in_flight_ || resyncing_ || !port_.is_open()) return;
+    if (in_flight_ || !port_.is_open()) return;
+    // Bytes that arrived since the last reply and end no line: nobody asked for them.
+    if (sync_ == link_sync::in_step && !framer_.partial().empty())
+        mark_out_of_step(link_fault::kind::unexpected, "bytes nobody asked for");
+    if (sync_ != link_sync::in_step) {
+        // A HALT does not wait for the link: the stage must stop. If its answer cannot be proven its
+        // own, it is sent once more after the resynchronisation (a second HALT is harmless).
+        const bool halt_now = !halts_.empty() && !halts_.front().resent && sync_ != link_sync::probing;
+        if (!halt_now) {
+            if (sync_ == link_sync::out_of_step) start_drain();
+            return;
+        }
+        ++quiet_round_;
+        resync_timer_.cancel();
+        sync_ = link_sync::out_of_step;
+    }
     auto next = take_next();
-    if (!next) return;
+    if (next) start_in_flight(std::move(*next));
+}
 
+void controller::start_in_flight(pending job) {
     const auto sequence = next_sequence_++;
-    in_flight_.emplace(in_flight{std::move(*next), sequence, false, steady_clock::now()});
+    in_flight_.emplace(in_flight{std::move(job), sequence, false, steady_clock::now()});
 
-    // Stale input (a late reply, noise) must not be taken for this command's reply: drop what the
-    // kernel holds now, then let read completions that are already queued run (through the
-    // io_context queue and back to the strand) while the command is not yet accepting lines.
+    // Stale input (a late reply, noise) must not be taken for this command's reply: what the kernel
+    // holds now is dropped and, unless a resynchronisation is dropping it anyway, puts the link out of
+    // step. Then read completions that are already queued run (through the io_context queue and back
+    // to the strand) while the command is not yet accepting lines.
     framer_.reset();
-    port_.flush_input();
+    if (port_.flush_input() > 0 && sync_ == link_sync::in_step)
+        mark_out_of_step(link_fault::kind::unexpected, "bytes nobody asked for");
     net::post(strand_.get_inner_executor(), [self = shared_from_this(), sequence] {
         net::post(self->strand_, [self, sequence] { self->do_write(sequence); });
     });
 }
 
+void controller::hold_back_in_flight() {
+    auto job = std::move(in_flight_->job);
+    in_flight_.reset();
+    if (job.poll) {
+        poll_step_ = poll_step::idle;  // the next tick starts a new round
+    } else if (job.internal) {
+        internal_queue_.push_front(std::move(job));
+    } else {
+        user_queue_.push_front(std::move(job));
+    }
+    pump();
+}
+
 void controller::do_write(std::uint64_t sequence) {
     if (!in_flight_ || in_flight_->sequence != sequence || !port_.is_open()) return;
+    // A stale line still queued when the command was taken put the link out of step: it waits.
+    const auto& waiting = in_flight_->job;
+    const bool may_wait = !waiting.cmd.is_halt && !waiting.probe;
+    if (sync_ == link_sync::in_step && !framer_.partial().empty())
+        mark_out_of_step(link_fault::kind::unexpected, "bytes nobody asked for");
+    if (sync_ == link_sync::out_of_step && may_wait) return hold_back_in_flight();
+    // A reply repeated at once (an echoing adapter, a duplicated frame) would arrive just as the next
+    // command goes out and could be taken for its answer: keep a short guard after the last byte read,
+    // so such bytes land while nothing accepts them.
+    const auto quiet_for = steady_clock::now() - last_read_;
+    if (may_wait && quiet_for < reply_guard_) {
+        guard_timer_.expires_after(reply_guard_ - quiet_for);
+        guard_timer_.async_wait([self = shared_from_this(), sequence](error_code ec) {
+            if (!ec) self->do_write(sequence);
+        });
+        return;
+    }
     framer_.reset();
     in_flight_->accepting = true;
     in_flight_->started = steady_clock::now();
@@ -166,7 +227,7 @@ void controller::do_write(std::uint64_t sequence) {
         in_flight_->job.cmd.long_reply ? settings_.long_reply_timeout : settings_.command_timeout;
     command_timer_.expires_after(timeout);
     command_timer_.async_wait([self = shared_from_this(), sequence](error_code ec) {
-        if (!ec) self->on_timeout(sequence);
+        if (!ec) self->guarded("handling a timeout", [&] { self->on_timeout(sequence); });
     });
 
     // The buffer is shared with the handler: it outlives the command if the port is closed meanwhile.
@@ -192,25 +253,19 @@ void controller::on_timeout(std::uint64_t sequence) {
         return disconnect(ms2000::error::timeout, "write stalled");
     }
     log_error("command timed out", ms2000::error::timeout);
-
-    // Wait a moment before the next command so a late reply lands while nothing is in flight.
-    resyncing_ = true;
-    resync_timer_.expires_after(settings_.resync_delay);
-    resync_timer_.async_wait([self = shared_from_this(), generation = generation_](error_code ec) {
-        if (ec || generation != self->generation_) return;
-        self->resyncing_ = false;
-        self->framer_.reset();
-        self->port_.flush_input();
-        self->pump();
-    });
-    finish(ms2000::error::timeout, std::nullopt, std::string(framer_.partial()));
+    // Its reply may still come, and would then be taken for the next command's.
+    mark_out_of_step(link_fault::kind::timeout, "a command timed out");
+    finish(ms2000::error::timeout, std::nullopt, escape_control(framer_.partial()));
 }
 
 void controller::on_line(const std::string& line) {
     if (log_->should_log(spdlog::level::trace)) log_->trace("RX {}", escape_control(line));
+    // Controller bytes are data: a line with a byte that no MS-2000 reply has is noise, and from here
+    // on only printable ASCII lines reach a reply, a snapshot or an event.
+    const bool text = ms2000::is_reply_text(line);
 
     // Unsolicited position report (TTL IN0 mode 5): "T:   400    0.0    0.1".
-    if (auto report = ms2000::parse_position_report(line)) {
+    if (auto report = text ? ms2000::parse_position_report(line) : std::nullopt) {
         ttl_event event;
         event.controller_id = settings_.id;
         event.sequence = ++ttl_sequence_;
@@ -222,19 +277,40 @@ void controller::on_line(const std::string& line) {
             const char letter = i < axes.size() ? axes[i] : '?';
             event.axes.push_back({letter, report->positions[i] / 10.0});
         }
-        if (auto obs = observer_.lock()) obs->on_ttl(event);
+        notify("ttl", [&](controller_observer& o) { o.on_ttl(event); });
         return;
     }
 
+    if (sync_ == link_sync::draining || sync_ == link_sync::confirming) {
+        // What the resynchronisation waits to see the end of.
+        line_noise_ = true;
+        ++stale_lines_;
+        log_->debug("drained line \"{}\" ({} so far)", escape_control(line), stale_lines_);
+        return;
+    }
     if (!in_flight_ || !in_flight_->accepting) {
         ++stale_lines_;
         log_->debug("discarded stale line \"{}\" ({} so far)", escape_control(line), stale_lines_);
-        return;
+        if (sync_ == link_sync::probing) {
+            line_noise_ = true;
+            return;
+        }
+        mark_out_of_step(text ? link_fault::kind::unexpected : link_fault::kind::noise,
+                         "a line nobody asked for");
+        return pump();
     }
 
     const auto& cmd = in_flight_->job.cmd;
-    auto parsed = ms2000::parse_reply(cmd.expect, line);
-    if (!parsed) return finish(parsed.error(), std::nullopt, line);
+    auto parsed = ms2000::accept_reply(cmd, line);
+    if (!parsed) {
+        // Noise, or the right shape for another command (a late reply): never an answer.
+        if (!text) {
+            mark_out_of_step(link_fault::kind::noise, "a reply with bytes that are not ASCII");
+            return finish(parsed.error(), std::nullopt, escape_control(line));
+        }
+        mark_out_of_step(link_fault::kind::mismatch, "a reply that does not fit its command");
+        return finish(parsed.error(), std::nullopt, line);
+    }
     if (parsed->what == ms2000::reply::kind::error) {
         // HALT answers ":N-21" when it stopped a move: that is what HALT is for.
         if (cmd.is_halt && parsed->error_code == ms2000::halted) return finish({}, std::move(*parsed), line);
@@ -251,6 +327,16 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
     const auto latency =
         std::chrono::duration_cast<std::chrono::microseconds>(steady_clock::now() - done.started);
     trace(done.job, latency, ec, reply, raw);
+
+    const bool unproven = ec == ms2000::error::unrecognized_reply || ec == ms2000::error::timeout;
+    if (done.job.cmd.is_halt && unproven && !done.job.resent) {
+        // The HALT reached the controller; send it again once the link is in step, for a proven answer.
+        done.job.resent = true;
+        halts_.push_front(std::move(done.job));
+        publish_snapshot();
+        return pump();
+    }
+    if (!ec && !done.job.internal && sets_ttl_mode(done.job.cmd)) refresh_ttl_modes();
 
     if (ec && !done.job.internal) {
         if (ec == ms2000::error::controller_rejected && reply) {
@@ -300,6 +386,103 @@ void controller::fail_all(error_code ec) {
         complete(job, ec, {});
 }
 
+// ---- resynchronisation ------------------------------------------------------------------------
+
+void controller::mark_out_of_step(link_fault::kind kind, const char* why) {
+    report_fault(kind);
+    if (sync_ == link_sync::draining || sync_ == link_sync::confirming) {
+        line_noise_ = true;
+        return;
+    }
+    if (sync_ != link_sync::in_step) return;  // already resynchronising (a probe's failure is its own)
+    sync_ = link_sync::out_of_step;
+    probe_attempts_ = 0;
+    resync_started_ = steady_clock::now();
+    std::uint64_t suppressed = 0;
+    if (sync_limiter_.allow(resync_started_, suppressed))
+        log_->warn("{}: link out of step, resynchronising ({} similar suppressed)", why, suppressed);
+}
+
+void controller::start_drain() {
+    sync_ = link_sync::draining;
+    line_noise_ = false;
+    framer_.reset();
+    port_.flush_input();
+    arm_quiet_timer();
+}
+
+void controller::arm_quiet_timer() {
+    resync_timer_.expires_after(settings_.resync_delay);
+    resync_timer_.async_wait(
+        [self = shared_from_this(), generation = generation_, round = ++quiet_round_](error_code ec) {
+            if (ec || generation != self->generation_ || round != self->quiet_round_) return;
+            self->guarded("resynchronising", [&] { self->on_quiet_window(); });
+        });
+}
+
+void controller::on_quiet_window() {
+    const bool noisy = line_noise_ || !framer_.partial().empty();
+    if (sync_ == link_sync::draining) {
+        if (!noisy) return send_probe();
+        if (steady_clock::now() - resync_started_ > settings_.resync_timeout)
+            return retry_resync("the line never went quiet");
+        // Still talking: drop what came and wait for another quiet window.
+        line_noise_ = false;
+        framer_.reset();
+        port_.flush_input();
+        return arm_quiet_timer();
+    }
+    if (sync_ != link_sync::confirming) return;
+    // A second answer after the probe's means the first was a late reply to an earlier V.
+    if (noisy) return retry_resync("more bytes followed the probe's answer");
+    sync_ = link_sync::in_step;
+    report_fault(link_fault::kind::resynced);
+    log_->info(
+        "link back in step after {} ms",
+        std::chrono::duration_cast<std::chrono::milliseconds>(steady_clock::now() - resync_started_).count());
+    pump();
+}
+
+void controller::send_probe() {
+    // V is harmless and its answer ("Version: USB-9.52") has a shape no other command's reply has.
+    sync_ = link_sync::probing;
+    line_noise_ = false;
+    pending probe{
+        ms2000::version(),
+        "resync",
+        {},
+        [this, self = shared_from_this()](error_code ec, const ms2000::reply& r) { on_probe_reply(ec, r); }};
+    probe.probe = true;
+    start_in_flight(std::move(probe));
+}
+
+void controller::on_probe_reply(error_code ec, const ms2000::reply&) {
+    if (aborted(ec)) return;
+    if (ec || line_noise_)
+        return retry_resync(ec ? "the probe got no fitting answer" : "noise around the probe");
+    sync_ = link_sync::confirming;
+    line_noise_ = false;
+    arm_quiet_timer();
+}
+
+void controller::retry_resync(const char* why) {
+    ++probe_attempts_;
+    const bool too_long = steady_clock::now() - resync_started_ > settings_.resync_timeout;
+    if (probe_attempts_ < settings_.resync_attempts && !too_long) {
+        log_->debug("resynchronisation: {}; trying again", why);
+        return start_drain();
+    }
+    report_fault(link_fault::kind::resync_failed);
+    disconnect(ms2000::error::unrecognized_reply, "resynchronisation failed");
+}
+
+void controller::reset_sync() {
+    sync_ = link_sync::in_step;
+    line_noise_ = false;
+    probe_attempts_ = 0;
+    ++quiet_round_;
+}
+
 // ---- connection -------------------------------------------------------------------------------
 
 void controller::do_connect() {
@@ -310,7 +493,11 @@ void controller::do_connect() {
     }
     ++generation_;
     framer_.reset();
-    resyncing_ = false;
+    reset_sync();
+    // A fresh port is not yet proven in step: a reply to a command of the program that had it before
+    // (a crashed gateway, another client) may still come. Identification waits for the resync.
+    sync_ = link_sync::out_of_step;
+    resync_started_ = steady_clock::now();
     log_->info("port {} open at {} baud, identifying", settings_.port, settings_.baud);
     snapshot_.state = connection_state::identifying;
     snapshot_.identity.reset();
@@ -331,6 +518,25 @@ void controller::schedule_reconnect() {
     reconnect_timer_.async_wait([self = shared_from_this()](error_code ec) {
         if (!ec) self->do_connect();
     });
+    node_gone_ = !serial_port::node_exists(settings_.port);
+    watch_for_node();
+}
+
+void controller::watch_for_node() {
+    // The backoff paces retries of a node that exists but cannot be opened or identified. A node that
+    // went away (an unplugged adapter) and is back is tried at once, however far the backoff has grown.
+    presence_timer_.expires_after(settings_.presence_check);
+    presence_timer_.async_wait([self = shared_from_this(), generation = generation_](error_code ec) {
+        if (ec || generation != self->generation_ || self->stopped_ || self->port_.is_open()) return;
+        if (!serial_port::node_exists(self->settings_.port)) {
+            self->node_gone_ = true;
+        } else if (self->node_gone_) {
+            self->node_gone_ = false;
+            self->reconnect_timer_.cancel();
+            return self->do_connect();
+        }
+        self->watch_for_node();
+    });
 }
 
 void controller::disconnect(error_code ec, const char* what) {
@@ -343,7 +549,8 @@ void controller::disconnect(error_code ec, const char* what) {
     resync_timer_.cancel();
     poll_timer_.cancel();
     presence_timer_.cancel();
-    resyncing_ = false;
+    guard_timer_.cancel();
+    reset_sync();
     poll_step_ = poll_step::idle;
     poll_due_ = false;
 
@@ -364,9 +571,10 @@ void controller::do_stop() {
     ++generation_;
     port_.close();
     close_report_port();
-    for (auto* timer : {&command_timer_, &resync_timer_, &reconnect_timer_, &poll_timer_, &presence_timer_})
+    for (auto* timer :
+         {&command_timer_, &resync_timer_, &reconnect_timer_, &poll_timer_, &presence_timer_, &guard_timer_})
         timer->cancel();
-    resyncing_ = false;
+    reset_sync();
     poll_step_ = poll_step::idle;
     poll_due_ = false;
     fail_all(ms2000::error::cancelled);
@@ -401,13 +609,19 @@ void controller::do_read(std::uint64_t generation) {
 void controller::on_read(std::uint64_t generation, error_code ec, std::size_t bytes) {
     if (generation != generation_) return;
     if (ec) return disconnect(ec, "read");  // EOF, EIO (pty master closed), ENXIO (USB gone)
-    lines_.clear();
-    if (auto framing = framer_.feed(std::string_view(read_buffer_.data(), bytes), lines_))
-        log_error("framing", framing);
-    for (const auto& line : lines_) {
-        on_line(line);
-        if (generation != generation_) return;  // a handler closed the port
-    }
+    last_read_ = steady_clock::now();
+    guarded("reading the port", [&] {
+        lines_.clear();
+        if (auto framing = framer_.feed(std::string_view(read_buffer_.data(), bytes), lines_)) {
+            log_error("framing", framing);
+            mark_out_of_step(link_fault::kind::noise, "an overlong line");
+        }
+        for (const auto& line : lines_) {
+            on_line(line);
+            if (generation != generation_) return;  // a handler closed the port
+        }
+    });
+    if (generation != generation_) return;
     do_read(generation);
 }
 
@@ -425,69 +639,52 @@ void controller::identify() {
     // reply: ":A Version: USB-9.52 "
     enqueue_internal(ms2000::version(), "identify", [this, self](error_code ec, const ms2000::reply& r) {
         if (aborted(ec)) return;
-        if (ec && ec != ms2000::error::controller_rejected) return disconnect(ec, "identify (V)");
-        controller_identity identity;
-        identity.version_raw = r.raw;
-        auto version = ms2000::parse_version(r);
-        identity.version = version ? *version : r.raw;
-        snapshot_.identity = std::move(identity);
+        if (identify_failed(ec)) return disconnect(ec, "identify (V)");
+        apply_version(snapshot_, r);
     });
     // reply: "STD_XYZ\rMotor Axes: X Y Z\r...\r\n"
     enqueue_internal(ms2000::build_x(), "identify", [this, self](error_code ec, const ms2000::reply& r) {
         if (aborted(ec) || !snapshot_.identity) return;
-        if (ec == ms2000::error::timeout) return disconnect(ec, "identify (BU X)");
-        if (!ec) {
-            if (auto build = ms2000::parse_build_x(r.raw)) snapshot_.identity->build = std::move(*build);
-        }
-        auto& build = snapshot_.identity->build;
-        if (build.motor_axes.empty()) {
-            // Firmware without BU X: the smallest MS-2000, an XY stage.
-            log_->warn("no motor axes from BU X, assuming XY");
-            build.motor_axes = "XY";
-        }
-        snapshot_.axes.clear();
-        for (const char letter : build.motor_axes) {
-            axis_state a;
-            a.axis = letter;
-            snapshot_.axes.push_back(a);
-        }
+        if (identify_failed(ec)) return disconnect(ec, "identify (BU X)");
+        // Firmware without BU X: the smallest MS-2000, an XY stage.
+        if (!apply_build(snapshot_, ec ? nullptr : &r)) log_->warn("no motor axes from BU X, assuming XY");
         const auto axes = motor_axes();
 
         // reply: ":A X=10000.000000 Y=10000.000000"
         enqueue_internal(ms2000::query("CNTS", axes), "identify",
                          [this](error_code ec, const ms2000::reply& r) {
-                             if (ec) return;
-                             for (auto& a : snapshot_.axes)
-                                 a.counts_per_mm = axis_number(r, a.axis);
+                             if (aborted(ec)) return;
+                             if (identify_failed(ec)) return disconnect(ec, "identify (CNTS)");
+                             if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::counts_per_mm);
                          });
         enqueue_internal(ms2000::query("SL", axes), "identify",
                          [this](error_code ec, const ms2000::reply& r) {
-                             if (ec) return;
-                             for (auto& a : snapshot_.axes)
-                                 a.lower_limit_mm = axis_number(r, a.axis);
+                             if (aborted(ec)) return;
+                             if (identify_failed(ec)) return disconnect(ec, "identify (SL)");
+                             if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::lower_limit_mm);
                          });
         enqueue_internal(ms2000::query("SU", axes), "identify",
                          [this](error_code ec, const ms2000::reply& r) {
-                             if (ec) return;
-                             for (auto& a : snapshot_.axes)
-                                 a.upper_limit_mm = axis_number(r, a.axis);
+                             if (aborted(ec)) return;
+                             if (identify_failed(ec)) return disconnect(ec, "identify (SU)");
+                             if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::upper_limit_mm);
                          });
         // reply: ":A X=0 Y=0"
         enqueue_internal(ms2000::query("TTL", "XY"), "identify",
                          [this](error_code ec, const ms2000::reply& r) {
                              if (aborted(ec)) return;
-                             if (!ec) {
-                                 auto mode = [&](char axis, std::size_t index) -> std::optional<int> {
-                                     auto n = axis_number(r, axis);
-                                     if (!n) n = r.number(index);
-                                     if (!n) return std::nullopt;
-                                     return static_cast<int>(*n);
-                                 };
-                                 snapshot_.ttl_in0_mode = mode('X', 0);
-                                 snapshot_.ttl_out0_mode = mode('Y', 1);
-                             }
+                             if (identify_failed(ec)) return disconnect(ec, "identify (TTL)");
+                             if (!ec) apply_ttl_modes(snapshot_, r);
                              on_identified();
                          });
+    });
+}
+
+void controller::refresh_ttl_modes() {
+    // The modes are read back rather than taken from the command: the controller may clamp or refuse
+    // part of it, and whoever restores them later must see what the controller really has.
+    enqueue_internal(ms2000::query("TTL", "XY"), "refresh", [this](error_code ec, const ms2000::reply& r) {
+        if (!ec) apply_ttl_modes(snapshot_, r);
     });
 }
 
@@ -529,11 +726,11 @@ std::optional<controller::pending> controller::next_poll_command() {
     };
     switch (step) {
         case poll_step::where:
-            return pending{ms2000::where(axes), "poll", {}, std::move(handler)};
+            return pending{ms2000::where(axes), "poll", {}, std::move(handler), true};
         case poll_step::status:
-            return pending{ms2000::status(), "poll", {}, std::move(handler)};
+            return pending{ms2000::status(), "poll", {}, std::move(handler), true};
         case poll_step::axis_status:
-            return pending{ms2000::query("RS", axes.substr(index, 1)), "poll", {}, std::move(handler)};
+            return pending{ms2000::query("RS", axes.substr(index, 1)), "poll", {}, std::move(handler), true};
         case poll_step::idle:
             break;
     }
@@ -550,10 +747,7 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
     }
     switch (step) {
         case poll_step::where:
-            // reply: ":A 1234.5 432.1 0" in hardware order, tenths of a micron.
-            for (std::size_t i = 0; i < snapshot_.axes.size(); ++i) {
-                if (auto n = r.number(i)) snapshot_.axes[i].position_um = *n / 10.0;
-            }
+            apply_where(snapshot_, r);
             poll_step_ = poll_step::status;
             return;
         case poll_step::status:
@@ -568,13 +762,7 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
                 a.busy = false;
             break;
         case poll_step::axis_status: {
-            // reply: ":A B" or ":A N"
-            if (axis_index < snapshot_.axes.size()) {
-                auto& a = snapshot_.axes[axis_index];
-                const auto* v = r.axis(a.axis);
-                const std::string& text = v ? v->text : (r.values.empty() ? std::string() : r.values.front());
-                a.busy = text == "B";
-            }
+            apply_axis_busy(snapshot_, axis_index, r);
             poll_axis_ = axis_index + 1;
             if (poll_axis_ < snapshot_.axes.size()) return;
             break;
@@ -624,11 +812,16 @@ void controller::on_report_read(std::uint64_t generation, error_code ec, std::si
         publish_snapshot();
         return;
     }
+    guarded("reading the report port", [&] { on_report_bytes(bytes); });
+    if (generation != report_generation_) return;
+    do_report_read(generation);
+}
+
+void controller::on_report_bytes(std::size_t bytes) {
     const auto steady_now = steady_clock::now();
     const auto system_now = system_clock::now();
     frames_.clear();
     decoder_->feed(std::span<const std::uint8_t>(report_buffer_.data(), bytes), frames_);
-    auto obs = observer_.lock();
     for (const auto& frame : frames_) {
         report_event event;
         event.controller_id = settings_.id;
@@ -645,9 +838,8 @@ void controller::on_report_read(std::uint64_t generation, error_code ec, std::si
             event.axes.push_back(a);
         }
         if (log_->should_log(spdlog::level::trace)) log_->trace("report #{}", event.sequence);
-        if (obs) obs->on_report(event);
+        notify("report", [&](controller_observer& o) { o.on_report(event); });
     }
-    do_report_read(generation);
 }
 
 // ---- events -----------------------------------------------------------------------------------
@@ -658,7 +850,50 @@ void controller::publish_snapshot() {
         log_->info("state {}", to_string(snapshot_.state));
     snapshot_.updated = system_clock::now();
     published_ = snapshot_;
-    if (auto obs = observer_.lock()) obs->on_snapshot(snapshot_);
+    notify("snapshot", [&](controller_observer& o) { o.on_snapshot(snapshot_); });
+}
+
+template <typename Notify>
+void controller::notify(const char* what, Notify&& call) {
+    auto obs = observer_.lock();
+    if (!obs) return;
+    try {
+        call(*obs);
+    } catch (const std::exception& e) {
+        // An observer's fault stays with the event it failed on: the link is not to blame.
+        std::uint64_t suppressed = 0;
+        if (error_limiter_.allow(steady_clock::now(), suppressed))
+            log_->error("observer failed on {} event: {} ({} similar suppressed)", what, e.what(),
+                        suppressed);
+        report_fault(link_fault::kind::contained);
+    }
+}
+
+template <typename Body>
+void controller::guarded(const char* where, Body&& body) {
+    try {
+        body();
+    } catch (const std::exception& e) {
+        contain(where, e);
+    }
+}
+
+void controller::contain(const char* where, const std::exception& e) {
+    // Whatever this controller's input did, it ends here: logged, counted, and the connection reset so
+    // that no half-updated state is used. The other controllers never see it.
+    log_->error("{}: {}; resetting the connection", where, e.what());
+    report_fault(link_fault::kind::contained);
+    disconnect(make_error_code(boost::system::errc::io_error), where);
+}
+
+void controller::report_fault(link_fault::kind kind) {
+    auto obs = observer_.lock();
+    if (!obs) return;
+    try {
+        obs->on_link_fault(link_fault{settings_.id, kind});
+    } catch (const std::exception& e) {
+        log_->error("observer failed on link fault: {}", e.what());
+    }
 }
 
 void controller::note_error(int code, std::string name, std::string text) {
@@ -678,7 +913,12 @@ void controller::trace(const pending& job, std::chrono::microseconds latency, er
     t.error = ec;
     t.reply = reply;
     t.latency = latency;
-    obs->on_trace(t);
+    try {
+        obs->on_trace(t);
+    } catch (const std::exception& e) {
+        log_->error("observer failed on trace: {}", e.what());
+        report_fault(link_fault::kind::contained);
+    }
 }
 
 void controller::log_error(const char* what, error_code ec) {

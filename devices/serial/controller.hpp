@@ -6,14 +6,17 @@
 // callbacks run on that strand. Create it with std::make_shared; handlers keep it alive until
 // stop() has failed every pending command and its timers and reads have ended.
 //
-// Protocol discipline: exactly one command in flight; replies are matched to commands strictly in
-// order; stale input is discarded before each command; HALT jumps the queue; polls never pile up
-// (at most one poll round, and user commands go ahead of the poll's next step).
+// Protocol discipline: exactly one command in flight; a reply is taken as its command's answer only
+// if it is printable ASCII, has the command's shape and fits its reply_form; after a timeout, a reply
+// that does not fit, or bytes nobody asked for, the link is out of step and no command is released
+// until it is resynchronised (devices/serial/README.md, "Reply matching"); HALT jumps the queue; polls
+// never pile up (at most one poll round, and user commands go ahead of the poll's next step).
 
 #include <array>
 #include <chrono>
 #include <cstdint>
 #include <deque>
+#include <exception>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -89,7 +92,10 @@ class controller : public std::enable_shared_from_this<controller> {
         ms2000::command cmd;
         std::string request_id;
         completion_handler user;    // set for user commands
-        internal_handler internal;  // set for the driver's own (identify, poll)
+        internal_handler internal;  // set for the driver's own (identify, poll, resync probe)
+        bool poll = false;          // a step of the poll round (dropped, not requeued, when held back)
+        bool probe = false;         // the resynchronisation probe
+        bool resent = false;        // a HALT sent again after the link was resynchronised
     };
 
     struct in_flight {
@@ -102,6 +108,12 @@ class controller : public std::enable_shared_from_this<controller> {
 
     enum class poll_step : std::uint8_t { idle, where, status, axis_status };
 
+    // Whether replies can be matched to commands. in_step: yes. out_of_step: a fault was seen, a
+    // resynchronisation starts at the next pump. draining: waiting for the line to stay quiet for
+    // resync_quiet. probing: the V probe is in flight. confirming: the probe was answered, the line
+    // must stay quiet once more (a second answer means the first was a late one).
+    enum class link_sync : std::uint8_t { in_step, out_of_step, draining, probing, confirming };
+
     void submit(ms2000::command cmd, std::string request_id, completion_handler handler);
     void on_submit(pending job);
 
@@ -109,6 +121,7 @@ class controller : public std::enable_shared_from_this<controller> {
     void do_connect();
     void do_stop();
     void schedule_reconnect();
+    void watch_for_node();
     void disconnect(boost::system::error_code ec, const char* what);
     void fail_all(boost::system::error_code ec);
     void arm_presence_check();
@@ -119,16 +132,29 @@ class controller : public std::enable_shared_from_this<controller> {
     void on_line(const std::string& line);
     void pump();
     std::optional<pending> take_next();
+    void start_in_flight(pending job);
+    void hold_back_in_flight();
     void do_write(std::uint64_t sequence);
     void on_write(std::uint64_t sequence, boost::system::error_code ec);
     void on_timeout(std::uint64_t sequence);
     void finish(boost::system::error_code ec, std::optional<ms2000::reply> reply, const std::string& raw);
     void complete(pending& job, boost::system::error_code ec, ms2000::reply reply);
 
+    // Resynchronisation (link_sync).
+    void mark_out_of_step(link_fault::kind kind, const char* why);
+    void start_drain();
+    void arm_quiet_timer();
+    void on_quiet_window();
+    void send_probe();
+    void on_probe_reply(boost::system::error_code ec, const ms2000::reply& reply);
+    void retry_resync(const char* why);
+    void reset_sync();
+
     // Identification and polling.
     void enqueue_internal(ms2000::command cmd, const char* tag, internal_handler handler);
     void identify();
     void on_identified();
+    void refresh_ttl_modes();
     void arm_poll_timer();
     std::optional<pending> next_poll_command();
     void on_poll_reply(poll_step step, std::size_t axis_index, boost::system::error_code ec,
@@ -139,10 +165,17 @@ class controller : public std::enable_shared_from_this<controller> {
     void open_report_port();
     void do_report_read(std::uint64_t generation);
     void on_report_read(std::uint64_t generation, boost::system::error_code ec, std::size_t bytes);
+    void on_report_bytes(std::size_t bytes);
     void close_report_port();
 
     // Events.
     void publish_snapshot();
+    template <typename Notify>
+    void notify(const char* what, Notify&& call);
+    template <typename Body>
+    void guarded(const char* where, Body&& body);
+    void contain(const char* where, const std::exception& e);
+    void report_fault(link_fault::kind kind);
     void note_error(int code, std::string name, std::string text);
     void trace(const pending& job, std::chrono::microseconds latency, boost::system::error_code ec,
                const std::optional<ms2000::reply>& reply, const std::string& raw);
@@ -164,11 +197,19 @@ class controller : public std::enable_shared_from_this<controller> {
     boost::asio::steady_timer reconnect_timer_;
     boost::asio::steady_timer poll_timer_;
     boost::asio::steady_timer presence_timer_;
+    boost::asio::steady_timer guard_timer_;
+    std::chrono::steady_clock::duration reply_guard_;  // quiet time after the last byte before a write
+    std::chrono::steady_clock::time_point last_read_{};
     std::chrono::milliseconds backoff_;
+    bool node_gone_ = false;  // the device node vanished since the last connection attempt
 
     std::optional<in_flight> in_flight_;
     std::uint64_t next_sequence_ = 1;
-    bool resyncing_ = false;
+    link_sync sync_ = link_sync::in_step;
+    bool line_noise_ = false;  // bytes arrived while draining or confirming
+    std::size_t probe_attempts_ = 0;
+    std::uint64_t quiet_round_ = 0;  // bumped on every quiet-window timer, so an old expiry is ignored
+    std::chrono::steady_clock::time_point resync_started_;
     std::deque<pending> halts_;
     std::deque<pending> internal_queue_;
     std::deque<pending> user_queue_;
@@ -187,6 +228,7 @@ class controller : public std::enable_shared_from_this<controller> {
     controller_snapshot snapshot_;
     std::optional<controller_snapshot> published_;
     log_limiter error_limiter_;
+    log_limiter sync_limiter_;
     std::uint64_t stale_lines_ = 0;
     bool stopped_ = false;
 };

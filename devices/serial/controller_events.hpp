@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <boost/system/error_code.hpp>
@@ -54,5 +55,24 @@ struct command_trace {
     std::optional<ms2000::reply> reply;    // when a reply was parsed
     std::chrono::microseconds latency{0};  // write start to completion
 };
+
+// A fault on the main serial line that the driver handled: the link went out of step (a timeout, a
+// reply that did not fit its command, noise, a reply nobody asked for), was resynchronised, or could
+// not be and the connection was reset; or an observer or handler threw and was contained.
+struct link_fault {
+    enum class kind : std::uint8_t {
+        timeout,        // no reply within the deadline
+        mismatch,       // a reply of the wrong shape or content for its command
+        noise,          // bytes that are not printable ASCII, or an overlong line
+        unexpected,     // a line or bytes while no command was waiting for a reply
+        resynced,       // the link was proven to be in step again
+        resync_failed,  // it could not be: the connection was reset
+        contained,      // an exception in the driver or an observer was caught
+    };
+    std::string controller_id;
+    kind what = kind::timeout;
+};
+
+std::string_view to_string(link_fault::kind kind);
 
 }  // namespace gw::devices

@@ -17,6 +17,7 @@ class controller_observer {
     virtual void on_report(const report_event& event) {}
     virtual void on_ttl(const ttl_event& event) {}
     virtual void on_trace(const command_trace& trace) {}
+    virtual void on_link_fault(const link_fault& fault) {}
 };
 
 }  // namespace gw::devices

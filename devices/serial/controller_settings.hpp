@@ -17,9 +17,14 @@ struct controller_settings {
     std::chrono::milliseconds poll_interval{100};
     std::chrono::milliseconds command_timeout{1000};
     std::chrono::milliseconds long_reply_timeout{5000};  // SS Z, BU X, INFO
-    // Quiet time after a timeout before the next command is written, so a late reply is discarded
-    // instead of being taken for the next command's reply.
-    std::chrono::milliseconds resync_delay{50};
+    // Resynchronisation after a timeout, a reply that does not fit or unexpected bytes: the line must
+    // stay quiet this long, then a V probe must be answered, then the line must stay quiet again
+    // (devices/serial/README.md, "Reply matching").
+    std::chrono::milliseconds resync_delay{100};
+    // Probes that may fail (timeout, wrong answer, noise after the answer) before the connection is
+    // reset, and the longest a resynchronisation may take; commands wait meanwhile.
+    std::size_t resync_attempts = 10;
+    std::chrono::milliseconds resync_timeout{10000};
     std::size_t queue_limit = 64;  // user commands waiting (HALT and polls do not count)
 
     std::chrono::milliseconds reconnect_min{100};

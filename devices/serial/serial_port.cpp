@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <fcntl.h>
+#include <sys/ioctl.h>
 #include <sys/stat.h>
 #include <termios.h>
 #include <unistd.h>
@@ -92,8 +93,17 @@ void serial_port::close() {
     if (stream_.is_open()) stream_.close(ignored);
 }
 
-void serial_port::flush_input() {
-    if (stream_.is_open()) ::tcflush(stream_.native_handle(), TCIFLUSH);
+std::size_t serial_port::flush_input() {
+    if (!stream_.is_open()) return 0;
+    int pending = 0;
+    if (::ioctl(stream_.native_handle(), FIONREAD, &pending) != 0) pending = 0;
+    ::tcflush(stream_.native_handle(), TCIFLUSH);
+    return pending > 0 ? static_cast<std::size_t>(pending) : 0;
+}
+
+bool serial_port::node_exists(const std::string& path) {
+    struct stat st {};
+    return ::stat(path.c_str(), &st) == 0;
 }
 
 bool serial_port::still_present(const std::string& path) const {

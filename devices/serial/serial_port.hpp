@@ -3,6 +3,7 @@
 // writes are asynchronous. Opening never blocks (O_NONBLOCK) and the descriptor is not made the
 // controlling terminal (O_NOCTTY). Owned by one controller and used only on its strand.
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <sys/types.h>
@@ -23,12 +24,15 @@ class serial_port {
     void close();
     bool is_open() const { return stream_.is_open(); }
 
-    // Drops bytes received by the kernel but not read yet (tcflush TCIFLUSH).
-    void flush_input();
+    // Drops bytes received by the kernel but not read yet (tcflush TCIFLUSH); returns how many there
+    // were (FIONREAD just before), so a caller can tell a quiet line from one that was talking.
+    std::size_t flush_input();
 
     // True while the node that was opened still exists under `path` (same device number and inode):
     // a vanished or re-created node (an unplugged USB adapter, a re-made pty link) returns false.
     bool still_present(const std::string& path) const;
+    // True when `path` names an existing node (a symlink is followed): something to try to open.
+    static bool node_exists(const std::string& path);
 
     boost::asio::posix::stream_descriptor& stream() { return stream_; }
 

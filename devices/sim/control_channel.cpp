@@ -103,7 +103,8 @@ void control_channel::accept() {
 
 std::string control_channel::help_text() {
     return "commands: [NAME] pulse | pulse N RATE_HZ | unplug | replug | drop-next | corrupt-next | "
-           "delay-next MS | garbage N | state | list | help";
+           "delay-next MS | split-next MS | highbit-next | echo-next | refuse-next VERB CODE | garbage N | "
+           "state | list | help";
 }
 
 std::string control_channel::execute(std::string_view line) const {
@@ -145,11 +146,19 @@ std::string control_channel::execute(std::string_view line) const {
         if (verb == "replug") return target->replug(), "ok";
         if (verb == "drop-next") return target->drop_next_reply(), "ok";
         if (verb == "corrupt-next") return target->corrupt_next_reply(), "ok";
+        if (verb == "highbit-next") return target->high_bit_next_reply(), "ok";
+        if (verb == "echo-next") return target->echo_next_reply(), "ok";
     }
     if (argc == 1 && verb == "delay-next") {
         long ms = 0;
         if (!number(w[1], ms) || ms < 0) return "error: usage: delay-next MS";
         target->delay_next_reply(std::chrono::milliseconds(ms));
+        return "ok";
+    }
+    if (argc == 1 && verb == "split-next") {
+        long ms = 0;
+        if (!number(w[1], ms) || ms < 0 || ms > 60000) return "error: usage: split-next MS (MS <= 60000)";
+        target->split_next_reply(std::chrono::milliseconds(ms));
         return "ok";
     }
     if (argc == 2 && verb == "refuse-next") {

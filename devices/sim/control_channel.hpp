@@ -4,6 +4,9 @@
 //   "pulse N RATE_HZ"  N edges at RATE_HZ (simulated time)      -> "ok"
 //   "unplug" / "replug"                                          -> "ok"
 //   "drop-next" / "corrupt-next" / "delay-next MS"               -> "ok"
+//   "split-next MS"    the next reply in two writes, MS apart    -> "ok"
+//   "highbit-next"     one byte of the next reply with bit 7 set -> "ok"
+//   "echo-next"        the next reply sent twice                 -> "ok"
 //   "garbage N"        N random bytes (never CR/LF) on the port  -> "ok"
 //   "refuse-next VERB CODE"  the next VERB command gets ":N<CODE>" (CODE -1..-99), not run -> "ok"
 //   "state"            the simulator's state as one JSON line

@@ -90,7 +90,8 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
         if (!report_link_.empty()) j["report_port"] = {{"link", report_link_}, {"device", report_device_}};
         j["time_scale"] = config_.time_scale;
         j["baud"] = config_.baud;
-        return j.dump();
+        // The model's state may quote bytes a client sent: never throw on them.
+        return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     }
 
     // --- strand only -------------------------------------------------------------------------
@@ -135,7 +136,10 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
 
     bool drop_next = false;
     bool corrupt_next = false;
+    bool high_bit_next = false;
+    bool echo_next = false;
     std::chrono::milliseconds delay_next{0};
+    std::chrono::milliseconds split_next{0};
 
     void refuse_next(std::string verb, int code) {
         std::lock_guard lock(mutex_);
@@ -228,10 +232,27 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
             corrupt_next = false;
             reply[0] = static_cast<char>(reply[0] ^ 0x40);  // ':' -> 'z', 'N' -> 0x0E: unparseable
         }
+        if (high_bit_next) {
+            high_bit_next = false;
+            auto& middle = reply[reply.size() / 2];  // never CR or LF: those end the reply
+            if (middle != '\r' && middle != '\n') middle = static_cast<char>(middle | 0x80);
+        }
         auto not_before = clock::time_point{};
         if (delay_next.count() > 0) {
             not_before = clock::now() + delay_next;
             delay_next = std::chrono::milliseconds{0};
+        }
+        if (echo_next) {
+            echo_next = false;
+            send_main(reply, not_before);
+        }
+        if (split_next.count() > 0) {
+            // The first half now, the rest after the pause: a reply that arrives in two pieces.
+            const auto half = reply.size() / 2;
+            send_main(reply.substr(0, half), not_before);
+            not_before = std::max(not_before, clock::now()) + split_next;
+            reply.erase(0, half);
+            split_next = std::chrono::milliseconds{0};
         }
         send_main(std::move(reply), not_before);
     }
@@ -363,6 +384,18 @@ void simulator::corrupt_next_reply() {
 
 void simulator::delay_next_reply(std::chrono::milliseconds by) {
     if (impl_) impl_->post([by](simulator_impl& s) { s.delay_next = by; });
+}
+
+void simulator::split_next_reply(std::chrono::milliseconds pause) {
+    if (impl_) impl_->post([pause](simulator_impl& s) { s.split_next = pause; });
+}
+
+void simulator::high_bit_next_reply() {
+    if (impl_) impl_->post([](simulator_impl& s) { s.high_bit_next = true; });
+}
+
+void simulator::echo_next_reply() {
+    if (impl_) impl_->post([](simulator_impl& s) { s.echo_next = true; });
 }
 
 void simulator::refuse_next_command(std::string verb, int code) {

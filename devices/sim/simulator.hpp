@@ -56,9 +56,12 @@ class simulator : public std::enable_shared_from_this<simulator> {
 
     // Fault injection, applied to the next reply on the main port.
     void drop_next_reply();
-    void corrupt_next_reply();                            // first byte changed: unparseable line
-    void delay_next_reply(std::chrono::milliseconds by);  // real (unscaled) milliseconds
-    void emit_garbage(std::size_t bytes);                 // random bytes, never CR or LF
+    void corrupt_next_reply();                               // first byte changed: unparseable line
+    void delay_next_reply(std::chrono::milliseconds by);     // real (unscaled) milliseconds
+    void emit_garbage(std::size_t bytes);                    // random bytes, never CR or LF
+    void split_next_reply(std::chrono::milliseconds pause);  // two writes, a real pause between
+    void high_bit_next_reply();                              // one byte of it with bit 7 set
+    void echo_next_reply();                                  // sent twice
     // The next command with this verb ("MOVE", "CCB"; abbreviations count) is answered ":N<code>"
     // (code negative, ms2000/error.hpp) and not carried out.
     void refuse_next_command(std::string verb, int code);

@@ -57,3 +57,8 @@ printf '\x00%%\nO0001 (SAMPLE)\nG90 G21 G17\nG00 X1. Y2.\nG01 Z- .1 F300\nM03\nG
 printf '\x02G20 G0 X1 Y.5\nG01 F10. Z-.001\nG18 G02 X2. Z0 I.5 K0\nG19 G03 Y1. Z0 J.5\n' > gcode/analog_inch
 printf '\x01G91 G16 G01 X20. Y20. F60\nX20 Y20\nG15 G90 G02 Z5. I5.\n/N0 G0 X1000 ; G1 Y2\n' > gcode/polar_incremental
 printf '\x08G0 X1. X2.\nG28\n(a (b))\nG1 X F1\nG04 P1.5\n' > gcode/errors
+
+# fuzz_controller_data: byte 0 = chunk size seed, then what a controller might send on its main port.
+mkdir -p controller_data
+printf '\x05:A Version: USB-9.52 \r\nSTD_XYZ\rMotor Axes: X Y Z\rRING BUFFER 50\r\n:A X=10000 Y=10000 Z=10000\r\n:A X=-110 Y=-110 Z=-110\r\n:A X=0 Y=0\r\n:A 1234.5 -555.1 77.7 \r\nB\r\n:A B\r\n' > controller_data/identify_and_poll
+printf '\x03:A 12\xc3(\xff 3\r\nT:   400    0.0    0.1\r\n\x80\x81:N-21\r\n:A ASI-MS2000 STD_XYZ\r\n' > controller_data/noise

@@ -103,6 +103,12 @@ class drv_pty_controller {
         return commands_;
     }
 
+    // Forgets the commands recorded so far (the identification), so a test sees only its own.
+    void clear_commands() {
+        std::lock_guard lock(mu_);
+        commands_.clear();
+    }
+
     // Waits until at least `n` commands arrived; false on timeout.
     bool wait_for_commands(std::size_t n, std::chrono::milliseconds timeout = std::chrono::seconds(10)) {
         std::unique_lock lock(mu_);

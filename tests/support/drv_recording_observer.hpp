@@ -26,6 +26,9 @@ class drv_recording_observer : public devices::controller_observer {
     void on_trace(const devices::command_trace& t) override {
         record([&] { traces.push_back(t); });
     }
+    void on_link_fault(const devices::link_fault& f) override {
+        record([&] { faults.push_back(f.what); });
+    }
 
     // Waits until `pred` (called under the lock) holds; false on timeout.
     bool wait(const std::function<bool()>& pred,
@@ -55,6 +58,7 @@ class drv_recording_observer : public devices::controller_observer {
     std::vector<devices::report_event> reports;
     std::vector<devices::ttl_event> ttls;
     std::vector<devices::command_trace> traces;
+    std::vector<devices::link_fault::kind> faults;
 
   private:
     template <typename F>

@@ -7,8 +7,6 @@
 #include <unistd.h>
 #include <vector>
 
-#include <boost/asio/executor_work_guard.hpp>
-#include <boost/asio/io_context.hpp>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -16,8 +14,7 @@
 #include "devices/serial/controller.hpp"
 #include "devices/sim/sim_config.hpp"
 #include "devices/sim/simulator.hpp"
-#include "tests/support/drv_command_call.hpp"
-#include "tests/support/drv_recording_observer.hpp"
+#include "tests/support/drv_sim_fixture.hpp"
 
 namespace gw::devices {
 namespace {
@@ -27,74 +24,7 @@ using namespace std::chrono_literals;
 using boost::system::error_code;
 using result_pair = test::command_result;
 
-// One io_context with its own thread; the simulators and the driver each get one.
-struct io_thread {
-    net::io_context io;
-    net::executor_work_guard<net::io_context::executor_type> work = net::make_work_guard(io);
-    std::thread thread{[this] { io.run(); }};
-
-    ~io_thread() {
-        work.reset();
-        thread.join();
-    }
-};
-
-std::string unique_name(const std::string& base) {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    return "drv-" + base + "-" + info->name() + "-" + std::to_string(::getpid());
-}
-
-struct simulated_controller {
-    std::shared_ptr<sim::simulator> sim;
-    std::shared_ptr<test::drv_recording_observer> observer = std::make_shared<test::drv_recording_observer>();
-    std::shared_ptr<controller> ctl;
-
-    std::future<result_pair> submit(ms2000::command cmd) {
-        return test::submit_command(*ctl, std::move(cmd), "it");
-    }
-
-    result_pair call(ms2000::command cmd) { return test::await_command(submit(std::move(cmd)), 30s); }
-};
-
-class controller_sim_test : public ::testing::Test {
-  protected:
-    simulated_controller make(const std::string& preset_name, double time_scale = 10,
-                              std::chrono::milliseconds poll = 20ms) {
-        auto config = sim::preset(preset_name).value();
-        config.name = unique_name(preset_name + std::to_string(count_++));
-        config.time_scale = time_scale;
-        simulated_controller c;
-        c.sim = std::make_shared<sim::simulator>(sim_io_.io.get_executor(), config);
-        c.sim->start();
-        controller_settings s;
-        s.id = config.name;
-        s.port = c.sim->port_path();
-        s.report_port = c.sim->report_port_path();
-        s.baud = config.baud;
-        s.poll_interval = poll;
-        s.command_timeout = 2000ms;
-        s.reconnect_min = 50ms;
-        s.reconnect_max = 500ms;
-        c.ctl = std::make_shared<controller>(drv_io_.io.get_executor(), s, c.observer);
-        c.ctl->start();
-        started_.push_back(c);
-        return c;
-    }
-
-    void TearDown() override {
-        for (auto& c : started_) {
-            c.ctl->stop();
-            EXPECT_TRUE(c.observer->wait_state(connection_state::stopped));
-            c.sim->stop();
-        }
-        started_.clear();
-    }
-
-    io_thread sim_io_;
-    io_thread drv_io_;
-    std::vector<simulated_controller> started_;
-    int count_ = 0;
-};
+using controller_sim_test = test::drv_sim_fixture;
 
 TEST_F(controller_sim_test, identifies_a_full_and_a_plain_controller) {
     auto full = make("full");
@@ -259,6 +189,23 @@ TEST_F(controller_sim_test, recovers_from_dropped_corrupted_and_noisy_replies) {
     }
     EXPECT_FALSE(ec2) << ec2.message();
     EXPECT_EQ(reply2.values.size(), 3u);
+}
+
+TEST_F(controller_sim_test, a_replugged_controller_is_connected_again_without_waiting_out_the_backoff) {
+    // A backoff far longer than the test: only watching for the device node can reconnect in time.
+    auto c = make("plain", 10, 20ms, [](controller_settings& s) {
+        s.reconnect_min = 60s;
+        s.reconnect_max = 60s;
+        s.presence_check = 100ms;
+    });
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+    for (int cycle = 0; cycle < 3; ++cycle) {
+        c.sim->unplug();
+        ASSERT_TRUE(c.observer->wait_state(connection_state::disconnected));
+        std::this_thread::sleep_for(300ms);  // unplugged for a while (not an assertion)
+        c.sim->replug();
+        ASSERT_TRUE(c.observer->wait_state(connection_state::connected, 20s)) << "cycle " << cycle;
+    }
 }
 
 TEST_F(controller_sim_test, an_unplugged_controller_does_not_stop_the_other) {

@@ -100,7 +100,9 @@ TEST_F(controller_test, identifies_the_controller_on_connect) {
     EXPECT_EQ(s.axes[1].upper_limit_mm, 25.0);
     EXPECT_EQ(s.ttl_in0_mode, 0);
     EXPECT_EQ(s.ttl_out0_mode, 2);
-    const std::vector<std::string> expected{"V", "BU X", "CNTS X? Y?", "SL X? Y?", "SU X? Y?", "TTL X? Y?"};
+    // The resynchronisation probe that proves a fresh port in step, then the identification.
+    const std::vector<std::string> expected{"V",        "V",        "BU X",     "CNTS X? Y?",
+                                            "SL X? Y?", "SU X? Y?", "TTL X? Y?"};
     EXPECT_EQ(fake_.commands(), expected);
 }
 
@@ -123,7 +125,10 @@ TEST_F(controller_test, stale_bytes_before_a_command_are_discarded) {
     auto [ec, reply] = call(raw("NUM X?"));
     ASSERT_FALSE(ec) << ec.message();
     EXPECT_EQ(reply.raw, ":A");
-    fake_.set_responder([](const std::string&) -> std::vector<std::string> { return {":A 5\r\n"}; });
+    fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
+        if (c == "NUM X?") return {":A 5\r\n"};
+        return test::drv_pty_controller::default_reply(c);  // the resynchronisation probe's V
+    });
     fake_.write_raw("junk without end");
     auto [ec2, reply2] = call(raw("NUM X?"));
     ASSERT_FALSE(ec2) << ec2.message();
@@ -340,6 +345,9 @@ TEST_F(controller_test, polls_positions_and_busy_state) {
 TEST_F(controller_test, user_command_goes_ahead_of_the_next_poll_step) {
     auto s = settings();
     s.poll_interval = 20ms;
+    // The W is held on purpose: it must not time out meanwhile, or the resynchronisation's V would
+    // come next (a loaded machine can take seconds between the hold and the release).
+    s.command_timeout = 30s;
     start(s);
     ASSERT_TRUE(fake_.wait_for_commands(8));
     // Catch a W in flight, queue a user command, and check it is written right after the W.

@@ -1,0 +1,29 @@
+#pragma once
+// How accepted replies change a controller's snapshot. Pure: no I/O, no clock. The driver calls these
+// with replies that passed ms2000::accept_reply (so every string in them is printable ASCII); the
+// controller-data fuzz target drives them with whatever survives that test.
+
+#include <cstddef>
+#include <optional>
+
+#include "devices/ms2000/reply.hpp"
+#include "devices/serial/controller_snapshot.hpp"
+
+namespace gw::devices {
+
+// V: a fresh identity with the version.
+void apply_version(controller_snapshot& s, const ms2000::reply& r);
+// BU X (nullptr if the firmware refused it): build, axes in hardware order. False if no motor axes
+// were listed and the smallest MS-2000, an XY stage, was assumed.
+bool apply_build(controller_snapshot& s, const ms2000::reply* r);
+// CNTS, SL, SU: one number per axis into `field` of each axis_state.
+void apply_axis_numbers(controller_snapshot& s, const ms2000::reply& r,
+                        std::optional<double> axis_state::*field);
+// TTL X? Y?: the IN0 and OUT0 modes, named or positional.
+void apply_ttl_modes(controller_snapshot& s, const ms2000::reply& r);
+// W <axes>: positions in hardware order, tenths of a micron.
+void apply_where(controller_snapshot& s, const ms2000::reply& r);
+// RS <axis>?: whether that axis is busy.
+void apply_axis_busy(controller_snapshot& s, std::size_t axis_index, const ms2000::reply& r);
+
+}  // namespace gw::devices

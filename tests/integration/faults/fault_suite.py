@@ -1,0 +1,305 @@
+#!/usr/bin/env python3
+"""The serial fault suite: the real asi-gateway on external ms2000-sims, faults injected through the
+simulators' control sockets, every answer checked against the truth.
+
+  serial faults   drop, corrupt, delay, split, high-bit, echo and garbage faults on one controller
+                  while clients read positions through the raw command and the state; every answer
+                  is checked against the stage's real position (the stage is parked at positions no
+                  two axes share); a second controller on the same gateway must never see an error.
+  unplug storm    unplug/replug cycles; the time from replug to "connected" in the state.
+
+--short (CI, about a minute) or --long (by hand: --minutes of faults, more cycles). --results FILE
+writes the figures into the "Serial link" part of FILE's "Reliability" section (bench/RESULTS.md).
+Loopback and Unix sockets only; every loop is bounded in count and time. Debian's /usr/bin/python3,
+standard library only.
+"""
+
+import argparse
+import json
+import os
+import platform
+import random
+import re
+import sys
+import threading
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "api"))
+from gateway_fixture import TOKENS, Failure, Fixture, check, free_port, http_request, wait_until  # noqa: E402
+
+AXES = "XYZ"
+PARK_UM = {"X": 1234.5, "Y": -555.1, "Z": 77.7}  # no two axes share a position
+
+
+def rss_kib(pid):
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    return 0
+
+
+def percentile(values, p):
+    if not values:
+        return None
+    s = sorted(values)
+    return s[min(len(s) - 1, int(round(p / 100.0 * (len(s) - 1))))]
+
+
+class Gateway:
+    def __init__(self, port):
+        self.port = port
+
+    def request(self, method, path, body=None, token=TOKENS["admin"]):
+        status, text = http_request(self.port, method, path, body, token)
+        try:
+            return status, json.loads(text) if text else None
+        except ValueError:
+            return status, text
+
+    def state(self, cid):
+        return self.request("GET", f"/api/v1/controllers/{cid}", token=TOKENS["viewer"])
+
+    def raw(self, cid, line):
+        return self.request("POST", f"/api/v1/controllers/{cid}/command", {"command": line})
+
+
+def park(gw, cid):
+    """Moves the stage to PARK_UM and returns WHERE's tenths of a micron per axis."""
+    status, body = gw.request("POST", f"/api/v1/controllers/{cid}/move",
+                              {"axes": PARK_UM, "wait": True, "timeout_ms": 60000}, token=TOKENS["operator"])
+    check(status == 200, f"park {cid}: {status} {body}")
+    status, body = gw.raw(cid, "W X Y Z")
+    check(status == 200, f"W X Y Z on {cid}: {status} {body}")
+    values = [float(v) for v in body["reply"]["values"]]
+    check(len(values) == 3, f"W X Y Z answered {body['raw_reply']}")
+    return dict(zip(AXES, values))
+
+
+FAULTS = [
+    ("drop-next", lambda r: "drop-next"),
+    ("corrupt-next", lambda r: "corrupt-next"),
+    ("delay-next", lambda r: f"delay-next {r.choice([300, 800, 1500, 3000])}"),
+    ("split-next", lambda r: f"split-next {r.choice([5, 50, 200, 700])}"),
+    ("highbit-next", lambda r: "highbit-next"),
+    ("echo-next", lambda r: "echo-next"),
+    ("garbage", lambda r: f"garbage {r.choice([1, 16, 100, 500])}"),
+]
+
+
+class Tally:
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.counts = {}
+        self.mismatches = []
+
+    def add(self, key, n=1):
+        with self.lock:
+            self.counts[key] = self.counts.get(key, 0) + n
+
+    def mismatch(self, what):
+        with self.lock:
+            self.mismatches.append(what)
+
+
+def problem_type(body):
+    return body.get("type", "").rsplit("/", 1)[-1] if isinstance(body, dict) else str(body)[:40]
+
+
+def reader(gw, cid, truth, tally, stop, seed):
+    """Raw WHERE and VERSION commands and state reads until `stop`; every answer checked."""
+    r = random.Random(seed)
+    while not stop.is_set():
+        time.sleep(0.005)  # a busy client, not a spinning one (a disconnected controller answers at once)
+        axis = r.choice(AXES)
+        choice = r.random()
+        if choice < 0.6:
+            status, body = gw.raw(cid, f"W {axis}")
+            if status != 200:
+                tally.add(f"{cid} refused {status} {problem_type(body)}")
+                continue
+            tally.add(f"{cid} replies checked")
+            values = body["reply"]["values"]
+            if len(values) != 1 or float(values[0]) != truth[axis]:
+                tally.mismatch(f"{cid} W {axis} -> {body['raw_reply']!r} (truth {truth[axis]})")
+        elif choice < 0.8:
+            status, body = gw.raw(cid, "V")
+            if status != 200:
+                tally.add(f"{cid} refused {status} {problem_type(body)}")
+                continue
+            tally.add(f"{cid} replies checked")
+            if not re.match(r"^:A (Version: USB-|v)\d", body["raw_reply"]):
+                tally.mismatch(f"{cid} V -> {body['raw_reply']!r}")
+        else:
+            status, body = gw.state(cid)
+            if status != 200:
+                tally.add(f"{cid} refused state {status}")
+                continue
+            tally.add(f"{cid} states checked")
+            for a in body["axes"]:
+                if a["position_um"] is not None and abs(a["position_um"] - truth[a["axis"]] / 10.0) > 0.01:
+                    tally.mismatch(f"{cid} state {a['axis']} = {a['position_um']} (truth {truth[a['axis']] / 10})")
+
+
+def serial_faults(fx, gw, sims, minutes, seed, figures):
+    noisy, quiet = sims["noisy"], sims["quiet"]
+    truth = {cid: park(gw, cid) for cid in ("noisy", "quiet")}
+    tally = Tally()
+    stop = threading.Event()
+    readers = [threading.Thread(target=reader, args=(gw, cid, truth[cid], tally, stop, seed + i))
+               for i, cid in enumerate(["noisy", "noisy", "quiet"])]
+    for t in readers:
+        t.start()
+    r = random.Random(seed)
+    deadline = time.monotonic() + minutes * 60
+    injected = 0
+    try:
+        while time.monotonic() < deadline:
+            name, make = r.choice(FAULTS)
+            answer = noisy.control(make(r))
+            check(answer == "ok", f"control {name}: {answer}")
+            injected += 1
+            tally.add(f"fault {name}")
+            if r.random() < 0.1:
+                # The defect that took the gateway down: noise with high bytes, then text commands.
+                noisy.control("garbage 500")
+                for line in ("BU", "WHO", "BU X"):
+                    gw.raw("noisy", line)
+            time.sleep(r.uniform(0.05, 0.6))
+            check(fx.gateway.poll() is None, "the gateway died")
+    finally:
+        stop.set()
+        for t in readers:
+            t.join(timeout=120)
+    # The link comes back in step: the noisy controller answers correctly again.
+    wait_until("noisy answers W X again", lambda: gw.raw("noisy", "W X")[0] == 200)
+    status, body = gw.raw("noisy", "W X Y Z")
+    check(status == 200 and [float(v) for v in body["reply"]["values"]] == [truth["noisy"][a] for a in AXES],
+          f"after the faults: {status} {body}")
+    counts = tally.counts
+    quiet_refused = sum(v for k, v in counts.items() if k.startswith("quiet refused"))
+    figures["serial faults"] = {
+        "minutes": minutes, "faults injected": injected,
+        "replies checked": counts.get("noisy replies checked", 0) + counts.get("quiet replies checked", 0),
+        "states checked": counts.get("noisy states checked", 0) + counts.get("quiet states checked", 0),
+        "noisy refused (timeout/502)": sum(v for k, v in counts.items() if k.startswith("noisy refused")),
+        "quiet controller errors": quiet_refused,
+        "mismatches": len(tally.mismatches),
+        "crashes": 0 if fx.gateway.poll() is None else 1,
+        "by fault": {k[len("fault "):]: v for k, v in sorted(counts.items()) if k.startswith("fault ")},
+        "refusals": {k: v for k, v in sorted(counts.items()) if "refused" in k},
+    }
+    check(not tally.mismatches, f"{len(tally.mismatches)} answers were not their command's: {tally.mismatches[:5]}")
+    check(quiet_refused == 0, f"the quiet controller saw {quiet_refused} errors: one controller's faults reached another")
+    check(counts.get("noisy replies checked", 0) > 0, "no reply was checked")
+
+
+def unplug_storm(fx, gw, sims, cycles, seed, figures):
+    sim = sims["noisy"]
+    r = random.Random(seed)
+    latencies = []
+    rss = []
+    for i in range(cycles):
+        check(sim.control("unplug") == "ok", "unplug")
+        wait_until("disconnected", lambda: gw.state("noisy")[1]["state"] != "connected")
+        time.sleep(r.uniform(0.1, 2.0))
+        check(sim.control("replug") == "ok", "replug")
+        start = time.monotonic()
+        while gw.state("noisy")[1]["state"] != "connected":
+            check(time.monotonic() - start < 60, f"cycle {i}: not connected 60 s after replug")
+            time.sleep(0.01)
+        latencies.append(time.monotonic() - start)
+        rss.append(rss_kib(fx.gateway.pid))
+    figures["unplug storm"] = {
+        "cycles": cycles,
+        "replug to connected p50 s": round(percentile(latencies, 50), 3),
+        "p99 s": round(percentile(latencies, 99), 3),
+        "max s": round(max(latencies), 3),
+        "rss kib first/last": [rss[0], rss[-1]],
+        "crashes": 0 if fx.gateway.poll() is None else 1,
+    }
+    check(fx.gateway.poll() is None, "the gateway died")
+
+
+def write_results(path, figures, args):
+    section = ["### Serial link (`tests/integration/faults/fault_suite.py`)", "",
+               f"Machine: {platform.machine()}, {os.cpu_count()} cores, load average at the end "
+               f"{os.getloadavg()[0]:.2f}; {time.strftime('%Y-%m-%d')}; "
+               f"`fault_suite.py {'--long --minutes ' + str(args.minutes) if args.long else '--short'}`.", "",
+               "| part | figure | value |", "| --- | --- | --- |"]
+    for part, values in figures.items():
+        for k, v in values.items():
+            section.append(f"| {part} | {k} | {v} |")
+    block = "\n".join(section) + "\n"
+    text = open(path).read() if os.path.exists(path) else ""
+    start = text.find("### Serial link (")
+    if start >= 0:
+        end = text.find("\n## ", start + 1)
+        end2 = text.find("\n### ", start + 1)
+        ends = [e for e in (end, end2) if e >= 0]
+        end = min(ends) + 1 if ends else len(text)
+        text = text[:start] + block + ("\n" if end < len(text) else "") + text[end:]
+    elif "## Reliability" in text:
+        at = text.find("## Reliability")
+        nl = text.find("\n", at)
+        text = text[:nl + 1] + "\n" + block + text[nl + 1:]
+    else:
+        text = text.rstrip("\n") + "\n\n## Reliability\n\n" + block
+    with open(path, "w") as f:
+        f.write(text)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--gateway", required=True)
+    ap.add_argument("--sim", required=True)
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--short", action="store_true", help="the CI form (default)")
+    mode.add_argument("--long", action="store_true", help="the form run by hand")
+    ap.add_argument("--minutes", type=float, default=10.0, help="minutes of serial faults in --long")
+    ap.add_argument("--cycles", type=int, default=200, help="unplug cycles in --long")
+    ap.add_argument("--seed", type=int, default=12)
+    ap.add_argument("--results", help="write the figures into this RESULTS.md")
+    args = ap.parse_args()
+    minutes = args.minutes if args.long else 0.4
+    cycles = args.cycles if args.long else 8
+
+    fx = Fixture("gw-fault-suite-")
+    figures = {}
+    try:
+        sims = {name: fx.start_sim(args.sim, name, "full", time_scale=20) for name in ("noisy", "quiet")}
+        port = free_port()
+        controllers = [{"id": name, "port": sim.link, "baud": 115200, "poll_ms": 50, "command_timeout_ms": 500}
+                       for name, sim in sims.items()]
+        config = {"http": {"listen_address": "127.0.0.1", "port": port}, "controllers": controllers,
+                  "simulate": {"count": 0}, "auth": {"tokens": [{"name": "admin1", "token": TOKENS["admin"],
+                                                                  "role": "admin"},
+                                                                 {"name": "operator1", "token": TOKENS["operator"],
+                                                                  "role": "operator"},
+                                                                 {"name": "viewer1", "token": TOKENS["viewer"],
+                                                                  "role": "viewer"}]},
+                  "logging": {"level": os.environ.get("FAULT_SUITE_LOG_LEVEL", "warn")}}
+        fx.start_gateway(args.gateway, config)
+        gw = Gateway(port)
+        fx.run("serial faults: every answer is its command's", serial_faults, fx, gw, sims, minutes, args.seed,
+               figures)
+        fx.run("unplug storm: every replug reconnects", unplug_storm, fx, gw, sims, cycles, args.seed, figures)
+        print(json.dumps(figures, indent=1))
+        if args.results and not fx.failures:
+            write_results(args.results, figures, args)
+        fx.finish_log(80)
+        if os.environ.get("FAULT_SUITE_KEEP_LOG") and fx.log_path:
+            import shutil
+            shutil.copy(fx.log_path, os.environ["FAULT_SUITE_KEEP_LOG"])
+    finally:
+        fx.cleanup()
+    print(f"{len(fx.passed)} passed, {len(fx.failures)} failed")
+    return 0 if not fx.failures else 1
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except Failure as e:
+        print(f"setup failed: {e}")
+        sys.exit(1)

@@ -1,0 +1,264 @@
+// Reply matching under faults: a reply is an answer only once it fits its command, and after any doubt
+// the link is resynchronised before the next command. Against a pty that plays the controller.
+#include <atomic>
+#include <future>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/io_context.hpp>
+#include <gtest/gtest.h>
+
+#include "devices/ms2000/error.hpp"
+#include "devices/ms2000/reply_check.hpp"
+#include "devices/serial/controller.hpp"
+#include "tests/support/drv_command_call.hpp"
+#include "tests/support/drv_pty_controller.hpp"
+#include "tests/support/drv_recording_observer.hpp"
+
+namespace gw::devices {
+namespace {
+
+namespace net = boost::asio;
+using namespace std::chrono_literals;
+using kind = link_fault::kind;
+
+ms2000::command raw(std::string_view line) {
+    auto c = ms2000::raw_command(line);
+    EXPECT_TRUE(c.has_value()) << line;
+    return c.value();
+}
+
+// The identification replies of an XYZ stage (the fake's default is an XY one).
+std::vector<std::string> xyz_reply(const std::string& c) {
+    if (c == "BU X") return {"STD_XYZ\rMotor Axes: X Y Z\rAxis Addr: 1 2 3\r\n"};
+    if (c == "CNTS X? Y? Z?") return {":A X=10000 Y=10000 Z=10000\r\n"};
+    if (c == "SL X? Y? Z?") return {":A X=-50 Y=-25 Z=-5\r\n"};
+    if (c == "SU X? Y? Z?") return {":A X=50 Y=25 Z=5\r\n"};
+    if (c == "W X Y Z") return {":A 1.0 2.0 3.0 \r\n"};
+    return test::drv_pty_controller::default_reply(c);
+}
+
+// An observer whose every callback throws: what a bug in an event encoder would do.
+class throwing_observer : public controller_observer {
+  public:
+    void on_snapshot(const controller_snapshot&) override { fail(); }
+    void on_trace(const command_trace&) override { fail(); }
+    void on_link_fault(const link_fault&) override { fail(); }
+    std::atomic<int> calls{0};
+
+  private:
+    void fail() {
+        ++calls;
+        throw std::runtime_error("encoder failed");
+    }
+};
+
+class controller_sync_test : public ::testing::Test {
+  protected:
+    controller_settings settings() const {
+        controller_settings s;
+        s.id = "sync";
+        s.port = fake_.link();
+        s.baud = 115200;
+        s.poll_interval = 0ms;
+        s.command_timeout = 300ms;
+        s.reconnect_min = 20ms;
+        s.reconnect_max = 200ms;
+        s.presence_check = 50ms;
+        s.resync_delay = 50ms;
+        return s;
+    }
+
+    void start(const controller_settings& s, std::shared_ptr<controller_observer> observer = {}) {
+        observed_ = observer ? std::move(observer) : observer_;
+        ctl_ = std::make_shared<controller>(io_.get_executor(), s, observed_);
+        thread_ = std::thread([this] { io_.run(); });
+        ctl_->start();
+    }
+
+    void TearDown() override {
+        if (ctl_) {
+            ctl_->stop();
+            std::promise<void> stopped;
+            ctl_->get_snapshot([&](const controller_snapshot&) { stopped.set_value(); });
+            stopped.get_future().wait_for(5s);
+        }
+        work_.reset();
+        if (thread_.joinable()) thread_.join();
+    }
+
+    test::command_result call(ms2000::command cmd) {
+        return test::await_command(test::submit_command(*ctl_, std::move(cmd), "t"), 20s);
+    }
+
+    std::size_t count_of(kind k) {
+        return observer_->locked(
+            [&] { return std::count(observer_->faults.begin(), observer_->faults.end(), k); });
+    }
+
+    net::io_context io_;
+    net::executor_work_guard<net::io_context::executor_type> work_ = net::make_work_guard(io_);
+    std::thread thread_;
+    test::drv_pty_controller fake_;
+    std::shared_ptr<test::drv_recording_observer> observer_ =
+        std::make_shared<test::drv_recording_observer>();
+    std::shared_ptr<controller_observer> observed_;
+    std::shared_ptr<controller> ctl_;
+};
+
+TEST_F(controller_sync_test, a_reply_that_does_not_fit_its_command_is_refused_and_the_link_resynchronised) {
+    start(settings());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    std::atomic<int> wheres{0};
+    fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
+        // The first WHERE of two axes gets one number: the late answer of a "W X", not its own.
+        if (c == "W X Y" && wheres++ == 0) return {":A 12344.9\r\n"};
+        return test::drv_pty_controller::default_reply(c);
+    });
+    fake_.clear_commands();
+    const auto resynced_at_connect = count_of(kind::resynced);
+    auto [ec, reply] = call(ms2000::where("XY"));
+    EXPECT_EQ(ec, ms2000::error::unrecognized_reply);
+    EXPECT_TRUE(reply.values.empty()) << "a refused reply hands out no values";
+
+    auto [ec2, reply2] = call(ms2000::where("XY"));
+    ASSERT_FALSE(ec2) << ec2.message();
+    EXPECT_EQ(reply2.number(0), 100.0);
+    // Between the two: the probe, and nothing else was let through.
+    const std::vector<std::string> expected{"W X Y", "V", "W X Y"};
+    EXPECT_EQ(fake_.commands(), expected);
+    EXPECT_EQ(count_of(kind::mismatch), 1u);
+    EXPECT_EQ(count_of(kind::resynced), resynced_at_connect + 1);
+}
+
+TEST_F(controller_sync_test, a_move_answered_with_values_is_not_acknowledged) {
+    start(settings());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
+        if (c == "M X=10") return {":A 555.1 0\r\n"};
+        return test::drv_pty_controller::default_reply(c);
+    });
+    EXPECT_EQ(call(raw("M X=10")).first, ms2000::error::unrecognized_reply);
+    EXPECT_FALSE(call(ms2000::where("XY")).first);
+}
+
+TEST_F(controller_sync_test, bytes_that_are_not_ascii_never_reach_a_reply) {
+    start(settings());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
+        if (c == "WHO") return {std::string(":A ASI\xFF\xC3(\r\n")};
+        return test::drv_pty_controller::default_reply(c);
+    });
+    auto [ec, reply] = call(ms2000::who());
+    EXPECT_EQ(ec, ms2000::error::unrecognized_reply);
+    EXPECT_EQ(reply.raw, ":A ASI\\xFF\\xC3(") << "escaped, never the raw bytes";
+    EXPECT_TRUE(ms2000::is_reply_text(reply.raw));
+    const auto traces = observer_->locked([&] { return observer_->traces; });
+    for (const auto& t : traces)
+        EXPECT_TRUE(ms2000::is_reply_text(t.raw_reply)) << t.raw_reply;
+    EXPECT_EQ(count_of(kind::noise), 1u);
+    EXPECT_FALSE(call(ms2000::where("XY")).first);
+}
+
+TEST_F(controller_sync_test, a_late_reply_after_the_probe_starts_the_resynchronisation_over) {
+    auto s = settings();
+    start(s);
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    std::atomic<int> versions{0};
+    fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
+        if (c == "DROP") return {};
+        // The first probe is answered twice: as if an earlier V's answer had been late.
+        if (c == "V" && versions++ == 0) return {":A Version: USB-9.50 \r\n", ":A Version: USB-9.50 \r\n"};
+        return test::drv_pty_controller::default_reply(c);
+    });
+    fake_.clear_commands();
+    EXPECT_EQ(call(raw("DROP")).first, ms2000::error::timeout);
+    EXPECT_FALSE(call(ms2000::where("XY")).first);
+    const std::vector<std::string> expected{"DROP", "V", "V", "W X Y"};
+    EXPECT_EQ(fake_.commands(), expected);
+}
+
+TEST_F(controller_sync_test, a_halt_goes_out_at_once_while_the_link_is_out_of_step) {
+    start(settings());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
+        if (c == "DROP") return {};
+        return test::drv_pty_controller::default_reply(c);
+    });
+    fake_.clear_commands();
+    auto dropped = test::submit_command(*ctl_, raw("DROP"), "t");
+    auto halt = test::submit_command(*ctl_, ms2000::halt(), "t");  // waits behind DROP's deadline only
+    EXPECT_EQ(test::await_command(std::move(dropped), 20s).first, ms2000::error::timeout);
+    EXPECT_FALSE(test::await_command(std::move(halt), 20s).first);
+    const auto commands = fake_.commands();
+    ASSERT_GE(commands.size(), 2u);
+    EXPECT_EQ(commands[1], "\\") << "the HALT went before the resynchronisation's probe";
+}
+
+TEST_F(controller_sync_test, a_halt_whose_answer_is_in_doubt_is_sent_again_once_in_step) {
+    start(settings());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    std::atomic<int> halts{0};
+    fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
+        if (c == "\\" && halts++ == 0) return {":A 12 34\r\n"};  // another command's late reply
+        return test::drv_pty_controller::default_reply(c);
+    });
+    fake_.clear_commands();
+    EXPECT_FALSE(call(ms2000::halt()).first);
+    const std::vector<std::string> expected{"\\", "V", "\\"};
+    EXPECT_EQ(fake_.commands(), expected);
+}
+
+TEST_F(controller_sync_test, noise_during_identification_starts_it_over_instead_of_guessing_the_axes) {
+    std::atomic<int> builds{0};
+    fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
+        if (c == "BU X" && builds++ == 0) return {std::string("\xC3(\xFF\r\n")};
+        return xyz_reply(c);
+    });
+    start(settings());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    const auto s = observer_->latest();
+    ASSERT_TRUE(s.identity);
+    EXPECT_EQ(s.identity->build.motor_axes, "XYZ") << "not the XY a firmware without BU X is taken for";
+    EXPECT_EQ(s.axes.size(), 3u);
+    EXPECT_GE(builds.load(), 2);
+}
+
+TEST_F(controller_sync_test, a_ttl_mode_set_by_a_command_is_read_back_into_the_snapshot) {
+    std::atomic<int> in0{0};
+    fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
+        if (c == "TTL X=7") {
+            in0 = 7;
+            return {":A\r\n"};
+        }
+        if (c == "TTL X? Y?") return {":A X=" + std::to_string(in0.load()) + " Y=2\r\n"};
+        return test::drv_pty_controller::default_reply(c);
+    });
+    start(settings());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    EXPECT_EQ(observer_->latest().ttl_in0_mode, 0);
+    EXPECT_FALSE(call(raw("TTL X=7")).first);
+    EXPECT_TRUE(observer_->wait([&] { return observer_->snapshots.back().ttl_in0_mode == 7; }));
+}
+
+TEST_F(controller_sync_test, an_observer_that_throws_is_contained_and_the_controller_goes_on) {
+    auto thrower = std::make_shared<throwing_observer>();
+    start(settings(), thrower);
+    // Identification and commands go on although every event handler throws.
+    test::command_result result;
+    for (int i = 0; i < 100; ++i) {
+        result = call(ms2000::where("XY"));
+        if (!result.first) break;
+        std::this_thread::sleep_for(20ms);  // not connected yet
+    }
+    ASSERT_FALSE(result.first) << result.first.message();
+    EXPECT_EQ(result.second.number(1), -20.0);
+    EXPECT_GT(thrower->calls.load(), 0);
+}
+
+}  // namespace
+}  // namespace gw::devices
