@@ -334,7 +334,7 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
     if (first >= visits.size()) co_return;
     const bool firmware = plan.path == "firmware";
     const auto start_snapshot = ctx.snapshot();
-    const int restore_in0 = start_snapshot.ttl_in0_mode.value_or(0);
+    const bool changes_in0 = firmware || spec.advance == advance_source::ttl;
 
     // A1: given; or "current" = where the stage is when a fresh job starts; a resumed job keeps the
     // A1 its plan was made with (the stage has moved since).
@@ -379,7 +379,11 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
         0.5 * 1000.0 * std::min(std::abs(spec.geometry.column_step_mm), std::abs(spec.geometry.row_step_mm)));
 
     // IN0 goes back to its mode after the run; after a cancel or a failure the manager does it.
-    if (firmware || spec.advance == advance_source::ttl) ctx.restore_if_stopped(ttl_in0(restore_in0));
+    int restore_in0 = 0;
+    if (changes_in0) {
+        restore_in0 = co_await in0_mode_before(ctx);
+        ctx.restore_if_stopped(ttl_in0(restore_in0));
+    }
     if (firmware) {
         // Named lines, never temporaries in a co_await expression (g++ 12 coroutine temporaries).
         const std::vector<std::string> setup{ttl_in0(7), array_setup(spec.geometry),
@@ -427,7 +431,7 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
                        {"position", to_json(measured)},
                        {"target", to_json(position_um{{'X', targets[i].first}, {'Y', targets[i].second}})}});
     }
-    if (firmware || spec.advance == advance_source::ttl) {
+    if (changes_in0) {
         const std::string restore = ttl_in0(restore_in0);
         co_await ctx.command(restore);
     }

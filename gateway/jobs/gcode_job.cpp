@@ -444,22 +444,6 @@ milliseconds wait_timeout_for(double estimated_s) {
     return std::min(milliseconds(ms), max_wait_timeout);
 }
 
-boost::asio::awaitable<std::map<char, double>> current_speeds(job_context& ctx, std::string axes) {
-    std::string query = "SPEED";
-    for (const char a : axes)
-        query += fmt::format(" {}?", a);
-    auto reply = co_await ctx.command(std::move(query));
-    std::map<char, double> out;
-    for (const char a : axes) {
-        const auto* v = reply.axis(a);
-        if (!v || !v->number)
-            throw job_failure(make_error(operation_error_kind::controller_error,
-                                         fmt::format("unexpected SPEED reply \"{}\"", reply.raw)));
-        out[a] = *v->number;
-    }
-    co_return out;
-}
-
 // Sends the commands of one segment and waits until the stage has stopped.
 boost::asio::awaitable<void> run_segment(job_context& ctx, segment_commands c, double estimated_s) {
     if (!c.speed.empty()) co_await ctx.command(std::move(c.speed));
@@ -492,7 +476,7 @@ boost::asio::awaitable<void> run_gcode(job_context& ctx) {
         ranges[axis] = {top * min_speed_fraction, top};
         axes += axis;
     }
-    const auto original = co_await current_speeds(ctx, axes);
+    const auto original = co_await ctx.settings_before("SPEED", axes);
     ctx.restore_if_stopped(speed_command_text(original));
     ctx.restore_if_stopped(ttl_command_text(false));
     trace_commander commander(ranges, original);

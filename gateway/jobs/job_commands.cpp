@@ -1,5 +1,8 @@
 #include "gateway/jobs/job_commands.hpp"
 
+#include <cctype>
+#include <charconv>
+
 namespace gw::jobs {
 
 namespace ms = devices::ms2000;
@@ -30,6 +33,32 @@ std::string command_text(std::string_view verb, std::initializer_list<ms::argume
 std::string move_text(std::span<const ms::axis_position> to) {
     auto c = ms::move(to);
     return c ? wire_text(*c) : "M";
+}
+
+std::string query_text(std::string_view verb, std::string_view letters) {
+    return wire_text(ms::query(verb, letters));
+}
+
+std::map<char, double> values_set(std::string_view line, std::string_view verb) {
+    std::map<char, double> out;
+    if (!line.starts_with(verb) || line.size() == verb.size() || line[verb.size()] != ' ') return out;
+    std::string_view rest = line.substr(verb.size());
+    while (!rest.empty()) {
+        const auto start = rest.find_first_not_of(' ');
+        if (start == std::string_view::npos) break;
+        rest.remove_prefix(start);
+        const auto token = rest.substr(0, rest.find(' '));
+        rest.remove_prefix(token.size());
+        // "X=1.5": a letter, "=", a number; other arguments set nothing.
+        if (token.size() < 3 || !std::isalpha(static_cast<unsigned char>(token[0])) || token[1] != '=')
+            continue;
+        double value = 0;
+        const auto number = token.substr(2);
+        const auto [end, ec] = std::from_chars(number.data(), number.data() + number.size(), value);
+        if (ec != std::errc{} || end != number.data() + number.size()) continue;
+        out[static_cast<char>(std::toupper(static_cast<unsigned char>(token[0])))] = value;
+    }
+    return out;
 }
 
 bool has_module(const devices::controller_snapshot& s, ms::module m) {

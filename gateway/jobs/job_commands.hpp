@@ -3,6 +3,7 @@
 // the facts about a controller a job type asks for. Pure.
 
 #include <initializer_list>
+#include <map>
 #include <span>
 #include <string>
 #include <string_view>
@@ -22,6 +23,13 @@ std::string command_text(std::string_view verb, std::initializer_list<devices::m
 
 // "M X=<tenths> Y=<tenths>" for positions in micrometres; "M" when there are none.
 std::string move_text(std::span<const devices::ms2000::axis_position> to);
+
+// "SPEED X? Y?": the query of `verb` for each letter of `letters`.
+std::string query_text(std::string_view verb, std::string_view letters);
+
+// The values a command line sets, by letter: "SPEED X=1.5 Y=2" is {X: 1.5, Y: 2} for verb "SPEED";
+// empty for another verb's line. Reads a restore command back as the settings it puts back.
+std::map<char, double> values_set(std::string_view line, std::string_view verb);
 
 bool has_module(const devices::controller_snapshot& s, devices::ms2000::module m);
 // The axis's hardware index (0 = first motor axis; SCAN Y=/Z= and RM Y= use it), -1 when absent.

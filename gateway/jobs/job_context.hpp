@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <exception>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -81,6 +82,13 @@ class job_context {
     // is already registered is kept once. The list is stored with the job at once, so that a gateway
     // started after a crash sends it too (job_manager::start).
     virtual void restore_if_stopped(std::string command) = 0;
+    // What settings of `verb` ("TTL" X: the IN0 mode; "SPEED" X Y) were before any job changed them,
+    // by letter, for the commands that put them back: the value a restore command of the job names
+    // (the oldest: registered before the change), else the controller's answer to "<verb> X? Y?" now.
+    // Never the snapshot: after a restart it shows what a crashed run left. Earlier runs' leftovers
+    // are put back before a run starts (job_manager.cpp). job_failure on a reply without the values.
+    virtual boost::asio::awaitable<std::map<char, double>> settings_before(std::string verb,
+                                                                           std::string letters) = 0;
 
     // Serial work, tagged with the job's request id. command() throws job_failure on ":N-<code>".
     virtual boost::asio::awaitable<devices::ms2000::reply> command(std::string line) = 0;
@@ -94,5 +102,11 @@ class job_context {
     // that arrive while no one waits are counted and consumed by the following waits (none is lost).
     virtual boost::asio::awaitable<void> wait_advance(advance_source source) = 0;
 };
+
+// settings_before("TTL", "X"): the IN0 mode to put back.
+inline boost::asio::awaitable<int> in0_mode_before(job_context& ctx) {
+    const auto before = co_await ctx.settings_before("TTL", "X");
+    co_return static_cast<int>(before.at('X'));
+}
 
 }  // namespace gw::jobs

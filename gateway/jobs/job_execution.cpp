@@ -9,6 +9,7 @@
 #include "devices/ms2000/error.hpp"
 #include "devices/ms2000/host_step_timing.hpp"
 #include "gateway/controller_registry.hpp"
+#include "gateway/jobs/job_commands.hpp"
 
 namespace gw::jobs {
 
@@ -100,6 +101,29 @@ void job_execution::restore_if_stopped(std::string command) {
     list.push_back(std::move(command));
     if (abandoned_) return;
     if (auto h = host_.lock()) h->on_restore_commands_changed(*job_);
+}
+
+net::awaitable<std::map<char, double>> job_execution::settings_before(std::string verb, std::string letters) {
+    std::map<char, double> out;
+    for (const auto& registered : job_->restore_commands)
+        for (const auto& [letter, value] : values_set(registered, verb))
+            if (letters.find(letter) != std::string::npos) out.try_emplace(letter, value);
+    std::string ask;
+    for (const char letter : letters)
+        if (!out.contains(letter)) ask += letter;
+    if (ask.empty()) co_return out;
+    std::string query = query_text(verb, ask);
+    auto reply = co_await command(std::move(query));
+    for (const char letter : ask) {
+        const auto* v = reply.axis(letter);
+        std::optional<double> value = v ? v->number : std::nullopt;
+        if (!value && ask.size() == 1) value = reply.number(0);  // ":A 0": no letter in the answer
+        if (!value)
+            throw job_failure(make_error(operation_error_kind::controller_error,
+                                         fmt::format("unexpected {} reply \"{}\"", verb, reply.raw)));
+        out[letter] = *value;
+    }
+    co_return out;
 }
 
 net::awaitable<devices::ms2000::reply> job_execution::command(std::string line) {

@@ -42,7 +42,9 @@ struct live_job {
     std::shared_ptr<job_execution> exec;  // while a run() coroutine exists
     bool queued_in_lane = false;          // in its controller's FIFO
     bool stopping = false;                // a cancel is sending HALT / TTL Y=0: the job keeps the controller
-    std::vector<std::string> restore_commands;  // job_context::restore_if_stopped, for this run
+    // job_context::restore_if_stopped, registration order. What a run left changed (a disconnect
+    // ended it) stays here: the next run puts it back before it starts.
+    std::vector<std::string> restore_commands;
     // Paused by a disconnect while it had registered "TTL Y=0": sent when the controller is back.
     bool ttl_low_on_reconnect = false;
     // The store refused this job's history while it ran (SQLite's message): it pauses at the next
@@ -86,6 +88,8 @@ class job_execution final : public job_context, public std::enable_shared_from_t
     std::vector<nlohmann::json> completed_steps() const override;
     std::filesystem::path gcode_files() const override;
     void restore_if_stopped(std::string command) override;
+    boost::asio::awaitable<std::map<char, double>> settings_before(std::string verb,
+                                                                   std::string letters) override;
     boost::asio::awaitable<devices::ms2000::reply> command(std::string line) override;
     boost::asio::awaitable<move_result> move(move_request request) override;
     boost::asio::awaitable<void> wait_idle(std::chrono::milliseconds timeout) override;

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <map>
 #include <mutex>
+#include <set>
 
 #include <boost/asio/append.hpp>
 #include <boost/asio/co_spawn.hpp>
@@ -30,6 +31,12 @@
 #include "gateway/jobs/safe_outputs.hpp"
 #include "gateway/lease_manager.hpp"
 #include "gateway/logging.hpp"
+
+// g++ 12 reports a false -Wmismatched-new-delete at the end of some asio coroutines (the awaitable
+// frame's own operator new/delete pair); clang and g++ 13 do not.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
 
 namespace gw::jobs {
 
@@ -212,17 +219,25 @@ class manager_core final : public execution_host, public std::enable_shared_from
     net::awaitable<std::string> ttl_output_low(std::string controller, std::string request_id);
     // For a job that a crash interrupted: "TTL Y=0" (safe_outputs.hpp), then its stored restore
     // commands newest first (as safe_stop does), once; what fails to reach the controller waits for the
-    // next connect. Sent with safe_output_request_id(), not as the job's.
+    // next connect or the next run. Sent with safe_output_request_id(), not as the job's.
     void send_recovery(const std::string& controller);
-    // Keeps `rec` to send once the controller is connected; a pending recovery of another (older) job
-    // on the controller is dropped, in the store too.
-    void add_recovery(const std::string& controller, recovery rec);
+    // Sends "TTL Y=0" when owed.ttl_low, then owed.restore newest first, under `request_id`. Returns
+    // what did not reach the controller (a refusal did: it would be refused again), with its error.
+    net::awaitable<std::pair<recovery, std::optional<operation_error>>> deliver(std::string controller,
+                                                                                std::string request_id,
+                                                                                recovery owed);
+    // Keeps `rec` to send once the controller is connected. A recovery already pending there is kept
+    // too, the older list first: sent newest first, a setting both runs changed ends at the older run's
+    // value, the one from before either. Stored under the newer job.
+    void add_recovery(const std::string& controller, recovery rec, bool rec_is_older = false);
     // start(): the stored restore commands of jobs that were not active (ended or interrupted before),
     // which an earlier run of the gateway could not deliver.
     void recover_undelivered_restores(const std::vector<job_record>& active);
-    // A run starts on the controller: it owns the controller's settings (and its output, when it may
-    // drive it), so a late recovery must not cut into it.
-    void drop_recovery_for(const live_job& launched);
+    // Before a run starts: waits for a recovery being sent to the controller, then puts back what
+    // earlier runs left changed there (a pending recovery, the job's own run that a disconnect ended),
+    // so that the run reads the settings from before any job changed them. What does not reach the
+    // controller stays in the job's restore commands, and the run does not start (job_failure).
+    net::awaitable<void> put_back_before_run(std::shared_ptr<live_job> job);
     net::awaitable<void> shutdown_coro(std::function<void()> done);
 
     bool controller_connected(const std::string& id) const {
@@ -253,6 +268,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
     std::map<std::string, job_record> live_records_;
     // Controller -> what an interrupted job left on it that must still be undone (strand only).
     std::map<std::string, recovery> recovery_pending_;
+    // Controllers a recovery is being sent to (send_recovery); a run there waits for it.
+    std::set<std::string> recovering_;
     // Job id -> its writes the store refused (disk full, read-only file), retried in order (strand
     // only). Kept after the job has ended: its final state must reach the store too.
     std::map<std::string, unstored_history> unstored_;
@@ -810,17 +827,18 @@ void manager_core::dispatch(const std::string& controller) {
 
 void manager_core::launch(std::shared_ptr<live_job> job) {
     const auto first = std::min(job->record.progress.steps_done, job->plan->steps.size());
-    job->restore_commands.clear();  // the new run registers what it changes
-    store_restore_commands(job->record.id, job->restore_commands);
     job->ttl_low_on_reconnect = false;  // the run owns the output again
-    drop_recovery_for(*job);
     auto exec = std::make_shared<job_execution>(strand_, registry_, weak_from_this(), job, first);
     job->exec = exec;
     job->record.progress.remaining_s = remaining_from(*job->plan, first);
     ++running_;
     set_state(*job, job_state::running, "");
     net::co_spawn(
-        strand_, [exec]() -> net::awaitable<void> { co_await run_job(*exec); },
+        strand_,
+        [self = shared_from_this(), job, exec]() -> net::awaitable<void> {
+            co_await self->put_back_before_run(job);
+            co_await run_job(*exec);
+        },
         [self = shared_from_this(), exec](std::exception_ptr e) { self->run_finished(exec, e); });
 }
 
@@ -929,7 +947,7 @@ net::awaitable<void> manager_core::restore_settings(std::shared_ptr<live_job> jo
     }
     if (restore.empty()) co_return;
     // Kept in the store for the next start when the gateway is shutting down; otherwise sent once the
-    // controller is connected again (unless a new run on it comes first).
+    // controller is connected again, or before the next run on it.
     store_restore_commands(job->record.id, undelivered);
     if (undelivered.empty() || shutting_down_) co_return;
     recovery rec;
@@ -1188,16 +1206,25 @@ void manager_core::controller_came_up(const std::string& controller) {
     });
 }
 
-void manager_core::add_recovery(const std::string& controller, recovery rec) {
+void manager_core::add_recovery(const std::string& controller, recovery rec, bool rec_is_older) {
     auto [it, added] = recovery_pending_.try_emplace(controller, rec);
     if (added) return;
-    if (it->second.job_id != rec.job_id) {
-        // The newer job's run changed the controller after the older one: its list is the one to undo.
-        log_->warn("{}: the restore commands of job {} are dropped for those of the later job {}", controller,
-                   it->second.job_id, rec.job_id);
-        store_restore_commands(it->second.job_id, {});
+    const recovery& older = rec_is_older ? rec : it->second;
+    const recovery& newer = rec_is_older ? it->second : rec;
+    recovery both;
+    both.job_id = newer.job_id;
+    both.ttl_low = older.ttl_low || newer.ttl_low;
+    both.restore = older.restore;
+    for (const auto& c : newer.restore)
+        if (std::find(both.restore.begin(), both.restore.end(), c) == both.restore.end())
+            both.restore.push_back(c);
+    store_restore_commands(both.job_id, both.restore);
+    if (older.job_id != newer.job_id) {
+        log_->info("{}: the restore commands of job {} are kept with those of job {}", controller,
+                   older.job_id, newer.job_id);
+        store_restore_commands(older.job_id, {});
     }
-    it->second = std::move(rec);
+    it->second = std::move(both);
 }
 
 void manager_core::recover_undelivered_restores(const std::vector<job_record>& active) {
@@ -1230,86 +1257,122 @@ void manager_core::recover_undelivered_restores(const std::vector<job_record>& a
     }
 }
 
-void manager_core::drop_recovery_for(const live_job& launched) {
-    auto it = recovery_pending_.find(launched.record.controller);
-    if (it == recovery_pending_.end()) return;
-    auto& pending = it->second;
-    if (!pending.restore.empty()) {
-        if (pending.job_id != launched.record.id) {
-            log_->warn(
-                "job {} starts on {} before the restore commands of the interrupted job {} could be "
-                "sent; they are dropped",
-                launched.record.id, launched.record.controller, pending.job_id);
-            store_restore_commands(pending.job_id, {});
-        }
-        pending.restore.clear();  // the job's own new run stored an empty list in launch()
+net::awaitable<void> manager_core::put_back_before_run(std::shared_ptr<live_job> job) {
+    const std::string controller = job->record.controller;
+    const std::string id = job->record.id;
+    net::steady_timer wait(strand_);
+    while (recovering_.contains(controller) && !abandoned_) {
+        wait.expires_after(std::chrono::milliseconds(10));
+        boost::system::error_code ec;
+        co_await wait.async_wait(net::redirect_error(net::use_awaitable, ec));
     }
-    if (may_leave_ttl_output_high(launched.record.type, launched.record.spec)) pending.ttl_low = false;
-    if (!pending.ttl_low) recovery_pending_.erase(it);
+    if (abandoned_) co_return;
+    recovery owed;
+    if (auto it = recovery_pending_.find(controller); it != recovery_pending_.end()) {
+        owed = std::move(it->second);
+        recovery_pending_.erase(it);
+    }
+    const std::string earlier_job = owed.job_id;
+    owed.job_id = id;
+    for (const auto& c : job->restore_commands)
+        if (std::find(owed.restore.begin(), owed.restore.end(), c) == owed.restore.end())
+            owed.restore.push_back(c);
+    if (!owed.ttl_low && owed.restore.empty()) co_return;
+    // The job owns the list now: stored under it before the earlier job's row goes (a crash between
+    // the two leaves both, and start() sends both).
+    job->restore_commands = owed.restore;
+    store_restore_commands(id, job->restore_commands);
+    if (!earlier_job.empty() && earlier_job != id) store_restore_commands(earlier_job, {});
+
+    const std::string request_id = safe_output_request_id(id);
+    auto [left, error] = co_await deliver(controller, request_id, owed);
+    for (const auto& c : owed.restore)
+        if (std::find(left.restore.begin(), left.restore.end(), c) == left.restore.end())
+            std::erase(job->restore_commands, c);
+    auto& r = job->restore_commands;
+    if (left.ttl_low && std::find(r.begin(), r.end(), "TTL Y=0") == r.end()) r.emplace_back("TTL Y=0");
+    store_restore_commands(id, r);
+    const std::size_t total = owed.restore.size() + (owed.ttl_low ? 1 : 0);
+    const std::size_t undelivered = left.restore.size() + (left.ttl_low ? 1 : 0);
+    log_->info("[{}] {}: before job {} runs, {} of {} command(s) put back what earlier runs left changed",
+               request_id, controller, id, total - undelivered, total);
+    if (!error) co_return;
+    auto e = *error;
+    e.message = fmt::format("{}: what an earlier run left changed could not be put back: {}", controller,
+                            describe(*error));
+    throw job_failure(std::move(e));
 }
 
 void manager_core::send_recovery(const std::string& controller) {
     auto it = recovery_pending_.find(controller);
-    if (it == recovery_pending_.end() || abandoned_) return;
+    if (it == recovery_pending_.end() || abandoned_ || recovering_.contains(controller)) return;
     recovery pending = std::move(it->second);
     recovery_pending_.erase(it);
+    recovering_.insert(controller);
     net::co_spawn(
         strand_,
         [self = shared_from_this(), controller, pending = std::move(pending)]() -> net::awaitable<void> {
             const std::string job_id = pending.job_id;
             const std::string request_id = safe_output_request_id(job_id);
-            recovery left;  // what did not reach the controller: the next connect tries again
-            left.job_id = job_id;
-            if (pending.ttl_low) {
-                const std::string ttl_failed = co_await self->ttl_output_low(controller, request_id);
-                if (ttl_failed.empty()) {
-                    self->log_->info("[{}] {}: job {} was interrupted by a restart; TTL output set low",
-                                     request_id, controller, job_id);
-                } else {
-                    self->log_->warn("[{}] {}: TTL Y=0 for the interrupted job {} failed: {}", request_id,
-                                     controller, job_id, ttl_failed);
-                    left.ttl_low = true;
-                }
-            }
+            auto [left, error] = co_await self->deliver(controller, request_id, pending);
+            if (pending.ttl_low && !left.ttl_low)
+                self->log_->info("[{}] {}: job {} was interrupted by a restart; TTL output set low",
+                                 request_id, controller, job_id);
             const auto& restore = pending.restore;
-            for (auto r = restore.rbegin(); r != restore.rend(); ++r) {
-                // Sent just above (or kept for the next try) when the output is switched off anyway.
-                if (pending.ttl_low && *r == "TTL Y=0") {
-                    if (left.ttl_low) left.restore.insert(left.restore.begin(), *r);
-                    continue;
-                }
-                std::string restore_controller = controller;
-                std::string restore_request_id = request_id;
-                raw_command_request request{*r};
-                auto sent = co_await self->registry_.async_raw_command(
-                    std::move(restore_controller), std::move(request), std::move(restore_request_id),
-                    net::use_awaitable);
-                if (!sent) {
-                    self->log_->warn("[{}] {}: restoring with \"{}\" for the interrupted job {} failed: {}",
-                                     request_id, controller, *r, job_id, sent.error().message);
-                    left.restore.insert(left.restore.begin(), *r);
-                } else if (sent->reply.what == devices::ms2000::reply::kind::error) {
-                    // The controller answered: sending it again would get the same answer.
-                    self->log_->warn(
-                        "[{}] {}: the controller refused \"{}\" (restore of the interrupted "
-                        "job {}): {}",
-                        request_id, controller, *r, job_id, sent->raw_reply);
-                }
-            }
             if (!restore.empty())
                 self->log_->info(
                     "[{}] {}: job {} was interrupted by a restart; {} of its {} restore "
                     "command(s) sent",
                     request_id, controller, job_id, restore.size() - left.restore.size(), restore.size());
-            // A run that started on the controller meanwhile owns its settings (drop_recovery_for); when
-            // it is this job's, its list in the store is the new run's.
-            const auto lane = self->lanes_.find(controller);
-            const std::string holder = lane != self->lanes_.end() ? lane->second.holder : std::string();
-            if (!holder.empty()) left.restore.clear();
-            if (!restore.empty() && holder != job_id) self->store_restore_commands(job_id, left.restore);
-            if (left.ttl_low || !left.restore.empty()) self->recovery_pending_.try_emplace(controller, left);
+            self->recovering_.erase(controller);
+            if (!restore.empty()) self->store_restore_commands(job_id, left.restore);
+            // Added while this one was being sent (a job that failed meanwhile): sent next.
+            const bool more = self->recovery_pending_.contains(controller);
+            // What did not reach the controller waits for its next connect, or for the next run on it.
+            if (left.ttl_low || !left.restore.empty()) self->add_recovery(controller, std::move(left), true);
+            if (more && self->controller_connected(controller)) self->send_recovery(controller);
         },
         net::detached);
+}
+
+net::awaitable<std::pair<manager_core::recovery, std::optional<operation_error>>> manager_core::deliver(
+    std::string controller, std::string request_id, recovery owed) {
+    recovery left;
+    left.job_id = owed.job_id;
+    std::optional<operation_error> error;
+    if (owed.ttl_low) {
+        const std::string ttl_failed = co_await ttl_output_low(controller, request_id);
+        if (!ttl_failed.empty()) {
+            log_->warn("[{}] {}: TTL Y=0 for job {} failed: {}", request_id, controller, owed.job_id,
+                       ttl_failed);
+            left.ttl_low = true;
+            error = make_error(controller_connected(controller) ? kind::timeout : kind::not_connected,
+                               "TTL Y=0 failed: " + ttl_failed);
+        }
+    }
+    const auto& restore = owed.restore;
+    for (auto r = restore.rbegin(); r != restore.rend(); ++r) {
+        // Sent just above (or kept for the next try) when the output is switched off anyway.
+        if (owed.ttl_low && *r == "TTL Y=0") {
+            if (left.ttl_low) left.restore.insert(left.restore.begin(), *r);
+            continue;
+        }
+        std::string restore_controller = controller;
+        std::string restore_request_id = request_id;
+        raw_command_request request{*r};
+        auto sent = co_await registry_.async_raw_command(std::move(restore_controller), std::move(request),
+                                                         std::move(restore_request_id), net::use_awaitable);
+        if (!sent) {
+            log_->warn("[{}] {}: restoring with \"{}\" for job {} failed: {}", request_id, controller, *r,
+                       owed.job_id, sent.error().message);
+            left.restore.insert(left.restore.begin(), *r);
+            if (!error) error = sent.error();
+        } else if (sent->reply.what == devices::ms2000::reply::kind::error) {
+            log_->warn("[{}] {}: the controller refused \"{}\" (restore for job {}): {}", request_id,
+                       controller, *r, owed.job_id, sent->raw_reply);
+        }
+    }
+    co_return std::pair{std::move(left), std::move(error)};
 }
 
 net::awaitable<std::string> manager_core::ttl_output_low(std::string controller, std::string request_id) {

@@ -116,9 +116,11 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
     // settings say so. Then starts dispatching. For each interrupted job, once its controller is
     // connected: "TTL Y=0" when it may have left the output high (safe_outputs.hpp), then the restore
     // commands its run had stored (job_context::restore_if_stopped), newest first, all under
-    // safe_output_request_id(); a run that starts on the controller first owns its settings instead.
-    // The same for restore commands that could not be delivered before (a cancel, failure or shutdown
-    // while the controller was unplugged): kept in the store and sent once the controller is connected.
+    // safe_output_request_id(). The same for restore commands that could not be delivered before (a
+    // cancel, failure or shutdown while the controller was unplugged): kept in the store and sent once
+    // the controller is connected. A run waits for these (and for what its own earlier run left) to be
+    // sent before it starts, and reads the settings it puts back from the controller afterwards: what
+    // every recovery restores is what was there before any job changed it.
     void start();
     // Running jobs: HALT, TTL Y=0, state interrupted ("gateway shutting down"); then the store is
     // flushed and closed, then `done` runs on the manager's executor.

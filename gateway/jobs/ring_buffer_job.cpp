@@ -364,8 +364,6 @@ boost::asio::awaitable<void> follow(job_context& ctx, const rb_setup& u, follow_
 boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
     const auto& spec = u.spec;
     const std::size_t n = spec.positions.size();
-    const auto snapshot = ctx.snapshot();
-    const int previous_in0 = snapshot.ttl_in0_mode.value_or(0);
     const std::size_t first = ctx.first_step();
     co_await ctx.command("RM X=0");
     for (const auto& p : spec.positions)
@@ -397,6 +395,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
         co_return;
     }
 
+    const int previous_in0 = co_await in0_mode_before(ctx);
     for (auto tour = first_tour;; ++tour) {
         if (!spec.forever() && tour >= static_cast<std::size_t>(spec.tours())) break;
         co_await ctx.checkpoint();

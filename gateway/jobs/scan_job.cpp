@@ -277,15 +277,6 @@ boost::asio::awaitable<position_um> where(job_context& ctx, char a, char b) {
     co_return out;
 }
 
-boost::asio::awaitable<double> current_speed(job_context& ctx, char axis) {
-    auto reply = co_await ctx.command(fmt::format("SPEED {}?", axis));
-    const auto* v = reply.axis(axis);
-    if (!v || !v->number)
-        throw job_failure(make_error(operation_error_kind::controller_error,
-                                     fmt::format("unexpected SPEED reply \"{}\"", reply.raw)));
-    co_return *v->number;
-}
-
 nlohmann::json position_json(const position_um& p) {
     nlohmann::json j = nlohmann::json::object();
     for (const auto& [axis, um] : p)
@@ -451,11 +442,15 @@ boost::asio::awaitable<void> run_scan(job_context& ctx) {
     auto u = *setup;
     u.firmware = ctx.plan().path == "firmware";
     const char f = u.spec.fast_axis;
-    const double original_speed = co_await current_speed(ctx, f);
+    std::string fast_axis(1, f);
+    const auto speeds = co_await ctx.settings_before("SPEED", std::move(fast_axis));
+    const double original_speed = speeds.at(f);
     const bool enc_int = u.firmware && has_module(s, module::enc_int);
+    int original_in0 = 0;
+    if (enc_int) original_in0 = co_await in0_mode_before(ctx);
     // What the job changes; the manager puts it back after a cancel or a failure.
     if (u.spec.speed_mm_s) ctx.restore_if_stopped(speed_command(f, original_speed));
-    if (enc_int) ctx.restore_if_stopped(in0_command(s.ttl_in0_mode.value_or(0)));
+    if (enc_int) ctx.restore_if_stopped(in0_command(original_in0));
     if (u.firmware)
         co_await run_firmware(ctx, u);
     else
@@ -465,7 +460,7 @@ boost::asio::awaitable<void> run_scan(job_context& ctx) {
         co_await ctx.command(std::move(restore));
     }
     if (enc_int) {
-        auto in0 = in0_command(s.ttl_in0_mode.value_or(0));
+        auto in0 = in0_command(original_in0);
         co_await ctx.command(std::move(in0));
     }
 }

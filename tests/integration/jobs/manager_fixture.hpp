@@ -7,6 +7,7 @@
 //   auto job = submit("sim3", job_type::planar_correction, {{"action","clear"}});
 //   wait_state(job->job.id, job_state::succeeded);
 //   restart_manager();                          // crash: destroy without shutdown, open again
+//   restart_gateway();                          // the same with new drivers: controllers identified again
 
 #include <atomic>
 #include <chrono>
@@ -160,6 +161,27 @@ class manager_fixture : public ::testing::Test {
         open_manager();
     }
 
+    // Like kill -9 of the whole gateway: the manager destroyed without shutdown and the controllers'
+    // ports closed without HALT; then a new registry, which identifies the controllers again (their
+    // snapshot shows the settings as the crashed run left them), and a new manager on the same store.
+    // `ready`: waits until every controller is connected again.
+    void restart_gateway(bool ready = true) {
+        manager_.reset();
+        registry_->stop();
+        // The old manager's last coroutines may still hold the old registry: it lives until TearDown.
+        retired_registries_.push_back(std::move(registry_));
+        // The simulators answer the old drivers' last commands first: the new drivers flush their input
+        // when they open the ports, and would otherwise take such a late reply for their first one.
+        std::this_thread::sleep_for(200ms);
+        registry_ = std::make_unique<controller_registry>(gw_io_.io.get_executor(), options_);
+        registry_->add_observer(std::weak_ptr<devices::controller_observer>(observer_));
+        registry_->start();
+        if (ready) {
+            ASSERT_TRUE(wait_until([&] { return registry_->ready(); })) << "controllers not ready";
+        }
+        open_manager();
+    }
+
     void shutdown_manager() {
         std::promise<void> done;
         manager_->async_shutdown([&] { done.set_value(); });
@@ -286,6 +308,7 @@ class manager_fixture : public ::testing::Test {
         gw_io_.join();
         manager_.reset();
         registry_.reset();
+        retired_registries_.clear();
         for (auto& [id, s] : sims_)
             s->stop();
         sim_io_.join();
@@ -302,6 +325,7 @@ class manager_fixture : public ::testing::Test {
     std::shared_ptr<gw::test::drv_recording_observer> observer_ =
         std::make_shared<gw::test::drv_recording_observer>();
     std::unique_ptr<controller_registry> registry_;
+    std::vector<std::unique_ptr<controller_registry>> retired_registries_;  // restart_gateway()
     std::shared_ptr<event_hub> hub_;
     std::shared_ptr<recording_sink> sink_ = std::make_shared<recording_sink>();
     std::shared_ptr<lease_manager> leases_ = std::make_shared<lease_manager>();

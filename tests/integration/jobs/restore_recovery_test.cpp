@@ -4,6 +4,7 @@
 // (TTL X=7) and a ring-buffer tour's in TTL X=1, so a later TTL edge moves the stage; a scan leaves its
 // scan SPEED.
 #include <algorithm>
+#include <cmath>
 #include <sqlite3.h>
 #include <string>
 #include <vector>
@@ -177,6 +178,105 @@ TEST_F(restore_recovery_test,
     EXPECT_TRUE(recovery_of(cancel_id).empty());
 }
 
+// The value a run puts back is what the controller had before any job changed it, read from the
+// controller, never from the snapshot: after a gateway restart the drivers identify the controllers
+// again, and the snapshot shows what the crashed run left (IN0 in ARRAY mode), even once the recovery
+// has put it back. Each cycle one job changes IN0 or the scan SPEED, the whole gateway crashes, and
+// the new one's recovery must bring back the settings from before the first job.
+TEST_F(restore_recovery_test,
+       twenty_gateway_crashes_in_a_row_end_with_the_settings_from_before_the_first_job) {
+    // planar: the ARRAY and RING BUFFER modules step on IN0 edges; scans run host-driven.
+    add_sim("sim1", "planar", 5);
+    start();
+    const int in0_before = in0_mode("sim1");
+    const double speed_before = sim_speed("sim1", 'X');
+    ASSERT_EQ(in0_before, 0);
+    const auto array_spec = json::parse(R"({"grid": {"columns": 4, "rows": 3, "column_step_mm": 4,
+                                             "row_step_mm": 4}, "a1": {"X": 0, "Y": 0}})");
+    const auto tour_spec = json::parse(R"({"positions": [{"X": 500, "Y": 0}, {"X": 1000, "Y": 500}],
+                                           "trigger": "ttl"})");
+    const auto scan_spec = json::parse(R"({"fast": {"start_mm": 0, "stop_mm": 0.2, "encoder_divide": 24},
+                                           "slow": {"start_mm": 0, "stop_mm": 0.2, "lines": 3},
+                                           "speed_mm_s": 0.1})");
+    for (int crash = 1; crash <= 20; ++crash) {
+        SCOPED_TRACE("crash " + std::to_string(crash));
+        std::string id;
+        switch (crash % 3) {
+            case 1: {  // a firmware array: IN0 in ARRAY mode
+                auto submitted = submit("sim1", job_type::array, array_spec);
+                ASSERT_TRUE(submitted) << submitted.error().message;
+                ASSERT_EQ(submitted->job.plan_path, "firmware");
+                id = submitted->job.id;
+                ASSERT_TRUE(wait_until([&] { return in0_mode("sim1") == 7; }));
+                break;
+            }
+            case 2: {  // a ring-buffer tour stepped by IN0 edges
+                auto submitted = submit("sim1", job_type::ring_buffer, tour_spec);
+                ASSERT_TRUE(submitted) << submitted.error().message;
+                ASSERT_EQ(submitted->job.plan_path, "firmware");
+                id = submitted->job.id;
+                ASSERT_TRUE(wait_until([&] { return in0_mode("sim1") == 1; }));
+                break;
+            }
+            default: {  // a host scan, at its own SPEED for each line
+                auto submitted = submit("sim1", job_type::scan, scan_spec);
+                ASSERT_TRUE(submitted) << submitted.error().message;
+                id = submitted->job.id;
+                ASSERT_TRUE(wait_until([&] { return std::abs(sim_speed("sim1", 'X') - 0.1) < 1e-6; }));
+                break;
+            }
+        }
+
+        restart_gateway();
+        ASSERT_TRUE(wait_state(id, job_state::interrupted));
+        ASSERT_TRUE(wait_until(
+            [&] {
+                return in0_mode("sim1") == in0_before &&
+                       std::abs(sim_speed("sim1", 'X') - speed_before) < 1e-3;
+            },
+            10s))
+            << "IN0 " << in0_mode("sim1") << ", SPEED X " << sim_speed("sim1", 'X') << "; the recovery sent "
+            << testing::PrintToString(recovery_of(id));
+        ASSERT_TRUE(wait_quiet("sim1"));  // the crashed run's last move ends
+    }
+    EXPECT_EQ(in0_mode("sim1"), in0_before);
+    EXPECT_NEAR(sim_speed("sim1", 'X'), speed_before, 1e-3);
+    EXPECT_EQ(sim_state("sim1")["ttl"]["out0_mode"], 0);
+}
+
+// With restart_queued, the job queued behind the crashed one starts right after the restart: it waits
+// for the recovery, and what it puts back when it ends is IN0 from before the crashed run.
+TEST_F(restore_recovery_test, a_queued_job_started_by_the_restart_puts_back_in0_from_before_the_crash) {
+    restart_queued_ = true;
+    add_sim("sim1", "full", 5);
+    start();
+    const int in0_before = in0_mode("sim1");
+    const auto spec =
+        json::parse(R"({"grid": {"columns": 3, "rows": 2, "column_step_mm": 4, "row_step_mm": 4},
+                                      "a1": {"X": 0, "Y": 0}})");
+    auto crashed = submit("sim1", job_type::array, spec);
+    auto queued = submit("sim1", job_type::array, spec);
+    ASSERT_TRUE(crashed && queued);
+    ASSERT_TRUE(wait_until([&] { return in0_mode("sim1") == 7; }));
+
+    restart_gateway();
+    ASSERT_TRUE(wait_state(crashed->job.id, job_state::interrupted));
+    ASSERT_TRUE(wait_state(queued->job.id, job_state::succeeded, 120s));
+    EXPECT_EQ(in0_mode("sim1"), in0_before);
+    EXPECT_EQ(commands_of(queued->job.id).back(), "TTL X=" + std::to_string(in0_before));
+    // The recovery went out before the queued job changed IN0.
+    const auto position = [&](const std::string& request_id, const std::string& wire) {
+        return observer_->locked([&] {
+            const auto& t = observer_->traces;
+            return std::find_if(t.begin(), t.end(),
+                                [&](const auto& c) { return c.request_id == request_id && c.wire == wire; }) -
+                   t.begin();
+        });
+    };
+    EXPECT_LT(position(safe_output_request_id(crashed->job.id), "TTL X=0\\r"),
+              position("job-" + queued->job.id, "TTL X=7\\r"));
+}
+
 // Both scan paths change the fast axis's SPEED; the firmware path (ENC_INT) changes IN0 too.
 class scan_restore_recovery_test : public restore_recovery_test,
                                    public ::testing::WithParamInterface<const char*> {};
@@ -247,8 +347,8 @@ class unplugged_restore_test : public restore_recovery_test {
 };
 
 // The gateway stops while the controller is unplugged, by a crash or a clean shutdown: nothing can be
-// sent then or at start-up; the restore commands go once the controller is back, and a resume before
-// that would own the settings (not tested here).
+// sent then or at start-up; the restore commands go once the controller is back (a run started before
+// that would send them first).
 class stopped_while_unplugged_test : public unplugged_restore_test,
                                      public ::testing::WithParamInterface<bool> {};
 
@@ -275,6 +375,53 @@ TEST_P(stopped_while_unplugged_test, restores_in0_once_the_controller_is_back) {
         << testing::PrintToString(recovery_of(id));
     EXPECT_EQ(in0_mode("sim1"), in0_before);
     expect_no_job_commands_and_edges_move_nothing("sim1", id);
+}
+
+// A run that ended by a disconnect left its settings changed; the snapshot of the controller, identified
+// again after the replug, shows them so. Its resumed run puts back what was there before its first run.
+TEST_F(unplugged_restore_test,
+       a_firmware_array_resumed_after_a_replug_ends_with_in0_as_before_its_first_run) {
+    auto sim = add_sim("sim1", "full", 5);
+    start();
+    const int in0_before = in0_mode("sim1");
+    const auto id = run_then_unplug(false);
+    ASSERT_FALSE(id.empty());
+    sim->replug();
+    ASSERT_TRUE(wait_until([&] { return registry_->ready(); }));
+    ASSERT_EQ(registry_->get("sim1")->ttl_in0_mode, 7);
+    auto resumed = resume(id);
+    ASSERT_TRUE(resumed) << resumed.error().message;
+    ASSERT_TRUE(wait_state(id, job_state::succeeded, 120s));
+    EXPECT_EQ(in0_mode("sim1"), in0_before);
+    EXPECT_EQ(commands_of(id).back(), "TTL X=" + std::to_string(in0_before));
+}
+
+// The same for the host scan's SPEED: unplugged mid-line, at the scan speed.
+TEST_F(unplugged_restore_test,
+       a_host_scan_resumed_after_a_replug_ends_with_the_speed_from_before_its_first_run) {
+    auto sim = add_sim("sim1", "plain", 5);
+    start();
+    const double speed_before = sim_speed("sim1", 'X');
+    auto submitted = submit("sim1", job_type::scan,
+                            json::parse(R"({"fast": {"start_mm": 0, "stop_mm": 0.2, "encoder_divide": 24},
+                                            "slow": {"start_mm": 0, "stop_mm": 0.4, "lines": 5},
+                                            "speed_mm_s": 0.1})"));
+    ASSERT_TRUE(submitted) << submitted.error().message;
+    ASSERT_EQ(submitted->job.plan_path, "host");
+    const auto id = submitted->job.id;
+    ASSERT_TRUE(wait_until([&] {
+        auto j = job(id);
+        return j && j->progress.steps_done >= 1 && std::abs(sim_speed("sim1", 'X') - 0.1) < 1e-6;
+    })) << "the scan's speed never seen";
+    sim->unplug();
+    ASSERT_TRUE(wait_state(id, job_state::paused));
+    ASSERT_NEAR(sim_speed("sim1", 'X'), 0.1, 1e-6);
+    sim->replug();
+    ASSERT_TRUE(wait_until([&] { return registry_->ready(); }));
+    auto resumed = resume(id);
+    ASSERT_TRUE(resumed) << resumed.error().message;
+    ASSERT_TRUE(wait_state(id, job_state::succeeded, 120s));
+    EXPECT_NEAR(sim_speed("sim1", 'X'), speed_before, 1e-3);
 }
 
 INSTANTIATE_TEST_SUITE_P(crash_or_shutdown, stopped_while_unplugged_test, ::testing::Bool(),
