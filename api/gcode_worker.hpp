@@ -83,10 +83,10 @@ class gcode_worker {
         boost::asio::post(io_pool_, std::move(task));
     }
 
-    // Drops the tasks not started, waits for the running ones (their answers still go out).
+    // Drops the planner tasks not started and waits for the running one (its answer still goes out);
+    // lets the upload writes finish (each is one chunk, and its session waits for it).
     void stop() {
         pool_.stop();
-        io_pool_.stop();
         pool_.join();
         io_pool_.join();
     }

@@ -105,10 +105,10 @@ TEST_F(gcode_files_test, an_upload_streamed_in_pieces_is_stored_whole) {
     EXPECT_FALSE(fs::exists(root_ / "gcode"));  // nothing on disk before the first bytes
     for (std::string_view piece : {"G21 G90\nG01 X", "1 F60\n", "", "M03\nG01 Y1"})
         ASSERT_TRUE(upload.append(piece));
-    EXPECT_EQ(upload.bytes(), 28u);
+    EXPECT_EQ(upload.bytes(), 29u);
     auto saved = s.commit(std::move(upload), "pieces.ngc");
     ASSERT_TRUE(saved) << saved.error().message;
-    EXPECT_EQ(saved->bytes, 28u);
+    EXPECT_EQ(saved->bytes, 29u);
     EXPECT_EQ(saved->lines, 4u);  // three newlines and a last line without one
     EXPECT_EQ(read(*s.path_of(saved->id)), "G21 G90\nG01 X1 F60\nM03\nG01 Y1");
     EXPECT_EQ(*s.get(saved->id), *saved);
