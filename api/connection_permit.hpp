@@ -2,9 +2,9 @@
 // One slot of the connection_table (api/connection_table.hpp). The listener hands a permit to each
 // accepted connection; it moves from the HTTP session into the WebSocket session at an upgrade, so a
 // connection counts toward the limits for as long as its socket lives, whatever protocol it speaks.
-// The HTTP session reports its phase through it (waiting for a header, idle between requests, being
-// served): the table sheds only connections that wait. Destroying the permit frees the slot (any
-// thread).
+// The HTTP session reports its phase through it (waiting for a header, idle between requests, reading
+// a body, being served): the table sheds only connections that wait or read slowly. Destroying the
+// permit frees the slot (any thread).
 
 #include <cstdint>
 #include <memory>
@@ -16,14 +16,15 @@ class connection_table;
 enum class connection_phase : std::uint8_t {
     awaiting_header,  // accepted, or a request's first bytes came: its header is not complete
     idle,             // keep-alive, between two requests
-    serving,          // a request is being read or handled, or a WebSocket: never shed
+    reading_body,     // the header was accepted, its body is on its way
+    serving,          // a request is being handled, or a WebSocket: never shed
 };
 
 // What the table may do to a connection it tracks (the HTTP session).
 class tracked_connection {
   public:
     virtual ~tracked_connection() = default;
-    // Make room for a newcomer: close, unless a request has started being served meanwhile.
+    // Make room for a newcomer: close, unless its request is being handled by now.
     virtual void shed() = 0;
     // Close whatever the connection is doing (the server stops).
     virtual void close() = 0;

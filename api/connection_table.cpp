@@ -39,22 +39,38 @@ connection_table::admission connection_table::admit(const net::ip::address& from
 std::map<std::uint64_t, connection_table::entry>::iterator connection_table::pick_victim(
     clock::time_point now) {
     auto best = entries_.end();
+    int best_rank = 0;
     std::size_t best_count = 0;
     for (auto it = entries_.begin(); it != entries_.end(); ++it) {
         const auto& e = it->second;
-        if (!e.counted) continue;
-        const bool waits = e.phase == connection_phase::awaiting_header ||
-                           (e.phase == connection_phase::idle && now - e.since >= settings_.idle_grace);
-        if (!waits) continue;
-        const auto count = per_address_open_[e.address];
-        // The busiest address first, then the longest wait.
-        if (best == entries_.end() || count > best_count ||
-            (count == best_count && e.since < best->second.since)) {
+        const int rank = shed_rank(e, now);
+        if (rank < 0) continue;
+        const auto count = per_address_open_.at(e.address);
+        // The lowest rank, then the busiest address, then the longest wait.
+        if (best == entries_.end() || rank < best_rank || (rank == best_rank && count > best_count) ||
+            (rank == best_rank && count == best_count && e.since < best->second.since)) {
             best = it;
+            best_rank = rank;
             best_count = count;
         }
     }
     return best;
+}
+
+int connection_table::shed_rank(const entry& e, clock::time_point now) const {
+    if (!e.counted) return -1;
+    const bool patience_over = now - e.since >= settings_.patience;
+    switch (e.phase) {
+        case connection_phase::awaiting_header:
+            return 0;
+        case connection_phase::idle:
+            return patience_over ? 1 : -1;
+        case connection_phase::reading_body:
+            return patience_over ? 2 : -1;
+        case connection_phase::serving:
+            break;
+    }
+    return -1;
 }
 
 void connection_table::uncount(entry& e) {

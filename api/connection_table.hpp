@@ -2,12 +2,14 @@
 // The connection slots of http.limits, shared by every connection the listener accepts: at most
 // max_connections in all and at most max_connections_per_address from one client address (never
 // more than 7/8 of all slots: an address always leaves room for others). When every slot is taken,
-// a newcomer is not turned away while a connection only waits: the one that has waited longest for
-// a request's header is shed (closed) to make room, preferring the address that holds the most
-// connections. So connections that trickle a header (slowloris) or never send one cannot keep a slot
-// from a client that sends its request at once. Connections being served (a request read or handled,
-// a WebSocket) are never shed, and neither are keep-alive connections idle for less than
-// `idle_grace` (a client between two requests keeps its connection unless it dawdles).
+// a newcomer is not turned away while a connection only waits: one is shed (closed) to make room.
+// First the one that has waited longest for a request's header, then a keep-alive connection idle
+// for longer than `patience`, then the one that has been reading a body for longest, if longer than
+// `patience`; within each, the address that holds the most connections first. So connections that
+// trickle a header (slowloris), never send one, or trickle a body cannot keep a slot from a client
+// that sends its request at once. Connections being served (a request handled, a WebSocket) are
+// never shed, and neither are a client between two requests or a body that came in less than
+// `patience`.
 //
 //   auto table = std::make_shared<connection_table>(connection_table::settings{256, 64, 5s});
 //   auto a = table->admit(remote_address);   // a.permit null: refused (a.refusal says why)
@@ -37,7 +39,7 @@ class connection_table : public std::enable_shared_from_this<connection_table> {
     struct settings {
         std::size_t max_connections = 256;
         std::size_t max_per_address = 64;
-        std::chrono::milliseconds idle_grace{5000};  // keep-alive idleness that may be shed
+        std::chrono::milliseconds patience{5000};  // idleness or body reading that may be shed
     };
 
     enum class refusal : std::uint8_t { none, connection_limit, address_limit };
@@ -74,6 +76,8 @@ class connection_table : public std::enable_shared_from_this<connection_table> {
     void release(std::uint64_t id);
     // The entry to shed for a newcomer, or entries_.end(). Called with mutex_ held.
     std::map<std::uint64_t, entry>::iterator pick_victim(clock::time_point now);
+    // 0 sheds first; -1: not now.
+    int shed_rank(const entry& e, clock::time_point now) const;
     void uncount(entry& e);
 
     settings settings_;

@@ -62,9 +62,10 @@ void http_session::close() {
 
 void http_session::shed() {
     net::post(stream_.get_executor(), [self = shared_from_this()] {
-        if (!self->waiting_) return;  // its request came meanwhile: it is served (the limit is over by one)
+        // Its request is being handled by now: it stays (the limit is over by one until it ends).
+        if (self->phase_ == connection_phase::serving) return;
         self->ctx_->metrics->increment("gw_http_connections_shed_total", {});
-        self->ctx_->log->debug("shedding a connection that waits for a request header to make room");
+        self->ctx_->log->debug("shedding a connection that waits or reads slowly, to make room");
         beast::error_code ignored;
         self->stream_.socket().shutdown(net::ip::tcp::socket::shutdown_both, ignored);
         self->stream_.close();
@@ -72,7 +73,7 @@ void http_session::shed() {
 }
 
 void http_session::set_phase(connection_phase phase) {
-    waiting_ = phase != connection_phase::serving;
+    phase_ = phase;
     if (permit_) permit_->set_phase(phase);
 }
 
@@ -194,6 +195,7 @@ void http_session::continue_then(Next next) {
 }
 
 void http_session::do_read_body() {
+    if (!parser_->is_done()) set_phase(connection_phase::reading_body);
     http::async_read(stream_, buffer_, *parser_,
                      beast::bind_front_handler(&http_session::on_read, shared_from_this()));
 }
@@ -231,6 +233,7 @@ void http_session::on_read(beast::error_code ec, std::size_t) {
         return fail(ec, "read");
     }
 
+    set_phase(connection_phase::serving);
     stream_.expires_never();  // an operation may legitimately take long (move with wait)
     auto& req = parser_->get();
 
@@ -276,6 +279,7 @@ void http_session::start_upload(std::shared_ptr<gcode_program_intake> intake, st
     header_parser_.reset();
     upload_parser_->body_limit(limit);
     chunk_.resize(upload_chunk_bytes);
+    if (!upload_parser_->is_done()) set_phase(connection_phase::reading_body);
     continue_then([this] { do_read_chunk(); });
 }
 
@@ -318,6 +322,7 @@ void http_session::on_chunk_written(std::optional<string_response> error, bool l
         return do_write(std::move(*error), "unmatched", true);
     }
     if (!last) return do_read_chunk();
+    set_phase(connection_phase::serving);
     stream_.expires_never();  // planning may take a while
     body_memory_.reset();
     chunk_ = {};

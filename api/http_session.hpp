@@ -7,7 +7,7 @@
 // G-code program body is streamed to the store's temporary file in chunks (written on the worker's
 // upload thread), never held whole in memory. One request at a time (no pipelining).
 // The session reports its phase to the connection table through its permit (waiting for a header,
-// idle, serving), so a waiting connection can be shed for a newcomer.
+// idle, reading a body, serving), so a waiting or slow connection can be shed for a newcomer.
 // All I/O runs on the session's own strand (the socket's executor); owned by its pending
 // operations (shared_from_this), tracked weakly by the connection table for shedding and stop().
 
@@ -77,7 +77,7 @@ class http_session : public std::enable_shared_from_this<http_session>, public t
     std::shared_ptr<body_budget> bodies_;
     std::string refusal_;  // not empty: the limits refused this connection
     bool first_request_ = true;
-    bool waiting_ = true;  // for a request's header (may be shed); false while serving
+    connection_phase phase_ = connection_phase::awaiting_header;  // serving: never shed
     std::optional<http::request_parser<http::empty_body>> header_parser_;
     std::optional<http::request_parser<http::string_body>> parser_;
     std::optional<http::request_parser<http::buffer_body>> upload_parser_;

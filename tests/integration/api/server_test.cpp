@@ -204,6 +204,23 @@ TEST_F(server_test, a_new_client_sheds_a_connection_that_only_waits_for_its_head
     EXPECT_FALSE(closed_within(b, std::chrono::milliseconds(100)));
 }
 
+TEST_F(server_test, a_body_that_trickles_is_shed_once_patience_is_over) {
+    gateway_config config;
+    config.http.limits.max_connections = 2;
+    config.http.limits.header_timeout = std::chrono::milliseconds(300);  // also the patience
+    start(config);
+    const std::string_view head = "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 100\r\n\r\n{";
+    auto a = connect_from("127.0.0.2");
+    auto b = connect_from("127.0.0.3");
+    net::write(a, net::buffer(head));
+    net::write(b, net::buffer(head));
+    std::this_thread::sleep_for(std::chrono::milliseconds(600));
+    auto c = connect();
+    limit_reads(c, std::chrono::seconds(20));
+    EXPECT_EQ(get(c, "/api/v1/health").result(), http::status::ok);
+    EXPECT_TRUE(closed_within(a, std::chrono::seconds(20)));  // the longer reader
+}
+
 TEST_F(server_test, one_address_cannot_take_every_slot) {
     gateway_config config;
     config.http.limits.max_connections = 8;  // an address may hold 7 of them

@@ -19,8 +19,8 @@ net::ip::address addr(const char* text) {
 }
 
 std::shared_ptr<connection_table> table(std::size_t max, std::size_t per_address,
-                                        std::chrono::milliseconds idle_grace = 5s) {
-    return std::make_shared<connection_table>(connection_table::settings{max, per_address, idle_grace});
+                                        std::chrono::milliseconds patience = 5s) {
+    return std::make_shared<connection_table>(connection_table::settings{max, per_address, patience});
 }
 
 TEST(connection_table, counts_permits_until_they_are_destroyed) {
@@ -108,6 +108,33 @@ TEST(connection_table, served_and_freshly_idle_connections_are_not_shed) {
     // Idle for longer than the grace: it may go.
     auto later = t->admit(addr("10.0.0.3"), connection_table::clock::now() + 6s);
     EXPECT_TRUE(later.permit);
+}
+
+TEST(connection_table, a_slow_body_is_shed_after_the_waiting_and_only_once_patience_is_over) {
+    auto t = table(3, 3, 5s);
+    const auto now = connection_table::clock::now();
+    auto body = t->admit(addr("10.0.0.1"));
+    auto idle = t->admit(addr("10.0.0.2"));
+    auto header = t->admit(addr("10.0.0.3"));
+    auto c_body = std::make_shared<recording_connection>();
+    auto c_idle = std::make_shared<recording_connection>();
+    auto c_header = std::make_shared<recording_connection>();
+    body.permit->track(c_body);
+    idle.permit->track(c_idle);
+    header.permit->track(c_header);
+    body.permit->set_phase(connection_phase::reading_body);
+    idle.permit->set_phase(connection_phase::idle);
+    // A fresh body and a fresh idle connection are left alone: only the waiting header goes.
+    auto first = t->admit(addr("10.0.0.9"), now + 1s);
+    EXPECT_EQ(first.shed.lock(), c_header);
+    first.permit->set_phase(connection_phase::serving);
+    EXPECT_FALSE(t->admit(addr("10.0.0.9"), now + 2s).permit);
+    // Past patience: the idle connection before the body.
+    auto second = t->admit(addr("10.0.0.8"), now + 6s);
+    EXPECT_EQ(second.shed.lock(), c_idle);
+    second.permit->set_phase(connection_phase::serving);
+    auto third = t->admit(addr("10.0.0.7"), now + 6s);
+    EXPECT_EQ(third.shed.lock(), c_body);
 }
 
 TEST(connection_table, close_all_closes_every_tracked_connection) {
