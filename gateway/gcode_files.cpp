@@ -295,6 +295,17 @@ operation_result<void> gcode_file_store::remove(std::string_view id) {
     return {};
 }
 
+std::size_t gcode_file_store::remove_stale_temporaries() {
+    std::size_t removed = 0;
+    std::error_code ec;
+    for (fs::directory_iterator it(settings_.directory, ec), end; !ec && it != end; it.increment(ec)) {
+        const auto name = it->path().filename().string();
+        std::error_code ignored;  // one that cannot go does not stop the others
+        if (name.starts_with(".") && name.ends_with(".tmp") && fs::remove(it->path(), ignored)) ++removed;
+    }
+    return removed;
+}
+
 operation_result<fs::path> gcode_file_store::path_of(std::string_view id) const {
     auto info = get(id);
     if (!info) return info.error();

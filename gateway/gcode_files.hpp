@@ -107,6 +107,10 @@ class gcode_file_store {
     operation_result<void> remove(std::string_view id);
     // The program file of `id`, for reading (the planner, a gcode job).
     operation_result<std::filesystem::path> path_of(std::string_view id) const;
+    // Removes what uploads cut short by a crash left behind (the hidden ".*.tmp" files; a program
+    // streamed in may be tens of megabytes). Only while nothing uploads: at start-up, under the
+    // storage lock. Returns how many files went.
+    std::size_t remove_stale_temporaries();
 
     const gcode_file_store_settings& settings() const { return settings_; }
 

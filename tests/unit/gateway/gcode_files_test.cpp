@@ -133,6 +133,22 @@ TEST_F(gcode_files_test, an_upload_read_in_place_and_dropped_leaves_nothing) {
     EXPECT_EQ(read(*file), "");
 }
 
+TEST_F(gcode_files_test, temporaries_left_by_a_crash_are_removed_and_programs_kept) {
+    auto s = store();
+    EXPECT_EQ(s.remove_stale_temporaries(), 0u);  // no directory yet: nothing to do
+    std::istringstream program("G00 X1\n");
+    auto kept = s.save(program, "kept");
+    ASSERT_TRUE(kept);
+    auto cut_short = s.begin_upload();
+    ASSERT_TRUE(cut_short.append("G00 X2\n"));
+    std::ofstream(root_ / "gcode" / ".g-01JD4ZQ3M0Z8B1K2W6R9T5X7YA.json.tmp") << "{";
+    EXPECT_EQ(s.remove_stale_temporaries(), 2u);
+    EXPECT_EQ(s.list()->size(), 1u);
+    EXPECT_TRUE(s.get(kept->id));
+    for (const auto& e : fs::directory_iterator(root_ / "gcode"))
+        EXPECT_NE(e.path().extension(), ".tmp") << e.path();
+}
+
 TEST_F(gcode_files_test, an_upload_over_the_cap_fails_at_the_bytes_that_cross_it) {
     auto s = store(1000);
     auto upload = s.begin_upload();
