@@ -1,29 +1,50 @@
 #pragma once
-// One slot of http.limits.max_connections. The listener hands a permit to each accepted connection;
-// it moves from the HTTP session into the WebSocket session at an upgrade, so a connection counts
-// toward the limit for as long as its socket lives, whatever protocol it speaks. Destroying the
+// One slot of the connection_table (api/connection_table.hpp). The listener hands a permit to each
+// accepted connection; it moves from the HTTP session into the WebSocket session at an upgrade, so a
+// connection counts toward the limits for as long as its socket lives, whatever protocol it speaks.
+// The HTTP session reports its phase through it (waiting for a header, idle between requests, reading
+// a body, being served): the table sheds only connections that wait or read slowly. Destroying the
 // permit frees the slot (any thread).
 
-#include <atomic>
-#include <cstddef>
+#include <cstdint>
 #include <memory>
 
 namespace gw::api {
 
+class connection_table;
+
+enum class connection_phase : std::uint8_t {
+    awaiting_header,  // accepted, or a request's first bytes came: its header is not complete
+    idle,             // keep-alive, between two requests
+    reading_body,     // the header was accepted, its body is on its way
+    serving,          // a request is being handled, or a WebSocket: never shed
+};
+
+// What the table may do to a connection it tracks (the HTTP session).
+class tracked_connection {
+  public:
+    virtual ~tracked_connection() = default;
+    // Make room for a newcomer: close, unless its request is being handled by now.
+    virtual void shed() = 0;
+    // Close whatever the connection is doing (the server stops).
+    virtual void close() = 0;
+};
+
 class connection_permit {
   public:
-    using counter = std::atomic<std::size_t>;
-
-    explicit connection_permit(std::shared_ptr<counter> count) : count_(std::move(count)) {
-        count_->fetch_add(1);
-    }
-    ~connection_permit() { count_->fetch_sub(1); }
+    connection_permit(std::shared_ptr<connection_table> table, std::uint64_t id)
+        : table_(std::move(table)), id_(id) {}
+    ~connection_permit();
 
     connection_permit(const connection_permit&) = delete;
     connection_permit& operator=(const connection_permit&) = delete;
 
+    void track(std::weak_ptr<tracked_connection> c);
+    void set_phase(connection_phase phase);
+
   private:
-    std::shared_ptr<counter> count_;  // shared: the listener may be gone before the last session
+    std::shared_ptr<connection_table> table_;  // shared: the listener may be gone before the last session
+    std::uint64_t id_;
 };
 
 }  // namespace gw::api

@@ -62,6 +62,10 @@ void controller_metrics::describe(gw::metrics& m) {
                default_latency_buckets());
     m.describe("gw_http_connections", gauge,
                "Open HTTP connections (WebSocket ones included until upgraded)");
+    m.describe("gw_http_connections_refused_total", counter,
+               "Connections refused with 503 by reason: limit (every slot serving), address (its share)");
+    m.describe("gw_http_connections_shed_total", counter,
+               "Connections closed while waiting for a request header, to make room for a new client");
     m.describe("gw_websocket_clients", gauge, "Connected WebSocket clients");
     m.describe("gw_events_published_total", counter, "Events published to the event hub");
     m.describe("gw_events_delivered_total", counter, "Events handed to subscribers (data and gap)");

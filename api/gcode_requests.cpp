@@ -198,7 +198,159 @@ std::vector<std::string_view> split(std::string_view path) {
     return out;
 }
 
+problem planner_busy(const gcode_worker& worker) {
+    problem p;
+    p.status = 503;
+    p.kind = "planner_busy";
+    p.title = "Planner busy";
+    p.detail =
+        std::to_string(worker.max_pending()) + " G-code requests are already waiting; try again shortly";
+    p.retry_after_s = 1;
+    return p;
+}
+
+// The POSTs whose body is a program.
+enum class program_action : std::uint8_t { plan, preview, save };
+
+struct program_request {
+    std::string route;
+    program_action action = program_action::plan;
+    gcode_query query;  // plan, preview
+    std::string name;   // save
+};
+
+// POST /gcode/plan, /gcode/preview.svg or /gcode/files: its route and action; nullopt for any other.
+std::optional<program_request> program_route(http::verb method, std::string_view path) {
+    if (method != http::verb::post || !path.starts_with(gcode_prefix)) return std::nullopt;
+    const auto rest = path.substr(gcode_prefix.size());
+    if (rest == "plan") return program_request{"/api/v1/gcode/plan", program_action::plan, {}, {}};
+    if (rest == "preview.svg")
+        return program_request{"/api/v1/gcode/preview.svg", program_action::preview, {}, {}};
+    if (rest == "files") return program_request{"/api/v1/gcode/files", program_action::save, {}, {}};
+    return std::nullopt;
+}
+
+// What a program request's header alone decides: the token and its role, then the query (the
+// options, or the name of an upload). Fills `r`, or returns the refusal.
+std::optional<problem> check_program_header(const api_context& ctx, const http::request_header<>& header,
+                                            program_request& r) {
+    problem p;
+    auto who = identify(ctx, header, p);
+    if (!who) return p;
+    const auto needed = r.action == program_action::save ? gw::role::operator_ : gw::role::viewer;
+    if (!has_role(*who, needed)) return forbidden_problem(*who, needed);
+    auto q = parse_query(header.target());
+    if (!q) return make_problem(q.error());
+    if (r.action == program_action::save) {
+        if (auto known = check_known_parameters(*q, {"name"}); !known) return make_problem(known.error());
+        r.name = query_value(*q, "name").value_or("");
+        if (auto ok = check_gcode_file_name(r.name); !ok) return make_problem(ok.error());
+        return std::nullopt;
+    }
+    auto parsed =
+        parse_gcode_query(*q, r.action == program_action::plan ? gcode_output::plan : gcode_output::preview);
+    if (!parsed) return make_problem(parsed.error());
+    r.query = std::move(*parsed);
+    return std::nullopt;
+}
+
+string_response created_response(const gcode_file_info& info, const reply_meta& m) {
+    auto res = body_response(http::status::created,
+                             to_json(info).dump(-1, ' ', false, json::error_handler_t::replace),
+                             "application/json", m);
+    res.set(http::field::location, "/api/v1/gcode/files/" + info.id);
+    return res;
+}
+
+// The route's work on a program held in `in` (plan, preview) or in memory (save, in-memory bodies).
+string_response plan_or_preview(const program_request& r, std::istream& in, const reply_meta& m) {
+    return r.action == program_action::plan ? plan_response(in, r.query, m)
+                                            : preview_response(in, r.query, m);
+}
+
 }  // namespace
+
+struct gcode_program_intake::state {
+    std::shared_ptr<api_context> ctx;
+    program_request request;
+    reply_meta meta;
+    std::optional<gcode_worker::slot> slot;
+    std::optional<gcode_upload> upload;
+
+    // On the planner thread, once the whole body is in the upload.
+    string_response run() {
+        if (request.action == program_action::save) {
+            auto saved = ctx->gcode_files->commit(std::move(*upload), request.name);
+            upload.reset();
+            if (!saved) return error_of(saved.error(), meta);
+            return created_response(*saved, meta);
+        }
+        auto path = upload->contents();
+        if (!path) return error_of(path.error(), meta);
+        std::ifstream in(*path, std::ios::binary);
+        if (!in)
+            return error_of(make_error(operation_error_kind::storage_unavailable,
+                                       "G-code store: cannot read " + path->string()),
+                            meta);
+        return plan_or_preview(request, in, meta);
+    }
+};
+
+gcode_program_intake::gcode_program_intake(std::unique_ptr<state> s) : s_(std::move(s)) {}
+gcode_program_intake::~gcode_program_intake() = default;
+
+const std::string& gcode_program_intake::route() const {
+    return s_->request.route;
+}
+
+std::optional<string_response> gcode_program_intake::append(std::string_view chunk) {
+    if (auto ok = s_->upload->append(chunk); !ok) return error_of(ok.error(), s_->meta);
+    return std::nullopt;
+}
+
+void gcode_program_intake::finish(std::shared_ptr<gcode_program_intake> self,
+                                  net::any_io_executor session_executor, response_handler done) {
+    auto& worker = *self->s_->ctx->gcode_thread;
+    auto slot = std::move(*self->s_->slot);
+    self->s_->slot.reset();
+    worker.post(
+        std::move(slot), [self = std::move(self), session_executor, done = std::move(done)]() mutable {
+            std::string route = self->route();
+            string_response res = self->s_->run();
+            self.reset();  // the temporary file is removed here, off the I/O thread
+            net::post(session_executor, [done = std::move(done), res = std::move(res), route]() mutable {
+                done({std::move(res), route});
+            });
+        });
+}
+
+gcode_program_admission admit_gcode_program(const std::shared_ptr<api_context>& ctx,
+                                            const http::request<http::empty_body>& header,
+                                            const std::string& request_id) {
+    gcode_program_admission a;
+    if (!ctx->gcode_files || !ctx->gcode_thread) return a;  // no store to stream to: bodies stay in memory
+    auto r = program_route(header.method(), target_path(header.target()));
+    if (!r) return a;
+    a.applies = true;
+    // The body is not read when refused: the connection closes after the answer.
+    reply_meta meta{header.version(), false, std::string(header.target()), request_id};
+    auto refuse = [&](problem p) {
+        a.refusal = routed_response{problem_of(std::move(p), meta), r->route};
+        return a;
+    };
+    if (auto p = check_program_header(*ctx, header, *r)) return refuse(std::move(*p));
+    auto slot = ctx->gcode_thread->try_reserve();
+    if (!slot) return refuse(planner_busy(*ctx->gcode_thread));
+    meta.keep_alive = header.keep_alive();
+    auto s = std::make_unique<gcode_program_intake::state>();
+    s->ctx = ctx;
+    s->request = std::move(*r);
+    s->meta = std::move(meta);
+    s->slot.emplace(std::move(*slot));
+    s->upload.emplace(ctx->gcode_files->begin_upload());
+    a.intake = std::make_shared<gcode_program_intake>(std::move(s));
+    return a;
+}
 
 operation_result<gcode_query> parse_gcode_query(const query_params& q, gcode_output output) {
     gcode_query r;
@@ -320,15 +472,8 @@ void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_reques
             });
         };
         if (!ctx->gcode_thread) return task();
-        if (!ctx->gcode_thread->try_post(std::move(task))) {
-            problem p;
-            p.status = 503;
-            p.kind = "planner_busy";
-            p.title = "Planner busy";
-            p.detail = std::to_string(ctx->gcode_thread->max_pending()) +
-                       " G-code requests are already waiting; try again shortly";
-            reply(route, problem_of(std::move(p), meta));
-        }
+        if (!ctx->gcode_thread->try_post(std::move(task)))
+            reply(route, problem_of(planner_busy(*ctx->gcode_thread), meta));
     };
     auto need_store = [&](const std::string& route) -> std::shared_ptr<gcode_file_store> {
         if (!ctx->gcode_files)
@@ -337,58 +482,47 @@ void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_reques
         return ctx->gcode_files;
     };
 
+    // A program in the body, here in memory (http_session streams it to the store when there is one:
+    // admit_gcode_program).
+    if (auto r = program_route(method, path)) {
+        if (auto p = check_program_header(*ctx, req, *r)) return fail(r->route, std::move(*p));
+        if (r->action == program_action::save && !need_store(r->route)) return;
+        const std::string route = r->route;
+        return run_blocking(
+            route, [store = ctx->gcode_files, body = std::move(req.body()), r = std::move(*r), meta]() {
+                view_buf buf(body);
+                std::istream in(&buf);
+                if (r.action != program_action::save) return plan_or_preview(r, in, meta);
+                auto saved = store->save(in, r.name);
+                if (!saved) return error_of(saved.error(), meta);
+                return created_response(*saved, meta);
+            });
+    }
     if (seg.size() == 1 && (seg[0] == "plan" || seg[0] == "preview.svg")) {
-        const bool plan = seg[0] == "plan";
-        const std::string route = plan ? "/api/v1/gcode/plan" : "/api/v1/gcode/preview.svg";
-        if (!methods_ok(route, {http::verb::post}) || !authorize(route, gw::role::viewer)) return;
-        auto q = output_query(route, plan ? gcode_output::plan : gcode_output::preview);
-        if (!q) return;
-        return run_blocking(route, [body = std::move(req.body()), q = *q, meta, plan]() {
-            view_buf buf(body);
-            std::istream in(&buf);
-            return plan ? plan_response(in, q, meta) : preview_response(in, q, meta);
-        });
+        methods_ok(seg[0] == "plan" ? "/api/v1/gcode/plan" : "/api/v1/gcode/preview.svg", {http::verb::post});
+        return;  // a POST is a program: above
     }
     if (seg.size() == 1 && seg[0] == "files") {
         const std::string route = "/api/v1/gcode/files";
+        // GET: a POST carries a program (above).
         if (!methods_ok(route, {http::verb::get, http::verb::post})) return;
         auto q = query(route);
         if (!q) return;
-        if (method == http::verb::get) {
-            if (!authorize(route, gw::role::viewer)) return;
-            if (auto known = check_known_parameters(*q, {}); !known)
-                return fail(route, make_problem(known.error()));
-            auto store = need_store(route);
-            if (!store) return;
-            return run_blocking(route, [store, meta]() {
-                auto files = store->list();
-                if (!files) return error_of(files.error(), meta);
-                json list = json::array();
-                for (const auto& f : *files)
-                    list.push_back(to_json(f));
-                json body;
-                body["files"] = std::move(list);
-                return body_response(http::status::ok,
-                                     body.dump(-1, ' ', false, json::error_handler_t::replace),
-                                     "application/json", meta);
-            });
-        }
-        if (!authorize(route, gw::role::operator_)) return;
-        if (auto known = check_known_parameters(*q, {"name"}); !known)
+        if (!authorize(route, gw::role::viewer)) return;
+        if (auto known = check_known_parameters(*q, {}); !known)
             return fail(route, make_problem(known.error()));
         auto store = need_store(route);
         if (!store) return;
-        std::string name = query_value(*q, "name").value_or("");
-        return run_blocking(route, [store, body = std::move(req.body()), name = std::move(name), meta]() {
-            view_buf buf(body);
-            std::istream in(&buf);
-            auto saved = store->save(in, name);
-            if (!saved) return error_of(saved.error(), meta);
-            auto res = body_response(http::status::created,
-                                     to_json(*saved).dump(-1, ' ', false, json::error_handler_t::replace),
-                                     "application/json", meta);
-            res.set(http::field::location, "/api/v1/gcode/files/" + saved->id);
-            return res;
+        return run_blocking(route, [store, meta]() {
+            auto files = store->list();
+            if (!files) return error_of(files.error(), meta);
+            json list = json::array();
+            for (const auto& f : *files)
+                list.push_back(to_json(f));
+            json body;
+            body["files"] = std::move(list);
+            return body_response(http::status::ok, body.dump(-1, ' ', false, json::error_handler_t::replace),
+                                 "application/json", meta);
         });
     }
     if (seg.size() >= 2 && seg.size() <= 3 && seg[0] == "files" && !seg[1].empty()) {

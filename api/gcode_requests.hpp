@@ -17,6 +17,11 @@
 // message; a bad option is 422 invalid-value naming it. The plan JSON is the CLI's; a plan bigger
 // than max_plan_response_bytes is refused (422, field "moves": ask for moves=false, the summary).
 // Bodies of these POSTs may be as large as gcode.max_file_mb (http_session asks gcode_body_limit).
+// A body that is a program (POST plan, preview.svg, files) is never held in memory whole: http_session
+// asks admit_gcode_program from the header, before the body is read (token, role, query and a planner
+// slot: a refusal is answered at once, also to a client waiting with Expect: 100-continue), then
+// streams the body into the store's temporary file and has gcode_program_intake::finish plan, preview
+// or store it.
 
 #include <cstdint>
 #include <memory>
@@ -56,6 +61,38 @@ std::optional<std::uint64_t> gcode_body_limit(const api_context& ctx, http::verb
 
 // The largest of those limits (0 without a G-code store).
 std::uint64_t max_gcode_body_bytes(const api_context& ctx);
+
+// A program request accepted from its header: its planner slot and the upload its body goes to.
+class gcode_program_intake {
+  public:
+    struct state;
+    explicit gcode_program_intake(std::unique_ptr<state> s);
+    ~gcode_program_intake();
+    gcode_program_intake(const gcode_program_intake&) = delete;
+    gcode_program_intake& operator=(const gcode_program_intake&) = delete;
+
+    // The next bytes of the body, written to the upload's file: blocking, call it on
+    // gcode_worker::post_io. A failure is the response to send instead (storage-unavailable).
+    std::optional<string_response> append(std::string_view chunk);
+    // Once the whole body is in: plans, previews or stores it on the planner thread, in the slot taken
+    // from the header; `done` gets the response on `session_executor`.
+    static void finish(std::shared_ptr<gcode_program_intake> self, net::any_io_executor session_executor,
+                       response_handler done);
+    const std::string& route() const;  // for metrics
+
+  private:
+    std::unique_ptr<state> s_;
+};
+
+struct gcode_program_admission {
+    bool applies = false;  // false: not a program request (or no store): read the body as for any route
+    std::optional<routed_response> refusal;        // send it without reading the body, then close
+    std::shared_ptr<gcode_program_intake> intake;  // accepted: stream the body into it
+};
+
+gcode_program_admission admit_gcode_program(const std::shared_ptr<api_context>& ctx,
+                                            const http::request<http::empty_body>& header,
+                                            const std::string& request_id);
 
 void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_request&& request,
                           std::string request_id, net::any_io_executor session_executor,

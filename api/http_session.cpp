@@ -4,7 +4,7 @@
 
 #include "api/auth.hpp"
 #include "api/gcode_requests.hpp"
-#include "api/listener.hpp"
+#include "api/gcode_worker.hpp"
 #include "api/request_id.hpp"
 #include "gateway/metrics.hpp"
 #if GW_API_HAS_WEBSOCKET
@@ -16,26 +16,34 @@ namespace gw::api {
 namespace {
 
 constexpr std::string_view websocket_path = "/api/v1/ws";
+// A streamed G-code body passes through this much memory at a time.
+constexpr std::size_t upload_chunk_bytes = std::size_t{64} * 1024;
 
 bool is_http_parse_error(const beast::error_code& ec) {
     return ec.category() == beast::error_code(http::error::body_limit).category();
 }
 
+std::string request_id_of(const http::request_header<>& header) {
+    auto it = header.find("X-Request-Id");
+    return request_id_for(it == header.end() ? std::string_view{} : std::string_view(it->value()));
+}
+
 }  // namespace
 
 http_session::http_session(net::ip::tcp::socket&& socket, std::shared_ptr<api_context> ctx,
-                           std::weak_ptr<listener> owner, std::shared_ptr<connection_permit> permit)
+                           std::shared_ptr<connection_permit> permit, std::shared_ptr<body_budget> bodies,
+                           std::string refusal)
     : stream_(std::move(socket)),
       ctx_(std::move(ctx)),
-      owner_(std::move(owner)),
       permit_(std::move(permit)),
-      reject_(!permit_) {
+      bodies_(std::move(bodies)),
+      refusal_(std::move(refusal)) {
     ctx_->metrics->increment("gw_http_connections", {}, 1);
 }
 
 http_session::~http_session() {
+    drop_upload();
     ctx_->metrics->increment("gw_http_connections", {}, -1);
-    if (auto l = owner_.lock(); l && id_ != 0) l->remove(id_);
 }
 
 void http_session::run() {
@@ -52,14 +60,29 @@ void http_session::close() {
     });
 }
 
+void http_session::shed() {
+    net::post(stream_.get_executor(), [self = shared_from_this()] {
+        // Its request is being handled by now: it stays (the limit is over by one until it ends).
+        if (self->phase_ == connection_phase::serving) return;
+        self->ctx_->metrics->increment("gw_http_connections_shed_total", {});
+        self->ctx_->log->debug("shedding a connection that waits or reads slowly, to make room");
+        beast::error_code ignored;
+        self->stream_.socket().shutdown(net::ip::tcp::socket::shutdown_both, ignored);
+        self->stream_.close();
+    });
+}
+
+void http_session::set_phase(connection_phase phase) {
+    phase_ = phase;
+    if (permit_) permit_->set_phase(phase);
+}
+
 void http_session::on_run() {
-    if (reject_) {
+    if (!permit_) {
         request_id_ = make_request_id();
         method_ = "-";
         started_ = std::chrono::steady_clock::now();
-        auto p = make_problem(http_error::too_many_connections,
-                              "the gateway has " + std::to_string(ctx_->limits.max_connections) +
-                                  " connections open; try again later");
+        auto p = make_problem(http_error::too_many_connections, refusal_);
         return do_write(problem_response(std::move(p), 11, false, "/", request_id_), "unmatched", true);
     }
     do_read();
@@ -67,75 +90,152 @@ void http_session::on_run() {
 
 void http_session::do_read() {
     // A fresh parser per request, each with the configured limits.
-    parser_.emplace();
-    parser_->header_limit(
-        static_cast<std::uint32_t>(std::min<std::size_t>(ctx_->limits.max_header_bytes, UINT32_MAX)));
-    // The header first: the body limit depends on the route (G-code programs may be bigger). Beast checks
-    // Content-Length against the limit while it reads the header, so that read gets the largest limit
-    // of any route; on_header narrows it to the route's.
+    header_parser_.emplace();
     body_limit_ = ctx_->limits.max_body_bytes;
-    parser_->body_limit(std::max<std::uint64_t>(body_limit_, max_gcode_body_bytes(*ctx_)));
+    parser_.reset();
+    upload_parser_.reset();
+    header_parser_->header_limit(
+        static_cast<std::uint32_t>(std::min<std::size_t>(ctx_->limits.max_header_bytes, UINT32_MAX)));
+    // Beast checks Content-Length against the body limit while it reads the header, so that read gets
+    // the largest limit of any route; on_header narrows it to the route's.
+    header_parser_->body_limit(
+        std::max<std::uint64_t>(ctx_->limits.max_body_bytes, max_gcode_body_bytes(*ctx_)));
+    if (first_request_ || buffer_.size() > 0) {
+        set_phase(connection_phase::awaiting_header);
+        return do_read_header();
+    }
+    // Keep-alive: idle up to the read timeout; the header deadline starts with the next request's
+    // first bytes.
+    set_phase(connection_phase::idle);
     stream_.expires_after(ctx_->limits.read_timeout);
-    http::async_read_header(stream_, buffer_, *parser_,
+    stream_.async_read_some(buffer_.prepare(4096),
+                            beast::bind_front_handler(&http_session::on_first_bytes, shared_from_this()));
+}
+
+void http_session::on_first_bytes(beast::error_code ec, std::size_t bytes) {
+    if (ec) return fail(ec, "read");
+    buffer_.commit(bytes);
+    set_phase(connection_phase::awaiting_header);
+    do_read_header();
+}
+
+void http_session::do_read_header() {
+    stream_.expires_after(ctx_->limits.header_timeout);
+    http::async_read_header(stream_, buffer_, *header_parser_,
                             beast::bind_front_handler(&http_session::on_header, shared_from_this()));
 }
 
-void http_session::on_header(beast::error_code ec, std::size_t bytes) {
-    if (ec) return on_read(ec, bytes);
-    const auto& header = parser_->get();
+void http_session::on_header(beast::error_code ec, std::size_t) {
+    first_request_ = false;
+    if (ec == http::error::end_of_stream) return do_close();
+    started_ = std::chrono::steady_clock::now();
+    const auto& header = header_parser_->get();
+    if (ec) {
+        if (answer_read_error(ec, header)) return;
+        return fail(ec, "read header");
+    }
+    set_phase(connection_phase::serving);
+    request_id_ = request_id_of(header);
+    method_ = std::string(header.method_string());
+    stream_.expires_after(ctx_->limits.read_timeout);  // the body's deadline
+
     body_limit_ =
         gcode_body_limit(*ctx_, header.method(), header.target()).value_or(ctx_->limits.max_body_bytes);
-    if (auto length = parser_->content_length(); length && *length > body_limit_)
-        return on_read(http::error::body_limit, bytes);
-    parser_->body_limit(body_limit_);  // chunked bodies are counted as they come
-    // "Expect: 100-continue" (curl sends it for bodies over 1 MiB): say go on rather than make the client
-    // wait a second. Over the limit, the 413 goes out when the body read stops.
-    if (beast::iequals(header[http::field::expect], "100-continue") && !parser_->is_done()) {
-        auto go_on =
-            std::make_shared<http::response<http::empty_body>>(http::status::continue_, header.version());
-        return http::async_write(stream_, *go_on,
-                                 [self = shared_from_this(), go_on](beast::error_code wec, std::size_t) {
-                                     if (wec) return self->fail(wec, "write 100-continue");
-                                     self->do_read_body();
-                                 });
+    const auto length = header_parser_->content_length();
+    if (length && *length > body_limit_) {
+        answer_read_error(http::error::body_limit, header);
+        return;
     }
-    do_read_body();
+    const bool has_body = !header_parser_->is_done();
+
+    // A G-code program: decided from the header, streamed to the store.
+    auto program = admit_gcode_program(ctx_, header, request_id_);
+    if (program.refusal) {
+        auto& r = *program.refusal;
+        return do_write(std::move(r.response), std::move(r.route), true);
+    }
+    // Any other body is held in memory: it must fit in the budget of all bodies (a chunked one may
+    // grow to the route's limit).
+    const std::uint64_t in_memory = program.intake ? upload_chunk_bytes
+                                    : has_body     ? length.value_or(body_limit_)
+                                                   : 0;
+    if (in_memory > 0) {
+        auto reserved = bodies_->try_reserve(in_memory);
+        if (!reserved)
+            return refuse(make_problem(http_error::body_budget_exhausted,
+                                       "request bodies held in memory would exceed " +
+                                           std::to_string(bodies_->capacity() / (std::size_t{1024} * 1024)) +
+                                           " MiB (http.limits.max_buffered_body_mb); try again shortly"),
+                          header, program.intake ? program.intake->route() : std::string("unmatched"));
+        body_memory_ = std::move(*reserved);
+    }
+    if (program.intake) return start_upload(std::move(program.intake), body_limit_);
+    parser_.emplace(std::move(*header_parser_));
+    header_parser_.reset();
+    parser_->body_limit(body_limit_);  // chunked bodies are counted as they come
+    continue_then([this] { do_read_body(); });
+}
+
+template <typename Next>
+void http_session::continue_then(Next next) {
+    // "Expect: 100-continue" (curl sends it for bodies over 1 MiB): the request was accepted from its
+    // header, so say go on rather than make the client wait a second.
+    const http::request_header<>& header =
+        parser_ ? static_cast<const http::request_header<>&>(parser_->get())
+                : static_cast<const http::request_header<>&>(upload_parser_->get());
+    const bool done = parser_ ? parser_->is_done() : upload_parser_->is_done();
+    if (!beast::iequals(header[http::field::expect], "100-continue") || done) return next();
+    auto go_on =
+        std::make_shared<http::response<http::empty_body>>(http::status::continue_, header.version());
+    http::async_write(stream_, *go_on,
+                      [self = shared_from_this(), go_on, next](beast::error_code ec, std::size_t) mutable {
+                          if (ec) return self->fail(ec, "write 100-continue");
+                          next();
+                      });
 }
 
 void http_session::do_read_body() {
+    if (!parser_->is_done()) set_phase(connection_phase::reading_body);
     http::async_read(stream_, buffer_, *parser_,
                      beast::bind_front_handler(&http_session::on_read, shared_from_this()));
 }
 
-void http_session::on_read(beast::error_code ec, std::size_t) {
-    if (ec == http::error::end_of_stream) return do_close();
-    started_ = std::chrono::steady_clock::now();
-    if (ec == http::error::body_limit || ec == http::error::header_limit || (ec && is_http_parse_error(ec))) {
-        // A client mistake: answer it, then close (the rest of the stream cannot be trusted).
-        const auto& header = parser_->get();
-        auto it = header.find("X-Request-Id");
-        request_id_ = request_id_for(it == header.end() ? std::string_view{} : std::string_view(it->value()));
-        method_ = std::string(header.method_string());
-        problem p = ec == http::error::body_limit
-                        ? make_problem(http_error::payload_too_large,
-                                       "the body is larger than " + std::to_string(body_limit_) + " bytes")
-                    : ec == http::error::header_limit
-                        ? make_problem(http_error::header_too_large,
-                                       "the headers are larger than " +
-                                           std::to_string(ctx_->limits.max_header_bytes) + " bytes")
-                        : make_problem(http_error::bad_request, "unparseable HTTP request: " + ec.message());
-        std::string target = header.target().empty() ? "/" : std::string(header.target());
-        return do_write(problem_response(std::move(p), header.version() ? header.version() : 11, false,
-                                         target, request_id_),
-                        "unmatched", true);
-    }
-    if (ec) return fail(ec, "read");
+bool http_session::answer_read_error(beast::error_code ec, const http::request_header<>& header) {
+    if (ec != http::error::body_limit && ec != http::error::header_limit && !is_http_parse_error(ec))
+        return false;
+    // A client mistake: answer it, then close (the rest of the stream cannot be trusted).
+    request_id_ = request_id_of(header);
+    method_ = std::string(header.method_string());
+    problem p = ec == http::error::body_limit
+                    ? make_problem(http_error::payload_too_large,
+                                   "the body is larger than " + std::to_string(body_limit_) + " bytes")
+                : ec == http::error::header_limit
+                    ? make_problem(http_error::header_too_large,
+                                   "the headers are larger than " +
+                                       std::to_string(ctx_->limits.max_header_bytes) + " bytes")
+                    : make_problem(http_error::bad_request, "unparseable HTTP request: " + ec.message());
+    refuse(std::move(p), header, "unmatched");
+    return true;
+}
 
+void http_session::refuse(problem p, const http::request_header<>& header, std::string route) {
+    drop_upload();
+    body_memory_.reset();
+    std::string target = header.target().empty() ? "/" : std::string(header.target());
+    do_write(
+        problem_response(std::move(p), header.version() ? header.version() : 11, false, target, request_id_),
+        std::move(route), true);
+}
+
+void http_session::on_read(beast::error_code ec, std::size_t) {
+    if (ec) {
+        if (answer_read_error(ec, parser_->get())) return;
+        return fail(ec, "read");
+    }
+
+    set_phase(connection_phase::serving);
     stream_.expires_never();  // an operation may legitimately take long (move with wait)
     auto& req = parser_->get();
-    auto it = req.find("X-Request-Id");
-    request_id_ = request_id_for(it == req.end() ? std::string_view{} : std::string_view(it->value()));
-    method_ = std::string(req.method_string());
 
     if (websocket::is_upgrade(req)) {
         if (target_path(req.target()) != websocket_path) {
@@ -158,6 +258,7 @@ void http_session::on_read(beast::error_code ec, std::size_t) {
 #if GW_API_HAS_WEBSOCKET
         ctx_->metrics->increment("gw_http_requests_total",
                                  {{"route", "/api/v1/ws"}, {"method", method_}, {"status", "101"}});
+        body_memory_.reset();
         return start_websocket_session(std::move(stream_), parser_->release(), ctx_, std::move(*who),
                                        std::move(permit_));
 #else
@@ -172,7 +273,71 @@ void http_session::on_read(beast::error_code ec, std::size_t) {
                    beast::bind_front_handler(&http_session::on_handled, shared_from_this()));
 }
 
+void http_session::start_upload(std::shared_ptr<gcode_program_intake> intake, std::uint64_t limit) {
+    intake_ = std::move(intake);
+    upload_parser_.emplace(std::move(*header_parser_));
+    header_parser_.reset();
+    upload_parser_->body_limit(limit);
+    chunk_.resize(upload_chunk_bytes);
+    if (!upload_parser_->is_done()) set_phase(connection_phase::reading_body);
+    continue_then([this] { do_read_chunk(); });
+}
+
+void http_session::do_read_chunk() {
+    auto& body = upload_parser_->get().body();
+    body.data = chunk_.data();
+    body.size = chunk_.size();
+    http::async_read(stream_, buffer_, *upload_parser_,
+                     beast::bind_front_handler(&http_session::on_chunk, shared_from_this()));
+}
+
+void http_session::on_chunk(beast::error_code ec, std::size_t) {
+    if (ec == http::error::need_buffer) ec = {};  // the chunk is full
+    if (ec) {
+        drop_upload();
+        if (answer_read_error(ec, upload_parser_->get())) return;
+        return fail(ec, "read body");
+    }
+    const std::size_t got = chunk_.size() - upload_parser_->get().body().size;
+    const bool last = upload_parser_->is_done();
+    if (got == 0) {
+        if (last) return on_chunk_written(std::nullopt, true);
+        return do_read_chunk();
+    }
+    // File writes may block: on the upload thread; the next read once this chunk is on disk.
+    ctx_->gcode_thread->post_io(
+        [self = shared_from_this(), intake = intake_, executor = stream_.get_executor(), got, last]() {
+            auto error = intake->append(std::string_view(self->chunk_.data(), got));
+            net::post(executor, [self, error = std::move(error), last]() mutable {
+                self->on_chunk_written(std::move(error), last);
+            });
+        });
+}
+
+void http_session::on_chunk_written(std::optional<string_response> error, bool last) {
+    if (!stream_.socket().is_open()) return drop_upload();  // closed meanwhile (stop)
+    if (error) {
+        drop_upload();
+        body_memory_.reset();
+        return do_write(std::move(*error), "unmatched", true);
+    }
+    if (!last) return do_read_chunk();
+    set_phase(connection_phase::serving);
+    stream_.expires_never();  // planning may take a while
+    body_memory_.reset();
+    chunk_ = {};
+    gcode_program_intake::finish(std::move(intake_), stream_.get_executor(),
+                                 beast::bind_front_handler(&http_session::on_handled, shared_from_this()));
+}
+
+void http_session::drop_upload() {
+    // Its temporary file is removed on the upload thread: deleting tens of megabytes can take a while.
+    if (intake_) ctx_->gcode_thread->post_io([intake = std::move(intake_)] {});
+    intake_.reset();
+}
+
 void http_session::on_handled(routed_response r) {
+    body_memory_.reset();
     const bool close_after = !r.response.keep_alive();
     do_write(std::move(r.response), std::move(r.route), close_after);
 }
@@ -184,7 +349,9 @@ void http_session::do_write(string_response res, std::string route, bool close_a
     ctx_->metrics->increment("gw_http_requests_total",
                              {{"route", route}, {"method", method_}, {"status", std::to_string(status)}});
     ctx_->metrics->observe("gw_http_request_duration_seconds", {{"route", route}}, elapsed);
-    if (status >= 500)
+    // A refused connection is counted (gw_http_connections_refused_total), not logged: a flood of them
+    // must not flood the log.
+    if (status >= 500 && refusal_.empty())
         ctx_->log->warn("{} {} -> {} [{}]", method_, route, status, request_id_);
     else
         ctx_->log->debug("{} {} -> {} [{}] {:.1f} ms", method_, route, status, request_id_, elapsed * 1e3);
@@ -233,10 +400,12 @@ void http_session::do_close() {
 }
 
 void http_session::fail(beast::error_code ec, const char* what) {
+    drop_upload();
     // Expected ends of a connection are not worth a log line.
     if (ec == net::error::operation_aborted || ec == beast::error::timeout ||
         ec == net::error::connection_reset || ec == net::error::eof || ec == net::error::broken_pipe ||
-        ec == net::error::bad_descriptor)
+        ec == net::error::bad_descriptor || ec == http::error::end_of_stream ||
+        ec == http::error::partial_message)
         return do_close();
     ctx_->log->debug("http session {}: {}", what, ec.message());
     do_close();

@@ -1,43 +1,66 @@
 #pragma once
-// One HTTP connection: reads requests with header/body limits and a read timeout, hands each to the
-// router, writes the response, keeps the connection alive when asked to, and passes WebSocket
-// upgrades of /api/v1/ws to start_websocket_session. One request at a time (no pipelining).
+// One HTTP connection: reads a request's header within http.limits.header_timeout_ms, decides from
+// the header alone whether to take its body (size, the memory budget for bodies, and for G-code
+// programs auth, query and the planner's capacity), answers "100 Continue" only then, reads the body
+// within read_timeout_ms, hands the request to the router, writes the response, keeps the connection
+// alive when asked to, and passes WebSocket upgrades of /api/v1/ws to start_websocket_session. A
+// G-code program body is streamed to the store's temporary file in chunks (written on the worker's
+// upload thread), never held whole in memory. One request at a time (no pipelining).
+// The session reports its phase to the connection table through its permit (waiting for a header,
+// idle, reading a body, serving), so a waiting or slow connection can be shed for a newcomer.
 // All I/O runs on the session's own strand (the socket's executor); owned by its pending
-// operations (shared_from_this), tracked weakly by the listener for stop().
+// operations (shared_from_this), tracked weakly by the connection table for shedding and stop().
 
 #include <chrono>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "api/api_context.hpp"
+#include "api/body_budget.hpp"
 #include "api/connection_permit.hpp"
 #include "api/net.hpp"
 #include "api/router.hpp"
 
 namespace gw::api {
 
-class listener;
+class gcode_program_intake;
 
-class http_session : public std::enable_shared_from_this<http_session> {
+class http_session : public std::enable_shared_from_this<http_session>, public tracked_connection {
   public:
-    // Without a `permit` the connection limit was reached: answer 503 and close. The permit moves
-    // into the WebSocket session at an upgrade.
+    // Without a `permit` the connection limits were reached: answer 503 (`refusal` says why) and
+    // close. The permit moves into the WebSocket session at an upgrade.
     http_session(net::ip::tcp::socket&& socket, std::shared_ptr<api_context> ctx,
-                 std::weak_ptr<listener> owner, std::shared_ptr<connection_permit> permit);
-    ~http_session();
+                 std::shared_ptr<connection_permit> permit, std::shared_ptr<body_budget> bodies,
+                 std::string refusal = {});
+    ~http_session() override;
 
     void run();
-    void set_id(std::uint64_t id) { id_ = id; }
     // Closes the socket (from any thread); pending operations end with operation_aborted.
-    void close();
+    void close() override;
+    // Closes the socket unless a request is being served by then (from any thread).
+    void shed() override;
 
   private:
     void on_run();
     void do_read();
+    void on_first_bytes(beast::error_code ec, std::size_t bytes);
+    void do_read_header();
     void on_header(beast::error_code ec, std::size_t bytes);
+    // Sends "100 Continue" if the client waits for it, then `next`.
+    template <typename Next>
+    void continue_then(Next next);
     void do_read_body();
     void on_read(beast::error_code ec, std::size_t bytes);
+    void start_upload(std::shared_ptr<gcode_program_intake> intake, std::uint64_t limit);
+    void do_read_chunk();
+    void on_chunk(beast::error_code ec, std::size_t bytes);
+    void on_chunk_written(std::optional<string_response> error, bool last);
+    void drop_upload();
+    // A client mistake found while reading (limits, unparseable): answered, then the connection closes.
+    bool answer_read_error(beast::error_code ec, const http::request_header<>& header);
+    void refuse(problem p, const http::request_header<>& header, std::string route);
     void on_handled(routed_response r);
     void do_write(string_response res, std::string route, bool close_after);
     void on_write(bool close_after, beast::error_code ec, std::size_t bytes);
@@ -45,19 +68,25 @@ class http_session : public std::enable_shared_from_this<http_session> {
     void do_linger();
     void on_linger(beast::error_code ec, std::size_t bytes);
     void fail(beast::error_code ec, const char* what);
+    void set_phase(connection_phase phase);
 
     beast::tcp_stream stream_;
     beast::flat_buffer buffer_;
     std::shared_ptr<api_context> ctx_;
-    std::weak_ptr<listener> owner_;
     std::shared_ptr<connection_permit> permit_;
-    bool reject_;
-    std::uint64_t id_ = 0;  // in the listener's table; 0 = not tracked
+    std::shared_ptr<body_budget> bodies_;
+    std::string refusal_;  // not empty: the limits refused this connection
+    bool first_request_ = true;
+    connection_phase phase_ = connection_phase::awaiting_header;  // serving: never shed
+    std::optional<http::request_parser<http::empty_body>> header_parser_;
     std::optional<http::request_parser<http::string_body>> parser_;
-    std::uint64_t body_limit_ = 0;  // of the request being read (its route's)
-    std::shared_ptr<void> response_;
-    std::size_t lingered_ = 0;  // bytes discarded after the response, before closing  // the message being
-                                // written (kept alive during async_write)
+    std::optional<http::request_parser<http::buffer_body>> upload_parser_;
+    std::shared_ptr<gcode_program_intake> intake_;  // the G-code program being streamed in
+    std::vector<char> chunk_;                       // its body's bytes on their way to the file
+    body_budget::reservation body_memory_;          // this request's share of max_buffered_body_mb
+    std::uint64_t body_limit_ = 0;                  // of the request being read (its route's)
+    std::shared_ptr<void> response_;                // the message being written (alive during async_write)
+    std::size_t lingered_ = 0;                      // bytes discarded after the response, before closing
     std::string request_id_;
     std::string method_;
     std::chrono::steady_clock::time_point started_;

@@ -3,6 +3,7 @@
 #include <spdlog/logger.h>
 
 #include "api/http_session.hpp"
+#include "gateway/metrics.hpp"
 
 namespace gw::api {
 
@@ -12,7 +13,11 @@ listener::listener(net::any_io_executor executor, net::ip::tcp::endpoint endpoin
       strand_(net::make_strand(executor)),
       acceptor_(strand_),
       retry_timer_(strand_),
-      ctx_(std::move(ctx)) {
+      ctx_(std::move(ctx)),
+      connections_(std::make_shared<connection_table>(
+          connection_table::settings{ctx_->limits.max_connections, ctx_->limits.max_connections_per_address,
+                                     ctx_->limits.header_timeout})),
+      bodies_(std::make_shared<body_budget>(ctx_->limits.max_buffered_body_bytes)) {
     acceptor_.open(endpoint.protocol());
     acceptor_.set_option(net::socket_base::reuse_address(true));
     acceptor_.bind(endpoint);
@@ -25,12 +30,9 @@ void listener::run() {
 }
 
 void listener::stop() {
-    std::vector<std::weak_ptr<http_session>> sessions;
     {
         std::lock_guard lock(mutex_);
         stopped_ = true;
-        for (const auto& [id, s] : sessions_)
-            sessions.push_back(s);
     }
     // Stop accepting first, then close every open connection.
     net::dispatch(strand_, [self = shared_from_this()] {
@@ -38,20 +40,7 @@ void listener::stop() {
         self->acceptor_.close(ignored);
         self->retry_timer_.cancel();
     });
-    for (auto& w : sessions)
-        if (auto s = w.lock()) s->close();
-}
-
-std::uint64_t listener::add(const std::shared_ptr<http_session>& s) {
-    std::lock_guard lock(mutex_);
-    auto id = next_id_++;
-    sessions_.emplace(id, s);
-    return id;
-}
-
-void listener::remove(std::uint64_t id) {
-    std::lock_guard lock(mutex_);
-    sessions_.erase(id);
+    connections_->close_all();
 }
 
 void listener::do_accept() {
@@ -71,18 +60,22 @@ void listener::on_accept(beast::error_code ec, net::ip::tcp::socket socket) {
             if (!e && self->acceptor_.is_open()) self->do_accept();
         });
     }
-    std::shared_ptr<connection_permit> permit;
     {
         std::lock_guard lock(mutex_);
         if (stopped_) return;
-        // Only this strand takes permits, so the count can only fall between the check and the take.
-        if (connections_->load() < ctx_->limits.max_connections)
-            permit = std::make_shared<connection_permit>(connections_);
     }
-    const bool reject = !permit;
+    beast::error_code remote_ec;
+    const auto remote = socket.remote_endpoint(remote_ec);
+    if (remote_ec) return do_accept();  // gone already
+    auto a = connections_->admit(remote.address());
+    if (auto victim = a.shed.lock()) victim->shed();
+    if (!a.permit)
+        ctx_->metrics->increment(
+            "gw_http_connections_refused_total",
+            {{"reason", a.refused == connection_table::refusal::address_limit ? "address" : "limit"}});
     auto session =
-        std::make_shared<http_session>(std::move(socket), ctx_, weak_from_this(), std::move(permit));
-    if (!reject) session->set_id(add(session));
+        std::make_shared<http_session>(std::move(socket), ctx_, a.permit, bodies_, std::move(a.detail));
+    if (a.permit) a.permit->track(session);
     session->run();
     do_accept();
 }

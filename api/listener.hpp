@@ -1,23 +1,21 @@
 #pragma once
 // Accepts TCP connections and starts an http_session for each, on its own strand. Enforces the
-// connection limit over HTTP and upgraded WebSocket connections alike (each connection holds a
-// connection_permit; one over the limit gets a 503 problem and is closed) and stops gracefully:
-// stop() closes the acceptor, then every open HTTP session (WebSocket sessions are closed by the
-// event hub's stop()). Owned by shared_ptr (its pending accept and
-// api::server hold it); public methods may be called from any thread.
+// connection limits over HTTP and upgraded WebSocket connections alike through the connection table
+// (each connection holds a connection_permit; one refused gets a 503 problem and is closed; one that
+// only waits for a header may be shed for a newcomer), owns the budget of request bodies held in
+// memory that every session shares, and stops gracefully: stop() closes the acceptor, then every open
+// HTTP session (WebSocket sessions are closed by the event hub's stop()). Owned by shared_ptr (its
+// pending accept and api::server hold it); public methods may be called from any thread.
 
-#include <cstdint>
-#include <map>
 #include <memory>
 #include <mutex>
 
 #include "api/api_context.hpp"
-#include "api/connection_permit.hpp"
+#include "api/body_budget.hpp"
+#include "api/connection_table.hpp"
 #include "api/net.hpp"
 
 namespace gw::api {
-
-class http_session;
 
 class listener : public std::enable_shared_from_this<listener> {
   public:
@@ -30,10 +28,7 @@ class listener : public std::enable_shared_from_this<listener> {
 
     net::ip::tcp::endpoint local_endpoint() const { return endpoint_; }
     // Open connections, HTTP and WebSocket (the permits in use).
-    std::size_t open_connections() const { return connections_->load(); }
-
-    // Called by sessions.
-    void remove(std::uint64_t id);
+    std::size_t open_connections() const { return connections_->open(); }
 
   private:
     void do_accept();
@@ -45,15 +40,10 @@ class listener : public std::enable_shared_from_this<listener> {
     net::steady_timer retry_timer_;  // after an accept error (EMFILE), retry a little later
     net::ip::tcp::endpoint endpoint_;
     std::shared_ptr<api_context> ctx_;
-    mutable std::mutex mutex_;  // guards the fields below: held only to copy/insert/erase
+    std::shared_ptr<connection_table> connections_;
+    std::shared_ptr<body_budget> bodies_;
+    mutable std::mutex mutex_;  // guards stopped_
     bool stopped_ = false;
-    std::uint64_t next_id_ = 1;
-    std::map<std::uint64_t, std::weak_ptr<http_session>> sessions_;  // HTTP only, for stop()
-    std::shared_ptr<connection_permit::counter> connections_ =
-        std::make_shared<connection_permit::counter>(0);
-
-    friend class http_session;
-    std::uint64_t add(const std::shared_ptr<http_session>& s);
 };
 
 }  // namespace gw::api

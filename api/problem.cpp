@@ -69,6 +69,8 @@ kind_info info(http_error e) {
             return {501, "Not implemented"};
         case too_many_connections:
             return {503, "Too many connections"};
+        case body_budget_exhausted:
+            return {503, "Request body budget exhausted"};
     }
     return {500, "Internal error"};
 }
@@ -98,6 +100,8 @@ std::string_view to_string(http_error e) {
             return "not_implemented";
         case too_many_connections:
             return "too_many_connections";
+        case body_budget_exhausted:
+            return "body_budget_exhausted";
     }
     return "internal";
 }
@@ -141,6 +145,7 @@ problem make_problem(http_error e, std::string detail) {
     p.kind = std::string(to_string(e));
     p.title = std::string(i.title);
     p.detail = std::move(detail);
+    if (p.status == 503) p.retry_after_s = 1;  // connections and body memory free up within moments
     return p;
 }
 

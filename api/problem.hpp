@@ -23,16 +23,17 @@ inline constexpr std::string_view problem_content_type = "application/problem+js
 
 // Errors the HTTP layer itself detects (no controller involved).
 enum class http_error : std::uint8_t {
-    malformed_json,        // 400: the body is not JSON, or not a JSON object
-    bad_request,           // 400: an unparseable request line/header
-    unauthorized,          // 401: no or an unknown bearer token
-    forbidden,             // 403: the token's role is too low
-    not_found,             // 404: no such route
-    method_not_allowed,    // 405: the route exists, the method does not
-    payload_too_large,     // 413: body over http.limits.max_body_bytes
-    header_too_large,      // 431: headers over http.limits.max_header_bytes
-    not_implemented,       // 501
-    too_many_connections,  // 503: over http.limits.max_connections
+    malformed_json,         // 400: the body is not JSON, or not a JSON object
+    bad_request,            // 400: an unparseable request line/header
+    unauthorized,           // 401: no or an unknown bearer token
+    forbidden,              // 403: the token's role is too low
+    not_found,              // 404: no such route
+    method_not_allowed,     // 405: the route exists, the method does not
+    payload_too_large,      // 413: body over http.limits.max_body_bytes
+    header_too_large,       // 431: headers over http.limits.max_header_bytes
+    not_implemented,        // 501
+    too_many_connections,   // 503: over http.limits.max_connections (or the per-address share)
+    body_budget_exhausted,  // 503: the bodies held in memory would exceed http.limits.max_buffered_body_mb
 };
 
 std::string_view to_string(http_error e);  // "malformed_json"
@@ -47,6 +48,7 @@ struct problem {
     std::string field;                 // the offending request field, if any
     int controller_code = 0;           // controller_error: ":N-<code>" (signed)
     std::string controller_code_name;  // controller_error: "parameter_out_of_range"
+    unsigned retry_after_s = 0;        // > 0: sent as Retry-After (a 503 that passes soon)
 
     std::string type() const;  // problem_type_base + kind with dashes
     nlohmann::json to_json() const;

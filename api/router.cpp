@@ -108,6 +108,7 @@ string_response problem_response(problem p, unsigned version, bool keep_alive, s
     res.set("X-Request-Id", request_id);
     res.set(http::field::cache_control, "no-store");
     if (p.status == 401) res.set(http::field::www_authenticate, "Bearer realm=\"asi-gateway\"");
+    if (p.retry_after_s > 0) res.set(http::field::retry_after, std::to_string(p.retry_after_s));
     res.keep_alive(keep_alive);
     res.body() = to_json_text(p.to_json());
     res.prepare_payload();
@@ -118,7 +119,8 @@ string_response problem_response(problem p, const string_request& req, const std
     return problem_response(std::move(p), req.version(), req.keep_alive(), req.target(), request_id);
 }
 
-std::optional<auth_identity> identify(const api_context& ctx, const string_request& req, problem& error) {
+std::optional<auth_identity> identify(const api_context& ctx, const http::request_header<>& req,
+                                      problem& error) {
     auto it = req.find(http::field::authorization);
     std::string_view header = it == req.end() ? std::string_view{} : std::string_view(it->value());
     return authenticate(ctx.auth, header, error);

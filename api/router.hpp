@@ -54,7 +54,8 @@ string_response outcome_response(api_outcome o, unsigned version, bool keep_aliv
                                  const std::string& request_id);
 
 // Resolves the Authorization header, or fills `error` (401).
-std::optional<auth_identity> identify(const api_context& ctx, const string_request& request, problem& error);
+std::optional<auth_identity> identify(const api_context& ctx, const http::request_header<>& request,
+                                      problem& error);
 
 void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& request, std::string request_id,
                     net::any_io_executor session_executor, response_handler done);

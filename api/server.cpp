@@ -33,6 +33,10 @@ server::server(net::any_io_executor executor, const gateway_config& config, cont
           api_context{executor, registry, std::move(hub), std::move(metrics), config.http.limits, config.auth,
                       get_logger("api"), std::move(jobs), std::move(leases), make_gcode_store(config),
                       std::make_shared<api::gcode_worker>()})) {
+    // main holds the storage lock by now: no other gateway uploads into this store.
+    if (auto stale = ctx_->gcode_files->remove_stale_temporaries())
+        ctx_->log->info("removed {} unfinished G-code uploads from {}", stale,
+                        ctx_->gcode_files->settings().directory.string());
     controller_metrics::describe(*ctx_->metrics);
     // Gauges exist from the start (a scrape before the first client sees 0, not nothing).
     ctx_->metrics->set("gw_http_connections", {}, 0);

@@ -133,13 +133,17 @@ void read_http(const json& j, http_config& out) {
         out.port = static_cast<std::uint16_t>(read_uint(*v, r.path("port"), 0, 65535));
     if (auto* lj = r.get("limits")) {
         object_reader l(*lj, "http.limits",
-                        {"max_header_bytes", "max_body_bytes", "read_timeout_ms",
-                         "max_websocket_message_bytes", "max_connections"});
+                        {"max_header_bytes", "max_body_bytes", "header_timeout_ms", "read_timeout_ms",
+                         "max_websocket_message_bytes", "max_connections", "max_connections_per_address",
+                         "max_buffered_body_mb"});
         auto& lim = out.limits;
         if (auto* v = l.get("max_header_bytes"))
             lim.max_header_bytes = read_uint(*v, l.path("max_header_bytes"), 1024, 1024 * 1024);
         if (auto* v = l.get("max_body_bytes"))
             lim.max_body_bytes = read_uint(*v, l.path("max_body_bytes"), 1, 64 * 1024 * 1024);
+        if (auto* v = l.get("header_timeout_ms"))
+            lim.header_timeout =
+                std::chrono::milliseconds(read_uint(*v, l.path("header_timeout_ms"), 100, 600000));
         if (auto* v = l.get("read_timeout_ms"))
             lim.read_timeout =
                 std::chrono::milliseconds(read_uint(*v, l.path("read_timeout_ms"), 100, 600000));
@@ -148,6 +152,14 @@ void read_http(const json& j, http_config& out) {
                 read_uint(*v, l.path("max_websocket_message_bytes"), 128, 16 * 1024 * 1024);
         if (auto* v = l.get("max_connections"))
             lim.max_connections = read_uint(*v, l.path("max_connections"), 1, 10000);
+        if (auto* v = l.get("max_connections_per_address"))
+            lim.max_connections_per_address = read_uint(*v, l.path("max_connections_per_address"), 1, 10000);
+        if (auto* v = l.get("max_buffered_body_mb"))
+            lim.max_buffered_body_bytes =
+                read_uint(*v, l.path("max_buffered_body_mb"), 1, 4096) * std::size_t{1024} * 1024;
+        if (lim.max_buffered_body_bytes < lim.max_body_bytes)
+            fail(l.path(l.get("max_buffered_body_mb") ? "max_buffered_body_mb" : "max_body_bytes"),
+                 "max_buffered_body_mb must hold at least one body of max_body_bytes");
     }
 }
 

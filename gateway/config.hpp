@@ -29,9 +29,15 @@ namespace gw {
 struct http_limits {
     std::size_t max_header_bytes = std::size_t{16} * 1024;
     std::size_t max_body_bytes = std::size_t{1024} * 1024;
-    std::chrono::milliseconds read_timeout{30000};
+    // A request's header must be complete this long after the connection opened or after its first
+    // byte came (a keep-alive connection may idle up to read_timeout between requests).
+    std::chrono::milliseconds header_timeout{5000};
+    std::chrono::milliseconds read_timeout{30000};  // the body's (from the end of the header), idling
     std::size_t max_websocket_message_bytes = std::size_t{64} * 1024;
     std::size_t max_connections = 256;
+    std::size_t max_connections_per_address = 64;  // and never more than 7/8 of max_connections
+    // Request bodies held in memory, all connections together (G-code uploads stream to disk).
+    std::size_t max_buffered_body_bytes = std::size_t{64} * 1024 * 1024;
 };
 
 struct http_config {

@@ -30,6 +30,19 @@ operation_error unknown(std::string_view id) {
     return make_error(operation_error_kind::unknown_file, "no G-code file \"" + std::string(id) + "\"");
 }
 
+int write_all(int fd, const char* data, std::size_t n) {
+    while (n > 0) {
+        const ssize_t w = ::write(fd, data, n);
+        if (w < 0) {
+            if (errno == EINTR) continue;
+            return errno;
+        }
+        data += w;
+        n -= static_cast<std::size_t>(w);
+    }
+    return 0;
+}
+
 // Closes a descriptor and removes a temporary file unless released.
 class temp_file {
   public:
@@ -47,18 +60,7 @@ class temp_file {
         fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
         return fd_ >= 0 ? 0 : errno;
     }
-    int write_all(const char* data, std::size_t n) {
-        while (n > 0) {
-            const ssize_t w = ::write(fd_, data, n);
-            if (w < 0) {
-                if (errno == EINTR) continue;
-                return errno;
-            }
-            data += w;
-            n -= static_cast<std::size_t>(w);
-        }
-        return 0;
-    }
+    int write_all(const char* data, std::size_t n) { return gw::write_all(fd_, data, n); }
     // fsync, close, rename into place: the file exists whole or not at all.
     int commit(const fs::path& to) {
         if (::fsync(fd_) != 0) return errno;
@@ -102,17 +104,87 @@ std::optional<gcode_file_info> parse_meta(const std::string& text) {
     }
 }
 
-std::optional<std::string> check_name(std::string_view name) {
+}  // namespace
+
+operation_result<void> check_gcode_file_name(std::string_view name) {
+    auto refuse = [](std::string why) {
+        return make_error(operation_error_kind::invalid_value, std::move(why), "name");
+    };
     if (name.size() > max_gcode_file_name_chars)
-        return "the name is longer than " + std::to_string(max_gcode_file_name_chars) + " bytes";
+        return refuse("the name is longer than " + std::to_string(max_gcode_file_name_chars) + " bytes");
     for (const char c : name) {
         const auto u = static_cast<unsigned char>(c);
-        if (u < 0x20 || u == 0x7f) return "the name holds a control character";
+        if (u < 0x20 || u == 0x7f) return refuse("the name holds a control character");
     }
-    return std::nullopt;
+    return {};
 }
 
-}  // namespace
+gcode_upload::gcode_upload(fs::path directory, std::size_t max_file_bytes)
+    : directory_(std::move(directory)), max_file_bytes_(max_file_bytes) {
+    info_.id = std::string(id_prefix) + jobs::make_job_id().substr(2);
+    info_.created_ms = epoch_ms(std::chrono::system_clock::now());
+    temp_path_ = directory_ / ("." + info_.id + ".gcode.tmp");
+}
+
+gcode_upload::gcode_upload(gcode_upload&& o) noexcept
+    : directory_(std::move(o.directory_)),
+      max_file_bytes_(o.max_file_bytes_),
+      info_(std::move(o.info_)),
+      last_(o.last_),
+      temp_path_(std::move(o.temp_path_)),
+      fd_(o.fd_),
+      created_(o.created_),
+      failed_(o.failed_),
+      committed_(o.committed_) {
+    o.fd_ = -1;
+    o.created_ = false;  // the moved-from upload owns no file
+}
+
+gcode_upload::~gcode_upload() {
+    if (fd_ >= 0) ::close(fd_);
+    if (created_ && !committed_) {
+        std::error_code ignored;
+        fs::remove(temp_path_, ignored);
+    }
+}
+
+operation_result<void> gcode_upload::open_file() {
+    if (fd_ >= 0) return {};
+    std::error_code ec;
+    fs::create_directories(directory_, ec);
+    if (ec) return storage_error("cannot create " + directory_.string(), ec.value());
+    fd_ = ::open(temp_path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd_ < 0) return storage_error("cannot write " + temp_path_.string(), errno);
+    created_ = true;
+    return {};
+}
+
+operation_result<void> gcode_upload::append(std::string_view data) {
+    if (failed_) return make_error(operation_error_kind::internal, "G-code store: the upload failed before");
+    auto fail = [this](operation_error e) {
+        failed_ = true;
+        return e;
+    };
+    if (data.empty()) return {};
+    info_.bytes += data.size();
+    if (info_.bytes > max_file_bytes_)
+        return fail(make_error(
+            operation_error_kind::invalid_value,
+            "the program is larger than " + std::to_string(max_file_bytes_) + " bytes (gcode.max_file_mb)",
+            "body"));
+    if (auto opened = open_file(); !opened) return fail(opened.error());
+    info_.lines += static_cast<std::uint64_t>(std::count(data.begin(), data.end(), '\n'));
+    last_ = data.back();
+    if (int err = write_all(fd_, data.data(), data.size()))
+        return fail(storage_error("cannot write " + temp_path_.string(), err));
+    return {};
+}
+
+operation_result<fs::path> gcode_upload::contents() {
+    if (failed_) return make_error(operation_error_kind::internal, "G-code store: the upload failed before");
+    if (auto opened = open_file(); !opened) return opened.error();
+    return temp_path_;
+}
 
 bool is_gcode_file_id(std::string_view id) {
     if (!id.starts_with(id_prefix)) return false;
@@ -130,39 +202,30 @@ fs::path gcode_file_store::meta_path(std::string_view id) const {
 }
 
 operation_result<gcode_file_info> gcode_file_store::save(std::istream& program, std::string_view name) {
-    if (auto why = check_name(name)) return make_error(operation_error_kind::invalid_value, *why, "name");
-    std::error_code ec;
-    fs::create_directories(settings_.directory, ec);
-    if (ec) return storage_error("cannot create " + settings_.directory.string(), ec.value());
-
-    gcode_file_info info;
-    info.id = std::string(id_prefix) + jobs::make_job_id().substr(2);
-    info.name = name.empty() ? "untitled" : std::string(name);
-    info.created_ms = epoch_ms(std::chrono::system_clock::now());
-
-    temp_file program_tmp(settings_.directory / ("." + info.id + ".gcode.tmp"));
-    if (int err = program_tmp.open())
-        return storage_error("cannot write " + program_tmp.path().string(), err);
+    if (auto ok = check_gcode_file_name(name); !ok) return ok.error();
+    auto upload = begin_upload();
     std::array<char, std::size_t{64} * 1024> buf{};
-    char last = '\n';
     while (program) {
         program.read(buf.data(), buf.size());
         const auto n = static_cast<std::size_t>(program.gcount());
         if (n == 0) break;
-        info.bytes += n;
-        if (info.bytes > settings_.max_file_bytes)
-            return make_error(operation_error_kind::invalid_value,
-                              "the program is larger than " + std::to_string(settings_.max_file_bytes) +
-                                  " bytes (gcode.max_file_mb)",
-                              "body");
-        info.lines += static_cast<std::uint64_t>(std::count(buf.data(), buf.data() + n, '\n'));
-        last = buf[n - 1];
-        if (int err = program_tmp.write_all(buf.data(), n))
-            return storage_error("cannot write " + program_tmp.path().string(), err);
+        if (auto ok = upload.append(std::string_view(buf.data(), n)); !ok) return ok.error();
     }
     if (program.bad())
         return make_error(operation_error_kind::internal, "G-code store: the upload could not be read");
-    if (last != '\n') ++info.lines;
+    return commit(std::move(upload), name);
+}
+
+gcode_upload gcode_file_store::begin_upload() const {
+    return gcode_upload(settings_.directory, settings_.max_file_bytes);
+}
+
+operation_result<gcode_file_info> gcode_file_store::commit(gcode_upload upload, std::string_view name) {
+    if (auto ok = check_gcode_file_name(name); !ok) return ok.error();
+    if (auto file = upload.contents(); !file) return file.error();  // an empty program is a file too
+    gcode_file_info info = upload.info_;
+    info.name = name.empty() ? "untitled" : std::string(name);
+    if (upload.last_ != '\n') ++info.lines;
 
     // The metadata first: a program file is only listed through its metadata, so a crash between the
     // two renames leaves an orphan .json that get() reports as unknown, never a half-described program.
@@ -171,8 +234,15 @@ operation_result<gcode_file_info> gcode_file_store::save(std::istream& program, 
     const std::string meta = meta_text(info);
     if (int err = meta_tmp.write_all(meta.data(), meta.size()))
         return storage_error("cannot write " + meta_tmp.path().string(), err);
-    if (int err = program_tmp.commit(program_path(info.id)))
-        return storage_error("cannot store " + program_path(info.id).string(), err);
+    // fsync, close, rename into place: the program exists whole or not at all.
+    if (::fsync(upload.fd_) != 0)
+        return storage_error("cannot store " + program_path(info.id).string(), errno);
+    const int fd = upload.fd_;
+    upload.fd_ = -1;
+    if (::close(fd) != 0) return storage_error("cannot store " + program_path(info.id).string(), errno);
+    if (::rename(upload.temp_path_.c_str(), program_path(info.id).c_str()) != 0)
+        return storage_error("cannot store " + program_path(info.id).string(), errno);
+    upload.committed_ = true;
     if (int err = meta_tmp.commit(meta_path(info.id))) {
         std::error_code ignored;
         fs::remove(program_path(info.id), ignored);
@@ -223,6 +293,17 @@ operation_result<void> gcode_file_store::remove(std::string_view id) {
     fs::remove(program_path(id), ec);
     if (ec) return storage_error("cannot delete " + program_path(id).string(), ec.value());
     return {};
+}
+
+std::size_t gcode_file_store::remove_stale_temporaries() {
+    std::size_t removed = 0;
+    std::error_code ec;
+    for (fs::directory_iterator it(settings_.directory, ec), end; !ec && it != end; it.increment(ec)) {
+        const auto name = it->path().filename().string();
+        std::error_code ignored;  // one that cannot go does not stop the others
+        if (name.starts_with(".") && name.ends_with(".tmp") && fs::remove(it->path(), ignored)) ++removed;
+    }
+    return removed;
 }
 
 operation_result<fs::path> gcode_file_store::path_of(std::string_view id) const {

@@ -9,6 +9,10 @@
 //   auto meta = store.save(body_stream, "part.ngc");   // {"id":"g-01J...","name":"part.ngc",...}
 //   auto path = store.path_of(meta->id);               // what a gcode job runs
 //
+//   auto upload = store.begin_upload();                // a body streamed in as it arrives
+//   upload.append(chunk); ...                          // on disk at once, never whole in memory
+//   auto meta = store.commit(std::move(upload), "part.ngc");
+//
 // Errors: unknown_file (no such id, or not an id at all), invalid_value (over the size cap, a bad
 // name), storage_unavailable (the directory cannot be created or written: disk full, read-only).
 
@@ -47,19 +51,66 @@ inline constexpr std::size_t max_gcode_file_name_chars = 255;
 // "g-" + 26 Crockford base32 characters (the shape of a job id). Only such ids reach the file system.
 bool is_gcode_file_id(std::string_view id);
 
+// A program's name is metadata only: 0..255 bytes without control characters (invalid_value "name").
+operation_result<void> check_gcode_file_name(std::string_view name);
+
+// A program on its way into the store (an HTTP body, as it arrives): written to a hidden temporary
+// file in the store's directory (created by the first append), counted (bytes, lines) and capped at
+// max_file_bytes. gcode_file_store::commit makes it a stored program; an upload destroyed uncommitted
+// leaves nothing behind. Blocking file I/O; used by one thread at a time (it may move between threads).
+class gcode_upload {
+  public:
+    gcode_upload(gcode_upload&& o) noexcept;
+    gcode_upload& operator=(gcode_upload&&) = delete;
+    gcode_upload(const gcode_upload&) = delete;
+    gcode_upload& operator=(const gcode_upload&) = delete;
+    ~gcode_upload();
+
+    // The next bytes of the program. invalid_value past max_file_bytes ("body"), storage_unavailable
+    // when the file cannot be written; after an error nothing more is written.
+    operation_result<void> append(std::string_view data);
+    // The temporary file holding what was appended (created if nothing was), for reading in place: a
+    // plan or a preview of a program that is not kept.
+    operation_result<std::filesystem::path> contents();
+    std::uint64_t bytes() const { return info_.bytes; }
+
+  private:
+    friend class gcode_file_store;
+    gcode_upload(std::filesystem::path directory, std::size_t max_file_bytes);
+    operation_result<void> open_file();  // creates the directory and the file if not yet done
+
+    std::filesystem::path directory_;
+    std::size_t max_file_bytes_;
+    gcode_file_info info_;  // id, created_ms, bytes, lines so far
+    char last_ = '\n';
+    std::filesystem::path temp_path_;
+    int fd_ = -1;
+    bool created_ = false;  // the temporary file exists (until committed or destroyed)
+    bool failed_ = false;
+    bool committed_ = false;
+};
+
 class gcode_file_store {
   public:
     explicit gcode_file_store(gcode_file_store_settings settings);
 
     // Copies `program` into the store (a temporary file renamed into place: a failed or oversized
-    // upload leaves nothing behind). `name` is metadata only: 0..255 bytes without control characters.
+    // upload leaves nothing behind). `name`: see check_gcode_file_name.
     operation_result<gcode_file_info> save(std::istream& program, std::string_view name);
+    // An upload to append a program to as it arrives; nothing touches the disk before its first append.
+    gcode_upload begin_upload() const;
+    // Stores an upload as a program named `name` (synced, then renamed into place with its metadata).
+    operation_result<gcode_file_info> commit(gcode_upload upload, std::string_view name);
     // Every stored program, newest first.
     operation_result<std::vector<gcode_file_info>> list() const;
     operation_result<gcode_file_info> get(std::string_view id) const;
     operation_result<void> remove(std::string_view id);
     // The program file of `id`, for reading (the planner, a gcode job).
     operation_result<std::filesystem::path> path_of(std::string_view id) const;
+    // Removes what uploads cut short by a crash left behind (the hidden ".*.tmp" files; a program
+    // streamed in may be tens of megabytes). Only while nothing uploads: at start-up, under the
+    // storage lock. Returns how many files went.
+    std::size_t remove_stale_temporaries();
 
     const gcode_file_store_settings& settings() const { return settings_; }
 

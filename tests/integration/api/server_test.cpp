@@ -3,7 +3,10 @@
 #include <chrono>
 #include <memory>
 #include <stdexcept>
+#include <sys/socket.h>
+#include <sys/time.h>
 #include <thread>
+#include <vector>
 
 #include <boost/asio/executor_work_guard.hpp>
 #include <gtest/gtest.h>
@@ -43,6 +46,35 @@ class server_test : public ::testing::Test {
         tcp::socket s(client_io_);
         s.connect(server_->local_endpoint());
         return s;
+    }
+
+    // A connection from another loopback address (Linux routes all of 127/8 to lo).
+    tcp::socket connect_from(const char* address) {
+        tcp::socket s(client_io_);
+        s.open(tcp::v4());
+        s.bind(tcp::endpoint(net::ip::make_address(address), 0));
+        s.connect(server_->local_endpoint());
+        return s;
+    }
+
+    // A blocking read that waits this long at most (a test that fails must not hang).
+    static void limit_reads(tcp::socket& s, std::chrono::seconds within) {
+        timeval tv{static_cast<time_t>(within.count()), 0};
+        ::setsockopt(s.native_handle(), SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    }
+
+    // Reads until the server closes: true when it did within `within` (false: still open).
+    static bool closed_within(tcp::socket& s, std::chrono::milliseconds within) {
+        s.non_blocking(true);
+        const auto deadline = std::chrono::steady_clock::now() + within;
+        char buf[4096];
+        while (std::chrono::steady_clock::now() < deadline) {
+            beast::error_code ec;
+            s.read_some(net::buffer(buf), ec);
+            if (ec && ec != net::error::would_block) return true;
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        return false;
     }
 
     static http::response<http::string_body> get(tcp::socket& s, const std::string& target) {
@@ -140,6 +172,75 @@ TEST_F(server_test, websocket_connections_count_toward_the_limit) {
     }
     EXPECT_EQ(status, http::status::ok);
     EXPECT_TRUE(b->is_open());
+}
+
+TEST_F(server_test, a_header_that_does_not_end_is_closed_by_the_header_deadline) {
+    gateway_config config;
+    config.http.limits.header_timeout = std::chrono::milliseconds(300);
+    start(config);
+    auto slow = connect();
+    net::write(slow, net::buffer(std::string_view("GET /api/v1/health HTTP/1.1\r\nHost: x\r\n")));
+    auto idle = connect();
+    EXPECT_EQ(get(idle, "/api/v1/health").result(), http::status::ok);
+    // The read timeout (30 s) would be far away; the header deadline is not.
+    EXPECT_TRUE(closed_within(slow, std::chrono::seconds(20)));
+    // A keep-alive connection between requests is not waiting for a header: it stays.
+    EXPECT_EQ(get(idle, "/api/v1/health").result(), http::status::ok);
+}
+
+TEST_F(server_test, a_new_client_sheds_a_connection_that_only_waits_for_its_header) {
+    gateway_config config;
+    config.http.limits.max_connections = 2;
+    start(config);
+    auto a = connect_from("127.0.0.2");
+    auto b = connect_from("127.0.0.3");
+    net::write(a, net::buffer(std::string_view("GET /api/v1/health HTTP/1.1\r\n")));  // and no more
+    net::write(b, net::buffer(std::string_view("GET /api/v1/health HTTP/1.1\r\n")));
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // both accepted by now
+    auto c = connect();
+    EXPECT_EQ(get(c, "/api/v1/health").result(), http::status::ok);
+    // The one shed was waiting longest: a.
+    EXPECT_TRUE(closed_within(a, std::chrono::seconds(20)));
+    EXPECT_FALSE(closed_within(b, std::chrono::milliseconds(100)));
+}
+
+TEST_F(server_test, a_body_that_trickles_is_shed_once_patience_is_over) {
+    gateway_config config;
+    config.http.limits.max_connections = 2;
+    config.http.limits.header_timeout = std::chrono::milliseconds(300);  // also the patience
+    start(config);
+    const std::string_view head = "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 100\r\n\r\n{";
+    auto a = connect_from("127.0.0.2");
+    auto b = connect_from("127.0.0.3");
+    net::write(a, net::buffer(head));
+    net::write(b, net::buffer(head));
+    std::this_thread::sleep_for(std::chrono::milliseconds(600));
+    auto c = connect();
+    limit_reads(c, std::chrono::seconds(20));
+    EXPECT_EQ(get(c, "/api/v1/health").result(), http::status::ok);
+    EXPECT_TRUE(closed_within(a, std::chrono::seconds(20)));  // the longer reader
+}
+
+TEST_F(server_test, one_address_cannot_take_every_slot) {
+    gateway_config config;
+    config.http.limits.max_connections = 8;  // an address may hold 7 of them
+    start(config);
+    std::vector<tcp::socket> held;
+    for (int i = 0; i < 7; ++i) {
+        held.push_back(connect_from("127.0.0.2"));
+        EXPECT_EQ(get(held.back(), "/api/v1/health").result(), http::status::ok);  // served, then idle
+    }
+    auto over = connect_from("127.0.0.2");
+    limit_reads(over, std::chrono::seconds(20));
+    beast::flat_buffer buffer;
+    http::response<http::string_body> res;
+    http::read(over, buffer, res);
+    EXPECT_EQ(res.result(), http::status::service_unavailable);
+    EXPECT_EQ(nlohmann::json::parse(res.body())["type"],
+              "https://asi-gateway.dev/problems/too-many-connections");
+    EXPECT_EQ(res[http::field::retry_after], "1");
+    auto other = connect();
+    EXPECT_EQ(get(other, "/api/v1/health").result(), http::status::ok);
 }
 
 TEST_F(server_test, refuses_a_public_address_without_tokens) {

@@ -61,11 +61,13 @@ TEST(problem, every_http_error_has_its_status_and_type) {
         {http_error::header_too_large, 431, "https://asi-gateway.dev/problems/header-too-large"},
         {http_error::not_implemented, 501, "https://asi-gateway.dev/problems/not-implemented"},
         {http_error::too_many_connections, 503, "https://asi-gateway.dev/problems/too-many-connections"},
+        {http_error::body_budget_exhausted, 503, "https://asi-gateway.dev/problems/body-budget-exhausted"},
     };
     for (const auto& c : cases) {
         auto p = make_problem(c.error, "d");
         EXPECT_EQ(p.status, c.status) << to_string(c.error);
         EXPECT_EQ(p.type(), c.type);
+        EXPECT_EQ(p.retry_after_s, c.status == 503 ? 1u : 0u) << to_string(c.error);  // 503s pass soon
     }
 }
 

@@ -24,6 +24,9 @@ TEST(config, empty_object_gives_the_safe_defaults) {
     EXPECT_EQ(c->http.limits.read_timeout, 30000ms);
     EXPECT_EQ(c->http.limits.max_websocket_message_bytes, 64u * 1024);
     EXPECT_EQ(c->http.limits.max_connections, 256u);
+    EXPECT_EQ(c->http.limits.header_timeout, 5000ms);
+    EXPECT_EQ(c->http.limits.max_connections_per_address, 64u);
+    EXPECT_EQ(c->http.limits.max_buffered_body_bytes, 64u * 1024 * 1024);
     EXPECT_TRUE(c->controllers.empty());
     EXPECT_EQ(c->simulate.count, 0u);
     EXPECT_EQ(c->simulate.time_scale, 1.0);
@@ -51,7 +54,9 @@ TEST(config, reads_every_key) {
     auto c = parse_config(R"({
       "http": {"listen_address": "0.0.0.0", "port": 9000,
                "limits": {"max_header_bytes": 8192, "max_body_bytes": 4096, "read_timeout_ms": 5000,
-                          "max_websocket_message_bytes": 2048, "max_connections": 10}},
+                          "max_websocket_message_bytes": 2048, "max_connections": 10,
+                          "header_timeout_ms": 1500, "max_connections_per_address": 4,
+                          "max_buffered_body_mb": 3}},
       "controllers": [
         {"id": "stage1", "port": "/dev/ttyUSB0", "baud": 115200, "report_port": "/dev/ttyUSB1",
          "poll_ms": 50, "command_timeout_ms": 700},
@@ -76,6 +81,9 @@ TEST(config, reads_every_key) {
     EXPECT_EQ(c->http.limits.read_timeout, 5000ms);
     EXPECT_EQ(c->http.limits.max_websocket_message_bytes, 2048u);
     EXPECT_EQ(c->http.limits.max_connections, 10u);
+    EXPECT_EQ(c->http.limits.header_timeout, 1500ms);
+    EXPECT_EQ(c->http.limits.max_connections_per_address, 4u);
+    EXPECT_EQ(c->http.limits.max_buffered_body_bytes, 3u * 1024 * 1024);
     ASSERT_EQ(c->controllers.size(), 2u);
     const auto& s = c->controllers[0];
     EXPECT_EQ(s.id, "stage1");
@@ -125,6 +133,12 @@ struct bad_case {
     const char* error;  // the exact message
 };
 
+TEST(config, the_largest_body_fits_the_default_body_budget) {
+    auto c = parse_config(R"({"http": {"limits": {"max_body_bytes": 67108864}}})");
+    ASSERT_TRUE(c) << c.error();
+    EXPECT_GE(c->http.limits.max_buffered_body_bytes, c->http.limits.max_body_bytes);
+}
+
 TEST(config, refuses_bad_values_naming_the_json_path) {
     const bad_case cases[] = {
         // Not JSON / wrong shapes.
@@ -157,6 +171,15 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
          "http.limits.max_websocket_message_bytes: must be an integer from 128 to 16777216"},
         {R"({"http": {"limits": {"max_connections": 0}}})",
          "http.limits.max_connections: must be an integer from 1 to 10000"},
+        {R"({"http": {"limits": {"header_timeout_ms": 50}}})",
+         "http.limits.header_timeout_ms: must be an integer from 100 to 600000"},
+        {R"({"http": {"limits": {"max_connections_per_address": 0}}})",
+         "http.limits.max_connections_per_address: must be an integer from 1 to 10000"},
+        {R"({"http": {"limits": {"max_buffered_body_mb": 0}}})",
+         "http.limits.max_buffered_body_mb: must be an integer from 1 to 4096"},
+        {R"({"http": {"limits": {"max_body_bytes": 4194304, "max_buffered_body_mb": 2}}})",
+         "http.limits.max_buffered_body_mb: max_buffered_body_mb must hold at least one body of "
+         "max_body_bytes"},
         // controllers
         {R"({"controllers": [{"port": "/dev/x"}]})", "controllers[0].id: required"},
         {R"({"controllers": [{"id": "a"}]})", "controllers[0].port: required"},

@@ -99,6 +99,86 @@ TEST_F(gcode_files_test, a_program_over_the_cap_is_refused_and_leaves_nothing) {
     EXPECT_TRUE(s.save(exact, "exact"));
 }
 
+TEST_F(gcode_files_test, an_upload_streamed_in_pieces_is_stored_whole) {
+    auto s = store();
+    auto upload = s.begin_upload();
+    EXPECT_FALSE(fs::exists(root_ / "gcode"));  // nothing on disk before the first bytes
+    for (std::string_view piece : {"G21 G90\nG01 X", "1 F60\n", "", "M03\nG01 Y1"})
+        ASSERT_TRUE(upload.append(piece));
+    EXPECT_EQ(upload.bytes(), 29u);
+    auto saved = s.commit(std::move(upload), "pieces.ngc");
+    ASSERT_TRUE(saved) << saved.error().message;
+    EXPECT_EQ(saved->bytes, 29u);
+    EXPECT_EQ(saved->lines, 4u);  // three newlines and a last line without one
+    EXPECT_EQ(read(*s.path_of(saved->id)), "G21 G90\nG01 X1 F60\nM03\nG01 Y1");
+    EXPECT_EQ(*s.get(saved->id), *saved);
+    for (const auto& e : fs::directory_iterator(root_ / "gcode"))  // no temporary left behind
+        EXPECT_NE(e.path().extension(), ".tmp") << e.path();
+}
+
+TEST_F(gcode_files_test, an_upload_read_in_place_and_dropped_leaves_nothing) {
+    auto s = store();
+    {
+        auto upload = s.begin_upload();
+        ASSERT_TRUE(upload.append("G00 X1\n"));
+        auto file = upload.contents();
+        ASSERT_TRUE(file) << file.error().message;
+        EXPECT_EQ(read(*file), "G00 X1\n");  // a plan reads it where it is
+    }
+    EXPECT_TRUE(fs::is_empty(root_ / "gcode"));
+    EXPECT_TRUE(s.list()->empty());
+    auto empty = s.begin_upload();
+    auto file = empty.contents();  // an empty body is an empty program
+    ASSERT_TRUE(file);
+    EXPECT_EQ(read(*file), "");
+}
+
+TEST_F(gcode_files_test, temporaries_left_by_a_crash_are_removed_and_programs_kept) {
+    auto s = store();
+    EXPECT_EQ(s.remove_stale_temporaries(), 0u);  // no directory yet: nothing to do
+    std::istringstream program("G00 X1\n");
+    auto kept = s.save(program, "kept");
+    ASSERT_TRUE(kept);
+    auto cut_short = s.begin_upload();
+    ASSERT_TRUE(cut_short.append("G00 X2\n"));
+    std::ofstream(root_ / "gcode" / ".g-01JD4ZQ3M0Z8B1K2W6R9T5X7YA.json.tmp") << "{";
+    EXPECT_EQ(s.remove_stale_temporaries(), 2u);
+    EXPECT_EQ(s.list()->size(), 1u);
+    EXPECT_TRUE(s.get(kept->id));
+    for (const auto& e : fs::directory_iterator(root_ / "gcode"))
+        EXPECT_NE(e.path().extension(), ".tmp") << e.path();
+}
+
+TEST_F(gcode_files_test, an_upload_over_the_cap_fails_at_the_bytes_that_cross_it) {
+    auto s = store(1000);
+    auto upload = s.begin_upload();
+    ASSERT_TRUE(upload.append(std::string(600, 'X')));
+    auto over = upload.append(std::string(401, 'X'));
+    ASSERT_FALSE(over);
+    EXPECT_EQ(over.error().kind, operation_error_kind::invalid_value);
+    EXPECT_EQ(over.error().field, "body");
+    EXPECT_FALSE(upload.append("X"));  // nothing more after an error
+    auto saved = s.commit(std::move(upload), "x");
+    EXPECT_FALSE(saved);
+    EXPECT_TRUE(fs::is_empty(root_ / "gcode"));
+}
+
+TEST_F(gcode_files_test, a_bad_name_is_refused_before_any_byte_is_stored) {
+    EXPECT_TRUE(check_gcode_file_name("part.ngc"));
+    EXPECT_TRUE(check_gcode_file_name(""));
+    auto bad = check_gcode_file_name("a\tb");
+    ASSERT_FALSE(bad);
+    EXPECT_EQ(bad.error().field, "name");
+    EXPECT_FALSE(check_gcode_file_name(std::string(256, 'n')));
+    auto s = store();
+    auto upload = s.begin_upload();
+    ASSERT_TRUE(upload.append("G00 X1\n"));
+    auto saved = s.commit(std::move(upload), "a\nb");
+    ASSERT_FALSE(saved);
+    EXPECT_EQ(saved.error().field, "name");
+    EXPECT_TRUE(fs::is_empty(root_ / "gcode"));
+}
+
 TEST_F(gcode_files_test, unknown_and_malformed_ids_are_unknown_file) {
     auto s = store();
     std::istringstream program("G00 X1\n");
