@@ -103,7 +103,7 @@ struct shutdown_config {
 //            "keepalive_s": 30, "topic_prefix": "asi", "gateway_id": "" (the host name),
 //            "protocol": "5"|"3.1.1", "qos": {"status": 1, "state": 1, "telemetry": 0, "jobs": 1,
 //            "responses": 1}, "telemetry": {"position_max_hz": 10},
-//            "reconnect": {"min_ms": 500, "max_ms": 30000},
+//            "reconnect": {"min_ms": 500, "max_ms": 2000},
 //            "jobs": {"queue_limit": 1000, "retain_finished_s": events.ended_job_topic_ttl_s},
 //            "commands": {"enabled": false}}
 enum class mqtt_protocol : std::uint8_t { v3_1_1, v5 };
@@ -136,8 +136,10 @@ struct mqtt_config {
     mqtt_protocol protocol = mqtt_protocol::v5;
     mqtt_qos_config qos;
     double position_max_hz = 10;  // per controller; 0: every position event
+    // Waits between connect attempts: from min doubling up to max, each drawn from [half, all] of it
+    // (api/mqtt/reconnect_backoff.hpp). max bounds how long a broker's return goes unnoticed.
     std::chrono::milliseconds reconnect_min{500};
-    std::chrono::milliseconds reconnect_max{30000};
+    std::chrono::milliseconds reconnect_max{2000};
     std::size_t job_queue_limit = 1000;  // job state changes kept while disconnected
     // Then jobs/<job>/state is cleared; when the file does not say, events.ended_job_topic_ttl_s.
     std::chrono::seconds retain_finished_jobs{600};
