@@ -65,6 +65,9 @@ void copy_hub_counters(const api_context& ctx) {
     m.set("gw_events_gapped_total", {}, static_cast<double>(c.gapped));
     m.set("gw_events_evicted_subscribers_total", {}, static_cast<double>(c.evicted));
     m.set("gw_event_subscribers", {}, static_cast<double>(c.subscribers));
+    m.set("gw_events_topics", {}, static_cast<double>(c.topics));
+    m.set("gw_events_replay_bytes", {}, static_cast<double>(c.replay_bytes));
+    m.set("gw_events_retired_topics_total", {}, static_cast<double>(c.retired));
 }
 
 // The value of a header, if the request has it.

@@ -25,7 +25,10 @@
 //   {"type":"result","id":"s1","result":{...the first job...},"replayed":true}   (Idempotency replay)
 //   {"type":"error","id":"c7"|null,"problem":{...the application/problem+json body...}}
 //   {"type":"pong","id":3}
-//   {"type":"event",...} and {"type":"gap",...} exactly as in gateway/event.hpp.
+//   {"type":"event",...}, {"type":"gap",...} and {"type":"retired",...} exactly as in gateway/event.hpp.
+//   "retired": the topic left the hub (an ended job's topic, events.ended_job_topic_ttl_s after the
+//   job's last event): nothing more comes on it; sent to its subscribers then, and at once to a
+//   subscription that names it or resumes it later. A job's history: GET /api/v1/jobs/{id}/events.
 // A message that cannot be used (malformed JSON, unknown op or field, wrong type, bad topic filter)
 // is answered with an error message; the connection stays open.
 

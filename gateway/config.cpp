@@ -351,11 +351,26 @@ void read_mqtt(const json& j, mqtt_config& out) {
     }
 }
 
+void read_events(const json& j, events_config& out) {
+    object_reader r(j, "events", {"ended_job_topic_ttl_s"});
+    if (auto* v = r.get("ended_job_topic_ttl_s"))
+        out.ended_job_topic_ttl = std::chrono::seconds(
+            read_uint(*v, r.path("ended_job_topic_ttl_s"), 0, max_ended_job_topic_ttl_s));
+}
+
+// mqtt.jobs.retain_finished_s given in the file.
+bool retain_finished_given(const json& j) {
+    const auto mqtt = j.find("mqtt");
+    if (mqtt == j.end() || !mqtt->is_object()) return false;
+    const auto jobs = mqtt->find("jobs");
+    return jobs != mqtt->end() && jobs->is_object() && jobs->contains("retain_finished_s");
+}
+
 gateway_config read_config(const json& j) {
     gateway_config c;
     object_reader r(j, "",
                     {"http", "controllers", "simulate", "storage", "jobs", "gcode", "auth", "logging",
-                     "shutdown", "mqtt"});
+                     "shutdown", "events", "mqtt"});
     if (auto* v = r.get("http")) read_http(*v, c.http);
     if (auto* v = r.get("controllers")) {
         if (!v->is_array()) fail("controllers", "must be an array");
@@ -388,7 +403,10 @@ gateway_config read_config(const json& j) {
         object_reader s(*v, "shutdown", {"halt_on_exit"});
         if (auto* h = s.get("halt_on_exit")) c.shutdown.halt_on_exit = read_bool(*h, s.path("halt_on_exit"));
     }
+    if (auto* v = r.get("events")) read_events(*v, c.events);
     if (auto* v = r.get("mqtt")) read_mqtt(*v, c.mqtt);
+    // A job's retained MQTT state goes when its hub topic does, unless the file says otherwise.
+    if (!retain_finished_given(j)) c.mqtt.retain_finished_jobs = c.events.ended_job_topic_ttl;
     return c;
 }
 

@@ -9,7 +9,8 @@
 //    "jobs": {"restart_queued": false, "max_queued_per_controller": 1000}, "gcode": {"max_file_mb": 64},
 //    "auth": {"tokens": [...]},
 //    "logging": {"level": "info", "format": "text", "levels": {"ms2000": "debug"}},
-//    "shutdown": {"halt_on_exit": true}, "mqtt": {"enabled": false, ...} (see mqtt_config)}
+//    "shutdown": {"halt_on_exit": true}, "events": {"ended_job_topic_ttl_s": 600},
+//    "mqtt": {"enabled": false, ...} (see mqtt_config)}
 
 #include <chrono>
 #include <cstddef>
@@ -62,6 +63,13 @@ struct jobs_config {
     std::size_t max_queued_per_controller = 1000;
 };
 
+// The event hub (gateway/event_hub.hpp).
+struct events_config {
+    // An ended job's topic (jobs/<id>) leaves the hub this long after the job ended; its history stays
+    // in the job store (GET /api/v1/jobs/{id}/events). Also the default of mqtt.jobs.retain_finished_s.
+    std::chrono::seconds ended_job_topic_ttl{600};
+};
+
 struct gcode_config {
     std::size_t max_file_mb = 64;  // uploaded programs and G-code request bodies (MiB)
 };
@@ -101,8 +109,9 @@ struct shutdown_config {
 //            "keepalive_s": 30, "topic_prefix": "asi", "gateway_id": "" (the host name),
 //            "protocol": "5"|"3.1.1", "qos": {"status": 1, "state": 1, "telemetry": 0, "jobs": 1,
 //            "responses": 1}, "telemetry": {"position_max_hz": 10},
-//            "reconnect": {"min_ms": 500, "max_ms": 30000},
-//            "jobs": {"queue_limit": 1000, "retain_finished_s": 600}, "commands": {"enabled": false}}
+//            "reconnect": {"min_ms": 500, "max_ms": 2000},
+//            "jobs": {"queue_limit": 1000, "retain_finished_s": events.ended_job_topic_ttl_s},
+//            "commands": {"enabled": false}}
 enum class mqtt_protocol : std::uint8_t { v3_1_1, v5 };
 
 struct mqtt_tls_config {
@@ -133,11 +142,14 @@ struct mqtt_config {
     mqtt_protocol protocol = mqtt_protocol::v5;
     mqtt_qos_config qos;
     double position_max_hz = 10;  // per controller; 0: every position event
+    // Waits between connect attempts: from min doubling up to max, each drawn from [half, all] of it
+    // (api/mqtt/reconnect_backoff.hpp). max bounds how long a broker's return goes unnoticed.
     std::chrono::milliseconds reconnect_min{500};
-    std::chrono::milliseconds reconnect_max{30000};
-    std::size_t job_queue_limit = 1000;              // job state changes kept while disconnected
-    std::chrono::seconds retain_finished_jobs{600};  // then jobs/<job>/state is cleared
-    bool commands_enabled = false;                   // subscribe to the command topics (needs auth.tokens)
+    std::chrono::milliseconds reconnect_max{2000};
+    std::size_t job_queue_limit = 1000;  // job state changes kept while disconnected
+    // Then jobs/<job>/state is cleared; when the file does not say, events.ended_job_topic_ttl_s.
+    std::chrono::seconds retain_finished_jobs{600};
+    bool commands_enabled = false;  // subscribe to the command topics (needs auth.tokens)
 };
 
 struct gateway_config {
@@ -150,6 +162,7 @@ struct gateway_config {
     auth_config auth;
     logging_config logging;
     shutdown_config shutdown;
+    events_config events;
     mqtt_config mqtt;
 };
 
@@ -159,6 +172,7 @@ inline constexpr std::size_t max_simulated_controllers = 16;
 inline constexpr std::size_t max_storage_size_mb = std::size_t{1024} * 1024;  // 1 TiB
 inline constexpr std::size_t max_queued_jobs_per_controller = 100000;
 inline constexpr std::size_t max_gcode_file_mb = 4096;
+inline constexpr std::uint64_t max_ended_job_topic_ttl_s = 7 * 24 * 3600;
 
 // The embedded default used without a file: three simulated controllers (`--simulate 3`).
 gateway_config default_config();

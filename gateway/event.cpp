@@ -63,4 +63,21 @@ std::shared_ptr<const event> make_gap_event(std::string topic, std::uint64_t fro
     return e;
 }
 
+std::shared_ptr<const event> make_retired_event(std::string topic, std::uint64_t last_sequence,
+                                                std::chrono::system_clock::time_point time) {
+    auto e = std::make_shared<event>();
+    e->kind = event_kind::retired;
+    e->sequence = last_sequence;
+    e->time = time;
+    std::string message = R"({"type":"retired","topic":)";
+    message += nlohmann::json(topic).dump();
+    message += R"(,"last_seq":)";
+    message += std::to_string(last_sequence);
+    append_time(message, time);
+    message += '}';
+    e->topic = std::move(topic);
+    e->message = std::make_shared<const std::string>(std::move(message));
+    return e;
+}
+
 }  // namespace gw

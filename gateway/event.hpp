@@ -6,8 +6,13 @@
 //          "time":"2026-11-22T02:45:40.123Z","time_ms":1795322740123,"data":{...}}
 //   gap:  {"type":"gap","topic":"controllers/stage1/reports","missed":40,"from":101,"to":140,
 //          "time":"2026-11-22T02:45:40.456Z","time_ms":1795322740456}
+//   retired: {"type":"retired","topic":"jobs/j-01M8...","last_seq":9,
+//          "time":"2026-11-22T02:55:40.456Z","time_ms":1795323340456}
 // A gap event tells one subscriber that the events from..to of that topic will not reach it (they
-// left the replay buffer, or its queue overflowed). Gap events are per subscriber, never replayed.
+// left the replay buffer, or its queue overflowed). A retired event tells it that the topic has left
+// the hub after its events 1..last_seq (event_hub::retire_topic): nothing more comes on it, and
+// what it missed is not replayed any more (a job's history: GET /api/v1/jobs/{id}/events). Gap and
+// retired events are per subscriber, never replayed.
 
 #include <chrono>
 #include <cstdint>
@@ -16,12 +21,12 @@
 
 namespace gw {
 
-enum class event_kind : std::uint8_t { data, gap };
+enum class event_kind : std::uint8_t { data, gap, retired };
 
 struct event {
     event_kind kind = event_kind::data;
     std::string topic;
-    std::uint64_t sequence = 0;  // data: 1, 2, 3 ... per topic; gap: 0
+    std::uint64_t sequence = 0;  // data: 1, 2, 3 ... per topic; gap: 0; retired: the topic's last
     std::uint64_t gap_from = 0;  // gap: first missed sequence number
     std::uint64_t gap_to = 0;    // gap: last missed sequence number
     std::chrono::system_clock::time_point time;
@@ -37,5 +42,7 @@ std::shared_ptr<const event> make_data_event(std::string topic, std::uint64_t se
                                              std::shared_ptr<const std::string> data);
 std::shared_ptr<const event> make_gap_event(std::string topic, std::uint64_t from, std::uint64_t to,
                                             std::chrono::system_clock::time_point time);
+std::shared_ptr<const event> make_retired_event(std::string topic, std::uint64_t last_sequence,
+                                                std::chrono::system_clock::time_point time);
 
 }  // namespace gw

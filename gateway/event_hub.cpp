@@ -1,6 +1,7 @@
 #include "gateway/event_hub.hpp"
 
 #include <algorithm>
+#include <set>
 #include <utility>
 
 #include <boost/asio/post.hpp>
@@ -23,6 +24,9 @@ struct event_hub::atomic_counters {
     std::atomic<std::uint64_t> gapped{0};
     std::atomic<std::uint64_t> evicted{0};
     std::atomic<std::uint64_t> subscribers{0};
+    std::atomic<std::uint64_t> topics{0};
+    std::atomic<std::uint64_t> replay_bytes{0};
+    std::atomic<std::uint64_t> retired{0};
 };
 
 namespace {
@@ -33,6 +37,11 @@ void add(std::atomic<std::uint64_t>& counter, std::uint64_t n = 1) {
 
 std::string millis(std::chrono::milliseconds ms) {
     return std::to_string(ms.count()) + " ms";
+}
+
+// What an event in a replay buffer holds in text (the struct itself is small next to it).
+std::uint64_t text_bytes(const event& e) {
+    return e.topic.size() + (e.data ? e.data->size() : 0) + (e.message ? e.message->size() : 0);
 }
 
 }  // namespace
@@ -56,9 +65,10 @@ event_hub::~event_hub() = default;
 
 event_hub_counters event_hub::counters() const {
     auto get = [](const std::atomic<std::uint64_t>& c) { return c.load(std::memory_order_relaxed); };
-    return {get(counters_->published), get(counters_->delivered),  get(counters_->replayed),
-            get(counters_->coalesced), get(counters_->gap_events), get(counters_->gapped),
-            get(counters_->evicted),   get(counters_->subscribers)};
+    return {get(counters_->published),    get(counters_->delivered),   get(counters_->replayed),
+            get(counters_->coalesced),    get(counters_->gap_events),  get(counters_->gapped),
+            get(counters_->evicted),      get(counters_->subscribers), get(counters_->topics),
+            get(counters_->replay_bytes), get(counters_->retired)};
 }
 
 // ---- public entry points: validate, post to the strand ----
@@ -127,6 +137,14 @@ void event_hub::request_more(subscriber_id id) {
     net::post(strand_, [self = shared_from_this(), id] { self->on_request_more(id); });
 }
 
+boost::system::error_code event_hub::retire_topic(std::string topic, std::chrono::milliseconds after) {
+    if (auto ec = validate_topic_name(topic)) return ec;
+    net::post(strand_, [self = shared_from_this(), topic = std::move(topic), after] {
+        self->on_retire_topic(topic, after);
+    });
+    return {};
+}
+
 void event_hub::tick() {
     net::post(strand_, [self = shared_from_this()] { self->on_tick(); });
 }
@@ -141,6 +159,11 @@ void event_hub::stop() {
         for (auto& [id, s] : subscribers)
             if (auto sink = s->sink.lock()) sink->close("event hub stopped");
         self->topics_.clear();
+        self->retirements_.clear();
+        self->retired_.clear();
+        self->retired_order_.clear();
+        self->counters_->topics.store(0);
+        self->counters_->replay_bytes.store(0);
     });
 }
 
@@ -154,7 +177,10 @@ event_hub::topic_state& event_hub::topic_for(const std::string& name) {
     t.cls = classify_topic(name);
     t.capacity = std::max<std::size_t>(
         t.cls == topic_class::latest_value ? settings_.latest_replay : settings_.stream_replay, 1);
-    return topics_.emplace(name, std::move(t)).first->second;
+    retired_.erase(name);  // in use again (numbered from 1)
+    auto& created = topics_.emplace(name, std::move(t)).first->second;
+    counters_->topics.store(topics_.size());
+    return created;
 }
 
 void event_hub::forget_oldest_topic() {
@@ -162,12 +188,107 @@ void event_hub::forget_oldest_topic() {
         return a.second.last_publish < b.second.last_publish;
     });
     if (oldest == topics_.end()) return;
-    // Its numbering starts again at 1, so per-subscriber bookkeeping of the old numbers must go.
-    for (auto& [id, s] : subscribers_) {
-        s->cursor.erase(oldest->first);
-        s->catch_up.erase(oldest->first);
+    // Its numbering starts again at 1: for its subscribers, it is retired.
+    retire(oldest);
+}
+
+void event_hub::on_retire_topic(const std::string& name, std::chrono::milliseconds after) {
+    if (stopped_) return;
+    auto it = topics_.find(name);
+    if (it == topics_.end()) return;
+    auto& t = it->second;
+    if (t.retirement) retirements_.erase(*t.retirement);
+    t.retirement =
+        retirements_.emplace(clock_.steady() + std::max(after, std::chrono::milliseconds(0)), name);
+    retire_due_topics();  // a grace period of 0: now
+    schedule_wake();
+}
+
+void event_hub::retire_due_topics() {
+    const auto now = clock_.steady();
+    while (!retirements_.empty() && retirements_.begin()->first <= now) {
+        auto t = topics_.find(retirements_.begin()->second);
+        if (t == topics_.end()) {  // cannot happen (retire() erases the entry): do not loop on it
+            retirements_.erase(retirements_.begin());
+            continue;
+        }
+        retire(t);
     }
-    topics_.erase(oldest);
+}
+
+void event_hub::retire(std::map<std::string, topic_state>::iterator topic) {
+    const std::string name = topic->first;
+    const auto last_seq = topic->second.last_seq;
+    if (topic->second.retirement) retirements_.erase(*topic->second.retirement);
+    for (const auto& e : topic->second.replay)
+        note_replay_bytes(*e, false);
+    topics_.erase(topic);
+    counters_->topics.store(topics_.size());
+    add(counters_->retired);
+    remember_retired(name, last_seq);
+
+    std::shared_ptr<const event> notice;  // one event shared by every subscriber
+    std::vector<subscriber_id> told;
+    for (auto& [id, s] : subscribers_) {
+        // Its numbering is gone: per-subscriber bookkeeping of it must go too.
+        s->cursor.erase(name);
+        if (auto c = s->catch_up.find(name); c != s->catch_up.end()) {
+            // What it had not read of the replay buffer can no longer come: a gap says so.
+            if (c->second.next <= last_seq) s->gaps.emplace(name, gap_range{c->second.next, last_seq});
+            s->catch_up.erase(c);
+        }
+        if (auto slot = s->latest.find(name); slot != s->latest.end()) {
+            if (slot->second.pending)
+                push_stream(*s, slot->second.pending);  // still delivered, before the notice
+            s->latest.erase(slot);
+        }
+        if (!matching(*s, name)) continue;
+        if (!notice) notice = make_retired_event(name, last_seq, clock_.system());
+        push_retired(*s, notice);
+        told.push_back(id);
+    }
+    for (auto id : told)
+        settle(id);
+}
+
+void event_hub::remember_retired(const std::string& name, std::uint64_t last_seq) {
+    const auto number = ++retirements_done_;
+    retired_[name] = retired_topic{last_seq, number};
+    retired_order_.emplace_back(name, number);
+    while (retired_order_.size() > settings_.max_retired_topics) {
+        const auto& [oldest, n] = retired_order_.front();
+        if (auto it = retired_.find(oldest); it != retired_.end() && it->second.number == n)
+            retired_.erase(it);
+        retired_order_.pop_front();
+    }
+}
+
+void event_hub::push_retired(subscriber& s, const std::shared_ptr<const event>& e) {
+    // After the topic's gap event when one waits, and only into free room: it is never dropped.
+    if (!s.gaps.contains(e->topic) && s.room() > 0) {
+        s.retired.erase(e->topic);
+        s.queue.push_back(e);
+        return;
+    }
+    s.retired[e->topic] = e;
+}
+
+void event_hub::flush_retired(subscriber& s) {
+    for (auto it = s.retired.begin(); it != s.retired.end() && s.room() > 0;) {
+        if (s.gaps.contains(it->first)) {
+            ++it;
+            continue;
+        }
+        s.queue.push_back(std::move(it->second));
+        it = s.retired.erase(it);
+    }
+}
+
+void event_hub::note_replay_bytes(const event& e, bool added) {
+    if (added)
+        add(counters_->replay_bytes, text_bytes(e));
+    else
+        counters_->replay_bytes.fetch_sub(text_bytes(e), std::memory_order_relaxed);
 }
 
 const event_hub::subscription* event_hub::matching(const subscriber& s, const std::string& topic) const {
@@ -182,8 +303,11 @@ void event_hub::on_publish(std::string topic, std::shared_ptr<const std::string>
     auto& t = topic_for(topic);
     auto e = make_data_event(topic, ++t.last_seq, time, std::move(data));
     t.replay.push_back(e);
-    while (t.replay.size() > t.capacity)
+    note_replay_bytes(*e, true);
+    while (t.replay.size() > t.capacity) {
+        note_replay_bytes(*t.replay.front(), false);
         t.replay.pop_front();
+    }
     t.last_publish = ++publish_order_;
     add(counters_->published);
 
@@ -303,6 +427,7 @@ void event_hub::pump(subscriber& s) {
     if (!sink) return;
 
     flush_gaps(s);
+    flush_retired(s);
     fill_catch_up(s);
     std::vector<std::shared_ptr<const event>> batch;
     auto n = std::min(s.queue.size(), s.settings.max_batch_events);
@@ -331,6 +456,7 @@ void event_hub::pump(subscriber& s) {
     }
     // Keep the queue primed for the next batch.
     flush_gaps(s);
+    flush_retired(s);
     fill_catch_up(s);
     if (batch.empty()) return;
     s.in_flight = true;
@@ -404,6 +530,15 @@ void event_hub::on_subscribe(subscriber_id id, std::string filter, subscription_
             cursor = t.last_seq;
         }
     }
+    // A retired topic it names exactly, or resumes: it is told so at once rather than hearing nothing.
+    std::set<std::string> gone;
+    if (!validate_topic_name(filter) && retired_.contains(filter) && !topics_.contains(filter))
+        gone.insert(filter);
+    for (const auto& [name, seq] : options.resume)
+        if (topic_matches(filter, name) && retired_.contains(name) && !topics_.contains(name))
+            gone.insert(name);
+    for (const auto& name : gone)
+        push_retired(s, make_retired_event(name, retired_.at(name).last_seq, clock_.system()));
     settle(id);
     schedule_wake();
 }
@@ -417,6 +552,7 @@ void event_hub::on_unsubscribe(subscriber_id id, const std::string& filter) {
     std::erase_if(s.latest, [&](const auto& kv) { return unwanted(kv.first); });
     std::erase_if(s.gaps, [&](const auto& kv) { return unwanted(kv.first); });
     std::erase_if(s.catch_up, [&](const auto& kv) { return unwanted(kv.first); });
+    std::erase_if(s.retired, [&](const auto& kv) { return unwanted(kv.first); });
     std::erase_if(s.queue, [&](const auto& e) { return unwanted(e->topic); });
     settle(id);
 }
@@ -432,6 +568,7 @@ void event_hub::on_request_more(subscriber_id id) {
 
 void event_hub::on_tick() {
     if (stopped_) return;
+    retire_due_topics();
     std::vector<subscriber_id> ids;
     ids.reserve(subscribers_.size());
     for (auto& [id, s] : subscribers_)
@@ -447,6 +584,7 @@ void event_hub::schedule_wake() {
     auto consider = [&](steady_clock::time_point t) {
         if (!earliest || t < *earliest) earliest = t;
     };
+    if (!retirements_.empty()) consider(retirements_.begin()->first);
     for (auto& [id, s] : subscribers_) {
         if (!s->in_flight)
             for (auto& [topic, slot] : s->latest)

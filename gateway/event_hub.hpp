@@ -10,6 +10,14 @@
 // "jobs/<id>") numbers its events 1, 2, 3 ... without gaps and keeps the newest ones in a bounded
 // replay buffer (settings: stream_replay, latest_replay).
 //
+// Retirement: a topic that has ended (a job's, once the job ended: its history is in the job store)
+// leaves the hub a grace period after retire_topic(), with its replay buffer, its numbering and every
+// subscriber's bookkeeping of it, so memory does not grow with the number of topics ever used. Each
+// subscriber matching it gets one "retired" event after that topic's last event (or gap): nothing
+// more comes on it. A subscriber still reading its replay gets a gap event for what it had not read,
+// then the retired event. Later, a subscription that names a remembered retired topic exactly, or
+// resumes it, gets a retired event at once rather than silence (settings: max_retired_topics).
+//
 // Per subscriber, two kinds of pending state, both bounded:
 //  * latest-value topics (state, position): one slot per topic holding the newest undelivered event
 //    (a newer one replaces it: "coalesced"), delivered at most max_rate_hz times per second per
@@ -52,16 +60,19 @@ namespace gw {
 
 using subscriber_id = std::uint64_t;
 
-// For /metrics. Monotonic except `subscribers`.
+// For /metrics. Monotonic except `subscribers`, `topics` and `replay_bytes`.
 struct event_hub_counters {
-    std::uint64_t published = 0;    // events accepted by publish()
-    std::uint64_t delivered = 0;    // events handed to sinks (data and gap)
-    std::uint64_t replayed = 0;     // of those, data events taken from a replay buffer on resume
-    std::uint64_t coalesced = 0;    // latest-value events replaced by a newer one before delivery
-    std::uint64_t gap_events = 0;   // gap events created
-    std::uint64_t gapped = 0;       // events those gap events reported missing
-    std::uint64_t evicted = 0;      // subscribers closed for being too slow
-    std::uint64_t subscribers = 0;  // current
+    std::uint64_t published = 0;     // events accepted by publish()
+    std::uint64_t delivered = 0;     // events handed to sinks (data and gap)
+    std::uint64_t replayed = 0;      // of those, data events taken from a replay buffer on resume
+    std::uint64_t coalesced = 0;     // latest-value events replaced by a newer one before delivery
+    std::uint64_t gap_events = 0;    // gap events created
+    std::uint64_t gapped = 0;        // events those gap events reported missing
+    std::uint64_t evicted = 0;       // subscribers closed for being too slow
+    std::uint64_t subscribers = 0;   // current
+    std::uint64_t topics = 0;        // current: topics with a replay buffer
+    std::uint64_t replay_bytes = 0;  // current: text (payload, message, topic) held by replay buffers
+    std::uint64_t retired = 0;       // topics retired (retire_topic, or forgotten beyond max_topics)
 };
 
 class event_hub : public std::enable_shared_from_this<event_hub> {
@@ -93,7 +104,11 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     // The sink finished with its last batch and can take the next one.
     void request_more(subscriber_id id);
 
-    // Re-evaluates time-based decisions (rate limits, stalls) now. The hub's own timer calls it;
+    // The topic has ended: `after` from now it is retired (see above). Called again, the time is
+    // moved. A topic the hub does not have is ignored. topic_error for an invalid name.
+    boost::system::error_code retire_topic(std::string topic, std::chrono::milliseconds after);
+
+    // Re-evaluates time-based decisions (rate limits, stalls, retirements) now. The hub's own timer calls it;
     // tests with a manual clock call it after moving the clock.
     void tick();
 
@@ -113,6 +128,8 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
         std::size_t capacity = 0;
         std::deque<std::shared_ptr<const event>> replay;  // consecutive sequence numbers, newest last
         std::uint64_t last_publish = 0;                   // publish_order_ when last published
+        std::optional<std::multimap<std::chrono::steady_clock::time_point, std::string>::iterator>
+            retirement;  // its entry in retirements_, once retire_topic() was called
 
         std::uint64_t oldest() const { return replay.empty() ? last_seq + 1 : replay.front()->sequence; }
     };
@@ -143,7 +160,9 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
         std::map<std::string, gap_range> gaps;           // stream events not queued (overflow)
         std::map<std::string, catch_up_state> catch_up;  // resumed topics still reading their replay
         std::map<std::string, std::uint64_t> cursor;     // topic -> highest sequence taken (no duplicates)
-        bool in_flight = false;                          // a batch was delivered, not yet acknowledged
+        // Retired events that found the queue full, sent once there is room (after the topic's gap).
+        std::map<std::string, std::shared_ptr<const event>> retired;
+        bool in_flight = false;  // a batch was delivered, not yet acknowledged
         std::optional<std::chrono::steady_clock::time_point> stalled_since;  // full or gapped, no ack
         std::optional<std::chrono::steady_clock::time_point> last_overflow;
         std::optional<std::string> evict_reason;
@@ -164,6 +183,14 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
 
     topic_state& topic_for(const std::string& name);
     void forget_oldest_topic();
+    void on_retire_topic(const std::string& name, std::chrono::milliseconds after);
+    void retire_due_topics();
+    // Removes the topic, tells its subscribers (a retired event) and remembers its name.
+    void retire(std::map<std::string, topic_state>::iterator topic);
+    void remember_retired(const std::string& name, std::uint64_t last_seq);
+    void push_retired(subscriber& s, const std::shared_ptr<const event>& e);
+    void flush_retired(subscriber& s);
+    void note_replay_bytes(const event& e, bool added);
     const subscription* matching(const subscriber& s, const std::string& topic) const;
     void offer(subscriber& s, const std::shared_ptr<const event>& e, const topic_state& t,
                const subscription& sub);
@@ -186,6 +213,17 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     std::uint64_t epoch_ = 0;
     bool stopped_ = false;
     std::map<std::string, topic_state> topics_;
+    // Topics waiting to retire, by when (an entry per topic: topic_state::retirement).
+    std::multimap<std::chrono::steady_clock::time_point, std::string> retirements_;
+    // Retired topics still remembered: name -> {last sequence, retirement number}, and the names in
+    // the order they retired (an entry whose number no longer matches is stale: it retired again).
+    struct retired_topic {
+        std::uint64_t last_seq = 0;
+        std::uint64_t number = 0;
+    };
+    std::map<std::string, retired_topic> retired_;
+    std::deque<std::pair<std::string, std::uint64_t>> retired_order_;
+    std::uint64_t retirements_done_ = 0;
     std::map<subscriber_id, std::unique_ptr<subscriber>> subscribers_;
     std::uint64_t publish_order_ = 0;
     std::atomic<subscriber_id> next_id_{1};

@@ -51,8 +51,12 @@ struct event_hub_settings {
     std::size_t stream_replay = 1000;  // replay buffer per stream topic (reports, ttl, jobs/<id>)
     std::size_t latest_replay = 8;     // replay buffer per latest-value topic (state, position)
     // Distinct topics remembered; beyond it the topic published least recently is forgotten (its
-    // replay buffer and sequence counter; a later publish starts again at 1).
+    // replay buffer and sequence counter; a later publish starts again at 1), as if it was retired.
     std::size_t max_topics = 4096;
+    // Retired topics whose name and last sequence are remembered, so that a subscription naming one
+    // later (or resuming it) is told that it is gone instead of hearing nothing; beyond it the oldest
+    // retirement is forgotten. About 150 bytes each.
+    std::size_t max_retired_topics = 1024;
     subscriber_settings subscriber{};  // defaults for add_subscriber()
 };
 

@@ -238,6 +238,12 @@ void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& ba
         const bool stream =
             (l.size() == 3 && l[0] == "controllers" && (l[2] == "reports" || l[2] == "ttl")) ||
             (l.size() == 2 && l[0] == "jobs");
+        if (e->kind == event_kind::retired) {
+            // The topic left the hub (an ended job's, after events.ended_job_topic_ttl_s): nothing to
+            // resume there any more. A job's retained state goes on its own clock (clear_at).
+            stream_seq_.erase(e->topic);
+            continue;
+        }
         if (stream) {
             auto& seen = stream_seq_[e->topic];
             seen = std::max(seen, e->kind == event_kind::gap ? e->gap_to : e->sequence);

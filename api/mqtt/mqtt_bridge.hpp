@@ -18,7 +18,9 @@
 // as too slow, the bridge subscribes again at once: controller states come back at once (and are
 // published, retained), stream topics resume after the last event seen (replayed, or counted gaps).
 // A job's retained state is cleared (an empty retained message) mqtt.jobs.retain_finished_s after it
-// ends. stop() publishes "offline" (reason "shutdown") itself; the Last Will covers a crash.
+// ends (by default events.ended_job_topic_ttl_s, when the hub retires the job's topic; the hub's
+// "retired" event is not a state and only ends the bridge's resume point for that topic).
+// stop() publishes "offline" (reason "shutdown") itself; the Last Will covers a crash.
 // Everything runs on the bridge's strand; public methods may be called from any thread.
 
 #include <chrono>

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <mqtt/async_client.h>
+#include <random>
 #include <stdexcept>
 #include <utility>
 
@@ -74,7 +75,7 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
       log_(std::move(log)),
       retry_timer_(strand_),
       stop_timer_(strand_),
-      backoff_(config.reconnect_min) {
+      backoff_(config.reconnect_min, config.reconnect_max, std::random_device{}()) {
     const int version = paho_mqtt_version(config_.protocol);
     try {
         cli_ = std::make_unique<mqtt::async_client>(config_.brokers.front(), client_id_,
@@ -193,14 +194,19 @@ void mqtt_client::on_connect_result(bool ok, std::string what) {
     connecting_ = false;
     if (stopping_) return;
     if (!ok) {
+        const auto wait = schedule_reconnect();
+        // Attempts come every couple of seconds during an outage: the first failure and then one in 30
+        // are warnings, the rest debug.
+        const auto level = failed_attempts_++ % 30 == 0 ? spdlog::level::warn : spdlog::level::debug;
         if (log_)
-            log_->warn("cannot connect to {}: {}; next attempt in {} ms", config_.brokers.front(), what,
-                       backoff_.count());
-        return schedule_reconnect();
+            log_->log(level, "cannot connect to {}: {}; next attempt in {} ms ({} failed so far)",
+                      config_.brokers.front(), what, wait.count(), failed_attempts_);
+        return;
     }
     connected_ = true;
     ++connects_;
-    backoff_ = config_.reconnect_min;
+    failed_attempts_ = 0;
+    backoff_.reset();
     if (log_) log_->info("connected to {} as {}", cli_->get_server_uri(), client_id_);
     if (handlers_.connected) handlers_.connected();
 }
@@ -217,14 +223,15 @@ void mqtt_client::on_lost(std::string cause) {
     if (!connecting_) schedule_reconnect();
 }
 
-void mqtt_client::schedule_reconnect() {
-    if (stopping_) return;
-    retry_timer_.expires_after(backoff_);
-    backoff_ = std::min(backoff_ * 2, config_.reconnect_max);
+std::chrono::milliseconds mqtt_client::schedule_reconnect() {
+    if (stopping_) return {};
+    const auto wait = backoff_.next();
+    retry_timer_.expires_after(wait);
     retry_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
         if (ec) return;
         if (auto self = weak.lock()) self->do_connect();
     });
+    return wait;
 }
 
 std::shared_ptr<const mqtt::message> mqtt_client::make_paho_message(const mqtt_message_out& m) const {

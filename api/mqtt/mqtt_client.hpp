@@ -5,7 +5,9 @@
 //
 // Connection: MQTT 5 (clean start) or 3.1.1 (clean session), the Last Will given at creation, TLS
 // for mqtts:// and ssl:// brokers. After a failed connect or a lost connection it reconnects forever
-// with capped exponential backoff (reconnect_min doubling up to reconnect_max); Paho's own
+// with capped exponential backoff and jitter (reconnect_backoff.hpp: reconnect_min doubling up to
+// reconnect_max, each wait drawn from its upper half), so the broker's return is noticed within
+// reconnect_max however long it was away; Paho's own
 // automatic reconnect is not used, so that the first connect is retried the same way and the bridge
 // learns about every (re)connect. Publishes while disconnected are refused (the caller decides what
 // to keep). Publishes in flight are counted; the bridge stops taking events when too many are.
@@ -20,6 +22,7 @@
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/strand.hpp>
 
+#include "api/mqtt/reconnect_backoff.hpp"
 #include "gateway/config.hpp"
 
 namespace spdlog {
@@ -88,7 +91,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     void do_connect();
     void on_connect_result(bool ok, std::string what);
     void on_lost(std::string cause);
-    void schedule_reconnect();
+    std::chrono::milliseconds schedule_reconnect();  // the wait until the attempt
     std::shared_ptr<const mqtt::message> make_paho_message(const mqtt_message_out& m) const;
     void disconnect_now();  // stop(): `last` is through or given up on
     void finish_stop();     // stop(): disconnected; calls the stop's `done`
@@ -101,11 +104,12 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::shared_ptr<spdlog::logger> log_;
     boost::asio::steady_timer retry_timer_;
     boost::asio::steady_timer stop_timer_;  // bounds stop()'s waits
-    std::chrono::milliseconds backoff_;
+    reconnect_backoff backoff_;
     bool connected_ = false;
     bool connecting_ = false;
     bool stopping_ = false;
     bool disconnecting_ = false;
+    std::uint64_t failed_attempts_ = 0;  // since the last connect (for the log)
     std::size_t in_flight_ = 0;
     std::uint64_t connects_ = 0;
     std::unique_ptr<listener> connect_listener_;  // outlives cli_ (declared before it)

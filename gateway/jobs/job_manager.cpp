@@ -202,8 +202,9 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void retry_unstored_later();
     // Persists the job's restore commands (empty: removes them); a storage error is logged.
     void store_restore_commands(const std::string& id, const std::vector<std::string>& commands);
-    // On the hub, for the job's topic (after save: a client never sees what is not stored first).
-    void publish(const std::string& id, const json& event);
+    // On the hub, for the job's topic (after save: a client never sees what is not stored first); the
+    // topic of an ended job is retired settings_.ended_job_topic_ttl later.
+    void publish(const job_record& job, const json& event);
 
     void dispatch(const std::string& controller);
     void launch(std::shared_ptr<live_job> job);
@@ -437,9 +438,12 @@ void manager_core::store_restore_commands(const std::string& id, const std::vect
         log_->error("job {}: cannot store its restore commands: {}", id, ok.error().message);
 }
 
-void manager_core::publish(const std::string& id, const json& event) {
-    if (abandoned_) return;
-    if (hub_) hub_->publish(job_topic(id), event);
+void manager_core::publish(const job_record& job, const json& event) {
+    if (abandoned_ || !hub_) return;
+    hub_->publish(job_topic(job.id), event);
+    // Once the job has ended, its topic retires a while after its last event (a later event moves the
+    // time): the hub would otherwise keep every job's replay buffer for ever.
+    if (is_terminal(job.state)) hub_->retire_topic(job_topic(job.id), settings_.ended_job_topic_ttl);
 }
 
 void manager_core::set_state(live_job& job, job_state s, std::string reason) {
@@ -454,7 +458,7 @@ void manager_core::set_state(live_job& job, job_state s, std::string reason) {
     if (s == job_state::succeeded) r.progress.remaining_s = 0.0;
     const auto event = state_event(r, now);
     save(r.id, r, event);
-    publish(r.id, event);
+    publish(r, event);
     log_->info("job {} ({} on {}): {}{}{}", r.id, to_string(r.type), r.controller, to_string(s),
                r.reason.empty() ? "" : ": ", r.reason);
     if (is_terminal(s)) jobs_.erase(r.id);
@@ -1435,13 +1439,13 @@ void manager_core::on_step_done(live_job& job, std::size_t index, json detail) {
     job.record.updated = now;
     const auto event = step_event(job.record, index, name, detail, now);
     save(job.record.id, job.record, event);
-    publish(job.record.id, event);
+    publish(job.record, event);
 }
 
 void manager_core::on_emit(live_job& job, json event) {
     if (abandoned_) return;
     save(job.record.id, std::nullopt, event);
-    publish(job.record.id, event);
+    publish(job.record, event);
 }
 
 std::vector<json> manager_core::step_events(const live_job& job) const {

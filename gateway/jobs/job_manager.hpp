@@ -58,6 +58,9 @@ struct job_manager_settings {
     // Per job, the writes the store refused that wait in memory; beyond it the oldest is given up
     // (logged). A run that cannot pause between steps (autoplay, a firmware scan) could fill it.
     std::size_t max_unstored_writes_per_job = 10000;
+    // An ended job's hub topic (jobs/<id>) is retired this long after its last event: the hub does not
+    // keep every job's replay buffer for ever (its history is in the store).
+    std::chrono::milliseconds ended_job_topic_ttl{600'000};
 };
 
 struct submit_request {

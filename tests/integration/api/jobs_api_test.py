@@ -9,7 +9,8 @@ real run to a final state) and validates every response body against the schema 
 for its path, method and status (the Contract of http_api_test.py). Then: submit/get/list/filter/
 paginate, dry run moves nothing, idempotency, leases (409 for others, holder allowed, expiry, renew,
 release, force by admin), cancel/pause/resume/next, WebSocket job commands and events on jobs/<id>
-in order, bad inputs, and a gateway restart mid-job with kill -9 (history intact, the job
+in order (and the topic retired events.ended_job_topic_ttl_s after the job ended: its subscriber and a
+late resume get a "retired" event, the history stays stored), bad inputs, and a gateway restart mid-job with kill -9 (history intact, the job
 interrupted with its steps_done, nothing resent; resume completes it).
 
 Run by ctest with Debian's /usr/bin/python3 (python3-yaml, python3-jsonschema).
@@ -492,6 +493,21 @@ def test_websocket(c, port):
     stored = c.request("GET", f"/api/v1/jobs/{job_id}/events", token=VIEW).json()["events"]
     check([e.get("type") for e in stored] == [e["data"].get("type") for e in events],
           f"stored {[e.get('type') for e in stored]} vs live {[e['data'].get('type') for e in events]}")
+    # The ended job's topic leaves the gateway's memory events.ended_job_topic_ttl_s (3 s here) after its
+    # last event: its subscriber is told ("retired", with the last sequence number), and so is a client
+    # that resumes it later, instead of hearing nothing. The history stays in GET .../events.
+    last_seq = max(seqs)
+    gone = ws.wait_for(lambda m: m.get("type") == "retired" and m.get("topic") == topic, "the retired event",
+                       timeout=30)
+    check(gone["last_seq"] >= last_seq and "data" not in gone, f"retired {gone}")
+    late = WsClient(port, VIEW, "late")
+    ack = late.request({"op": "subscribe", "id": "late", "topics": ["jobs/#"], "resume": {topic: 2}})
+    check(ack["type"] == "subscribed", f"late subscribe {ack}")
+    m = late.wait_for(lambda m: m.get("topic") == topic, "an answer for the retired topic", timeout=10)
+    check(m["type"] == "retired" and m["last_seq"] == gone["last_seq"], f"late resume of a retired topic: {m}")
+    late.close()
+    stored = c.request("GET", f"/api/v1/jobs/{job_id}/events", token=VIEW).json()["events"]
+    check(len(stored) >= len(events), f"the history is still stored: {len(stored)} events")
     # Errors and leases over the WebSocket.
     r = ws.request({"op": "job", "id": "c9", "action": "cancel", "job": job_id})
     check(r["type"] == "error" and r["problem"]["type"].endswith("/invalid-state"), f"cancel finished {r}")
@@ -648,6 +664,7 @@ def main():
             "storage": {"path": os.path.join(fx.tmp, "store")},
             "auth": auth_tokens(),
             "logging": {"level": "info"},
+            "events": {"ended_job_topic_ttl_s": 3},  # test_websocket waits for a topic to retire
         }
         extra = ["--simulate", "3", "--time-scale", str(TIME_SCALE), "--sim-dir", os.path.join(fx.tmp, "sims")]
         fx.start_gateway(args.gateway, config, extra)

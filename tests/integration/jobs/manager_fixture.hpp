@@ -134,6 +134,7 @@ class manager_fixture : public ::testing::Test {
         s.max_queued_per_controller = max_queued_;
         s.storage_max_size_mb = storage_max_size_mb_;
         s.max_unstored_writes_per_job = max_unstored_writes_;
+        s.ended_job_topic_ttl = ended_job_topic_ttl_;
         return s;
     }
 
@@ -335,6 +336,7 @@ class manager_fixture : public ::testing::Test {
     std::size_t max_queued_ = 1000;
     std::size_t storage_max_size_mb_ = 64;
     std::size_t max_unstored_writes_ = 10000;
+    std::chrono::milliseconds ended_job_topic_ttl_{600'000};
 };
 
 }  // namespace gw::jobs::test

@@ -27,6 +27,9 @@ TEST(mqtt_config, defaults_are_off_and_safe) {
     EXPECT_EQ(m.qos.telemetry, 0);
     EXPECT_EQ(m.position_max_hz, 10.0);
     EXPECT_TRUE(m.tls.verify);
+    // A broker's return is noticed within reconnect_max however long it was away (issue 12).
+    EXPECT_EQ(m.reconnect_min, 500ms);
+    EXPECT_EQ(m.reconnect_max, 2000ms);
 }
 
 TEST(mqtt_config, every_key_is_read) {
