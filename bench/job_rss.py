@@ -10,8 +10,8 @@ jobs, with the event hub's topic count and replay bytes from /api/v1/metrics whe
 them (gw_events_topics, gw_events_replay_bytes). At the end it waits until the ended jobs' topics
 have left the hub (events.ended_job_topic_ttl_s, --topic-ttl-s) and records once more.
 
-Prints the trend and replaces the "Reliability" section of bench/RESULTS.md (the other sections are
-kept as they are). Standard library only; run with Debian's /usr/bin/python3:
+Prints the trend and replaces the "Reliability: memory over finished jobs" section of bench/RESULTS.md
+(the other sections, the other Reliability ones included, are kept as they are). Standard library only; run with Debian's /usr/bin/python3:
 
   scripts/build && /usr/bin/python3 bench/job_rss.py              # 10,000 jobs, about 15-25 min
   /usr/bin/python3 bench/job_rss.py --jobs 600 --every 100 --no-results   # a quick look
@@ -37,7 +37,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 MOSQUITTO = "/usr/sbin/mosquitto"
-SECTION = "Reliability"
+SECTION = "Reliability: memory over finished jobs"
 TERMINAL = {"succeeded", "failed", "cancelled", "interrupted"}
 # A1 at a fixed place: with "current" each job would start where the last one ended and the stage would
 # walk off its soft limits after a few thousand jobs.
@@ -425,8 +425,8 @@ def section(run, started, load_start, load_end):
                    "the MQTT bridge (mosquitto, retained job states)" if run.mqtt else None]
     subscribers = ", ".join(x for x in subscribers if x) or "none"
     ttl = "not set (a gateway without the key)" if a.topic_ttl_s == "none" else f"{a.topic_ttl_s} s"
-    lines = [f"## {SECTION}", "",
-             f"### RSS over {a.jobs:,} finished jobs (bench/job_rss.py, run of {started} UTC)", "",
+    lines = [f"## {SECTION} (bench/job_rss.py)", "",
+             f"### RSS over {a.jobs:,} finished jobs (run of {started} UTC)", "",
              f"`bench/job_rss.py --jobs {a.jobs} --every {a.every} --time-scale {a.time_scale:g}"
              f"{' --topic-ttl-s ' + str(a.topic_ttl_s) if a.topic_ttl_s != '5' else ''}`: the real gateway "
              f"(`{gateway}`, commit {git_commit()}) on {a.controllers} simulated controllers (time scale "
@@ -455,7 +455,7 @@ def section(run, started, load_start, load_end):
 
 
 def write_results(path, text):
-    """Replaces the Reliability section of RESULTS.md (or appends it); every other section is kept."""
+    """Replaces this benchmark's section of RESULTS.md (or appends it); every other section is kept."""
     try:
         with open(path) as f:
             old = f.read()
