@@ -4,9 +4,9 @@ the broker's return, whatever the length of the outage.
 A real mosquitto (no persistence: its retained messages die with it) and the real asi-gateway
 (--simulate 2) with the MQTT section's reconnect settings left at their defaults. For each outage
 length (--outages, default 3 s and 20 s) the broker is killed with SIGKILL, stays away that long and
-is started again on the same port; from the moment it accepts connections, fresh clients look for the
-gateway's retained birth ("online") and every controller's retained state. The deadline is 5 s
-(--deadline-s). With the old backoff (doubling from 0.5 s up to 30 s) the attempt after a 20 s outage
+is started again on the same port; from the moment it accepts connections, the test waits for the
+gateway's birth ("online") and every controller's state (a watcher notes when they arrive; a fresh
+client then checks that they are retained). The deadline is 5 s (--deadline-s). With the old backoff (doubling from 0.5 s up to 30 s) the attempt after a 20 s outage
 came only at 31.5 s, 11.5 s after the broker's return.
 
 Run by ctest (mqtt_reconnect); by hand:
@@ -33,39 +33,59 @@ def accepting(port):
         return False
 
 
-def retained_state_back(gw, broker, cids, deadline, give_up=40.0):
-    """Seconds from now until a fresh client finds the retained birth and every controller's retained
-    state, and the birth payload. Past `deadline` it keeps looking (until `give_up`) only to say in the
-    Failure when the state did come back."""
+class StampedClient(Client):
+    """A Client that notes when each message arrived (time.monotonic())."""
+
+    def __init__(self, *a, **kw):
+        self.arrived = []
+        super().__init__(*a, **kw)
+
+    def _on_message(self, client, userdata, msg):
+        self.arrived.append(time.monotonic())
+        super()._on_message(client, userdata, msg)
+
+    def first(self, pred):
+        """Arrival time and payload of the first recorded message for which pred(...) holds, or None."""
+        with self.cv:
+            for t, m in zip(self.arrived, self.messages):
+                if pred(*m):
+                    return t, m[1]
+        return None
+
+
+def state_back(gw, broker, cids, deadline, give_up=40.0):
+    """Seconds from now until the gateway's birth and every controller's state reach a watcher on the
+    restarted broker (the broker keeps a retained message before it forwards it), and the birth
+    payload; then a fresh client checks that they are retained. Past `deadline` it keeps looking (until
+    `give_up`) only to say in the Failure when they did come back."""
     t0 = time.monotonic()
-    n = 0
-    while True:
-        left = give_up - (time.monotonic() - t0)
-        if left <= 0:
-            raise Failure(f"the retained state was not back {give_up:.0f} s after the broker returned")
-        n += 1
-        try:
-            c = Client(broker.port, f"after-outage-{n}-{time.monotonic_ns()}")
-        except (Failure, OSError):
-            continue
-        try:
-            c.subscribe(gw.topic("status"), gw.topic("controllers", "+", "state"))
-            try:
-                _, birth, retained, _ = c.wait_for("the retained birth", status_is(gw, "online"),
-                                                   timeout=min(0.5, max(left, 0.05)))
-                check(retained, "the birth is retained")
-                for cid in cids:
-                    c.wait_for(f"the retained {cid} state",
-                               lambda t, p, r, pr, cid=cid: t == gw.topic("controllers", cid, "state") and r and p,
-                               timeout=0.5)
-            except Failure:
-                continue
-            took = time.monotonic() - t0
-            check(took <= deadline, f"the retained state was back only {took:.1f} s after the broker returned "
-                                    f"(deadline {deadline:.0f} s)")
-            return took, birth
-        finally:
-            c.close()
+    watcher = StampedClient(broker.port, f"watcher-{time.monotonic_ns()}")
+    try:
+        watcher.subscribe(gw.topic("status"), gw.topic("controllers", "+", "state"))
+        wanted = [status_is(gw, "online")] + [
+            (lambda t, p, r, pr, cid=cid: t == gw.topic("controllers", cid, "state") and bool(p)) for cid in cids]
+        while True:
+            found = [watcher.first(pred) for pred in wanted]
+            if all(found):
+                break
+            if time.monotonic() - t0 > give_up:
+                raise Failure(f"the gateway's birth and states were not back {give_up:.0f} s after the broker "
+                              f"returned")
+            time.sleep(0.02)
+    finally:
+        watcher.close()
+    took = max(t for t, _ in found) - t0
+    check(took <= deadline, f"the retained state was back only {took:.1f} s after the broker returned "
+                            f"(deadline {deadline:.0f} s)")
+    fresh = Client(broker.port, f"fresh-{time.monotonic_ns()}")
+    try:
+        fresh.subscribe(gw.topic("status"), gw.topic("controllers", "+", "state"))
+        for pred in wanted:
+            _, _, retained, _ = fresh.wait_for("a retained birth or state", pred, timeout=5)
+            check(retained, "the birth and the states are retained")
+    finally:
+        fresh.close()
+    return took, found[0][1]
 
 
 def test_outage(gw, broker, contract, outage_s, deadline_s):
@@ -80,7 +100,7 @@ def test_outage(gw, broker, contract, outage_s, deadline_s):
     time.sleep(outage_s)
     check(not accepting(broker.port), "the broker is really gone")
     broker.start()  # same port, same config; returns once it accepts connections
-    took, birth = retained_state_back(gw, broker, ("sim1", "sim2"), deadline_s)
+    took, birth = state_back(gw, broker, ("sim1", "sim2"), deadline_s)
     contract.validate(gw.topic("status"), birth)
     check(payload_json(birth)["state"] == "online", f"birth: {birth}")
     print(f"       outage {outage_s:.0f} s: retained birth and states back {took:.2f} s after the broker returned",
