@@ -22,6 +22,7 @@ listener::listener(net::any_io_executor executor, net::ip::tcp::endpoint endpoin
     acceptor_.set_option(net::socket_base::reuse_address(true));
     acceptor_.bind(endpoint);
     acceptor_.listen(net::socket_base::max_listen_connections);
+    acceptor_.non_blocking(true);  // on_accept takes the backlog in batches
     endpoint_ = acceptor_.local_endpoint();
 }
 
@@ -39,6 +40,7 @@ void listener::stop() {
         beast::error_code ignored;
         self->acceptor_.close(ignored);
         self->retry_timer_.cancel();
+        self->refused_.clear();  // closes them unanswered
     });
     connections_->close_all();
 }
@@ -64,20 +66,55 @@ void listener::on_accept(beast::error_code ec, net::ip::tcp::socket socket) {
         std::lock_guard lock(mutex_);
         if (stopped_) return;
     }
+    start(std::move(socket));
+    // Take every connection already waiting, up to a batch: under a flood, one accept per turn of the
+    // I/O loop would queue a client behind every connection that came before it (each turn also runs
+    // the other clients' work).
+    for (int i = 0; i < max_accept_batch; ++i) {
+        net::ip::tcp::socket next(net::make_strand(executor_));
+        beast::error_code aec;
+        acceptor_.accept(next, aec);  // non-blocking: would_block once the backlog is empty
+        if (aec) break;
+        start(std::move(next));
+    }
+    do_accept();
+}
+
+void listener::start(net::ip::tcp::socket socket) {
     beast::error_code remote_ec;
     const auto remote = socket.remote_endpoint(remote_ec);
-    if (remote_ec) return do_accept();  // gone already
+    if (remote_ec) return;  // gone already
     auto a = connections_->admit(remote.address());
     if (auto victim = a.shed.lock()) victim->shed();
-    if (!a.permit)
+    if (!a.permit) {
         ctx_->metrics->increment(
             "gw_http_connections_refused_total",
             {{"reason", a.refused == connection_table::refusal::address_limit ? "address" : "limit"}});
-    auto session =
-        std::make_shared<http_session>(std::move(socket), ctx_, a.permit, bodies_, std::move(a.detail));
-    if (a.permit) a.permit->track(session);
+        return refuse(std::move(socket), std::move(a.detail));
+    }
+    auto session = std::make_shared<http_session>(std::move(socket), ctx_, a.permit, bodies_);
+    a.permit->track(session);
     session->run();
-    do_accept();
+}
+
+void listener::refuse(net::ip::tcp::socket socket, std::string detail) {
+    if (refused_.size() >= max_refused_waiting) {
+        beast::error_code ignored;
+        socket.close(ignored);  // a flood beyond this gets no answer at all
+        return;
+    }
+    refused_.emplace_back(std::move(socket), std::move(detail));
+    if (refused_.size() == 1) net::post(strand_, [self = shared_from_this()] { self->answer_refused(); });
+}
+
+// One refusal per turn, then to the back of the queue: whatever the admitted clients need that came
+// meanwhile runs first, so a flood of refused connections costs them little time.
+void listener::answer_refused() {
+    if (refused_.empty()) return;
+    auto [socket, detail] = std::move(refused_.front());
+    refused_.pop_front();
+    std::make_shared<http_session>(std::move(socket), ctx_, nullptr, bodies_, std::move(detail))->run();
+    if (!refused_.empty()) net::post(strand_, [self = shared_from_this()] { self->answer_refused(); });
 }
 
 }  // namespace gw::api

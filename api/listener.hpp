@@ -1,14 +1,18 @@
 #pragma once
 // Accepts TCP connections and starts an http_session for each, on its own strand. Enforces the
 // connection limits over HTTP and upgraded WebSocket connections alike through the connection table
-// (each connection holds a connection_permit; one refused gets a 503 problem and is closed; one that
-// only waits for a header may be shed for a newcomer), owns the budget of request bodies held in
+// (each connection holds a connection_permit; one refused gets a 503 problem, after the admitted
+// clients' work, and is closed; one that only waits for a header may be shed for a newcomer), owns
+// the budget of request bodies held in
 // memory that every session shares, and stops gracefully: stop() closes the acceptor, then every open
 // HTTP session (WebSocket sessions are closed by the event hub's stop()). Owned by shared_ptr (its
 // pending accept and api::server hold it); public methods may be called from any thread.
 
+#include <deque>
 #include <memory>
 #include <mutex>
+#include <string>
+#include <utility>
 
 #include "api/api_context.hpp"
 #include "api/body_budget.hpp"
@@ -33,6 +37,16 @@ class listener : public std::enable_shared_from_this<listener> {
   private:
     void do_accept();
     void on_accept(beast::error_code ec, net::ip::tcp::socket socket);
+    // Admits a connection (or refuses it) and starts its session.
+    void start(net::ip::tcp::socket socket);
+    // A connection the limits refused: answered 503 later, after the admitted clients' work.
+    void refuse(net::ip::tcp::socket socket, std::string detail);
+    void answer_refused();
+
+    // Refused connections waiting for their 503; beyond, one is closed unanswered (a flood must not
+    // take the process's descriptors either).
+    static constexpr std::size_t max_refused_waiting = 512;
+    static constexpr int max_accept_batch = 256;
 
     net::any_io_executor executor_;
     net::strand<net::any_io_executor> strand_;  // the acceptor's
@@ -42,7 +56,8 @@ class listener : public std::enable_shared_from_this<listener> {
     std::shared_ptr<api_context> ctx_;
     std::shared_ptr<connection_table> connections_;
     std::shared_ptr<body_budget> bodies_;
-    mutable std::mutex mutex_;  // guards stopped_
+    std::deque<std::pair<net::ip::tcp::socket, std::string>> refused_;  // on strand_
+    mutable std::mutex mutex_;                                          // guards stopped_
     bool stopped_ = false;
 };
 
