@@ -9,7 +9,7 @@ simulators' control sockets, every answer checked against the truth.
   unplug storm    unplug/replug cycles; the time from replug to "connected" in the state.
 
 --short (CI, about a minute) or --long (by hand: --minutes of faults, more cycles). --results FILE
-writes the figures into the "Serial link" part of FILE's "Reliability" section (bench/RESULTS.md).
+writes the figures into FILE's "Reliability: serial link" section (bench/RESULTS.md).
 Loopback and Unix sockets only; every loop is bounded in count and time. Debian's /usr/bin/python3,
 standard library only.
 """
@@ -222,29 +222,24 @@ def unplug_storm(fx, gw, sims, cycles, seed, figures):
 
 
 def write_results(path, figures, args):
-    section = ["### Serial link (`tests/integration/faults/fault_suite.py`)", "",
-               f"Machine: {platform.machine()}, {os.cpu_count()} cores, load average at the end "
-               f"{os.getloadavg()[0]:.2f}; {time.strftime('%Y-%m-%d')}; "
-               f"`fault_suite.py {'--long --minutes ' + str(args.minutes) if args.long else '--short'}`.", "",
-               "| part | figure | value |", "| --- | --- | --- |"]
+    """Replaces (or appends) the section of this suite in RESULTS.md; the other sections stay."""
+    heading = "## Reliability: serial link (tests/integration/faults/fault_suite.py)"
+    form = f"--long --minutes {args.minutes} --cycles {args.cycles}" if args.long else "--short"
+    lines = [heading, "",
+             f"Run of {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, `fault_suite.py {form}`; machine "
+             f"{platform.machine()}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at the end.", "",
+             "| part | figure | value |", "| --- | --- | --- |"]
     for part, values in figures.items():
         for k, v in values.items():
-            section.append(f"| {part} | {k} | {v} |")
-    block = "\n".join(section) + "\n"
+            lines.append(f"| {part} | {k} | {v} |")
+    block = "\n".join(lines) + "\n"
     text = open(path).read() if os.path.exists(path) else ""
-    start = text.find("### Serial link (")
+    start = text.find(heading)
     if start >= 0:
-        end = text.find("\n## ", start + 1)
-        end2 = text.find("\n### ", start + 1)
-        ends = [e for e in (end, end2) if e >= 0]
-        end = min(ends) + 1 if ends else len(text)
-        text = text[:start] + block + ("\n" if end < len(text) else "") + text[end:]
-    elif "## Reliability" in text:
-        at = text.find("## Reliability")
-        nl = text.find("\n", at)
-        text = text[:nl + 1] + "\n" + block + text[nl + 1:]
+        end = text.find("\n## ", start + len(heading))
+        text = text[:start] + block + (text[end:] if end >= 0 else "")
     else:
-        text = text.rstrip("\n") + "\n\n## Reliability\n\n" + block
+        text = text.rstrip("\n") + "\n\n" + block
     with open(path, "w") as f:
         f.write(text)
 
