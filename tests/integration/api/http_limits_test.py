@@ -274,7 +274,11 @@ def test_header_deadline(port):
             break
         r, _, _ = select.select([slow], [], [], 0.5)
         if r:
-            check(slow.recv(4096) == b"", "a slow header gets no answer, it is closed")
+            try:
+                data = slow.recv(4096)
+            except ConnectionResetError:
+                data = b""  # closed with bytes of ours unread: a reset, which is a close too
+            check(data == b"", "a slow header gets no answer, it is closed")
             closed_after = time.monotonic() - t0
             break
     slow.close()
