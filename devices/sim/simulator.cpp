@@ -96,11 +96,14 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
 
     // --- strand only -------------------------------------------------------------------------
 
-    void pulse() {
+    // One edge at simulated time `at` (now by default). A train's edges keep their scheduled times
+    // even when a timer fires late on a loaded machine: a pulse generator's edges do not bunch up, so
+    // a late timer must not make two edges meet one frame (error 87) that the real ones would not.
+    void pulse(std::optional<sim_time> at = std::nullopt) {
         std::optional<timed_output> frame;
         {
             std::lock_guard lock(mutex_);
-            frame = model_.ttl_pulse(sim_now());
+            frame = model_.ttl_pulse(at ? *at : sim_now());
         }
         if (frame) report_writer_->enqueue(std::move(frame->bytes), real_time(frame->at));
         schedule_events();
@@ -162,8 +165,10 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
     }
 
   private:
-    sim_time sim_now() const {
-        const auto real = clock::now() - epoch_;
+    sim_time sim_now() const { return sim_at(clock::now()); }
+
+    sim_time sim_at(clock::time_point t) const {
+        const auto real = t - epoch_;
         return std::chrono::duration_cast<sim_time>(std::chrono::duration<double, std::micro>(
             std::chrono::duration<double, std::micro>(real).count() * config_.time_scale));
     }
@@ -298,7 +303,7 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
         train_timer_.expires_at(at);
         train_timer_.async_wait([self = shared_from_this(), left, period, at](boost::system::error_code ec) {
             if (ec || self->stopped_) return;
-            self->pulse();
+            self->pulse(self->sim_at(at));
             if (left > 1) self->train_next(left - 1, period, at + period);
         });
     }
