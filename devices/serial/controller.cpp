@@ -10,7 +10,6 @@
 #include <boost/asio/write.hpp>
 #include <spdlog/spdlog.h>
 
-#include "devices/ms2000/build_info.hpp"
 #include "devices/ms2000/error.hpp"
 #include "devices/ms2000/reply_check.hpp"
 #include "devices/serial/escape.hpp"
