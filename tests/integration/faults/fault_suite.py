@@ -7,6 +7,10 @@ simulators' control sockets, every answer checked against the truth.
                   is checked against the stage's real position (the stage is parked at positions no
                   two axes share); a second controller on the same gateway must never see an error.
   unplug storm    unplug/replug cycles; the time from replug to "connected" in the state.
+  jobs in storms  plate jobs on both controllers while one is unplugged again and again: every job
+                  the unplug catches pauses with the reason, is resumed once the controller is back
+                  and ends with every well done once; the other controller's jobs never pause; the
+                  gateway's RSS is sampled throughout (its trend per hour).
 
 --short (CI, about a minute) or --long (by hand: --minutes of faults, more cycles). --results FILE
 writes the figures into FILE's "Reliability: serial link" section (bench/RESULTS.md).
@@ -221,10 +225,132 @@ def unplug_storm(fx, gw, sims, cycles, seed, figures):
     check(fx.gateway.poll() is None, "the gateway died")
 
 
+GRID = {"columns": 4, "rows": 3, "column_step_mm": 0.5, "row_step_mm": -0.5}
+WELLS = {f"{row}{col}" for row in "ABC" for col in range(1, 5)}
+
+
+def submit_plate(gw, cid):
+    status, body = gw.request("POST", "/api/v1/jobs", {"controller": cid, "type": "array",
+                                                      "spec": {"grid": GRID, "a1": {"X": 0, "Y": 0},
+                                                               "dwell_ms": 300}},
+                              token=TOKENS["operator"])
+    check(status == 201, f"submit on {cid}: {status} {body}")
+    return body["id"]
+
+
+def job(gw, job_id):
+    status, body = gw.request("GET", f"/api/v1/jobs/{job_id}", token=TOKENS["viewer"])
+    check(status == 200, f"GET job {job_id}: {status} {body}")
+    return body
+
+
+def check_wells(gw, job_id):
+    """Every well has a step event, and no step was reported done twice."""
+    status, body = gw.request("GET", f"/api/v1/jobs/{job_id}/events?limit=1000", token=TOKENS["viewer"])
+    check(status == 200, f"events of {job_id}: {status}")
+    steps = [e for e in body["events"] if e["type"] == "step"]
+    wells = [e["well"] for e in steps]
+    check(set(wells) == WELLS, f"{job_id}: wells {sorted(set(wells))}, missing {sorted(WELLS - set(wells))}")
+    indices = [e["index"] for e in steps]
+    check(len(indices) == len(set(indices)), f"{job_id}: a step done twice: {indices}")
+    return len(set(wells))
+
+
+def rss_slope_kib_per_hour(samples):
+    """Least squares over (seconds, KiB) samples."""
+    n = len(samples)
+    if n < 2:
+        return 0.0
+    mt = sum(t for t, _ in samples) / n
+    mr = sum(r for _, r in samples) / n
+    var = sum((t - mt) ** 2 for t, _ in samples)
+    return 0.0 if var == 0 else sum((t - mt) * (r - mr) for t, r in samples) / var * 3600
+
+
+def quiet_jobs(gw, stop, tally):
+    """The quiet controller runs plate after plate; none may pause or fail."""
+    while not stop.is_set():
+        job_id = submit_plate(gw, "quiet")
+        while True:
+            j = job(gw, job_id)
+            if j["state"] in ("succeeded", "failed", "cancelled", "paused", "interrupted"):
+                break
+            time.sleep(0.1)
+        if j["state"] == "succeeded" and j["progress"]["steps_done"] == len(WELLS):
+            tally.add("quiet jobs succeeded")
+        else:
+            tally.mismatch(f"quiet job {job_id} ended {j['state']} ({j['reason']}), "
+                           f"{j['progress']['steps_done']}/{len(WELLS)} wells")
+            return
+
+
+def jobs_in_storms(fx, gw, sims, minutes, seed, figures):
+    """Jobs on the noisy controller, unplugged while they run; the quiet one's jobs go on."""
+    sim = sims["noisy"]
+    r = random.Random(seed)
+    tally = Tally()
+    stop = threading.Event()
+    quiet = threading.Thread(target=quiet_jobs, args=(gw, stop, tally))
+    quiet.start()
+    began = time.monotonic()
+    rss = [(0.0, rss_kib(fx.gateway.pid))]
+    pauses, jobs, wells = 0, 0, 0
+    try:
+        while time.monotonic() - began < minutes * 60 or jobs == 0:
+            job_id = submit_plate(gw, "noisy")
+            jobs += 1
+            while True:
+                j = job(gw, job_id)
+                if j["state"] == "succeeded":
+                    break
+                check(j["state"] in ("queued", "running"), f"{job_id} {j['state']}: {j['reason']}")
+                if j["state"] == "running" and r.random() < 0.5:
+                    time.sleep(r.uniform(0.0, 1.0))
+                    check(sim.control("unplug") == "ok", "unplug")
+                    paused = wait_until(f"{job_id} to pause or end", lambda: (
+                        lambda k: k if k["state"] not in ("queued", "running") else None)(job(gw, job_id)))
+                    time.sleep(r.uniform(0.1, 1.5))
+                    check(sim.control("replug") == "ok", "replug")
+                    # Jobs are planned with the controller's build: the next submission waits for it too.
+                    wait_until("noisy connected", lambda: gw.state("noisy")[1]["state"] == "connected")
+                    if paused["state"] == "paused":
+                        pauses += 1
+                        check(paused["reason"].startswith("controller disconnected"),
+                              f"{job_id} paused for {paused['reason']!r}")
+                        status, body = gw.request("POST", f"/api/v1/jobs/{job_id}/resume", token=TOKENS["operator"])
+                        check(status == 200, f"resume {job_id}: {status} {body}")
+                    else:
+                        check(paused["state"] == "succeeded", f"{job_id} {paused['state']}: {paused['reason']}")
+                    rss.append((time.monotonic() - began, rss_kib(fx.gateway.pid)))
+                    check(fx.gateway.poll() is None, "the gateway died")
+                time.sleep(0.05)
+            wells += check_wells(gw, job_id)
+    finally:
+        stop.set()
+        quiet.join(timeout=120)
+    rss.append((time.monotonic() - began, rss_kib(fx.gateway.pid)))
+    half = [s for s in rss if s[0] >= rss[-1][0] / 2]
+    figures["jobs in storms"] = {
+        "minutes": round((time.monotonic() - began) / 60, 1), "noisy jobs": jobs,
+        "unplugs that paused a job": pauses, "wells done": f"{wells}/{jobs * len(WELLS)}",
+        "quiet jobs succeeded": tally.counts.get("quiet jobs succeeded", 0),
+        "quiet jobs not succeeded": len(tally.mismatches),
+        "rss kib first/last/max": [rss[0][1], rss[-1][1], max(v for _, v in rss)],
+        "rss slope kib/h (all, second half)": [round(rss_slope_kib_per_hour(rss), 1),
+                                               round(rss_slope_kib_per_hour(half), 1)],
+        "rss kib over time (minute: KiB)": {round(rss[i][0] / 60, 1): rss[i][1]
+                                            for i in range(0, len(rss), max(1, len(rss) // 10))},
+        "crashes": 0 if fx.gateway.poll() is None else 1,
+    }
+    check(not tally.mismatches, f"the quiet controller's jobs: {tally.mismatches}")
+    check(pauses > 0, "no unplug caught a running job")
+
+
 def write_results(path, figures, args):
     """Replaces (or appends) the section of this suite in RESULTS.md; the other sections stay."""
     heading = "## Reliability: serial link (tests/integration/faults/fault_suite.py)"
-    form = f"--long --minutes {args.minutes} --cycles {args.cycles}" if args.long else "--short"
+    form = f"--long --minutes {args.minutes} --cycles {args.cycles} --storm-minutes {args.storm_minutes}" \
+        if args.long else "--short"
     lines = [heading, "",
              f"Run of {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, `fault_suite.py {form}`; machine "
              f"{platform.machine()}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at the end.", "",
@@ -253,11 +379,13 @@ def main():
     mode.add_argument("--long", action="store_true", help="the form run by hand")
     ap.add_argument("--minutes", type=float, default=10.0, help="minutes of serial faults in --long")
     ap.add_argument("--cycles", type=int, default=200, help="unplug cycles in --long")
+    ap.add_argument("--storm-minutes", type=float, default=10.0, help="minutes of jobs in unplug storms in --long")
     ap.add_argument("--seed", type=int, default=12)
     ap.add_argument("--results", help="write the figures into this RESULTS.md")
     args = ap.parse_args()
     minutes = args.minutes if args.long else 0.4
     cycles = args.cycles if args.long else 8
+    storm_minutes = args.storm_minutes if args.long else 0.3
 
     fx = Fixture("gw-fault-suite-")
     figures = {}
@@ -279,6 +407,8 @@ def main():
         fx.run("serial faults: every answer is its command's", serial_faults, fx, gw, sims, minutes, args.seed,
                figures)
         fx.run("unplug storm: every replug reconnects", unplug_storm, fx, gw, sims, cycles, args.seed, figures)
+        fx.run("jobs in storms: paused, resumed, every well once", jobs_in_storms, fx, gw, sims, storm_minutes,
+               args.seed, figures)
         print(json.dumps(figures, indent=1))
         if args.results and not fx.failures:
             write_results(args.results, figures, args)
