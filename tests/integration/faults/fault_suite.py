@@ -145,7 +145,7 @@ def reader(gw, cid, truth, tally, stop, seed):
                     tally.mismatch(f"{cid} state {a['axis']} = {a['position_um']} (truth {truth[a['axis']] / 10})")
 
 
-def serial_faults(fx, gw, sims, minutes, seed, figures):
+def serial_faults(fx, gw, sims, minutes, seed, figures, only=None):
     noisy, quiet = sims["noisy"], sims["quiet"]
     truth = {cid: park(gw, cid) for cid in ("noisy", "quiet")}
     tally = Tally()
@@ -155,16 +155,17 @@ def serial_faults(fx, gw, sims, minutes, seed, figures):
     for t in readers:
         t.start()
     r = random.Random(seed)
+    kinds = [f for f in FAULTS if not only or f[0] in only]
     deadline = time.monotonic() + minutes * 60
     injected = 0
     try:
         while time.monotonic() < deadline:
-            name, make = r.choice(FAULTS)
+            name, make = r.choice(kinds)
             answer = noisy.control(make(r))
             check(answer == "ok", f"control {name}: {answer}")
             injected += 1
             tally.add(f"fault {name}")
-            if r.random() < 0.1:
+            if r.random() < 0.1 and (not only or "garbage" in only):
                 # The defect that took the gateway down: noise with high bytes, then text commands.
                 noisy.control("garbage 500")
                 for line in ("BU", "WHO", "BU X"):
@@ -380,6 +381,7 @@ def main():
     ap.add_argument("--minutes", type=float, default=10.0, help="minutes of serial faults in --long")
     ap.add_argument("--cycles", type=int, default=200, help="unplug cycles in --long")
     ap.add_argument("--storm-minutes", type=float, default=10.0, help="minutes of jobs in unplug storms in --long")
+    ap.add_argument("--only", help="comma-separated fault kinds (default: all); e.g. to show one defect on old code")
     ap.add_argument("--seed", type=int, default=12)
     ap.add_argument("--results", help="write the figures into this RESULTS.md")
     args = ap.parse_args()
@@ -405,7 +407,7 @@ def main():
         fx.start_gateway(args.gateway, config)
         gw = Gateway(port)
         fx.run("serial faults: every answer is its command's", serial_faults, fx, gw, sims, minutes, args.seed,
-               figures)
+               figures, set(args.only.split(",")) if args.only else None)
         fx.run("unplug storm: every replug reconnects", unplug_storm, fx, gw, sims, cycles, args.seed, figures)
         fx.run("jobs in storms: paused, resumed, every well once", jobs_in_storms, fx, gw, sims, storm_minutes,
                args.seed, figures)
