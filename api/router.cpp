@@ -14,6 +14,7 @@
 #include "gateway/event_json.hpp"
 #include "gateway/json_text.hpp"
 #include "gateway/metrics.hpp"
+#include "gateway/version.hpp"
 
 namespace gw::api {
 
@@ -182,7 +183,8 @@ void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& re
     if (segments.size() == 1 && segments[0] == "health") {
         const std::string route = "/api/v1/health";
         if (!method_ok(route, http::verb::get)) return;
-        return reply(route, json_response(http::status::ok, {{"status", "ok"}}, req, request_id));
+        return reply(route, json_response(http::status::ok, {{"status", "ok"}, {"version", gw::version}}, req,
+                                          request_id));
     }
     if (segments.size() == 1 && segments[0] == "ready") {
         const std::string route = "/api/v1/ready";

@@ -471,8 +471,13 @@ std::string validate_config(const gateway_config& config) {
         if (simulated.contains(id)) return where + " (simulated controllers are named sim1..simN)";
         if (!ids.insert(id).second) return where;
     }
+    boost::system::error_code ec;
+    boost::asio::ip::make_address(config.http.listen_address, ec);
+    if (ec)  // the file's value is checked when read; this catches --listen
+        return "http.listen_address (--listen): \"" + config.http.listen_address +
+               "\" is not an IPv4 or IPv6 address";
     if (config.auth.tokens.empty() && !is_loopback_address(config.http.listen_address))
-        return "http.listen_address: " + config.http.listen_address +
+        return "http.listen_address (--listen): " + config.http.listen_address +
                " is not a loopback address, which needs auth.tokens (no tokens: loopback only)";
     // Every MQTT command carries a token: without tokens anyone on the broker would be admin.
     if (config.mqtt.enabled && config.mqtt.commands_enabled && config.auth.tokens.empty())

@@ -8,6 +8,7 @@
 #include <condition_variable>
 #include <csignal>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <mutex>
@@ -18,6 +19,7 @@
 
 #include <CLI/CLI.hpp>
 #include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/address.hpp>
 #include <boost/asio/signal_set.hpp>
 #include <spdlog/spdlog.h>
 
@@ -34,7 +36,10 @@
 #include "gateway/logging.hpp"
 #include "gateway/metrics.hpp"
 #include "gateway/serial_spec.hpp"
+#include "gateway/startup_summary.hpp"
 #include "gateway/storage_lock.hpp"
+#include "gateway/storage_path.hpp"
+#include "gateway/version.hpp"
 
 namespace net = boost::asio;
 
@@ -48,6 +53,9 @@ int main(int argc, char** argv) {
     std::vector<std::string> serial_specs;
     std::string log_level;
     int poll_ms = 100;
+    std::string listen;
+    std::uint16_t port = 0;
+    std::string storage_dir;
     app.add_option("--config", config_file, "JSON config file (without it: three simulated controllers)")
         ->check(CLI::ExistingFile);
     app.add_option("--check-config", check_file,
@@ -67,8 +75,20 @@ int main(int argc, char** argv) {
                          ->check(CLI::Range(0, 60000));
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
         ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
+    app.add_option("--listen", listen,
+                   "Address to serve HTTP on (overrides http.listen_address), e.g. 0.0.0.0");
+    auto* port_opt = app.add_option("--port", port, "HTTP port (overrides http.port; 0 = any free port)");
+    app.add_option("--storage", storage_dir,
+                   "Directory of the job store (overrides storage.path; default $STATE_DIRECTORY, "
+                   "$XDG_STATE_HOME/asi-gateway or ~/.local/state/asi-gateway)");
+    app.set_version_flag("--version", std::string("asi-gateway ") + std::string(gw::version));
     gw::gcode_cli gcode(app);  // "asi-gateway gcode plan|preview FILE": no controllers, no store
-    CLI11_PARSE(app, argc, argv);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        // --help and --version exit 0; every usage error exits 2, as a bad config does.
+        return app.exit(e) == 0 ? EXIT_SUCCESS : 2;
+    }
     if (gcode.selected()) return gcode.run(std::cout, std::cerr);
 
     if (!check_file.empty()) return gw::check_config_file(check_file, std::cout, std::cerr);
@@ -95,6 +115,19 @@ int main(int argc, char** argv) {
             return 2;
         }
         config.controllers.push_back(std::move(*parsed));
+    }
+    if (!listen.empty()) config.http.listen_address = listen;
+    if (port_opt->count() > 0) config.http.port = port;
+    {
+        std::error_code ec;
+        auto resolved = gw::resolve_storage_path(
+            {storage_dir, config.storage.path, config_file, std::filesystem::current_path(ec).string()},
+            gw::process_environment());
+        if (!resolved) {
+            std::cerr << "asi-gateway: " << resolved.error().message << '\n';
+            return 2;
+        }
+        config.storage.path = *resolved;
     }
     if (!log_level.empty()) {
         for (auto level : {gw::log_level::trace, gw::log_level::debug, gw::log_level::info,
@@ -180,6 +213,10 @@ int main(int argc, char** argv) {
             return 1;
         }
     }
+
+    log->info("asi-gateway {} {}", gw::version,
+              gw::startup_summary(http_server.local_endpoint(), config.storage.path, registry.list(),
+                                  config.mqtt.enabled ? config.mqtt.brokers : std::vector<std::string>{}));
 
     // After shutdown, run() ends when the last handler has run; a watchdog (not a timer on ioc, which
     // would itself keep run() going) stops it if something lingers.

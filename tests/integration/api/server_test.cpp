@@ -15,6 +15,7 @@
 #include "gateway/controller_registry.hpp"
 #include "gateway/event_hub.hpp"
 #include "gateway/metrics.hpp"
+#include "gateway/version.hpp"
 
 namespace gw::api {
 namespace {
@@ -103,7 +104,8 @@ TEST_F(server_test, answers_on_a_free_port_and_keeps_the_connection_alive) {
     for (int i = 0; i < 3; ++i) {
         auto res = get(s, "/api/v1/health");
         EXPECT_EQ(res.result(), http::status::ok);
-        EXPECT_EQ(nlohmann::json::parse(res.body()), nlohmann::json({{"status", "ok"}}));
+        EXPECT_EQ(nlohmann::json::parse(res.body()),
+                  nlohmann::json({{"status", "ok"}, {"version", gw::version}}));
         EXPECT_TRUE(res.keep_alive());
         EXPECT_FALSE(res["X-Request-Id"].empty());
     }

@@ -30,7 +30,7 @@ TEST(config, empty_object_gives_the_safe_defaults) {
     EXPECT_TRUE(c->controllers.empty());
     EXPECT_EQ(c->simulate.count, 0u);
     EXPECT_EQ(c->simulate.time_scale, 1.0);
-    EXPECT_EQ(c->storage.path, "asi-gateway-data");
+    EXPECT_EQ(c->storage.path, "");  // the default location is resolved by main
     EXPECT_EQ(c->storage.max_size_mb, 1024u);
     EXPECT_FALSE(c->jobs.restart_queued);
     EXPECT_EQ(c->jobs.max_queued_per_controller, 1000u);
@@ -240,9 +240,8 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
                                   {"name": "b", "token": "0123456789abcdef"}]}})",
          "auth.tokens[1].token: the same token is given twice"},
         {R"({"http": {"listen_address": "0.0.0.0"}})",
-         "http.listen_address: 0.0.0.0 is not a loopback address, which needs auth.tokens (no tokens: "
-         "loopback "
-         "only)"},
+         "http.listen_address (--listen): 0.0.0.0 is not a loopback address, which needs auth.tokens (no "
+         "tokens: loopback only)"},
         // logging, shutdown
         {R"({"logging": {"level": "verbose"}})",
          "logging.level: must be one of trace, debug, info, warn, error, critical, off"},

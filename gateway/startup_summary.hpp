@@ -1,0 +1,24 @@
+#pragma once
+// The one line the gateway logs once it serves: where (the URL), where its jobs are (the storage
+// directory) and which controllers it opens, so a person starting it knows at once what it does.
+
+#include <string>
+#include <vector>
+
+#include <boost/asio/ip/tcp.hpp>
+
+#include "devices/serial/controller_snapshot.hpp"
+
+namespace gw {
+
+// "serving http://127.0.0.1:8080/ (storage /var/lib/asi-gateway; controllers: sim1 on /tmp/x/sim1/port,
+// ...; MQTT to mqtt://broker:1883)". `brokers` empty: MQTT is off.
+std::string startup_summary(const boost::asio::ip::tcp::endpoint& http, const std::string& storage,
+                            const std::vector<devices::controller_snapshot>& controllers,
+                            const std::vector<std::string>& brokers);
+
+// "http://127.0.0.1:8080/", "http://[::1]:8080/"; an unspecified address (0.0.0.0, ::) is shown as
+// such, since it serves on every interface.
+std::string http_url(const boost::asio::ip::tcp::endpoint& http);
+
+}  // namespace gw
