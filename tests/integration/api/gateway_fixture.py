@@ -13,6 +13,7 @@ import os
 import shutil
 import socket
 import subprocess
+import sys
 import tempfile
 import time
 import traceback
@@ -205,3 +206,12 @@ class Fixture:
         for name, e in self.failures:
             print(f"FAILED: {name}: {e}")
         return 1 if self.failures else 0
+
+
+def run_main(main):
+    """A test script's entry point: exits with main()'s code; a Failure while setting up exits 1."""
+    try:
+        sys.exit(main())
+    except Failure as e:
+        print(f"setup failed: {e}")
+        sys.exit(1)

@@ -19,7 +19,7 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gateway_fixture import WAIT, Failure, Fixture, check, free_port, http_request, wait_until  # noqa: E402
+from gateway_fixture import WAIT, Fixture, check, free_port, http_request, run_main, wait_until  # noqa: E402
 
 NOT_RUN = re.compile(r"^<!-- not run by [^:]+: .+ -->$")
 STATUS = re.compile(r"#\s*(?:HTTP/1\.1\s+)?([1-5]\d\d)\b")
@@ -119,8 +119,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except Failure as e:
-        print(f"setup failed: {e}")
-        sys.exit(1)
+    run_main(main)

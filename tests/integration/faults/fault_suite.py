@@ -29,7 +29,7 @@ import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "api"))
-from gateway_fixture import TOKENS, Failure, Fixture, check, free_port, http_request, wait_until  # noqa: E402
+from gateway_fixture import TOKENS, Fixture, check, free_port, http_request, run_main, wait_until  # noqa: E402
 
 AXES = "XYZ"
 PARK_UM = {"X": 1234.5, "Y": -555.1, "Z": 77.7}  # no two axes share a position
@@ -146,7 +146,7 @@ def reader(gw, cid, truth, tally, stop, seed):
 
 
 def serial_faults(fx, gw, sims, minutes, seed, figures, only=None):
-    noisy, quiet = sims["noisy"], sims["quiet"]
+    noisy = sims["noisy"]
     truth = {cid: park(gw, cid) for cid in ("noisy", "quiet")}
     tally = Tally()
     stop = threading.Event()
@@ -425,8 +425,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except Failure as e:
-        print(f"setup failed: {e}")
-        sys.exit(1)
+    run_main(main)
