@@ -301,6 +301,13 @@ void controller::on_line(const std::string& line) {
 
     const auto& cmd = in_flight_->job.cmd;
     auto parsed = ms2000::accept_reply(cmd, line);
+    if (parsed && repeats_last_answer(cmd, *parsed, line)) {
+        // It fits, but it may be the previous reply sent twice: not proven to be this command's.
+        last_answer_ = {};
+        mark_out_of_step(link_fault::kind::mismatch, "a reply that repeats the previous one");
+        return finish(ms2000::error::unrecognized_reply, std::nullopt, line);
+    }
+    if (parsed) last_answer_ = {line, cmd.wire, steady_clock::now()};
     if (!parsed) {
         // Noise, or the right shape for another command (a late reply): never an answer.
         if (!text) {
@@ -316,6 +323,13 @@ void controller::on_line(const std::string& line) {
         return finish(ms2000::error::controller_rejected, std::move(*parsed), line);
     }
     finish({}, std::move(*parsed), line);
+}
+
+bool controller::repeats_last_answer(const ms2000::command& cmd, const ms2000::reply& r,
+                                     const std::string& line) const {
+    const bool bare_ack = r.what == ms2000::reply::kind::ack && r.values.empty() && r.axes.empty();
+    return !bare_ack && line == last_answer_.line && cmd.wire != last_answer_.wire &&
+           steady_clock::now() - last_answer_.at < settings_.repeated_reply_window;
 }
 
 void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const std::string& raw) {
@@ -493,6 +507,7 @@ void controller::do_connect() {
     ++generation_;
     framer_.reset();
     reset_sync();
+    last_answer_ = {};
     // A fresh port is not yet proven in step: a reply to a command of the program that had it before
     // (a crashed gateway, another client) may still come. Identification waits for the resync.
     sync_ = link_sync::out_of_step;

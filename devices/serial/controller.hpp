@@ -200,6 +200,15 @@ class controller : public std::enable_shared_from_this<controller> {
     boost::asio::steady_timer guard_timer_;
     std::chrono::steady_clock::duration reply_guard_;  // quiet time after the last byte before a write
     std::chrono::steady_clock::time_point last_read_{};
+    // The last reply taken as an answer: a repeat of it soon after, for another command, is suspect.
+    struct answered {
+        std::string line;
+        std::string wire;  // the command it answered
+        std::chrono::steady_clock::time_point at{};
+    };
+    answered last_answer_;
+    bool repeats_last_answer(const ms2000::command& cmd, const ms2000::reply& r,
+                             const std::string& line) const;
     std::chrono::milliseconds backoff_;
     bool node_gone_ = false;  // the device node vanished since the last connection attempt
 
