@@ -174,7 +174,7 @@ inline constexpr std::size_t max_simulated_controllers = 16;
 inline constexpr std::size_t max_storage_size_mb = std::size_t{1024} * 1024;  // 1 TiB
 inline constexpr std::size_t max_queued_jobs_per_controller = 100000;
 inline constexpr std::size_t max_gcode_file_mb = 4096;
-inline constexpr std::uint64_t max_ended_job_topic_ttl_s = 7 * 24 * 3600;
+inline constexpr std::uint64_t max_ended_job_topic_ttl_s = std::uint64_t{7} * 24 * 3600;
 
 // The embedded default used without a file: three simulated controllers (`--simulate 3`).
 gateway_config default_config();
