@@ -34,6 +34,20 @@ for k in sys.argv[2].split("."): v = v[k]
 print(v)' "$1" "$2"
 }
 
+stores_in_state_directory() {  # stores_in_state_directory GATEWAY CONFIG: runs it as systemd would
+  local state="$scratch/state" log="$scratch/run.log" pid ok=1
+  rm -rf "$state"
+  STATE_DIRECTORY=$state "$1" --config "$2" --port 0 >"$log" 2>&1 &
+  pid=$!
+  for _ in $(seq 100); do  # the start-up line names the storage; the store file follows it
+    if grep -q "serving .*(storage $state;" "$log" && [ -f "$state/jobs.sqlite3" ]; then ok=0; break; fi
+    sleep 0.1
+  done
+  kill "$pid" 2>/dev/null; wait "$pid" 2>/dev/null || true
+  [ $ok -eq 0 ] || { echo "  the gateway's log:"; sed 's/^/    /' "$log" | tail -5; }
+  return $ok
+}
+
 check_prefix() {  # check_prefix PREFIX SYSCONFDIR
   local prefix=$1 etc=$2 dest="$scratch/root${1//\//_}"
   install_to "$dest" "$prefix" || return 0
@@ -62,16 +76,19 @@ check_prefix() {  # check_prefix PREFIX SYSCONFDIR
   check "$prefix: StateDirectory=asi-gateway" test "$(unit_value "$unit" StateDirectory)" = asi-gateway
   check "$prefix: Restart=on-failure" test "$(unit_value "$unit" Restart)" = on-failure
   check "$prefix: User=asi-gateway, the sysusers.d user" test "$(unit_value "$unit" User)" = asi-gateway
-  # The config's store is the state directory systemd creates (/var/lib + StateDirectory).
-  check "$prefix: config storage.path is the StateDirectory" \
-    test "$(json_value "$dest$etc/asi-gateway/asi-gateway.json" storage.path)" = /var/lib/asi-gateway
+  # The job store is the state directory systemd creates and exports as $STATE_DIRECTORY: the config
+  # names none, and the installed gateway on the installed config stores its jobs there.
+  check "$prefix: the config leaves the storage to systemd" \
+    bash -c '! grep -q "\"storage\"" "$1"' _ "$dest$etc/asi-gateway/asi-gateway.json"
+  check "$prefix: the installed gateway stores its jobs in \$STATE_DIRECTORY" \
+    stores_in_state_directory "$dest$bin/asi-gateway" "$dest$etc/asi-gateway/asi-gateway.json"
   # The installed gateway accepts the installed config.
   check "$prefix: installed asi-gateway --check-config on the installed config" \
     test "$("$dest$bin/asi-gateway" --check-config "$dest$etc/asi-gateway/asi-gateway.json" 2>&1)" = ok
   check "$prefix: installed ms2000-sim --help" "$dest$bin/ms2000-sim" --help >/dev/null
 
   # An admin's edit survives a reinstall; the pristine example stays in share/.
-  echo '{"storage": {"path": "/var/lib/asi-gateway"}, "http": {"port": 8181}}' >"$dest$etc/asi-gateway/asi-gateway.json"
+  echo '{"http": {"port": 8181}}' >"$dest$etc/asi-gateway/asi-gateway.json"
   install_to "$dest" "$prefix" || return 0
   check "$prefix: reinstall keeps the edited config" \
     test "$(json_value "$dest$etc/asi-gateway/asi-gateway.json" http.port)" = 8181
