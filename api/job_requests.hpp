@@ -11,7 +11,7 @@
 //   GET  /api/v1/jobs/{id}/events?limit=      viewer   {"events":[...]} (stored, oldest first)
 //   POST /api/v1/jobs/{id}/{cancel|pause|resume|next}   operator   the job
 // Headers: Idempotency-Key (submission), Lease-Id (submission and control). No job manager
-// (ctx.jobs null): 503 storage_unavailable. Shapes: notes/job-specs.md, gateway/jobs/job_json.hpp.
+// (ctx.jobs null): 503 storage_unavailable. Shapes: openapi/openapi.yaml, gateway/jobs/job_json.hpp.
 
 #include <cstddef>
 #include <optional>

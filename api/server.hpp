@@ -2,10 +2,10 @@
 // The HTTP/WebSocket server as main sees it: checks the "no tokens, loopback only" rule, declares
 // the metrics, attaches the controller metrics observer, binds the listener and stops it.
 //
-//   auto server = gw::api::server::create(ioc.get_executor(), config, registry, hub, metrics);
-//   server->start();           // throws std::runtime_error with a message for the log
+//   gw::api::server server(ioc.get_executor(), config, registry, hub, metrics, jobs, leases);
+//   server.start();            // throws std::runtime_error with a message for the log
 //   ...
-//   server->stop();            // stop accepting, close sockets
+//   server.stop();             // stop accepting, close sockets
 // Methods are called from main's thread (start) and the signal handler (stop).
 
 #include <memory>

@@ -1,5 +1,5 @@
 #pragma once
-// The spec of an `array` job (notes/job-specs.md "array"), parsed strictly: an unknown field, a
+// The spec of an `array` job (openapi/openapi.yaml, schema ArraySpec), parsed strictly: an unknown field, a
 // wrong type or an out-of-range value is invalid_value with `field` = "spec.<path>". Pure.
 
 #include <optional>

@@ -1,6 +1,6 @@
 #pragma once
-// The API's JSON for jobs (notes/job-specs.md "REST shapes"): the job record, the dry-run plan, and
-// the events published on "jobs/<id>". Pure: the caller passes `now` (elapsed_s of a running job).
+// The API's JSON for jobs (openapi/openapi.yaml, schemas Job, JobEvent, JobPlan): the job record, the dry-run
+// plan, and the events published on "jobs/<id>". Pure: the caller passes `now` (elapsed_s of a running job).
 //
 //   to_json(job, now)  -> {"id","controller","type","state","spec","progress":{steps_done,
 //                          steps_total,percent,current_step,elapsed_s,remaining_s},"estimated_s",

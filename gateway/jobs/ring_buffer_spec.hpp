@@ -1,5 +1,5 @@
 #pragma once
-// The spec of a `ring_buffer` job (notes/job-specs.md "ring_buffer"), parsed strictly: an unknown
+// The spec of a `ring_buffer` job (openapi/openapi.yaml, schema RingBufferSpec), parsed strictly: an unknown
 // field, a wrong type or an out-of-range value is invalid_value with `field` = "spec.<path>". Pure.
 // The buffer's capacity depends on the controller (BU X "RING BUFFER [size]"); the planner checks it.
 

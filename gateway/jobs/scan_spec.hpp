@@ -1,6 +1,6 @@
 #pragma once
-// The spec of a `scan` job (notes/job-specs.md "scan"), parsed strictly, and the scan geometry the
-// SCAN module would compute from it (seed 000, SCAN MODULE). Pure.
+// The spec of a `scan` job (openapi/openapi.yaml, schema ScanSpec), parsed strictly, and the scan geometry
+// the SCAN module would compute from it (seed 000, SCAN MODULE). Pure.
 //
 // Firmware validation (seed: "SCANR X=0.0 Y=1.0 Z=24 ... will generate a scan line with 1891 pixels,
 // determined by multiplying the encoder resolution by the length of the scan and dividing by the

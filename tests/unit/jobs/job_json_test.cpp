@@ -1,4 +1,4 @@
-// job_json: the API's job record, dry-run plan and event shapes (notes/job-specs.md).
+// job_json: the API's job record, dry-run plan and event shapes (openapi/openapi.yaml).
 #include "gateway/jobs/job_json.hpp"
 
 #include <chrono>
