@@ -99,6 +99,7 @@ export class ControllerCard {
       row.busy.textContent = a.busy ? "busy" : "";
     }
     this.busy = busy;
+    this.root.dataset.busy = busy ? "yes" : "no";
     this.renderStatus();
   }
 

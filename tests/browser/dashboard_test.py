@@ -1,0 +1,221 @@
+#!/usr/bin/python3
+"""The dashboard in a real headless browser (Debian's chromium, driven over the Chrome DevTools
+Protocol by cdp.py) against the real asi-gateway: three simulated controllers in-process
+(time scale 10) plus one external ms2000-sim (ext1) whose control socket unplugs it.
+
+Checks: the overview shows every controller connected with its positions; a REST move of sim1 shows
+on the page; a jog click moves sim2 (the REST state agrees); a HALT click stops a long move (the
+halt reaches the gateway: its request counter and the stage stopping short); an unplugged ext1 shows
+as disconnected with its error, and connected again after replug; a gateway restart shows the banner
+and greys the values, then the page reconnects by itself; no console errors other than the ones the
+API causes by design (GET .../lease answers 404 when free; the refused WebSocket while the gateway is
+down). With --screenshot, writes a PNG of the overview.
+
+Run by ctest with Debian's /usr/bin/python3 (python3-websockets). Skipped (exit 77) without chromium.
+"""
+
+import argparse
+import asyncio
+import json
+import os
+import re
+import sys
+
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(HERE, "..", "integration", "api"))
+from cdp import Browser, find_chromium  # noqa: E402
+from gateway_fixture import Failure, Fixture, check, free_port, http_request, wait_until  # noqa: E402
+
+IDS = ["ext1", "sim1", "sim2", "sim3"]
+
+
+def rest(port, method, path, body=None):
+    status, text = http_request(port, method, path, body, token=None)
+    return status, (json.loads(text) if text else None)
+
+
+def position(port, controller, axis):
+    status, s = rest(port, "GET", f"/api/v1/controllers/{controller}")
+    check(status == 200, f"GET {controller}: {status}")
+    return next(a["position_um"] for a in s["axes"] if a["axis"] == axis)
+
+
+def page_position(controller, axis):
+    return (f"(() => {{ const e = document.querySelector('[data-controller={controller}] "
+            f"td.pos[data-axis={axis}]'); return e ? parseFloat(e.textContent) : null; }})()")
+
+
+def halt_count(port):
+    status, text = http_request(port, "GET", "/api/v1/metrics", token=None)
+    m = re.search(r'gw_http_requests_total\{[^}]*route="/api/v1/controllers/\{id\}/halt"[^}]*status="200"[^}]*\} '
+                  r'([0-9.e+]+)', text)
+    return float(m.group(1)) if m else 0.0
+
+
+async def test_overview(b, port):
+    await b.navigate(f"http://127.0.0.1:{port}/")
+    await b.wait_for("four cards, all connected, live",
+                     "document.body.dataset.live === 'yes' && "
+                     f"{json.dumps(IDS)}.every(id => document.querySelector(`[data-controller=${{id}}]`)"
+                     "?.dataset.state === 'connected')")
+    ids = await b.evaluate("[...document.querySelectorAll('[data-controller]')].map(e => e.dataset.controller)")
+    check(ids == IDS, f"cards {ids}")
+    for c in IDS:
+        axes = await b.evaluate(f"[...document.querySelectorAll('[data-controller={c}] td.pos')]"
+                                ".map(e => [e.dataset.axis, e.textContent])")
+        check(len(axes) >= 2 and all(re.fullmatch(r"-?\d+\.\d", t) for _, t in axes), f"{c} positions {axes}")
+    text = await b.evaluate("document.querySelector('[data-controller=sim1]').textContent")
+    check("STD_XYZ_SCAN" in text and "ring_buffer" in text, f"sim1 card lacks build/modules: {text[:300]}")
+    check("lease: free" in text, f"sim1 lease line: {text[:400]}")
+    for hidden in ("banner", "token-form"):
+        shown = await b.evaluate(f"getComputedStyle(document.getElementById('{hidden}')).display !== 'none'")
+        check(not shown, f"#{hidden} is shown while live without tokens")
+
+
+async def test_rest_move_shows(b, port):
+    status, body = rest(port, "POST", "/api/v1/controllers/sim1/move", {"axes": {"X": 2345}, "wait": True})
+    check(status == 200, f"move sim1: {status} {body}")
+    await b.wait_for("sim1 X near 2345 on the page", f"Math.abs({page_position('sim1', 'X')} - 2345) < 1")
+
+
+async def test_jog_click(b, port):
+    before = position(port, "sim2", "X")
+    await b.evaluate("(() => { const s = document.querySelector('[data-controller=sim2] .jog select');"
+                     " s.value = '1000'; })()")
+    await b.click("[data-controller=sim2] [data-jog='X+']")
+    await asyncio.to_thread(wait_until, "sim2 X 1000 um further (REST)",
+                            lambda: abs(position(port, "sim2", "X") - (before + 1000)) < 1)
+    await b.wait_for("the page shows the jog", f"Math.abs({page_position('sim2', 'X')} - {before + 1000}) < 1")
+
+
+async def test_halt_click(b, port):
+    halts = halt_count(port)
+    status, body = rest(port, "POST", "/api/v1/controllers/sim3/speed", {"axes": {"Y": 0.5}})
+    check(status == 200, f"speed sim3: {status} {body}")  # 5 mm/s at time scale 10: 20 s for the move
+    status, body = rest(port, "POST", "/api/v1/controllers/sim3/move", {"axes": {"Y": 100000}})
+    check(status == 200, f"long move sim3: {status} {body}")
+    await b.wait_for("sim3 busy on the page", "document.querySelector('[data-controller=sim3]').dataset.busy === 'yes'")
+    await b.click("[data-halt=sim3]")
+    await asyncio.to_thread(wait_until, "the halt counted by the gateway", lambda: halt_count(port) >= halts + 1)
+    await asyncio.to_thread(wait_until, "sim3 stopped",
+                            lambda: rest(port, "GET", "/api/v1/controllers/sim3")[1]["busy"] is False)
+    y = position(port, "sim3", "Y")
+    check(y < 99000, f"sim3 Y reached {y}: the halt did not stop the move")
+    await b.wait_for("the page shows where it stopped", f"Math.abs({page_position('sim3', 'Y')} - {y}) < 1")
+    err = await b.evaluate("document.querySelector('[data-controller=sim3] .op-error').textContent")
+    check(err == "", f"halt error on the page: {err}")
+
+
+async def test_unplug(b, control):
+    check(control("unplug") == "ok", "unplug")
+    await b.wait_for("ext1 not connected on the page",
+                     "document.querySelector('[data-controller=ext1]').dataset.state !== 'connected'", timeout=20)
+    await b.wait_for("ext1 greyed out", "document.querySelector('[data-controller=ext1]')"
+                     ".classList.contains('offline')")
+    await b.wait_for("ext1's error shown", "(() => { const e = document.querySelector("
+                     "'[data-controller=ext1] .last-error'); return !e.hidden && e.textContent.length > 0"
+                     " && e.textContent; })()", timeout=20)
+    check(control("replug") == "ok", "replug")
+    await b.wait_for("ext1 connected again",
+                     "document.querySelector('[data-controller=ext1]').dataset.state === 'connected'", timeout=30)
+
+
+async def test_restart(b, fx, gateway, config, port):
+    fx.gateway.terminate()
+    fx.gateway.wait(timeout=30)
+    await b.wait_for("the banner", "!document.getElementById('banner').hidden && document.body.dataset.live === 'no'")
+    grey = await b.evaluate("getComputedStyle(document.querySelector('td.pos')).color")
+    check(grey == "rgb(176, 180, 186)", f"positions not greyed while down: {grey}")
+    await asyncio.to_thread(fx.start_gateway, gateway, config)
+    await b.wait_for("live again after the restart", "document.body.dataset.live === 'yes' && "
+                     "document.getElementById('banner').hidden", timeout=40)
+
+
+def unexpected_console(entries):
+    out = []
+    for level, text, url in entries:
+        if level not in ("error", "assert", "exception"):
+            continue
+        if url.endswith("/lease") and "404" in (text or ""):
+            continue  # GET /api/v1/controllers/{id}/lease answers 404 for a free controller
+        out.append((level, text, url))
+    return out
+
+
+async def main_async(args, fx):
+    chromium = find_chromium()
+    ext1 = fx.start_sim(args.sim, "ext1", "plain", time_scale=10)
+    port = free_port()
+    config = {
+        "http": {"listen_address": "127.0.0.1", "port": port},
+        "controllers": [{"id": "ext1", "port": ext1.link, "baud": 115200, "poll_ms": 100,
+                         "command_timeout_ms": 500}],
+        "simulate": {"count": 3, "time_scale": 10, "directory": os.path.join(fx.tmp, "sim")},
+        "storage": {"path": os.path.join(fx.tmp, "store")},
+        "logging": {"level": "info"},
+    }
+    fx.start_gateway(args.gateway, config)
+    b = Browser(chromium, os.path.join(fx.tmp, "profile"), free_port())
+    try:
+        await b.connect()
+
+        async def run(name, coro_fn, *a):
+            try:
+                await coro_fn(*a)
+                fx.passed.append(name)
+                print(f"[ OK ] {name}", flush=True)
+            except (Failure, AssertionError, RuntimeError, OSError, asyncio.TimeoutError) as e:
+                fx.failures.append((name, e))
+                print(f"[FAIL] {name}: {e}", flush=True)
+
+        await run("overview: every controller connected with positions", test_overview, b, port)
+        await run("a REST move shows on the page", test_rest_move_shows, b, port)
+        await run("a jog click moves the stage", test_jog_click, b, port)
+        if args.screenshot:
+            await b.wait_for("every card idle", "[...document.querySelectorAll('[data-controller]')]"
+                             ".every(e => e.dataset.busy === 'no')")
+            await b.screenshot(args.screenshot)
+            print(f"screenshot: {args.screenshot}")
+        await run("a HALT click stops the move", test_halt_click, b, port)
+        await run("unplug shows disconnected, replug connected", test_unplug, b, ext1.control)
+        before_restart = len(b.console)
+        await run("gateway restart: banner, greyed values, reconnect", test_restart, b, fx, args.gateway, config, port)
+        # While the gateway was down the browser logs the refused requests and WebSocket: by design.
+        restart_ids = set(range(before_restart, len(b.console)))
+        console = [e for i, e in enumerate(b.console) if i not in restart_ids or "127.0.0.1" not in (e[1] or "") + e[2]]
+        bad = unexpected_console(console)
+        if bad:
+            fx.failures.append(("no console errors", Failure(f"{bad[:5]}")))
+            print(f"[FAIL] no console errors: {bad[:5]}")
+        else:
+            fx.passed.append("no console errors")
+            print(f"[ OK ] no console errors ({len(b.console)} console entries seen)")
+        if os.environ.get("GW_BROWSER_TEST_VERBOSE"):
+            for e in b.console:
+                print("console:", e)
+    finally:
+        await b.close()
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--gateway", required=True)
+    ap.add_argument("--sim", required=True)
+    ap.add_argument("--screenshot", help="write a PNG of the overview here")
+    args = ap.parse_args()
+    if not find_chromium():
+        print("chromium is not installed (scripts/install-deps --tests installs it): skipped")
+        return 77
+    fx = Fixture("gw-browser-test-")
+    try:
+        asyncio.run(main_async(args, fx))
+        fx.finish_log(60)
+    finally:
+        fx.cleanup()
+    return fx.report()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
