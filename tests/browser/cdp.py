@@ -1,6 +1,7 @@
 """A minimal Chrome DevTools Protocol client: starts Debian's headless chromium, attaches to its page
 over the DevTools WebSocket (Debian's python3-websockets) and offers the few calls the browser tests
-need (navigate, evaluate, click, screenshot) plus every console message and page error seen.
+need (navigate, evaluate, click, screenshot) plus every console message, page error and WebSocket
+frame sent by the page.
 Standard library and python3-websockets only; asyncio, since websockets 10 has no sync client.
 """
 import asyncio
@@ -37,6 +38,7 @@ class Browser:
         self.next_id = 0
         self.pending = {}
         self.console = []  # (level, text, url) of console calls, exceptions and log entries
+        self.ws_sent = []  # the text of every WebSocket frame the page sent
         self.reader = None
 
     def page_url(self, timeout=30):
@@ -58,7 +60,7 @@ class Browser:
     async def connect(self):
         self.ws = await websockets.connect(self.page_url(), max_size=64 * 1024 * 1024)
         self.reader = asyncio.ensure_future(self._read())
-        for domain in ("Page", "Runtime", "Log"):
+        for domain in ("Page", "Runtime", "Log", "Network"):
             await self.call(f"{domain}.enable")
 
     async def _read(self):
@@ -76,6 +78,8 @@ class Browser:
             elif method == "Runtime.exceptionThrown":
                 d = p.get("exceptionDetails", {})
                 self.console.append(("exception", d.get("exception", {}).get("description", d.get("text")), ""))
+            elif method == "Network.webSocketFrameSent":
+                self.ws_sent.append(p.get("response", {}).get("payloadData", ""))
             elif method == "Log.entryAdded":
                 e = p.get("entry", {})
                 self.console.append((e.get("level"), e.get("text"), e.get("url", "")))

@@ -7,7 +7,9 @@ Checks: the overview shows every controller connected with its positions; a REST
 on the page; a jog click moves sim2 (the REST state agrees); a HALT click stops a long move (the
 halt reaches the gateway: its request counter and the stage stopping short); an unplugged ext1 shows
 as disconnected with its error, and connected again after replug; a gateway restart shows the banner
-and greys the values, then the page reconnects by itself; no console errors other than the ones the
+and greys the values, then the page reconnects by itself and resumes its topics from the last
+sequence numbers it saw; with tokens, the page asks for one, refuses a wrong one, works with a viewer
+token and shows the 403 of its HALT; no console errors other than the ones the
 API causes by design (GET .../lease answers 404 when free; the refused WebSocket while the gateway is
 down). With --screenshot, writes a PNG of the overview.
 
@@ -26,7 +28,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "integration", "api"))
 from cdp import Browser, find_chromium  # noqa: E402
-from gateway_fixture import Failure, Fixture, check, free_port, http_request, wait_until  # noqa: E402
+from gateway_fixture import (TOKENS, Failure, Fixture, auth_tokens, check, free_port, http_request,  # noqa: E402
+                             wait_until)
 
 IDS = ["ext1", "sim1", "sim2", "sim3"]
 
@@ -123,6 +126,7 @@ async def test_unplug(b, control):
 
 
 async def test_restart(b, fx, gateway, config, port):
+    sent_before = len(b.ws_sent)
     fx.gateway.terminate()
     fx.gateway.wait(timeout=30)
     await b.wait_for("the banner", "!document.getElementById('banner').hidden && document.body.dataset.live === 'no'")
@@ -131,6 +135,48 @@ async def test_restart(b, fx, gateway, config, port):
     await asyncio.to_thread(fx.start_gateway, gateway, config)
     await b.wait_for("live again after the restart", "document.body.dataset.live === 'yes' && "
                      "document.getElementById('banner').hidden", timeout=40)
+    # The new subscription resumed every topic from the last sequence number the page had seen.
+    subs = [json.loads(t) for t in b.ws_sent[sent_before:] if '"subscribe"' in t]
+    check(subs, "no subscribe sent after the restart")
+    resume = subs[-1].get("resume", {})
+    check(all(f"controllers/{c}/position" in resume and f"controllers/{c}/state" in resume for c in IDS)
+          and all(isinstance(v, int) and v > 0 for v in resume.values()), f"resume after the restart: {resume}")
+
+
+async def test_tokens(b, fx, gateway):
+    """A gateway with tokens: the page asks for one, says when it is refused, then works with a viewer
+    token (REST and the WebSocket's access_token); a HALT with a viewer token shows the 403."""
+    port = free_port()
+    config = {
+        "http": {"listen_address": "127.0.0.1", "port": port},
+        "simulate": {"count": 1, "time_scale": 10, "directory": os.path.join(fx.tmp, "sim-auth")},
+        "storage": {"path": os.path.join(fx.tmp, "store-auth")},
+        "auth": auth_tokens(),
+        "logging": {"level": "info"},
+    }
+    await asyncio.to_thread(fx.start_gateway, gateway, config)
+    await b.navigate(f"http://127.0.0.1:{port}/")
+    form_shown = "getComputedStyle(document.getElementById('token-form')).display !== 'none'"
+    await b.wait_for("the token form", form_shown)
+
+    async def submit(token):
+        await b.evaluate(f"document.getElementById('token-input').value = {json.dumps(token)}")
+        await b.click("#token-form button")
+
+    await submit("wrong-token-0123456789")
+    await b.wait_for("a refused token said so",
+                     "document.getElementById('token-error').textContent === 'that token was refused'")
+    await submit(TOKENS["viewer"])
+    await b.wait_for("sim1 live with the viewer token",
+                     "document.body.dataset.live === 'yes' && "
+                     "document.querySelector('[data-controller=sim1]')?.dataset.state === 'connected'")
+    check(not await b.evaluate(form_shown), "the token form is still shown")
+    stored = await b.evaluate("sessionStorage.getItem('asi-gateway.token')")
+    check(stored == TOKENS["viewer"], f"sessionStorage holds {stored!r}")
+    await b.click("[data-halt=sim1]")
+    err = await b.wait_for("the 403 of a viewer's halt",
+                           "document.querySelector('[data-controller=sim1] .op-error').textContent")
+    check(err.startswith("halt: ") and "operator" in err, f"viewer halt shows {err!r}")
 
 
 def unexpected_console(entries):
@@ -182,8 +228,14 @@ async def main_async(args, fx):
         await run("unplug shows disconnected, replug connected", test_unplug, b, ext1.control)
         before_restart = len(b.console)
         await run("gateway restart: banner, greyed values, reconnect", test_restart, b, fx, args.gateway, config, port)
-        # While the gateway was down the browser logs the refused requests and WebSocket: by design.
-        restart_ids = set(range(before_restart, len(b.console)))
+        after_restart = len(b.console)
+        await run("tokens: asked for, refused, then used", test_tokens, b, fx, args.gateway)
+        # While the gateway was down the browser logs the refused requests and WebSocket, and with
+        # tokens the 401s and the viewer's 403: by design.
+        restart_ids = set(range(before_restart, after_restart))
+        for i in range(after_restart, len(b.console)):
+            if re.search(r"status of (401|403)", b.console[i][1] or ""):
+                restart_ids.add(i)
         console = [e for i, e in enumerate(b.console) if i not in restart_ids or "127.0.0.1" not in (e[1] or "") + e[2]]
         bad = unexpected_console(console)
         if bad:
