@@ -5,13 +5,14 @@ Protocol by cdp.py) against the real asi-gateway: three simulated controllers in
 
 Checks: the overview shows every controller connected with its positions; a REST move of sim1 shows
 on the page; a jog click moves sim2 (the REST state agrees); a HALT click stops a long move (the
-halt reaches the gateway: its request counter and the stage stopping short); an unplugged ext1 shows
+halt reaches the gateway: its request counter and the stage stopping short), and HALT ALL stops two
+moves and halts all four; an unplugged ext1 shows
 as disconnected with its error, and connected again after replug; a gateway restart shows the banner
 and greys the values, then the page reconnects by itself and resumes its topics from the last
 sequence numbers it saw; with tokens, the page asks for one, refuses a wrong one, works with a viewer
 token and shows the 403 of its HALT; no console errors other than the ones the
-API causes by design (GET .../lease answers 404 when free; the refused WebSocket while the gateway is
-down). With --screenshot, writes a PNG of the overview.
+API causes by design (GET .../lease answers 404 when free; what is refused while the gateway is
+down; the 401s and the viewer's 403 of the token check). With --screenshot, writes a PNG of the overview.
 
 Run by ctest with Debian's /usr/bin/python3 (python3-websockets). Skipped (exit 77) without chromium.
 """
@@ -109,6 +110,25 @@ async def test_halt_click(b, port):
     await b.wait_for("the page shows where it stopped", f"Math.abs({page_position('sim3', 'Y')} - {y}) < 1")
     err = await b.evaluate("document.querySelector('[data-controller=sim3] .op-error').textContent")
     check(err == "", f"halt error on the page: {err}")
+
+
+async def test_halt_all(b, port):
+    halts = halt_count(port)
+    for c in ("sim1", "sim2"):
+        status, body = rest(port, "POST", f"/api/v1/controllers/{c}/speed", {"axes": {"Y": 0.5}})
+        check(status == 200, f"speed {c}: {status} {body}")
+        status, body = rest(port, "POST", f"/api/v1/controllers/{c}/move", {"axes": {"Y": -100000}})
+        check(status == 200, f"long move {c}: {status} {body}")
+    await b.wait_for("sim1 and sim2 busy on the page", "['sim1', 'sim2'].every(id => document.querySelector("
+                     "`[data-controller=${id}]`).dataset.busy === 'yes')")
+    await b.click("#halt-all")
+    await asyncio.to_thread(wait_until, "four halts counted by the gateway",
+                            lambda: halt_count(port) >= halts + len(IDS))
+    for c in ("sim1", "sim2"):
+        await asyncio.to_thread(wait_until, f"{c} stopped",
+                                lambda: rest(port, "GET", f"/api/v1/controllers/{c}")[1]["busy"] is False)
+        y = position(port, c, "Y")
+        check(y > -99000, f"{c} Y reached {y}: HALT ALL did not stop the move")
 
 
 async def test_unplug(b, control):
@@ -225,6 +245,7 @@ async def main_async(args, fx):
             await b.screenshot(args.screenshot)
             print(f"screenshot: {args.screenshot}")
         await run("a HALT click stops the move", test_halt_click, b, port)
+        await run("HALT ALL stops every controller", test_halt_all, b, port)
         await run("unplug shows disconnected, replug connected", test_unplug, b, ext1.control)
         before_restart = len(b.console)
         await run("gateway restart: banner, greyed values, reconnect", test_restart, b, fx, args.gateway, config, port)
