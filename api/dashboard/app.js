@@ -77,7 +77,11 @@ async function start() {
     started = true;
     setInterval(refreshLeases, LEASE_POLL_MS);
   }
-  if (!feed) feed = new LiveFeed({ onEvent, onStatus: setLive });
+  if (!feed) {
+    // A REST call tells a refused token (401: the token form) from a gateway that is down.
+    const onRefused = () => api.listControllers().catch(() => {});
+    feed = new LiveFeed({ onEvent, onStatus: setLive, onRefused });
+  }
   feed.start();
 }
 

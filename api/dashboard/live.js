@@ -8,10 +8,12 @@ const TOPICS = ["controllers/+/state", "controllers/+/position"];
 const MAX_RATE_HZ = 10;
 
 export class LiveFeed {
-  // onEvent(message) for events and gaps; onStatus(live: bool, detail: string).
-  constructor({ onEvent, onStatus }) {
+  // onEvent(message) for events and gaps; onStatus(live: bool, detail: string); onRefused() when a
+  // connection closed before its subscription was confirmed (a refused token shows over REST).
+  constructor({ onEvent, onStatus, onRefused = () => {} }) {
     this.onEvent = onEvent;
     this.onStatus = onStatus;
+    this.onRefused = onRefused;
     this.lastSeq = {};  // topic -> last seq seen
     this.backoffMs = 500;
     this.ws = null;
@@ -32,6 +34,7 @@ export class LiveFeed {
     }
     const ws = new WebSocket(this.url());
     this.ws = ws;
+    let subscribed = false;
     ws.onopen = () => {
       ws.send(JSON.stringify({ op: "subscribe", id: 1, topics: TOPICS, max_rate_hz: MAX_RATE_HZ,
                                resume: { ...this.lastSeq } }));
@@ -44,6 +47,7 @@ export class LiveFeed {
         return;
       }
       if (msg.type === "subscribed") {
+        subscribed = true;
         this.backoffMs = 500;
         this.onStatus(true, "");
       } else if (msg.type === "event") {
@@ -61,6 +65,7 @@ export class LiveFeed {
       this.backoffMs = Math.min(this.backoffMs * 2, 10000);
       this.onStatus(false, `live connection lost; reconnecting in ${(wait / 1000).toFixed(1)} s`);
       this.timer = setTimeout(() => this.start(), wait);
+      if (!subscribed) this.onRefused();
     };
   }
 }
