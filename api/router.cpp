@@ -9,6 +9,7 @@
 #include "api/lease_requests.hpp"
 #include "api/openapi_document.hpp"
 #include "api/operation_requests.hpp"
+#include "api/static_assets.hpp"
 #include "gateway/controller_registry.hpp"
 #include "gateway/event_hub.hpp"
 #include "gateway/event_json.hpp"
@@ -173,6 +174,8 @@ void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& re
         return reply(route, make_response(http::status::ok, std::string(openapi_document()),
                                           "application/yaml", req, request_id));
     }
+    if (is_static_asset_path(path))  // the dashboard, api/static_assets.hpp
+        return reply(static_asset_route(path), static_asset_response(req, request_id));
     if (!path.starts_with(prefix) || (path.size() > prefix.size() && path[prefix.size()] != '/'))
         return fail("unmatched", make_problem(http_error::not_found, "no route for " + path));
     auto segments = split_path(std::string_view(path).substr(prefix.size()));

@@ -14,6 +14,7 @@
 //   /api/v1/gcode/...                         plan, preview, uploaded programs (api/gcode_requests.hpp)
 //   GET  /api/v1/metrics                     viewer; Prometheus text
 //   GET  /api/v1/openapi.yaml, /openapi.yaml public
+//   GET|HEAD /, /dashboard/<file>            public; the dashboard (api/static_assets.hpp)
 // Thread safety: handle() may be called from any session strand; `done` is called exactly once, on
 // `session_executor` (immediately, inside handle(), for everything but the controller operations and
 // the job submissions and job commands).

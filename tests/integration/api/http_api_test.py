@@ -123,6 +123,9 @@ class Contract:
         response = self.deref(responses[str(status)])
         media = (content_type or "").split(";")[0].strip()
         content = response.get("content", {})
+        if not content:  # a documented response without a body (304, HEAD)
+            check(not body, f"{method} {template} {status}: a body where none is documented: {body[:200]!r}")
+            return
         check(media in content, f"{method} {template} {status}: content type {media} is not documented")
         schema = content[media].get("schema")
         if schema is None:
@@ -209,6 +212,63 @@ def test_public_endpoints(c):
         r = c.request("GET", path)
         check(r.status == 200, f"{path}: {r.status}")
         check(yaml.safe_load(r.body) == c.contract.doc, f"{path} differs from openapi/openapi.yaml")
+
+
+DASHBOARD_FILES = {"app.js": "text/javascript", "api.js": "text/javascript", "live.js": "text/javascript",
+                   "overview.js": "text/javascript", "style.css": "text/css", "favicon.svg": "image/svg+xml"}
+
+
+def test_dashboard_assets(c):
+    r = c.request("GET", "/")
+    check(r.status == 200, f"GET /: {r.status} {r.body[:200]}")
+    check(r.header("Content-Type") == "text/html; charset=utf-8", f"GET / type {r.header('Content-Type')}")
+    csp = r.header("Content-Security-Policy") or ""
+    check("default-src 'self'" in csp and "script-src 'self'" in csp and "unsafe-inline" not in csp,
+          f"GET / CSP: {csp!r}")
+    check(r.header("Cache-Control") == "no-cache", f"GET / Cache-Control {r.header('Cache-Control')}")
+    etag = r.header("ETag") or ""
+    check(re.fullmatch(r'"[0-9a-f]{32}"', etag), f"GET / ETag {etag!r} is not a strong hash tag")
+    html = r.body
+    # No inline script or style (the CSP would block them), nothing from another origin.
+    check(not re.search(r"<script(?![^>]*\bsrc=)[^>]*>", html), "index.html has an inline script")
+    check(not re.search(r"\sstyle=|\son[a-z]+=", html), "index.html has inline style or handler attributes")
+    check("http://" not in html and "https://" not in html, "index.html names another origin")
+    referenced = set(re.findall(r'(?:src|href)="/dashboard/([^"]+)"', html))
+    check(referenced and referenced <= set(DASHBOARD_FILES), f"index.html references {referenced}")
+    tags = {}
+    for name, media in DASHBOARD_FILES.items():
+        r = c.request("GET", "/dashboard/" + name)
+        check(r.status == 200, f"/dashboard/{name}: {r.status}")
+        check((r.header("Content-Type") or "").split(";")[0] == media, f"{name} type {r.header('Content-Type')}")
+        check(r.header("Content-Security-Policy") == csp, f"{name} has another CSP")
+        tags[name] = r.header("ETag")
+        if name.endswith(".js"):  # every module it imports is served too, from this origin
+            for imported in re.findall(r'from "([^"]+)"', r.body):
+                check(imported.startswith("./") and imported[2:] in DASHBOARD_FILES,
+                      f"{name} imports {imported}")
+    check(len(set(tags.values())) == len(tags), f"two files share an ETag: {tags}")
+    # Revalidation: 304 without a body for the current tag (weak comparison), 200 for another.
+    for match in (etag, "W/" + etag, f'"0000", {etag}', "*"):
+        r = c.request("GET", "/", headers={"If-None-Match": match})
+        check(r.status == 304 and r.body == "" and r.header("ETag") == etag, f"If-None-Match {match}: {r.status}")
+    r = c.request("GET", "/dashboard/app.js", headers={"If-None-Match": etag})
+    check(r.status == 200, f"app.js with index.html's ETag: {r.status}")
+    # HEAD: the headers of GET, no body.
+    r = c.request("HEAD", "/")
+    check(r.status == 200 and r.body == "" and r.header("Content-Length") == str(len(html.encode())),
+          f"HEAD /: {r.status} length {r.header('Content-Length')} body {r.body[:50]!r}")
+    check(r.header("ETag") == etag, "HEAD / ETag differs from GET")
+    r = c.request("HEAD", "/dashboard/nope.js")
+    check(r.status == 404 and r.body == "", f"HEAD of an unknown file: {r.status}")
+    # Client mistakes: problems, never a 500.
+    for method, path in (("POST", "/"), ("DELETE", "/dashboard/app.js"), ("PUT", "/dashboard/style.css")):
+        r = c.request(method, path, validate=True)
+        c.problem(method, path, 405, "method-not-allowed")
+        check(r.header("Allow") == "GET, HEAD", f"{method} {path} Allow {r.header('Allow')}")
+    c.problem("GET", "/dashboard/nope.js", 404, "not-found")
+    c.problem("GET", "/dashboard/", 404, "not-found", validate=False)
+    c.problem("GET", "/dashboard/sub/app.js", 404, "not-found", validate=False)
+    c.problem("GET", "/dashboard/..%2Fapi", 404, "not-found")
 
 
 def test_controllers(c):
@@ -538,6 +598,7 @@ def main():
         wait_until("gateway ready", lambda: c.request("GET", "/api/v1/ready", validate=False).status == 200)
 
         run("public endpoints", test_public_endpoints, c)
+        run("dashboard assets", test_dashboard_assets, c)
         run("controllers", test_controllers, c)
         run("typed operations", test_operations, c)
         run("raw command", test_raw_command, c)

@@ -1,0 +1,115 @@
+#include "api/static_assets.hpp"
+
+#include <algorithm>
+
+#include "api/dashboard_files.hpp"
+
+namespace gw::api {
+
+namespace {
+
+constexpr std::string_view dashboard_prefix = "/dashboard/";
+
+// Only this origin; no inline script or style, no plugins, not framed. 'self' covers ws:/wss: to the
+// same host in CSP Level 3 browsers.
+constexpr std::string_view content_security_policy =
+    "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
+    "connect-src 'self'; object-src 'none'; base-uri 'none'; frame-ancestors 'none'; form-action 'self'";
+
+std::string_view content_type_of(std::string_view name) {
+    auto ends = [&](std::string_view ext) { return name.ends_with(ext); };
+    if (ends(".html")) return "text/html; charset=utf-8";
+    if (ends(".js")) return "text/javascript; charset=utf-8";
+    if (ends(".css")) return "text/css; charset=utf-8";
+    if (ends(".svg")) return "image/svg+xml";
+    return "application/octet-stream";
+}
+
+const embedded_file* find_file(std::string_view name) {
+    auto files = dashboard_files();
+    auto it =
+        std::find_if(files.begin(), files.end(), [&](const embedded_file& f) { return f.name == name; });
+    return it == files.end() ? nullptr : &*it;
+}
+
+// The file a path names ("" when it names none).
+std::string_view file_name_of(std::string_view path) {
+    if (path == "/") return "index.html";
+    if (path.starts_with(dashboard_prefix)) return path.substr(dashboard_prefix.size());
+    return {};
+}
+
+std::string_view trim(std::string_view s) {
+    while (!s.empty() && (s.front() == ' ' || s.front() == '\t'))
+        s.remove_prefix(1);
+    while (!s.empty() && (s.back() == ' ' || s.back() == '\t'))
+        s.remove_suffix(1);
+    return s;
+}
+
+// If-None-Match uses the weak comparison (RFC 9110 13.1.2): W/"x" matches "x"; "*" matches anything.
+bool none_match_hits(std::string_view header, std::string_view etag) {
+    while (!header.empty()) {
+        auto comma = header.find(',');
+        auto tag = trim(header.substr(0, comma));
+        if (tag == "*") return true;
+        if (tag.starts_with("W/")) tag.remove_prefix(2);
+        if (tag == etag) return true;
+        if (comma == std::string_view::npos) break;
+        header.remove_prefix(comma + 1);
+    }
+    return false;
+}
+
+}  // namespace
+
+bool is_static_asset_path(std::string_view path) {
+    return path == "/" || path.starts_with(dashboard_prefix);
+}
+
+std::string static_asset_route(std::string_view path) {
+    return path == "/" ? "/" : "/dashboard/{file}";
+}
+
+string_response static_asset_response(const string_request& req, const std::string& request_id) {
+    const auto method = req.method();
+    if (method != http::verb::get && method != http::verb::head) {
+        auto res = problem_response(
+            make_problem(http_error::method_not_allowed,
+                         std::string(req.method_string()) + " is not allowed here; use GET, HEAD"),
+            req, request_id);
+        res.set(http::field::allow, "GET, HEAD");
+        return res;
+    }
+    const auto path = target_path(req.target());
+    const auto name = file_name_of(path);
+    const auto* file = name.find('/') == std::string_view::npos ? find_file(name) : nullptr;
+    if (!file)
+        return problem_response(make_problem(http_error::not_found, "no dashboard file " + std::string(path)),
+                                req, request_id);
+
+    const std::string etag = "\"" + std::string(file->sha256.substr(0, 32)) + "\"";
+    auto it = req.find(http::field::if_none_match);
+    const bool not_modified = it != req.end() && none_match_hits(it->value(), etag);
+
+    string_response res{not_modified ? http::status::not_modified : http::status::ok, req.version()};
+    res.set(http::field::server, "asi-gateway");
+    res.set("X-Request-Id", request_id);
+    res.set(http::field::etag, etag);
+    res.set(http::field::cache_control, "no-cache");
+    res.set("Content-Security-Policy", content_security_policy);
+    res.set("X-Content-Type-Options", "nosniff");
+    res.set("Referrer-Policy", "no-referrer");
+    res.keep_alive(req.keep_alive());
+    if (not_modified) return res;  // no body, no Content-Length (RFC 9110 15.4.5)
+    res.set(http::field::content_type, content_type_of(file->name));
+    if (method == http::verb::head) {
+        res.content_length(file->data.size());  // what GET would send, without the body
+        return res;
+    }
+    res.body() = std::string(file->data);
+    res.prepare_payload();
+    return res;
+}
+
+}  // namespace gw::api

@@ -1,0 +1,294 @@
+#!/usr/bin/python3
+"""The dashboard in a real headless browser (Debian's chromium, driven over the Chrome DevTools
+Protocol by cdp.py) against the real asi-gateway: three simulated controllers in-process
+(time scale 10) plus one external ms2000-sim (ext1) whose control socket unplugs it.
+
+Checks: the overview shows every controller connected with its positions; a REST move of sim1 shows
+on the page; a jog click moves sim2 (the REST state agrees); a HALT click stops a long move (the
+halt reaches the gateway: its request counter and the stage stopping short), and HALT ALL stops two
+moves and halts all four; an unplugged ext1 shows
+as disconnected with its error, and connected again after replug; a gateway restart shows the banner
+and greys the values, then the page reconnects by itself and resumes its topics from the last
+sequence numbers it saw; with tokens, the page asks for one, refuses a wrong one, works with a viewer
+token and shows the 403 of its HALT; no console errors other than the ones the
+API causes by design (GET .../lease answers 404 when free; what is refused while the gateway is
+down; the 401s and the viewer's 403 of the token check). With --screenshot, writes a PNG of the overview.
+
+Run by ctest with Debian's /usr/bin/python3 (python3-websockets). Skipped (exit 77) without chromium.
+"""
+
+import argparse
+import asyncio
+import json
+import os
+import re
+import sys
+
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(HERE, "..", "integration", "api"))
+from cdp import Browser, find_chromium  # noqa: E402
+from gateway_fixture import (TOKENS, Failure, Fixture, auth_tokens, check, free_port, http_request,  # noqa: E402
+                             wait_until)
+
+IDS = ["ext1", "sim1", "sim2", "sim3"]
+
+
+def rest(port, method, path, body=None):
+    status, text = http_request(port, method, path, body, token=None)
+    return status, (json.loads(text) if text else None)
+
+
+def position(port, controller, axis):
+    status, s = rest(port, "GET", f"/api/v1/controllers/{controller}")
+    check(status == 200, f"GET {controller}: {status}")
+    return next(a["position_um"] for a in s["axes"] if a["axis"] == axis)
+
+
+def page_position(controller, axis):
+    return (f"(() => {{ const e = document.querySelector('[data-controller={controller}] "
+            f"td.pos[data-axis={axis}]'); return e ? parseFloat(e.textContent) : null; }})()")
+
+
+def halt_count(port):
+    status, text = http_request(port, "GET", "/api/v1/metrics", token=None)
+    m = re.search(r'gw_http_requests_total\{[^}]*route="/api/v1/controllers/\{id\}/halt"[^}]*status="200"[^}]*\} '
+                  r'([0-9.e+]+)', text)
+    return float(m.group(1)) if m else 0.0
+
+
+async def test_overview(b, port):
+    await b.navigate(f"http://127.0.0.1:{port}/")
+    await b.wait_for("four cards, all connected, live",
+                     "document.body.dataset.live === 'yes' && "
+                     f"{json.dumps(IDS)}.every(id => document.querySelector(`[data-controller=${{id}}]`)"
+                     "?.dataset.state === 'connected')")
+    ids = await b.evaluate("[...document.querySelectorAll('[data-controller]')].map(e => e.dataset.controller)")
+    check(ids == IDS, f"cards {ids}")
+    for c in IDS:
+        axes = await b.evaluate(f"[...document.querySelectorAll('[data-controller={c}] td.pos')]"
+                                ".map(e => [e.dataset.axis, e.textContent])")
+        check(len(axes) >= 2 and all(re.fullmatch(r"-?\d+\.\d", t) for _, t in axes), f"{c} positions {axes}")
+    text = await b.evaluate("document.querySelector('[data-controller=sim1]').textContent")
+    check("STD_XYZ_SCAN" in text and "ring_buffer" in text, f"sim1 card lacks build/modules: {text[:300]}")
+    check("lease: free" in text, f"sim1 lease line: {text[:400]}")
+    for hidden in ("banner", "token-form"):
+        shown = await b.evaluate(f"getComputedStyle(document.getElementById('{hidden}')).display !== 'none'")
+        check(not shown, f"#{hidden} is shown while live without tokens")
+
+
+async def test_rest_move_shows(b, port):
+    status, body = rest(port, "POST", "/api/v1/controllers/sim1/move", {"axes": {"X": 2345}, "wait": True})
+    check(status == 200, f"move sim1: {status} {body}")
+    await b.wait_for("sim1 X near 2345 on the page", f"Math.abs({page_position('sim1', 'X')} - 2345) < 1")
+
+
+async def test_jog_click(b, port):
+    before = position(port, "sim2", "X")
+    await b.evaluate("(() => { const s = document.querySelector('[data-controller=sim2] .jog select');"
+                     " s.value = '1000'; })()")
+    await b.click("[data-controller=sim2] [data-jog='X+']")
+    await asyncio.to_thread(wait_until, "sim2 X 1000 um further (REST)",
+                            lambda: abs(position(port, "sim2", "X") - (before + 1000)) < 1)
+    await b.wait_for("the page shows the jog", f"Math.abs({page_position('sim2', 'X')} - {before + 1000}) < 1")
+
+
+async def test_halt_click(b, port):
+    halts = halt_count(port)
+    status, body = rest(port, "POST", "/api/v1/controllers/sim3/speed", {"axes": {"Y": 0.5}})
+    check(status == 200, f"speed sim3: {status} {body}")  # 5 mm/s at time scale 10: 20 s for the move
+    status, body = rest(port, "POST", "/api/v1/controllers/sim3/move", {"axes": {"Y": 100000}})
+    check(status == 200, f"long move sim3: {status} {body}")
+    await b.wait_for("sim3 busy on the page", "document.querySelector('[data-controller=sim3]').dataset.busy === 'yes'")
+    await b.click("[data-halt=sim3]")
+    await asyncio.to_thread(wait_until, "the halt counted by the gateway", lambda: halt_count(port) >= halts + 1)
+    await asyncio.to_thread(wait_until, "sim3 stopped",
+                            lambda: rest(port, "GET", "/api/v1/controllers/sim3")[1]["busy"] is False)
+    y = position(port, "sim3", "Y")
+    check(y < 99000, f"sim3 Y reached {y}: the halt did not stop the move")
+    await b.wait_for("the page shows where it stopped", f"Math.abs({page_position('sim3', 'Y')} - {y}) < 1")
+    err = await b.evaluate("document.querySelector('[data-controller=sim3] .op-error').textContent")
+    check(err == "", f"halt error on the page: {err}")
+
+
+async def test_halt_all(b, port):
+    halts = halt_count(port)
+    for c in ("sim1", "sim2"):
+        status, body = rest(port, "POST", f"/api/v1/controllers/{c}/speed", {"axes": {"Y": 0.5}})
+        check(status == 200, f"speed {c}: {status} {body}")
+        status, body = rest(port, "POST", f"/api/v1/controllers/{c}/move", {"axes": {"Y": -100000}})
+        check(status == 200, f"long move {c}: {status} {body}")
+    await b.wait_for("sim1 and sim2 busy on the page", "['sim1', 'sim2'].every(id => document.querySelector("
+                     "`[data-controller=${id}]`).dataset.busy === 'yes')")
+    await b.click("#halt-all")
+    await asyncio.to_thread(wait_until, "four halts counted by the gateway",
+                            lambda: halt_count(port) >= halts + len(IDS))
+    for c in ("sim1", "sim2"):
+        await asyncio.to_thread(wait_until, f"{c} stopped",
+                                lambda: rest(port, "GET", f"/api/v1/controllers/{c}")[1]["busy"] is False)
+        y = position(port, c, "Y")
+        check(y > -99000, f"{c} Y reached {y}: HALT ALL did not stop the move")
+
+
+async def test_unplug(b, control):
+    check(control("unplug") == "ok", "unplug")
+    await b.wait_for("ext1 not connected on the page",
+                     "document.querySelector('[data-controller=ext1]').dataset.state !== 'connected'", timeout=20)
+    await b.wait_for("ext1 greyed out", "document.querySelector('[data-controller=ext1]')"
+                     ".classList.contains('offline')")
+    await b.wait_for("ext1's error shown", "(() => { const e = document.querySelector("
+                     "'[data-controller=ext1] .last-error'); return !e.hidden && e.textContent.length > 0"
+                     " && e.textContent; })()", timeout=20)
+    check(control("replug") == "ok", "replug")
+    await b.wait_for("ext1 connected again",
+                     "document.querySelector('[data-controller=ext1]').dataset.state === 'connected'", timeout=30)
+
+
+async def test_restart(b, fx, gateway, config, port):
+    sent_before = len(b.ws_sent)
+    fx.gateway.terminate()
+    fx.gateway.wait(timeout=30)
+    await b.wait_for("the banner", "!document.getElementById('banner').hidden && document.body.dataset.live === 'no'")
+    grey = await b.evaluate("getComputedStyle(document.querySelector('td.pos')).color")
+    check(grey == "rgb(176, 180, 186)", f"positions not greyed while down: {grey}")
+    await asyncio.to_thread(fx.start_gateway, gateway, config)
+    await b.wait_for("live again after the restart", "document.body.dataset.live === 'yes' && "
+                     "document.getElementById('banner').hidden", timeout=40)
+    # The new subscription resumed every topic from the last sequence number the page had seen.
+    subs = [json.loads(t) for t in b.ws_sent[sent_before:] if '"subscribe"' in t]
+    check(subs, "no subscribe sent after the restart")
+    resume = subs[-1].get("resume", {})
+    check(all(f"controllers/{c}/position" in resume and f"controllers/{c}/state" in resume for c in IDS)
+          and all(isinstance(v, int) and v > 0 for v in resume.values()), f"resume after the restart: {resume}")
+
+
+async def test_tokens(b, fx, gateway):
+    """A gateway with tokens: the page asks for one, says when it is refused, then works with a viewer
+    token (REST and the WebSocket's access_token); a HALT with a viewer token shows the 403."""
+    port = free_port()
+    config = {
+        "http": {"listen_address": "127.0.0.1", "port": port},
+        "simulate": {"count": 1, "time_scale": 10, "directory": os.path.join(fx.tmp, "sim-auth")},
+        "storage": {"path": os.path.join(fx.tmp, "store-auth")},
+        "auth": auth_tokens(),
+        "logging": {"level": "info"},
+    }
+    await asyncio.to_thread(fx.start_gateway, gateway, config)
+    await b.navigate(f"http://127.0.0.1:{port}/")
+    form_shown = "getComputedStyle(document.getElementById('token-form')).display !== 'none'"
+    await b.wait_for("the token form", form_shown)
+
+    async def submit(token):
+        await b.evaluate(f"document.getElementById('token-input').value = {json.dumps(token)}")
+        await b.click("#token-form button")
+
+    await submit("wrong-token-0123456789")
+    await b.wait_for("a refused token said so",
+                     "document.getElementById('token-error').textContent === 'that token was refused'")
+    await submit(TOKENS["viewer"])
+    await b.wait_for("sim1 live with the viewer token",
+                     "document.body.dataset.live === 'yes' && "
+                     "document.querySelector('[data-controller=sim1]')?.dataset.state === 'connected'")
+    check(not await b.evaluate(form_shown), "the token form is still shown")
+    stored = await b.evaluate("sessionStorage.getItem('asi-gateway.token')")
+    check(stored == TOKENS["viewer"], f"sessionStorage holds {stored!r}")
+    await b.click("[data-halt=sim1]")
+    err = await b.wait_for("the 403 of a viewer's halt",
+                           "document.querySelector('[data-controller=sim1] .op-error').textContent")
+    check(err.startswith("halt: ") and "operator" in err, f"viewer halt shows {err!r}")
+
+
+def unexpected_console(entries):
+    out = []
+    for level, text, url in entries:
+        if level not in ("error", "assert", "exception"):
+            continue
+        if url.endswith("/lease") and "404" in (text or ""):
+            continue  # GET /api/v1/controllers/{id}/lease answers 404 for a free controller
+        out.append((level, text, url))
+    return out
+
+
+async def main_async(args, fx):
+    chromium = find_chromium()
+    ext1 = fx.start_sim(args.sim, "ext1", "plain", time_scale=10)
+    port = free_port()
+    config = {
+        "http": {"listen_address": "127.0.0.1", "port": port},
+        "controllers": [{"id": "ext1", "port": ext1.link, "baud": 115200, "poll_ms": 100,
+                         "command_timeout_ms": 500}],
+        "simulate": {"count": 3, "time_scale": 10, "directory": os.path.join(fx.tmp, "sim")},
+        "storage": {"path": os.path.join(fx.tmp, "store")},
+        "logging": {"level": "info"},
+    }
+    fx.start_gateway(args.gateway, config)
+    b = Browser(chromium, os.path.join(fx.tmp, "profile"), free_port())
+    try:
+        await b.connect()
+
+        async def run(name, coro_fn, *a):
+            try:
+                await coro_fn(*a)
+                fx.passed.append(name)
+                print(f"[ OK ] {name}", flush=True)
+            except (Failure, AssertionError, RuntimeError, OSError, asyncio.TimeoutError) as e:
+                fx.failures.append((name, e))
+                print(f"[FAIL] {name}: {e}", flush=True)
+
+        await run("overview: every controller connected with positions", test_overview, b, port)
+        await run("a REST move shows on the page", test_rest_move_shows, b, port)
+        await run("a jog click moves the stage", test_jog_click, b, port)
+        if args.screenshot:
+            await b.wait_for("every card idle", "[...document.querySelectorAll('[data-controller]')]"
+                             ".every(e => e.dataset.busy === 'no')")
+            await b.screenshot(args.screenshot)
+            print(f"screenshot: {args.screenshot}")
+        await run("a HALT click stops the move", test_halt_click, b, port)
+        await run("HALT ALL stops every controller", test_halt_all, b, port)
+        await run("unplug shows disconnected, replug connected", test_unplug, b, ext1.control)
+        before_restart = len(b.console)
+        await run("gateway restart: banner, greyed values, reconnect", test_restart, b, fx, args.gateway, config, port)
+        after_restart = len(b.console)
+        await run("tokens: asked for, refused, then used", test_tokens, b, fx, args.gateway)
+        # While the gateway was down the browser logs the refused requests and WebSocket, and with
+        # tokens the 401s and the viewer's 403: by design.
+        restart_ids = set(range(before_restart, after_restart))
+        for i in range(after_restart, len(b.console)):
+            if re.search(r"status of (401|403)", b.console[i][1] or ""):
+                restart_ids.add(i)
+        console = [e for i, e in enumerate(b.console) if i not in restart_ids or "127.0.0.1" not in (e[1] or "") + e[2]]
+        bad = unexpected_console(console)
+        if bad:
+            fx.failures.append(("no console errors", Failure(f"{bad[:5]}")))
+            print(f"[FAIL] no console errors: {bad[:5]}")
+        else:
+            fx.passed.append("no console errors")
+            print(f"[ OK ] no console errors ({len(b.console)} console entries seen)")
+        if os.environ.get("GW_BROWSER_TEST_VERBOSE"):
+            for e in b.console:
+                print("console:", e)
+    finally:
+        await b.close()
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--gateway", required=True)
+    ap.add_argument("--sim", required=True)
+    ap.add_argument("--screenshot", help="write a PNG of the overview here")
+    args = ap.parse_args()
+    if not find_chromium():
+        print("chromium is not installed (scripts/install-deps --tests installs it): skipped")
+        return 77
+    fx = Fixture("gw-browser-test-")
+    try:
+        asyncio.run(main_async(args, fx))
+        fx.finish_log(60)
+    finally:
+        fx.cleanup()
+    return fx.report()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
