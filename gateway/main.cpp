@@ -33,6 +33,7 @@
 #include "gateway/log_observer.hpp"
 #include "gateway/logging.hpp"
 #include "gateway/metrics.hpp"
+#include "gateway/ports_cli.hpp"
 #include "gateway/serial_spec.hpp"
 #include "gateway/storage_lock.hpp"
 
@@ -68,8 +69,10 @@ int main(int argc, char** argv) {
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
         ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
     gw::gcode_cli gcode(app);  // "asi-gateway gcode plan|preview FILE": no controllers, no store
+    gw::ports_cli ports(app);  // "asi-gateway ports": find MS-2000s on the serial ports
     CLI11_PARSE(app, argc, argv);
     if (gcode.selected()) return gcode.run(std::cout, std::cerr);
+    if (ports.selected()) return ports.run(std::cout, std::cerr);
 
     if (!check_file.empty()) return gw::check_config_file(check_file, std::cout, std::cerr);
 
