@@ -61,7 +61,8 @@ gw::devices::controller_snapshot connected_snapshot() {
     s.busy = true;
     s.ttl_in0_mode = 1;
     s.ttl_out0_mode = 0;
-    s.last_error = controller_error_info{-4, "parameter_out_of_range", "Parameter Out of Range", at_ms(1000)};
+    s.last_error =
+        controller_error_info{-4, "parameter_out_of_range", "Parameter Out of Range", {}, at_ms(1000)};
     s.report = report_port_state::open;
     s.updated = at_ms(1795322740123);
     return s;
