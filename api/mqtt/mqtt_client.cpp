@@ -2,12 +2,17 @@
 
 #include <algorithm>
 #include <mqtt/async_client.h>
+#include <mutex>
 #include <random>
 #include <stdexcept>
 #include <utility>
 
+#include <boost/asio/connect.hpp>
+#include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
 #include <spdlog/logger.h>
+
+#include "api/mqtt/connect_failure.hpp"
 
 namespace gw::api {
 
@@ -33,6 +38,20 @@ std::string describe(const mqtt::token& t) {
 
 }  // namespace
 
+struct mqtt_client::tls_errors {
+    std::mutex mutex;
+    std::string last;
+
+    void note(const std::string& text) {
+        std::lock_guard lock(mutex);
+        last = text;
+    }
+    std::string take() {
+        std::lock_guard lock(mutex);
+        return std::exchange(last, {});
+    }
+};
+
 // A Paho action listener: called on a Paho thread, posts the outcome onto the client's strand.
 class mqtt_client::listener final : public mqtt::iaction_listener {
   public:
@@ -41,12 +60,21 @@ class mqtt_client::listener final : public mqtt::iaction_listener {
         : owner_(std::move(owner)), strand_(std::move(s)), cb_(std::move(cb)) {}
 
     void on_success(const mqtt::token&) override { post(true, {}); }
-    void on_failure(const mqtt::token& t) override { post(false, describe(t)); }
+    void on_failure(const mqtt::token& t) override {
+        post(false, describe(t), t.get_return_code(),
+             t.get_reason_code() == mqtt::SUCCESS ? 0 : int(t.get_reason_code()));
+    }
 
   private:
-    void post(bool ok, std::string what) {
-        net::post(strand_, [owner = owner_, cb = cb_, ok, what = std::move(what)]() mutable {
-            if (auto self = owner.lock()) cb(*self, ok, std::move(what));
+    void post(bool ok, std::string what, int rc = 0, int reason = 0) {
+        net::post(strand_, [owner = owner_, cb = cb_, ok, what = std::move(what), rc, reason]() mutable {
+            if (auto self = owner.lock()) {
+                if (!ok) {
+                    self->failure_rc_ = rc;
+                    self->failure_reason_ = reason;
+                }
+                cb(*self, ok, std::move(what));
+            }
         });
     }
     std::weak_ptr<mqtt_client> owner_;
@@ -75,7 +103,8 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
       log_(std::move(log)),
       retry_timer_(strand_),
       stop_timer_(strand_),
-      backoff_(config.reconnect_min, config.reconnect_max, std::random_device{}()) {
+      backoff_(config.reconnect_min, config.reconnect_max, std::random_device{}()),
+      tls_errors_(std::make_shared<tls_errors>()) {
     const int version = paho_mqtt_version(config_.protocol);
     try {
         cli_ = std::make_unique<mqtt::async_client>(config_.brokers.front(), client_id_,
@@ -111,6 +140,13 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
         if (!config_.tls.key_file.empty()) ssl.set_private_key(config_.tls.key_file);
         ssl.set_enable_server_cert_auth(config_.tls.verify);
         ssl.set_verify(config_.tls.verify);  // the host name too
+        // OpenSSL's own words for a failed handshake ("certificate verify failed"), for the log.
+        ssl.set_error_handler([errors = tls_errors_](const std::string& text) {
+            auto line = text;
+            while (!line.empty() && (line.back() == '\n' || line.back() == '\r'))
+                line.pop_back();
+            errors->note(line);
+        });
         o.set_ssl(ssl);
     }
 }
@@ -181,6 +217,7 @@ void mqtt_client::start() {
 void mqtt_client::do_connect() {
     if (stopping_ || connected_ || connecting_) return;
     connecting_ = true;
+    tls_errors_->take();  // only this attempt's
     try {
         cli_->connect(*options_, nullptr, *connect_listener_);
     } catch (const mqtt::exception& e) {
@@ -198,9 +235,7 @@ void mqtt_client::on_connect_result(bool ok, std::string what) {
         // Attempts come every couple of seconds during an outage: the first failure and then one in 30
         // are warnings, the rest debug.
         const auto level = failed_attempts_++ % 30 == 0 ? spdlog::level::warn : spdlog::level::debug;
-        if (log_)
-            log_->log(level, "cannot connect to {}: {}; next attempt in {} ms ({} failed so far)",
-                      config_.brokers.front(), what, wait.count(), failed_attempts_);
+        if (log_) log_connect_failure(wait, level);
         return;
     }
     connected_ = true;
@@ -209,6 +244,52 @@ void mqtt_client::on_connect_result(bool ok, std::string what) {
     backoff_.reset();
     if (log_) log_->info("connected to {} as {}", cli_->get_server_uri(), client_id_);
     if (handlers_.connected) handlers_.connected();
+}
+
+void mqtt_client::log_connect_failure(std::chrono::milliseconds wait, spdlog::level::level_enum level) {
+    connect_failure f{failure_rc_, failure_reason_, tls_errors_->take(), {}};
+    const auto failed = failed_attempts_;
+    auto write = [log = log_, broker = config_.brokers.front(), wait, level,
+                  failed](const connect_failure& f) {
+        log->log(level, "cannot connect to {}: {}; next attempt in {} ms ({} failed so far)", broker,
+                 explain_connect_failure(f), wait.count(), failed);
+    };
+    const bool paho_said_why =
+        !f.tls_error.empty() || f.reason_code != 0 || (f.return_code >= 1 && f.return_code <= 5);
+    if (paho_said_why || level < spdlog::level::warn) return write(f);
+    // Paho's "failure" alone: a plain TCP connect tells a refused port from an unreachable host.
+    const auto address = parse_broker_address(config_.brokers.front());
+    auto resolver = std::make_shared<net::ip::tcp::resolver>(strand_);
+    auto socket = std::make_shared<net::ip::tcp::socket>(strand_);
+    auto deadline = std::make_shared<net::steady_timer>(strand_);
+    deadline->expires_after(std::chrono::seconds(2));
+    deadline->async_wait([resolver, socket](boost::system::error_code ec) {
+        if (ec) return;
+        resolver->cancel();
+        boost::system::error_code ignored;
+        socket->close(ignored);
+    });
+    resolver->async_resolve(
+        address.host, address.port,
+        [f, write, resolver, socket, deadline](boost::system::error_code ec,
+                                               const net::ip::tcp::resolver::results_type& results) mutable {
+            if (ec) {
+                deadline->cancel();
+                f.tcp_error = "cannot resolve the host name: " + ec.message();
+                return write(f);
+            }
+            net::async_connect(
+                *socket, results,
+                [f, write, socket, deadline](boost::system::error_code ec, const auto&) mutable {
+                    deadline->cancel();
+                    f.tcp_error = ec == net::error::operation_aborted ? "no answer within 2 s"
+                                  : ec                                ? ec.message()
+                                                                      : std::string();
+                    boost::system::error_code ignored;
+                    socket->close(ignored);
+                    write(f);
+                });
+        });
 }
 
 void mqtt_client::on_lost(std::string cause) {
