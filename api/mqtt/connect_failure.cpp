@@ -9,6 +9,10 @@ bool has(std::string_view text, std::string_view part) {
 }
 
 std::string explain_tls(std::string_view e) {
+    if (has(e, "hostname mismatch") || has(e, "Hostname mismatch"))
+        return "TLS handshake failed: the broker's certificate does not name the host of the broker URL "
+               "(wrong "
+               "host name: use a name its certificate has)";
     if (has(e, "certificate verify failed"))
         return "TLS handshake failed: the broker's certificate is not trusted (unknown CA: check "
                "tls.ca_file) or "
@@ -82,6 +86,8 @@ std::string explain_connect_failure(const connect_failure& f) {
         why = explain_tls(f.tls_error) + " (" + f.tls_error + ")";
     } else if (auto v5 = reason_v5(f.reason_code); !v5.empty()) {
         why = v5;
+    } else if (auto v5_rc = reason_v5(f.return_code); !v5_rc.empty()) {
+        why = v5_rc;  // Paho C++ hands an MQTT 5 CONNACK reason over as the return code
     } else if (auto v3 = connack_v3(f.return_code); !v3.empty()) {
         why = v3;
     } else if (!f.tcp_error.empty()) {

@@ -1,8 +1,8 @@
 #pragma once
 // Why a connection to the broker failed, in words a person can act on, from what Paho reports: the
-// return code and MQTT 5 reason code of the failed connect, the TLS error text OpenSSL gave (Paho's
-// SSL error callback), and, when Paho says nothing more than "failure", the outcome of a plain TCP
-// connect to the broker's host and port. Pure.
+// return code and MQTT 5 reason code of the failed connect and, when Paho says nothing more than
+// "failure", what the gateway's own TCP connect and TLS handshake to the broker saw (broker_probe.hpp).
+// Pure.
 //   explain_connect_failure({-1, 0, "...:certificate verify failed:...", ""}) ->
 //     "TLS handshake failed: the broker's certificate is not trusted (unknown CA: check tls.ca_file) ..."
 
@@ -14,7 +14,8 @@ namespace gw::api {
 struct connect_failure {
     int return_code = 0;    // Paho's (MQTTASYNC_FAILURE -1, or an MQTT 3.1.1 CONNACK code 1..5)
     int reason_code = 0;    // MQTT 5 CONNACK reason (0x87 not authorised, ...), 0 if none
-    std::string tls_error;  // the last OpenSSL error text during this attempt, or empty
+    std::string tls_error;  // the diagnostic handshake's error ("certificate verify failed ...: hostname
+                            // mismatch"), or empty
     std::string tcp_error;  // a plain TCP connect's error ("Connection refused"), "" when it connected
                             // or was not tried
 };

@@ -2,16 +2,14 @@
 
 #include <algorithm>
 #include <mqtt/async_client.h>
-#include <mutex>
 #include <random>
 #include <stdexcept>
 #include <utility>
 
-#include <boost/asio/connect.hpp>
-#include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
 #include <spdlog/logger.h>
 
+#include "api/mqtt/broker_probe.hpp"
 #include "api/mqtt/connect_failure.hpp"
 
 namespace gw::api {
@@ -37,20 +35,6 @@ std::string describe(const mqtt::token& t) {
 }
 
 }  // namespace
-
-struct mqtt_client::tls_errors {
-    std::mutex mutex;
-    std::string last;
-
-    void note(const std::string& text) {
-        std::lock_guard lock(mutex);
-        last = text;
-    }
-    std::string take() {
-        std::lock_guard lock(mutex);
-        return std::exchange(last, {});
-    }
-};
 
 // A Paho action listener: called on a Paho thread, posts the outcome onto the client's strand.
 class mqtt_client::listener final : public mqtt::iaction_listener {
@@ -103,8 +87,7 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
       log_(std::move(log)),
       retry_timer_(strand_),
       stop_timer_(strand_),
-      backoff_(config.reconnect_min, config.reconnect_max, std::random_device{}()),
-      tls_errors_(std::make_shared<tls_errors>()) {
+      backoff_(config.reconnect_min, config.reconnect_max, std::random_device{}()) {
     const int version = paho_mqtt_version(config_.protocol);
     try {
         cli_ = std::make_unique<mqtt::async_client>(config_.brokers.front(), client_id_,
@@ -140,19 +123,17 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
         if (!config_.tls.key_file.empty()) ssl.set_private_key(config_.tls.key_file);
         ssl.set_enable_server_cert_auth(config_.tls.verify);
         ssl.set_verify(config_.tls.verify);  // the host name too
-        // OpenSSL's own words for a failed handshake ("certificate verify failed"), for the log.
-        ssl.set_error_handler([errors = tls_errors_](const std::string& text) {
-            auto line = text;
-            while (!line.empty() && (line.back() == '\n' || line.back() == '\r'))
-                line.pop_back();
-            errors->note(line);
-        });
         o.set_ssl(ssl);
     }
 }
 
 mqtt_client::~mqtt_client() {
-    if (cli_) cli_->disable_callbacks();
+    // Paho refuses (throws) while a connect is still in progress, e.g. a shutdown during an attempt:
+    // a destructor must not throw, and the callbacks hold only weak references to this client.
+    try {
+        if (cli_) cli_->disable_callbacks();
+    } catch (const std::exception&) {
+    }
 }
 
 void mqtt_client::install_callbacks() {
@@ -217,7 +198,6 @@ void mqtt_client::start() {
 void mqtt_client::do_connect() {
     if (stopping_ || connected_ || connecting_) return;
     connecting_ = true;
-    tls_errors_->take();  // only this attempt's
     try {
         cli_->connect(*options_, nullptr, *connect_listener_);
     } catch (const mqtt::exception& e) {
@@ -247,49 +227,23 @@ void mqtt_client::on_connect_result(bool ok, std::string what) {
 }
 
 void mqtt_client::log_connect_failure(std::chrono::milliseconds wait, spdlog::level::level_enum level) {
-    connect_failure f{failure_rc_, failure_reason_, tls_errors_->take(), {}};
+    connect_failure f{failure_rc_, failure_reason_, {}, {}};
     const auto failed = failed_attempts_;
     auto write = [log = log_, broker = config_.brokers.front(), wait, level,
                   failed](const connect_failure& f) {
         log->log(level, "cannot connect to {}: {}; next attempt in {} ms ({} failed so far)", broker,
                  explain_connect_failure(f), wait.count(), failed);
     };
-    const bool paho_said_why =
-        !f.tls_error.empty() || f.reason_code != 0 || (f.return_code >= 1 && f.return_code <= 5);
+    const bool paho_said_why = f.reason_code != 0 || f.return_code > 0;  // a CONNACK code or reason
     if (paho_said_why || level < spdlog::level::warn) return write(f);
-    // Paho's "failure" alone: a plain TCP connect tells a refused port from an unreachable host.
-    const auto address = parse_broker_address(config_.brokers.front());
-    auto resolver = std::make_shared<net::ip::tcp::resolver>(strand_);
-    auto socket = std::make_shared<net::ip::tcp::socket>(strand_);
-    auto deadline = std::make_shared<net::steady_timer>(strand_);
-    deadline->expires_after(std::chrono::seconds(2));
-    deadline->async_wait([resolver, socket](boost::system::error_code ec) {
-        if (ec) return;
-        resolver->cancel();
-        boost::system::error_code ignored;
-        socket->close(ignored);
-    });
-    resolver->async_resolve(
-        address.host, address.port,
-        [f, write, resolver, socket, deadline](boost::system::error_code ec,
-                                               const net::ip::tcp::resolver::results_type& results) mutable {
-            if (ec) {
-                deadline->cancel();
-                f.tcp_error = "cannot resolve the host name: " + ec.message();
-                return write(f);
-            }
-            net::async_connect(
-                *socket, results,
-                [f, write, socket, deadline](boost::system::error_code ec, const auto&) mutable {
-                    deadline->cancel();
-                    f.tcp_error = ec == net::error::operation_aborted ? "no answer within 2 s"
-                                  : ec                                ? ec.message()
-                                                                      : std::string();
-                    boost::system::error_code ignored;
-                    socket->close(ignored);
-                    write(f);
-                });
-        });
+    // Paho's "failure" alone: the broker is asked directly (TCP, and the TLS handshake for mqtts://).
+    const auto& broker = config_.brokers.front();
+    probe_broker(strand_, parse_broker_address(broker), uses_tls({broker}), config_.tls,
+                 [f, write](std::string tcp_error, std::string tls_error) mutable {
+                     f.tcp_error = std::move(tcp_error);
+                     f.tls_error = std::move(tls_error);
+                     write(f);
+                 });
 }
 
 void mqtt_client::on_lost(std::string cause) {

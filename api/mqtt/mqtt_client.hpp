@@ -92,7 +92,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     void do_connect();
     void on_connect_result(bool ok, std::string what);
     // The warning for a failed connect, with a reason a person can act on (connect_failure.hpp); when
-    // Paho gives none, after a plain TCP connect to the broker has said whether anything listens.
+    // Paho gives none, after broker_probe has asked the broker itself (TCP, TLS handshake).
     void log_connect_failure(std::chrono::milliseconds wait, spdlog::level::level_enum level);
     void on_lost(std::string cause);
     std::chrono::milliseconds schedule_reconnect();  // the wait until the attempt
@@ -118,9 +118,6 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::uint64_t connects_ = 0;
     int failure_rc_ = 0;      // of the last failed action (set by the listener, on the strand)
     int failure_reason_ = 0;  // MQTT 5 reason code of it, 0 if none
-    // The last OpenSSL error text Paho reported (its SSL error callback runs on a Paho thread).
-    struct tls_errors;
-    std::shared_ptr<tls_errors> tls_errors_;
     std::unique_ptr<listener> connect_listener_;  // outlives cli_ (declared before it)
     std::unique_ptr<listener> publish_listener_;
     std::unique_ptr<listener> subscribe_listener_;

@@ -348,9 +348,10 @@ TEST_F(config_file_test, check_config_refuses_tls_files_that_cannot_be_used) {
     const auto not_pem = path_ + ".key";
     std::ofstream(not_pem) << "not a key\n";
     const auto missing_ca = path_ + ".no-such-ca.pem";
-    const auto path = write(R"({"mqtt": {"enabled": true, "brokers": ["mqtts://127.0.0.1:8883"],
+    const auto path =
+        write(R"({"mqtt": {"enabled": true, "brokers": ["mqtts://127.0.0.1:8883"],
                                          "tls": {"ca_file": ")" +
-                            missing_ca + R"(", "key_file": ")" + not_pem + R"("}}})");
+              missing_ca + R"(", "cert_file": ")" + not_pem + R"(", "key_file": ")" + not_pem + R"("}}})");
     std::ostringstream out, err;
     EXPECT_EQ(check_config_file(path, out, err), 2);
     EXPECT_EQ(out.str(), "");

@@ -34,6 +34,7 @@ TEST(ConnectFailure, ExplainsWhatPahoReports) {
         {"v3 bad password", {4, 0, "", ""}, "bad user name or password"},
         {"v5 not authorised", {-1, 0x87, "", ""}, "not authorised"},
         {"v5 bad password", {-1, 0x86, "", ""}, "bad user name or password"},
+        {"v5 reason as Paho C++ reports it", {0x87, 0, "", ""}, "not authorised"},
         {"connection refused", {-1, 0, "", "Connection refused"}, "connection refused: nothing listens"},
         {"unreachable", {-1, 0, "", "No route to host"}, "cannot reach the broker: No route to host"},
         {"nothing known", {-1, 0, "", ""}, "failed before MQTT"},
