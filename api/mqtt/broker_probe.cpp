@@ -5,6 +5,7 @@
 #include <openssl/x509_vfy.h>
 
 #include <boost/asio/connect.hpp>
+#include <boost/asio/ip/address.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/ssl.hpp>
 #include <boost/asio/steady_timer.hpp>
@@ -68,7 +69,14 @@ void probe_broker(net::strand<net::any_io_executor> strand, const broker_address
     if (tls && ec) return p->finish({}, "TLS files: " + ec.message());
     if (tls && settings.verify) {
         p->stream.set_verify_mode(ssl::verify_peer);
-        p->stream.set_verify_callback(ssl::host_name_verification(address.host));
+        // OpenSSL's own host check, so that a mismatch is reported as such ("hostname mismatch").
+        auto* param = SSL_get0_param(p->stream.native_handle());
+        boost::system::error_code not_ip;
+        net::ip::make_address(address.host, not_ip);
+        if (not_ip)
+            X509_VERIFY_PARAM_set1_host(param, address.host.c_str(), 0);
+        else
+            X509_VERIFY_PARAM_set1_ip_asc(param, address.host.c_str());
         SSL_set_tlsext_host_name(p->stream.native_handle(), address.host.c_str());
     }
     p->deadline.expires_after(std::chrono::seconds(3));

@@ -11,12 +11,10 @@ bool has(std::string_view text, std::string_view part) {
 std::string explain_tls(std::string_view e) {
     if (has(e, "hostname mismatch") || has(e, "Hostname mismatch"))
         return "TLS handshake failed: the broker's certificate does not name the host of the broker URL "
-               "(wrong "
-               "host name: use a name its certificate has)";
+               "(wrong host name: use a name its certificate has)";
     if (has(e, "certificate verify failed"))
         return "TLS handshake failed: the broker's certificate is not trusted (unknown CA: check "
-               "tls.ca_file) or "
-               "does not name the host of the broker URL (wrong host name: use the name in its certificate)";
+               "tls.ca_file)";
     if (has(e, "hostname") || has(e, "host name"))
         return "TLS handshake failed: the broker's certificate does not name the host of the broker URL "
                "(wrong "
@@ -25,6 +23,9 @@ std::string explain_tls(std::string_view e) {
         has(e, "handshake failure") || has(e, "certificate unknown"))
         return "TLS handshake failed: the broker refused this gateway's client certificate (bad certificate: "
                "check tls.cert_file and tls.key_file against the broker's CA)";
+    if (has(e, "reset by peer") || has(e, "stream truncated") || has(e, "End of file"))
+        return "TLS handshake failed: the broker closed the connection during the handshake (a plain MQTT "
+               "port for an mqtts:// URL?)";
     if (has(e, "wrong version number") || has(e, "packet length too long") || has(e, "record layer failure"))
         return "TLS handshake failed: the broker's port does not speak TLS (an mqtts:// URL for a plain MQTT "
                "listener?)";
