@@ -3,6 +3,9 @@
 #include <chrono>
 #include <sys/stat.h>
 
+#include <boost/asio/append.hpp>
+#include <boost/asio/dispatch.hpp>
+
 #include "api/port_scan_worker.hpp"
 #include "devices/serial/port_candidates.hpp"
 #include "devices/serial/port_scan.hpp"
@@ -81,9 +84,10 @@ void scan_ports_request(api_context& ctx, const query_params& q, const std::stri
                 make_error(operation_error_kind::internal, std::string("port scan failed: ") + e.what()),
                 request_id);
         }
-        std::move (*shared_done)(std::move(o));
+        // On the session's executor (the handler's associated one), never here on the worker thread.
+        boost::asio::dispatch(boost::asio::append(std::move(*shared_done), std::move(o)));
     });
-    if (!started) std::move (*shared_done)(failed(scan_busy(), request_id));
+    if (!started) std::move (*shared_done)(failed(scan_busy(), request_id));  // on the session's strand
 }
 
 }  // namespace gw::api

@@ -13,8 +13,8 @@
 
 namespace gw::api {
 
-// Validates `q` and starts the scan; `done` gets the outcome on the worker thread (bind it to the
-// session's executor).
+// Validates `q` and starts the scan; `done` gets the outcome: at once for a bad query or a busy
+// worker, else dispatched to its associated executor (bind it to the session's) when the scan ends.
 void scan_ports_request(api_context& ctx, const query_params& q, const std::string& request_id,
                         api_handler done);
 
