@@ -57,6 +57,8 @@ std::vector<port_candidate> list_candidate_ports(const std::vector<std::string>&
         for (const auto& l : links)
             add(l, true, false);
 
+        // sysfs describes the real /dev only (a test's fake tree has no UART types).
+        const bool real_dev = dev_root == "/dev";
         std::vector<std::string> nodes;
         for (fs::directory_iterator it(dev_root, ec), end; !ec && it != end; it.increment(ec)) {
             const std::string name = it->path().filename().string();
@@ -64,7 +66,7 @@ std::vector<port_candidate> list_candidate_ports(const std::vector<std::string>&
                 if (name.starts_with(prefix) && name.size() > std::string_view(prefix).size() &&
                     name.find_first_not_of("0123456789", std::string_view(prefix).size()) ==
                         std::string::npos &&
-                    !(name.starts_with("ttyS") && uart_absent(name)))
+                    !(name.starts_with("ttyS") && real_dev && uart_absent(name)))
                     nodes.push_back(it->path().string());
         }
         // ttyUSB and ttyACM (where MS-2000 adapters appear) before the built-in ttyS ports.

@@ -17,7 +17,8 @@ struct port_candidate {
     bool by_id = false;
 };
 
-// `system_ports` false: only the `extra` paths (tests, or a user who knows where to look).
+// `system_ports` false: only the `extra` paths (tests, or a user who knows where to look). `dev_root`
+// other than "/dev" (a test's fake tree) skips the sysfs UART check.
 std::vector<port_candidate> list_candidate_ports(const std::vector<std::string>& extra,
                                                  bool system_ports = true,
                                                  const std::string& dev_root = "/dev");
