@@ -262,7 +262,12 @@ void controller::on_timeout(std::uint64_t sequence) {
         // Not even the command left: the port is stuck (a hung adapter). Start over.
         return disconnect(ms2000::error::timeout, "write stalled");
     }
-    log_error("command timed out", ms2000::error::timeout);
+    // Before the controller is identified, the unreachable state (and the gateway's log of it) says
+    // what these timeouts mean; each one is only detail.
+    if (snapshot_.state == connection_state::connected)
+        log_error("command timed out", ms2000::error::timeout);
+    else
+        log_->debug("command \"{}\" timed out", escape_control(in_flight_->job.cmd.wire));
     // Its reply may still come, and would then be taken for the next command's.
     mark_out_of_step(link_fault::kind::timeout, "a command timed out");
     finish(ms2000::error::timeout, std::nullopt, escape_control(framer_.partial()));
@@ -565,7 +570,10 @@ void controller::watch_for_node() {
 
 void controller::disconnect(error_code ec, const char* what) {
     if (!port_.is_open()) return;
-    log_->warn("{}: {}; port closed, reconnecting", what, ec.message());
+    if (snapshot_.state == connection_state::connected)
+        log_->warn("{}: {}; port closed, reconnecting", what, ec.message());
+    else
+        log_->debug("{}: {}; port closed, trying again", what, ec.message());  // see set_unreachable
     ++generation_;
     port_.close();
     close_report_port();
