@@ -10,6 +10,9 @@ namespace {
 constexpr std::string_view by_id_hint =
     "the adapter is unplugged, switched off or was renamed (ttyUSB numbers change between boots and "
     "replugs); name the port by its stable /dev/serial/by-id/ path ('asi-gateway ports' lists them)";
+constexpr std::string_view by_id_unplugged_hint =
+    "the adapter is unplugged or switched off (its /dev/serial/by-id/ link exists only while it is plugged "
+    "in); 'asi-gateway ports' lists the ports there are";
 constexpr std::string_view dialout_hint =
     "the gateway's user may not open the port: add it to the dialout group (usermod -aG dialout USER, "
     "then log in again; a systemd service needs SupplementaryGroups=dialout)";
@@ -30,7 +33,9 @@ connection_problem open_problem(std::string_view path, int err) {
         case ENODEV:
         case ENXIO:
             p.name = "port_not_found";
-            p.hint = by_id_hint;
+            // A by-id link exists only while its adapter is plugged in: no advice to use one.
+            p.hint = path.find("/serial/by-id/") != std::string_view::npos ? std::string(by_id_unplugged_hint)
+                                                                           : std::string(by_id_hint);
             break;
         case EACCES:
         case EPERM:

@@ -81,6 +81,11 @@ TEST(connection_problem, names_the_path_the_errno_text_and_a_hint) {
         EXPECT_EQ(p.text, std::string("cannot open /dev/ttyUSB7: ") + c.errno_text);
         EXPECT_NE(p.hint.find(c.hint_part), std::string::npos) << p.hint;
     }
+    const auto unplugged = open_problem("/dev/serial/by-id/usb-FTDI_0001-if00-port0", ENOENT);
+    EXPECT_EQ(unplugged.name, "port_not_found");
+    EXPECT_NE(unplugged.hint.find("unplugged"), std::string::npos) << unplugged.hint;
+    EXPECT_EQ(unplugged.hint.find("name the port"), std::string::npos) << unplugged.hint;
+
     const auto silent = no_reply_problem("/dev/ttyUSB7", "9600");
     EXPECT_EQ(silent.name, "no_reply");
     EXPECT_EQ(silent.text, "no reply on /dev/ttyUSB7 at 9600 baud");
