@@ -29,6 +29,7 @@ class job_manager;
 namespace gw::api {
 
 class gcode_worker;
+class port_scan_worker;
 
 struct api_context {
     boost::asio::any_io_executor executor;  // the io_context's; sessions make their own strands
@@ -42,6 +43,7 @@ struct api_context {
     std::shared_ptr<lease_manager> leases;          // null: no leases (every check passes)
     std::shared_ptr<gcode_file_store> gcode_files;  // null: the /api/v1/gcode/files routes answer 503
     std::shared_ptr<gcode_worker> gcode_thread;     // plans and uploads run here; null: inline
+    std::shared_ptr<port_scan_worker> port_scans;  // GET /api/v1/ports runs here; null: the route answers 503
 };
 
 }  // namespace gw::api

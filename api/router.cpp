@@ -9,6 +9,7 @@
 #include "api/lease_requests.hpp"
 #include "api/openapi_document.hpp"
 #include "api/operation_requests.hpp"
+#include "api/port_requests.hpp"
 #include "api/static_assets.hpp"
 #include "gateway/controller_registry.hpp"
 #include "gateway/event_hub.hpp"
@@ -295,6 +296,16 @@ void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& re
             });
     };
 
+    if (segments.size() == 1 && segments[0] == "ports") {
+        const std::string route = "/api/v1/ports";
+        if (!method_ok(route, http::verb::get) || !authorize(route, gw::role::admin)) return;
+        auto q = query(route);
+        if (!q) return;
+        if (!ctx->port_scans)
+            return fail(route,
+                        make_problem(http_error::not_implemented, "port scans are not available here"));
+        return scan_ports_request(*ctx, *q, request_id, async_reply(route));
+    }
     if (!segments.empty() && segments[0] == "jobs") {
         if (segments.size() == 1) {
             const std::string route = "/api/v1/jobs";

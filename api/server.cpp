@@ -8,6 +8,7 @@
 #include "api/controller_metrics.hpp"
 #include "api/gcode_worker.hpp"
 #include "api/listener.hpp"
+#include "api/port_scan_worker.hpp"
 #include "gateway/controller_registry.hpp"
 #include "gateway/gcode_files.hpp"
 #include "gateway/logging.hpp"
@@ -32,7 +33,7 @@ server::server(net::any_io_executor executor, const gateway_config& config, cont
       ctx_(std::make_shared<api_context>(
           api_context{executor, registry, std::move(hub), std::move(metrics), config.http.limits, config.auth,
                       get_logger("api"), std::move(jobs), std::move(leases), make_gcode_store(config),
-                      std::make_shared<api::gcode_worker>()})) {
+                      std::make_shared<api::gcode_worker>(), std::make_shared<api::port_scan_worker>()})) {
     // main holds the storage lock by now: no other gateway uploads into this store.
     if (auto stale = ctx_->gcode_files->remove_stale_temporaries())
         ctx_->log->info("removed {} unfinished G-code uploads from {}", stale,
@@ -76,6 +77,7 @@ void server::start() {
 void server::stop() {
     if (listener_) listener_->stop();
     if (ctx_->gcode_thread) ctx_->gcode_thread->stop();  // the running plan finishes and answers
+    if (ctx_->port_scans) ctx_->port_scans->stop();      // so does a running port scan
 }
 
 net::ip::tcp::endpoint server::local_endpoint() const {

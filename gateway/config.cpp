@@ -12,6 +12,8 @@
 #include <boost/asio/ip/address.hpp>
 #include <nlohmann/json.hpp>
 
+#include "gateway/config_files_check.hpp"
+
 namespace gw {
 
 namespace {
@@ -514,12 +516,22 @@ boost::system::result<gateway_config, std::string> load_config_file(const std::s
     return parsed;
 }
 
+// Also checks the files the config names (gateway/config_files_check.hpp): an unusable TLS file is
+// an error (2), a serial port that does not exist now a warning on `err` (still 0).
 int check_config_file(const std::string& path, std::ostream& out, std::ostream& err) {
     auto parsed = load_config_file(path);
     if (!parsed) {
         err << parsed.error() << '\n';
         return 2;
     }
+    // The files it names: a TLS file that cannot be used is an error, a serial port not there now a
+    // warning (it may be plugged in later).
+    bool failed = false;
+    for (const auto& f : check_config_files(*parsed)) {
+        err << path << ": " << (f.error ? "" : "warning: ") << f.message << '\n';
+        failed = failed || f.error;
+    }
+    if (failed) return 2;
     out << "ok\n";
     return 0;
 }

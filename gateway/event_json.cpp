@@ -30,6 +30,10 @@ nlohmann::json or_null(const std::optional<T>& v) {
     return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
 }
 
+nlohmann::json time_or_null(const std::optional<std::chrono::system_clock::time_point>& t) {
+    return t ? nlohmann::json(format_timestamp(*t)) : nlohmann::json(nullptr);
+}
+
 std::string axis_name(char letter) {
     return std::string(1, letter);
 }
@@ -83,6 +87,8 @@ nlohmann::json state_json(const devices::controller_snapshot& s) {
         last_error = {{"code", s.last_error->code},
                       {"name", s.last_error->name},
                       {"text", s.last_error->text},
+                      {"hint", s.last_error->hint.empty() ? nlohmann::json(nullptr)
+                                                          : nlohmann::json(s.last_error->hint)},
                       {"time", format_timestamp(s.last_error->when)}};
     }
     return {{"id", s.id},
@@ -94,6 +100,8 @@ nlohmann::json state_json(const devices::controller_snapshot& s) {
             {"ttl", {{"in0_mode", or_null(s.ttl_in0_mode)}, {"out0_mode", or_null(s.ttl_out0_mode)}}},
             {"last_error", std::move(last_error)},
             {"report_port", std::string(devices::to_string(s.report))},
+            {"last_attempt", time_or_null(s.last_attempt)},
+            {"next_retry", time_or_null(s.next_retry)},
             {"updated", format_timestamp(s.updated)}};
 }
 

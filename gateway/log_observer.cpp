@@ -6,6 +6,7 @@
 
 #include "devices/ms2000/build_info.hpp"
 #include "gateway/logging.hpp"
+#include "gateway/timestamp.hpp"
 
 namespace gw {
 
@@ -54,7 +55,9 @@ void log_observer::on_snapshot(const devices::controller_snapshot& s) {
             log_->info("{}: {}", s.id, devices::to_string(s.state));
         }
     }
-    if (s.last_error && s.last_error != previous.last_error) {
+    if (s.state == devices::connection_state::unreachable && s.last_error) {
+        if (s.last_error != previous.last_error) log_unreachable(s);
+    } else if (s.last_error && s.last_error != previous.last_error) {
         // A controller that keeps failing the same way says so once in a while, not on every poll.
         std::uint64_t suppressed = 0;
         if (limiter_.allow(s.id + "/" + s.last_error->name, suppressed)) {
@@ -66,6 +69,30 @@ void log_observer::on_snapshot(const devices::controller_snapshot& s) {
         }
     }
     log_->debug("{}: {}{}", s.id, describe_positions(s), s.busy ? " busy" : "");
+}
+
+void log_observer::log_unreachable(const devices::controller_snapshot& s) {
+    // Every failed attempt changes last_error (its time): a reason that stays the same is repeated
+    // once a minute, a new one at once.
+    const auto now = std::chrono::steady_clock::now();
+    std::uint64_t unlogged = 0;
+    {
+        std::lock_guard lock(mutex_);
+        auto& seen = unreachable_[s.id];
+        if (seen.name == s.last_error->name && now - seen.at < std::chrono::minutes(1)) {
+            ++seen.unlogged;
+            return;
+        }
+        unlogged = seen.unlogged;
+        seen = {s.last_error->name, now, 0};
+    }
+    std::string retry = s.next_retry ? "; next attempt at " + format_timestamp(*s.next_retry) : std::string();
+    std::string since = unlogged > 0
+                            ? fmt::format(" ({} more failed attempts since the last message)", unlogged)
+                            : std::string();
+    std::string hint = s.last_error->hint.empty() ? std::string() : "; hint: " + s.last_error->hint;
+    log_->warn("{}: unreachable: {} ({}){}{}{}", s.id, s.last_error->text, s.last_error->name, hint, retry,
+               since);
 }
 
 void log_observer::on_report(const devices::report_event& e) {

@@ -35,6 +35,7 @@
 #include "gateway/log_observer.hpp"
 #include "gateway/logging.hpp"
 #include "gateway/metrics.hpp"
+#include "gateway/ports_cli.hpp"
 #include "gateway/serial_spec.hpp"
 #include "gateway/startup_summary.hpp"
 #include "gateway/storage_lock.hpp"
@@ -83,6 +84,7 @@ int main(int argc, char** argv) {
                    "$XDG_STATE_HOME/asi-gateway or ~/.local/state/asi-gateway)");
     app.set_version_flag("--version", std::string("asi-gateway ") + std::string(gw::version));
     gw::gcode_cli gcode(app);  // "asi-gateway gcode plan|preview FILE": no controllers, no store
+    gw::ports_cli ports(app);  // "asi-gateway ports": find MS-2000s on the serial ports
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -90,6 +92,7 @@ int main(int argc, char** argv) {
         return app.exit(e) == 0 ? EXIT_SUCCESS : 2;
     }
     if (gcode.selected()) return gcode.run(std::cout, std::cerr);
+    if (ports.selected()) return ports.run(std::cout, std::cerr);
 
     if (!check_file.empty()) return gw::check_config_file(check_file, std::cout, std::cerr);
 

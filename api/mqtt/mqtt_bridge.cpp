@@ -147,13 +147,26 @@ void mqtt_bridge::async_stop(std::function<void()> done) {
             self->settings_.config.qos.status,
             true,
             {}};
-        self->client_->stop(offline, std::chrono::milliseconds(1000),
-                            [self, done = std::move(done), work = std::move(work)]() mutable {
-                                if (self->ctx_->metrics) self->ctx_->metrics->set("gw_mqtt_connected", {}, 0);
-                                if (self->log_) self->log_->info("offline published, disconnected");
-                                work.reset();
-                                if (done) done();
-                            });
+        // Only a connected client publishes "offline"; a broker never reached has nothing to take down.
+        const bool was_connected = self->client_->connected();
+        const bool ever_connected = self->client_->connects() > 0;
+        self->client_->stop(
+            offline, std::chrono::milliseconds(1000),
+            [self, done = std::move(done), work = std::move(work), was_connected, ever_connected]() mutable {
+                if (self->ctx_->metrics) self->ctx_->metrics->set("gw_mqtt_connected", {}, 0);
+                if (self->log_) {
+                    if (was_connected)
+                        self->log_->info("offline published, disconnected");
+                    else if (ever_connected)
+                        self->log_->info(
+                            "not connected at shutdown: offline not published (the "
+                            "broker has the last will)");
+                    else
+                        self->log_->info("the broker was never reached: nothing published");
+                }
+                work.reset();
+                if (done) done();
+            });
     });
 }
 

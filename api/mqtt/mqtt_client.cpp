@@ -9,6 +9,9 @@
 #include <boost/asio/post.hpp>
 #include <spdlog/logger.h>
 
+#include "api/mqtt/broker_probe.hpp"
+#include "api/mqtt/connect_failure.hpp"
+
 namespace gw::api {
 
 namespace net = boost::asio;
@@ -41,12 +44,21 @@ class mqtt_client::listener final : public mqtt::iaction_listener {
         : owner_(std::move(owner)), strand_(std::move(s)), cb_(std::move(cb)) {}
 
     void on_success(const mqtt::token&) override { post(true, {}); }
-    void on_failure(const mqtt::token& t) override { post(false, describe(t)); }
+    void on_failure(const mqtt::token& t) override {
+        post(false, describe(t), t.get_return_code(),
+             t.get_reason_code() == mqtt::SUCCESS ? 0 : int(t.get_reason_code()));
+    }
 
   private:
-    void post(bool ok, std::string what) {
-        net::post(strand_, [owner = owner_, cb = cb_, ok, what = std::move(what)]() mutable {
-            if (auto self = owner.lock()) cb(*self, ok, std::move(what));
+    void post(bool ok, std::string what, int rc = 0, int reason = 0) {
+        net::post(strand_, [owner = owner_, cb = cb_, ok, what = std::move(what), rc, reason]() mutable {
+            if (auto self = owner.lock()) {
+                if (!ok) {
+                    self->failure_rc_ = rc;
+                    self->failure_reason_ = reason;
+                }
+                cb(*self, ok, std::move(what));
+            }
         });
     }
     std::weak_ptr<mqtt_client> owner_;
@@ -116,7 +128,12 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
 }
 
 mqtt_client::~mqtt_client() {
-    if (cli_) cli_->disable_callbacks();
+    // Paho refuses (throws) while a connect is still in progress, e.g. a shutdown during an attempt:
+    // a destructor must not throw, and the callbacks hold only weak references to this client.
+    try {
+        if (cli_) cli_->disable_callbacks();
+    } catch (const std::exception&) {
+    }
 }
 
 void mqtt_client::install_callbacks() {
@@ -198,9 +215,7 @@ void mqtt_client::on_connect_result(bool ok, std::string what) {
         // Attempts come every couple of seconds during an outage: the first failure and then one in 30
         // are warnings, the rest debug.
         const auto level = failed_attempts_++ % 30 == 0 ? spdlog::level::warn : spdlog::level::debug;
-        if (log_)
-            log_->log(level, "cannot connect to {}: {}; next attempt in {} ms ({} failed so far)",
-                      config_.brokers.front(), what, wait.count(), failed_attempts_);
+        if (log_) log_connect_failure(wait, level);
         return;
     }
     connected_ = true;
@@ -209,6 +224,26 @@ void mqtt_client::on_connect_result(bool ok, std::string what) {
     backoff_.reset();
     if (log_) log_->info("connected to {} as {}", cli_->get_server_uri(), client_id_);
     if (handlers_.connected) handlers_.connected();
+}
+
+void mqtt_client::log_connect_failure(std::chrono::milliseconds wait, spdlog::level::level_enum level) {
+    connect_failure f{failure_rc_, failure_reason_, {}, {}};
+    const auto failed = failed_attempts_;
+    auto write = [log = log_, broker = config_.brokers.front(), wait, level,
+                  failed](const connect_failure& f) {
+        log->log(level, "cannot connect to {}: {}; next attempt in {} ms ({} failed so far)", broker,
+                 explain_connect_failure(f), wait.count(), failed);
+    };
+    const bool paho_said_why = f.reason_code != 0 || f.return_code > 0;  // a CONNACK code or reason
+    if (paho_said_why || level < spdlog::level::warn) return write(f);
+    // Paho's "failure" alone: the broker is asked directly (TCP, and the TLS handshake for mqtts://).
+    const auto& broker = config_.brokers.front();
+    probe_broker(strand_, parse_broker_address(broker), uses_tls({broker}), config_.tls,
+                 [f, write](std::string tcp_error, std::string tls_error) mutable {
+                     f.tcp_error = std::move(tcp_error);
+                     f.tls_error = std::move(tls_error);
+                     write(f);
+                 });
 }
 
 void mqtt_client::on_lost(std::string cause) {

@@ -21,6 +21,7 @@
 #include <boost/asio/any_io_executor.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/strand.hpp>
+#include <spdlog/common.h>
 
 #include "api/mqtt/reconnect_backoff.hpp"
 #include "gateway/config.hpp"
@@ -90,6 +91,9 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     void install_callbacks();
     void do_connect();
     void on_connect_result(bool ok, std::string what);
+    // The warning for a failed connect, with a reason a person can act on (connect_failure.hpp); when
+    // Paho gives none, after broker_probe has asked the broker itself (TCP, TLS handshake).
+    void log_connect_failure(std::chrono::milliseconds wait, spdlog::level::level_enum level);
     void on_lost(std::string cause);
     std::chrono::milliseconds schedule_reconnect();  // the wait until the attempt
     std::shared_ptr<const mqtt::message> make_paho_message(const mqtt_message_out& m) const;
@@ -112,6 +116,8 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::uint64_t failed_attempts_ = 0;  // since the last connect (for the log)
     std::size_t in_flight_ = 0;
     std::uint64_t connects_ = 0;
+    int failure_rc_ = 0;      // of the last failed action (set by the listener, on the strand)
+    int failure_reason_ = 0;  // MQTT 5 reason code of it, 0 if none
     std::unique_ptr<listener> connect_listener_;  // outlives cli_ (declared before it)
     std::unique_ptr<listener> publish_listener_;
     std::unique_ptr<listener> subscribe_listener_;

@@ -12,6 +12,7 @@
 
 #include "devices/ms2000/error.hpp"
 #include "devices/ms2000/reply_check.hpp"
+#include "devices/serial/connection_problem.hpp"
 #include "devices/serial/escape.hpp"
 #include "devices/serial/snapshot_update.hpp"
 
@@ -48,6 +49,15 @@ bool aborted(error_code ec) {
 // without it), or something else (timeout, a reply that did not fit) that calls for starting over.
 bool identify_failed(error_code ec) {
     return ec && ec != ms2000::error::controller_rejected;
+}
+
+// The errno behind an open failure, when there is one (the lock's EBUSY included).
+connection_problem problem_of_open_error(const std::string& path, error_code ec) {
+    if (ec.category() == boost::system::system_category() ||
+        ec.category() == boost::system::generic_category())
+        return open_problem(path, ec.value());
+    return {"open_failed", "cannot open " + path + ": " + ec.message(),
+            "check the device and its driver (dmesg)"};
 }
 
 // "TTL X=7", "TTL Y=1": a command that changes the TTL modes the snapshot shows.
@@ -87,7 +97,8 @@ void controller::start() {
         if (self->snapshot_.state != connection_state::stopped) return;
         self->stopped_ = false;
         self->backoff_ = self->settings_.reconnect_min;
-        self->snapshot_.state = connection_state::disconnected;
+        self->snapshot_.state = connection_state::connecting;
+        self->publish_snapshot();
         self->do_connect();
     });
 }
@@ -251,7 +262,12 @@ void controller::on_timeout(std::uint64_t sequence) {
         // Not even the command left: the port is stuck (a hung adapter). Start over.
         return disconnect(ms2000::error::timeout, "write stalled");
     }
-    log_error("command timed out", ms2000::error::timeout);
+    // Before the controller is identified, the unreachable state (and the gateway's log of it) says
+    // what these timeouts mean; each one is only detail.
+    if (snapshot_.state == connection_state::connected)
+        log_error("command timed out", ms2000::error::timeout);
+    else
+        log_->debug("command \"{}\" timed out", escape_control(in_flight_->job.cmd.wire));
     // Its reply may still come, and would then be taken for the next command's.
     mark_out_of_step(link_fault::kind::timeout, "a command timed out");
     finish(ms2000::error::timeout, std::nullopt, escape_control(framer_.partial()));
@@ -500,11 +516,14 @@ void controller::reset_sync() {
 
 void controller::do_connect() {
     if (stopped_ || port_.is_open()) return;
+    snapshot_.last_attempt = system_clock::now();
     if (auto ec = port_.open(settings_.port, settings_.baud)) {
-        log_error("cannot open port", ec);
-        return schedule_reconnect();
+        log_->debug("cannot open port {}: {}", settings_.port, ec.message());
+        return set_unreachable(problem_of_open_error(settings_.port, ec));
     }
     ++generation_;
+    attempt_bytes_ = 0;
+    attempt_sample_.clear();
     framer_.reset();
     reset_sync();
     last_answer_ = {};
@@ -513,7 +532,9 @@ void controller::do_connect() {
     sync_ = link_sync::out_of_step;
     resync_started_ = steady_clock::now();
     log_->info("port {} open at {} baud, identifying", settings_.port, settings_.baud);
-    snapshot_.state = connection_state::identifying;
+    // After a failed attempt the state stays unreachable until an identification succeeds.
+    if (snapshot_.state != connection_state::unreachable) snapshot_.state = connection_state::identifying;
+    snapshot_.next_retry.reset();
     snapshot_.identity.reset();
     snapshot_.axes.clear();
     snapshot_.busy = false;
@@ -525,8 +546,17 @@ void controller::do_connect() {
     pump();
 }
 
+void controller::set_unreachable(const connection_problem& problem) {
+    snapshot_.state = connection_state::unreachable;
+    snapshot_.last_error =
+        controller_error_info{0, problem.name, problem.text, problem.hint, system_clock::now()};
+    schedule_reconnect();
+    publish_snapshot();
+}
+
 void controller::schedule_reconnect() {
     if (stopped_) return;
+    snapshot_.next_retry = system_clock::now() + std::chrono::duration_cast<system_clock::duration>(backoff_);
     reconnect_timer_.expires_after(backoff_);
     backoff_ = std::min(backoff_ * 2, settings_.reconnect_max);
     reconnect_timer_.async_wait([self = shared_from_this()](error_code ec) {
@@ -555,7 +585,10 @@ void controller::watch_for_node() {
 
 void controller::disconnect(error_code ec, const char* what) {
     if (!port_.is_open()) return;
-    log_->warn("{}: {}; port closed, reconnecting", what, ec.message());
+    if (snapshot_.state == connection_state::connected)
+        log_->warn("{}: {}; port closed, reconnecting", what, ec.message());
+    else
+        log_->debug("{}: {}; port closed, trying again", what, ec.message());  // see set_unreachable
     ++generation_;
     port_.close();
     close_report_port();
@@ -570,13 +603,24 @@ void controller::disconnect(error_code ec, const char* what) {
 
     fail_all(ms2000::error::disconnected);
 
-    snapshot_.state = connection_state::disconnected;
     snapshot_.busy = false;
     for (auto& a : snapshot_.axes)
         a.busy = false;
+    if (snapshot_.state != connection_state::connected) {
+        // The attempt never got as far as an identified controller: say why, as a person can act on it.
+        const bool unanswered = ec == ms2000::error::timeout || ec == ms2000::error::unrecognized_reply;
+        if (!unanswered)
+            return set_unreachable(
+                {"disconnected", std::string(what) + " on " + settings_.port + ": " + ec.message(), ""});
+        if (attempt_bytes_ == 0)
+            return set_unreachable(no_reply_problem(settings_.port, std::to_string(settings_.baud)));
+        return set_unreachable(
+            not_ms2000_problem(settings_.port, settings_.baud, escape_control(attempt_sample_)));
+    }
+    snapshot_.state = connection_state::disconnected;
     note_error(0, "disconnected", std::string(what) + ": " + ec.message());
-    publish_snapshot();
     schedule_reconnect();
+    publish_snapshot();
 }
 
 void controller::do_stop() {
@@ -594,6 +638,7 @@ void controller::do_stop() {
     fail_all(ms2000::error::cancelled);
     snapshot_.state = connection_state::stopped;
     snapshot_.busy = false;
+    snapshot_.next_retry.reset();
     log_->info("stopped");
     publish_snapshot();
 }
@@ -624,6 +669,13 @@ void controller::on_read(std::uint64_t generation, error_code ec, std::size_t by
     if (generation != generation_) return;
     if (ec) return disconnect(ec, "read");  // EOF, EIO (pty master closed), ENXIO (USB gone)
     last_read_ = steady_clock::now();
+    if (snapshot_.state != connection_state::connected) {
+        // What an attempt heard, for the verdict if it fails: silence, or another device (or baud rate).
+        attempt_bytes_ += bytes;
+        if (attempt_sample_.size() < attempt_sample_limit)
+            attempt_sample_.append(read_buffer_.data(),
+                                   std::min(bytes, attempt_sample_limit - attempt_sample_.size()));
+    }
     guarded("reading the port", [&] {
         lines_.clear();
         if (auto framing = framer_.feed(std::string_view(read_buffer_.data(), bytes), lines_)) {
@@ -705,6 +757,7 @@ void controller::refresh_ttl_modes() {
 void controller::on_identified() {
     backoff_ = settings_.reconnect_min;
     snapshot_.state = connection_state::connected;
+    snapshot_.next_retry.reset();
     const auto& id = *snapshot_.identity;
     log_->info("identified: version {}, build {}, axes {}", id.version, id.build.name, id.build.motor_axes);
     open_report_port();
@@ -911,7 +964,8 @@ void controller::report_fault(link_fault::kind kind) {
 }
 
 void controller::note_error(int code, std::string name, std::string text) {
-    snapshot_.last_error = controller_error_info{code, std::move(name), std::move(text), system_clock::now()};
+    snapshot_.last_error =
+        controller_error_info{code, std::move(name), std::move(text), {}, system_clock::now()};
 }
 
 void controller::trace(const pending& job, std::chrono::microseconds latency, error_code ec,

@@ -34,6 +34,7 @@
 #include "devices/ms2000/line_framer.hpp"
 #include "devices/ms2000/reply.hpp"
 #include "devices/ms2000/report_frame.hpp"
+#include "devices/serial/connection_problem.hpp"
 #include "devices/serial/controller_observer.hpp"
 #include "devices/serial/controller_settings.hpp"
 #include "devices/serial/controller_snapshot.hpp"
@@ -121,6 +122,8 @@ class controller : public std::enable_shared_from_this<controller> {
     void do_connect();
     void do_stop();
     void schedule_reconnect();
+    // The attempt failed: state unreachable, last_error = problem, the retry scheduled, published.
+    void set_unreachable(const connection_problem& problem);
     void watch_for_node();
     void disconnect(boost::system::error_code ec, const char* what);
     void fail_all(boost::system::error_code ec);
@@ -211,6 +214,10 @@ class controller : public std::enable_shared_from_this<controller> {
                              const std::string& line) const;
     std::chrono::milliseconds backoff_;
     bool node_gone_ = false;  // the device node vanished since the last connection attempt
+    // Bytes received since the port was opened, until identified, and the first of them.
+    static constexpr std::size_t attempt_sample_limit = 48;
+    std::uint64_t attempt_bytes_ = 0;
+    std::string attempt_sample_;
 
     std::optional<in_flight> in_flight_;
     std::uint64_t next_sequence_ = 1;

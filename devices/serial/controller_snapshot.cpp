@@ -12,6 +12,10 @@ std::string_view to_string(connection_state s) {
             return "identifying";
         case connection_state::connected:
             return "connected";
+        case connection_state::connecting:
+            return "connecting";
+        case connection_state::unreachable:
+            return "unreachable";
     }
     return "unknown";
 }
@@ -48,7 +52,8 @@ bool same_identity(const std::optional<controller_identity>& a, const std::optio
 bool same_content(const controller_snapshot& a, const controller_snapshot& b) {
     return a.id == b.id && a.state == b.state && a.port == b.port && same_identity(a.identity, b.identity) &&
            a.axes == b.axes && a.busy == b.busy && a.ttl_in0_mode == b.ttl_in0_mode &&
-           a.ttl_out0_mode == b.ttl_out0_mode && a.last_error == b.last_error && a.report == b.report;
+           a.ttl_out0_mode == b.ttl_out0_mode && a.last_error == b.last_error && a.report == b.report &&
+           a.last_attempt == b.last_attempt && a.next_retry == b.next_retry;
 }
 
 }  // namespace gw::devices

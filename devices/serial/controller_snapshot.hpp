@@ -14,9 +14,13 @@ namespace gw::devices {
 
 enum class connection_state : std::uint8_t {
     stopped,       // stop() was called (or start() not yet)
-    disconnected,  // port closed; a reconnect is scheduled
+    disconnected,  // the connection was lost; a reconnect is scheduled
     identifying,   // port open, V / BU X / CNTS ... in progress
     connected,     // identified; polling
+    connecting,    // started; the first attempt to open the port is under way
+    // An attempt to open or identify failed (last_error says why and what to do, next_retry when the
+    // next attempt is due); the state stays so during later attempts until one succeeds.
+    unreachable,
 };
 std::string_view to_string(connection_state s);
 
@@ -47,7 +51,8 @@ struct axis_state {
 struct controller_error_info {
     int code = 0;      // the controller's signed code (-4) or 0 for a driver error
     std::string name;  // "parameter_out_of_range", "timeout"
-    std::string text;  // human-readable
+    std::string text;  // human-readable; for a connection problem with the path and the errno text
+    std::string hint;  // what a person can do about it (connection_problem.hpp), or empty
     std::chrono::system_clock::time_point when;
 
     bool operator==(const controller_error_info&) const = default;
@@ -64,6 +69,10 @@ struct controller_snapshot {
     std::optional<int> ttl_out0_mode;  // TTL Y?
     std::optional<controller_error_info> last_error;
     report_port_state report = report_port_state::none;
+    // The start of the latest attempt to open and identify the port, and, while not connected, when
+    // the next one is due (a replugged adapter is tried sooner).
+    std::optional<std::chrono::system_clock::time_point> last_attempt;
+    std::optional<std::chrono::system_clock::time_point> next_retry;
     std::chrono::system_clock::time_point updated;  // last time anything above changed or was polled
 
     const axis_state* axis(char letter) const;

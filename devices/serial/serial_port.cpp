@@ -7,39 +7,20 @@
 #include <termios.h>
 #include <unistd.h>
 
-#include "devices/serial/custom_baud.hpp"
+#include "devices/serial/port_lock.hpp"
+#include "devices/serial/tty_mode.hpp"
 
 namespace gw::devices {
 namespace {
 
-speed_t speed_constant(unsigned baud) {
-    switch (baud) {
-        case 9600:
-            return B9600;
-        case 19200:
-            return B19200;
-        case 38400:
-            return B38400;
-        case 57600:
-            return B57600;
-        case 115200:
-            return B115200;
-        case 230400:
-            return B230400;
-        default:
-            return B0;
-    }
-}
-
-boost::system::error_code last_errno() {
-    return {errno, boost::system::system_category()};
+boost::system::error_code errno_code(int err) {
+    return {err, boost::system::system_category()};
 }
 
 }  // namespace
 
 bool serial_port::supported_baud(unsigned baud) {
-    // 28800 (an MS-2000 DIP switch setting) has no Bxxx constant; it is set through termios2.
-    return baud == 28800 || speed_constant(baud) != B0;
+    return supported_tty_baud(baud);
 }
 
 boost::system::error_code serial_port::open(const std::string& path, unsigned baud) {
@@ -48,32 +29,14 @@ boost::system::error_code serial_port::open(const std::string& path, unsigned ba
         return boost::system::errc::make_error_code(boost::system::errc::invalid_argument);
 
     const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-    if (fd < 0) return last_errno();
-
-    auto fail = [fd] {
-        auto ec = last_errno();
+    if (fd < 0) return errno_code(errno);
+    auto fail = [fd](int err) {
         ::close(fd);
-        return ec;
+        return errno_code(err);
     };
-
-    termios tio{};
-    if (::tcgetattr(fd, &tio) != 0) return fail();
-    ::cfmakeraw(&tio);
-    tio.c_cflag &= ~static_cast<tcflag_t>(CSTOPB | PARENB | CSIZE | CRTSCTS);
-    tio.c_cflag |= CS8 | CLOCAL | CREAD;
-    tio.c_iflag &= ~static_cast<tcflag_t>(IXON | IXOFF | IXANY);
-    tio.c_cc[VMIN] = 1;
-    tio.c_cc[VTIME] = 0;
-    // 28800 has no Bxxx constant: set a standard rate first, then the real one through termios2.
-    const speed_t speed = baud == 28800 ? B38400 : speed_constant(baud);
-    if (::cfsetispeed(&tio, speed) != 0 || ::cfsetospeed(&tio, speed) != 0) return fail();
-    if (::tcsetattr(fd, TCSANOW, &tio) != 0) return fail();
-    if (baud == 28800) {
-        if (const int err = set_custom_baud(fd, baud); err != 0) {
-            ::close(fd);
-            return {err, boost::system::system_category()};
-        }
-    }
+    // Before any setting changes: a port another gateway or a probe holds is left alone (EBUSY).
+    if (const int err = lock_port(fd); err != 0) return fail(err);
+    if (const int err = set_raw_mode(fd, baud); err != 0) return fail(err);
     ::tcflush(fd, TCIOFLUSH);
 
     struct stat st {};

@@ -1,7 +1,8 @@
 #pragma once
-// A tty opened raw (8N1, no flow control) and wrapped in an Asio stream_descriptor so that reads and
-// writes are asynchronous. Opening never blocks (O_NONBLOCK) and the descriptor is not made the
-// controlling terminal (O_NOCTTY). Owned by one controller and used only on its strand.
+// A tty opened raw (8N1, no flow control: tty_mode.hpp), locked (port_lock.hpp) and wrapped in an
+// Asio stream_descriptor so that reads and writes are asynchronous. Opening never blocks (O_NONBLOCK) and the
+// descriptor is not made the controlling terminal (O_NOCTTY). Owned by one controller and used only on its
+// strand.
 
 #include <cstddef>
 #include <cstdint>
@@ -19,7 +20,9 @@ class serial_port {
     explicit serial_port(const boost::asio::any_io_executor& ex) : stream_(ex) {}
 
     // Opens `path` at `baud` (9600 .. 115200, also 230400). Closes a previous descriptor first.
-    // Errors: the errno of open/tcsetattr, or invalid_argument for an unsupported baud rate.
+    // Takes an exclusive advisory lock (port_lock.hpp) before touching any setting.
+    // Errors: the errno of open/tcsetattr, EBUSY when another program holds the lock, or
+    // invalid_argument for an unsupported baud rate.
     boost::system::error_code open(const std::string& path, unsigned baud);
     void close();
     bool is_open() const { return stream_.is_open(); }

@@ -322,11 +322,53 @@ class config_file_test : public ::testing::Test {
 };
 
 TEST_F(config_file_test, check_config_prints_ok_and_returns_0) {
-    const auto path = write(R"({"controllers": [{"id": "stage1", "port": "/dev/ttyUSB0", "baud": 115200}]})");
+    // /dev/null: a character device every machine has, so no warning about the port.
+    const auto path = write(R"({"controllers": [{"id": "stage1", "port": "/dev/null", "baud": 115200}]})");
     std::ostringstream out, err;
     EXPECT_EQ(check_config_file(path, out, err), 0);
     EXPECT_EQ(out.str(), "ok\n");
     EXPECT_EQ(err.str(), "");
+}
+
+TEST_F(config_file_test, check_config_warns_about_a_serial_port_that_is_not_there) {
+    const auto missing = path_ + ".no-such-port";
+    const auto path =
+        write(R"({"controllers": [{"id": "stage1", "port": ")" + missing + R"(", "baud": 9600}]})");
+    std::ostringstream out, err;
+    EXPECT_EQ(check_config_file(path, out, err), 0);  // it may be plugged in later
+    EXPECT_EQ(out.str(), "ok\n");
+    EXPECT_NE(err.str().find(path + ": warning: controllers[0].port: " + missing + " does not exist now"),
+              std::string::npos)
+        << err.str();
+    EXPECT_NE(err.str().find("asi-gateway ports"), std::string::npos) << err.str();
+}
+
+TEST_F(config_file_test, check_config_refuses_tls_files_that_cannot_be_used) {
+    const auto not_pem = path_ + ".key";
+    std::ofstream(not_pem) << "not a key\n";
+    const auto missing_ca = path_ + ".no-such-ca.pem";
+    const auto path =
+        write(R"({"mqtt": {"enabled": true, "brokers": ["mqtts://127.0.0.1:8883"],
+                                         "tls": {"ca_file": ")" +
+              missing_ca + R"(", "cert_file": ")" + not_pem + R"(", "key_file": ")" + not_pem + R"("}}})");
+    std::ostringstream out, err;
+    EXPECT_EQ(check_config_file(path, out, err), 2);
+    EXPECT_EQ(out.str(), "");
+    EXPECT_NE(err.str().find("mqtt.tls.ca_file: " + missing_ca + ": No such file or directory"),
+              std::string::npos)
+        << err.str();
+    EXPECT_NE(err.str().find("mqtt.tls.key_file: " + not_pem + ": not a PEM file"), std::string::npos)
+        << err.str();
+    std::filesystem::remove(not_pem);
+
+    // The same files, readable PEM: fine.
+    std::ofstream(not_pem) << "-----BEGIN PRIVATE KEY-----\nAAAA\n-----END PRIVATE KEY-----\n";
+    const auto good = write(R"({"mqtt": {"enabled": true, "brokers": ["mqtts://127.0.0.1:8883"],
+                                         "tls": {"ca_file": ")" +
+                            not_pem + R"("}}})");
+    std::ostringstream out2, err2;
+    EXPECT_EQ(check_config_file(good, out2, err2), 0) << err2.str();
+    std::filesystem::remove(not_pem);
 }
 
 TEST_F(config_file_test, check_config_prints_the_error_and_returns_2) {

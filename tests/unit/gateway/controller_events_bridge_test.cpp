@@ -61,7 +61,8 @@ gw::devices::controller_snapshot connected_snapshot() {
     s.busy = true;
     s.ttl_in0_mode = 1;
     s.ttl_out0_mode = 0;
-    s.last_error = controller_error_info{-4, "parameter_out_of_range", "Parameter Out of Range", at_ms(1000)};
+    s.last_error =
+        controller_error_info{-4, "parameter_out_of_range", "Parameter Out of Range", {}, at_ms(1000)};
     s.report = report_port_state::open;
     s.updated = at_ms(1795322740123);
     return s;
@@ -115,9 +116,12 @@ TEST_F(bridge_test, snapshot_becomes_state_and_position) {
     EXPECT_EQ(s["axes"][1]["soft_limits_um"]["upper"], 55500.0);
     EXPECT_EQ(s["axes"][2]["position_um"], nullptr);
     EXPECT_EQ(s["ttl"], json::parse(R"({"in0_mode":1,"out0_mode":0})"));
-    EXPECT_EQ(s["last_error"], json::parse(R"({"code":-4,"name":"parameter_out_of_range",
+    EXPECT_EQ(s["last_error"], json::parse(R"({"code":-4,"name":"parameter_out_of_range","hint":null,
                                                "text":"Parameter Out of Range","time":"1970-01-01T00:00:01.000Z"})"));
     EXPECT_EQ(s["report_port"], "open");
+    // Connected: no retry due; no attempt was recorded in this hand-made snapshot.
+    EXPECT_EQ(s["last_attempt"], nullptr);
+    EXPECT_EQ(s["next_retry"], nullptr);
     EXPECT_EQ(s["updated"], "2026-11-22T04:45:40.123Z");
 
     auto p = json::parse(*position[0]->data);
