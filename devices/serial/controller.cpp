@@ -343,8 +343,11 @@ void controller::on_line(const std::string& line) {
 
 bool controller::repeats_last_answer(const ms2000::command& cmd, const ms2000::reply& r,
                                      const std::string& line) const {
+    // Bare ":A" acks and ":N-<code>" errors repeat legitimately from command to command (every move
+    // answers ":A"; a HALT's ":N-21" is followed by the next move's while the stage still stops).
     const bool bare_ack = r.what == ms2000::reply::kind::ack && r.values.empty() && r.axes.empty();
-    return !bare_ack && line == last_answer_.line && cmd.wire != last_answer_.wire &&
+    const bool error = r.what == ms2000::reply::kind::error;
+    return !bare_ack && !error && line == last_answer_.line && cmd.wire != last_answer_.wire &&
            steady_clock::now() - last_answer_.at < settings_.repeated_reply_window;
 }
 

@@ -265,6 +265,7 @@ TEST_F(controller_sync_test, a_reply_repeated_after_the_guard_is_not_the_next_co
     // lands while the next command waits and has that command's shape. It must not be its answer.
     auto s = settings();
     s.repeated_reply_window = 10s;  // the copy's lateness is up to the scheduler here; 50 ms in use
+    s.resync_delay = 1s;            // the drain outlasts the test's release of W X's own answer
     start(s);
     ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
