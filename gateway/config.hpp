@@ -57,7 +57,7 @@ struct storage_config {
     // A directory; the job database is <path>/jobs.sqlite3. Empty: the default of
     // gateway/storage_path.hpp ($STATE_DIRECTORY, $XDG_STATE_HOME/asi-gateway, ~/.local/state/...).
     std::string path;
-    std::size_t max_size_mb = 1024;         // bound on jobs.sqlite3; beyond it submissions fail (503)
+    std::size_t max_size_mb = 1024;  // bound on jobs.sqlite3; beyond it submissions fail (503)
 };
 
 struct jobs_config {
