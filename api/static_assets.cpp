@@ -47,6 +47,27 @@ std::string_view trim(std::string_view s) {
     return s;
 }
 
+// True when Accept-Encoding lists gzip (or *) with a non-zero weight.
+bool accepts_gzip(std::string_view header) {
+    while (!header.empty()) {
+        const auto comma = header.find(',');
+        auto item = trim(header.substr(0, comma));
+        const auto semicolon = item.find(';');
+        const auto coding = trim(item.substr(0, semicolon));
+        if (coding == "gzip" || coding == "*") {
+            auto params = semicolon == std::string_view::npos ? std::string_view{} : item.substr(semicolon + 1);
+            params = trim(params);
+            // "q=0", "q=0.0", "q=0.000": refused.
+            const bool refused = params.starts_with("q=0") &&
+                                 params.substr(3).find_first_not_of(".0") == std::string_view::npos;
+            if (!refused) return true;
+        }
+        if (comma == std::string_view::npos) break;
+        header.remove_prefix(comma + 1);
+    }
+    return false;
+}
+
 // If-None-Match uses the weak comparison (RFC 9110 13.1.2): W/"x" matches "x"; "*" matches anything.
 bool none_match_hits(std::string_view header, std::string_view etag) {
     while (!header.empty()) {
@@ -83,12 +104,15 @@ string_response static_asset_response(const string_request& req, const std::stri
     }
     const auto path = target_path(req.target());
     const auto name = file_name_of(path);
-    const auto* file = name.find('/') == std::string_view::npos ? find_file(name) : nullptr;
+    const auto* file = find_file(name);  // an exact name of the table: no path walks
     if (!file)
         return problem_response(make_problem(http_error::not_found, "no dashboard file " + std::string(path)),
                                 req, request_id);
 
-    const std::string etag = "\"" + std::string(file->sha256.substr(0, 32)) + "\"";
+    auto encoding_it = req.find(http::field::accept_encoding);
+    const bool gzipped = !file->gzip.empty() && encoding_it != req.end() && accepts_gzip(encoding_it->value());
+    // Each representation has its own strong ETag (RFC 9110 8.8.3).
+    const std::string etag = "\"" + std::string(file->sha256.substr(0, 32)) + (gzipped ? "-gz\"" : "\"");
     auto it = req.find(http::field::if_none_match);
     const bool not_modified = it != req.end() && none_match_hits(it->value(), etag);
 
@@ -100,14 +124,17 @@ string_response static_asset_response(const string_request& req, const std::stri
     res.set("Content-Security-Policy", content_security_policy);
     res.set("X-Content-Type-Options", "nosniff");
     res.set("Referrer-Policy", "no-referrer");
+    if (!file->gzip.empty()) res.set(http::field::vary, "Accept-Encoding");
     res.keep_alive(req.keep_alive());
     if (not_modified) return res;  // no body, no Content-Length (RFC 9110 15.4.5)
     res.set(http::field::content_type, content_type_of(file->name));
+    const auto body = gzipped ? file->gzip : file->data;
+    if (gzipped) res.set(http::field::content_encoding, "gzip");
     if (method == http::verb::head) {
-        res.content_length(file->data.size());  // what GET would send, without the body
+        res.content_length(body.size());  // what GET would send, without the body
         return res;
     }
-    res.body() = std::string(file->data);
+    res.body() = std::string(body);
     res.prepare_payload();
     return res;
 }

@@ -2,9 +2,11 @@
 // The dashboard's static files over HTTP, public (the page holds no data; every request it makes is
 // authorized like any other client's):
 //   GET|HEAD /                    index.html
-//   GET|HEAD /dashboard/<file>    the page's modules, style sheet and images
-// Content-Type by extension, a strong ETag (the build-time SHA-256 of the content) answered with 304
-// on a matching If-None-Match, Cache-Control: no-cache (revalidate every time: the names are not
+//   GET|HEAD /dashboard/<file>    the page's modules, style sheet and images; vendor/<file> for the
+//                                 third-party modules (uPlot, js-yaml)
+// Content-Type by extension, gzip (built at build time) for clients that accept it, a strong ETag
+// per representation (the build-time SHA-256 of the content) answered with 304 on a matching
+// If-None-Match, Cache-Control: no-cache (revalidate every time: the names are not
 // versioned), and a Content-Security-Policy that allows only this origin and no inline script or
 // style. Other methods: 405 problem+json with Allow; an unknown file: 404 problem+json.
 

@@ -1,30 +1,21 @@
-// The dashboard's overview: loads the controllers over REST, then follows them live over the
-// WebSocket. Asks for a token when the gateway answers 401.
+// The dashboard: asks who it is (its role hides what it may not do), loads the controllers over REST,
+// follows them live over the WebSocket (store.js), and shows the view the address names (router.js).
+// Asks for a token when the gateway answers 401.
 
 import * as api from "./api.js";
-import { LiveFeed } from "./live.js";
-import { ControllerCard } from "./overview.js";
+import { $ } from "./dom.js";
+import { route, show } from "./router.js";
+import { store } from "./store.js";
 
-const LEASE_POLL_MS = 5000;
+route("/", () => import("./overview_view.js"));
+route("/controller/:id", () => import("./controller_view.js"));
+route("/jobs", () => import("./jobs_view.js"));
+route("/jobs/:id", () => import("./job_view.js"));
+route("/gcode", () => import("./gcode_view.js"));
 
-const cards = new Map();  // id -> ControllerCard
-const $ = (id) => document.getElementById(id);
-let feed = null;
 let started = false;
 
-function card(id) {
-  let c = cards.get(id);
-  if (!c) {
-    c = new ControllerCard(id);
-    cards.set(id, c);
-    const list = [...cards.keys()].sort();
-    const before = cards.get(list[list.indexOf(id) + 1]);
-    $("cards").insertBefore(c.root, before ? before.root : null);
-  }
-  return c;
-}
-
-function setLive(live, detail) {
+function setLive({ live, detail }) {
   document.body.classList.toggle("stale", !live);
   document.body.dataset.live = live ? "yes" : "no";
   const status = $("live-status");
@@ -41,58 +32,51 @@ function askForToken(message) {
   $("token-input").focus();
 }
 
-function onEvent(msg) {
-  const m = /^controllers\/([^/]+)\/(state|position)$/.exec(msg.topic || "");
-  if (!m) return;
-  const c = card(m[1]);
-  if (msg.type === "gap") return c.gap();
-  if (m[2] === "state") c.setState(msg.data);
-  else c.setPositions(msg.data.axes, msg.data.busy);
-}
-
-async function refreshLeases() {
-  await Promise.all([...cards.values()].map(async (c) => {
-    try {
-      c.setLease(await api.lease(c.id));
-    } catch (e) {
-      c.setLease(null, e.message);
-    }
-  }));
+// The role decides what is shown: body[data-role] and [data-needs=operator|admin] in style.css.
+async function learnRole() {
+  try {
+    const me = await api.whoami();
+    document.body.dataset.role = me.role;
+    $("whoami").textContent = me.auth === "none" ? "" : `${me.client} (${me.role})`;
+  } catch (e) {
+    if (e.status === 401) throw e;
+    document.body.dataset.role = "unknown";  // an older gateway: show everything, it refuses what it must
+  }
 }
 
 async function start() {
   let list;
   try {
+    await learnRole();
     list = (await api.listControllers()).controllers;
   } catch (e) {
     if (e.status === 401) return askForToken(api.token() ? "that token was refused" : "");
-    setLive(false, `the gateway did not answer (${e.message})`);
+    setLive({ live: false, detail: `the gateway did not answer (${e.message})` });
     setTimeout(start, 2000);
     return;
   }
   $("token-form").hidden = true;
-  for (const s of list) card(s.id).setState(s);
-  refreshLeases();
+  for (const s of list) store.setState(s);
+  store.refreshLeases();
+  // A REST call tells a refused token (401: the token form) from a gateway that is down.
+  store.start(() => api.listControllers().catch(() => {}));
   if (!started) {
     started = true;
-    setInterval(refreshLeases, LEASE_POLL_MS);
+    show($("view"));
   }
-  if (!feed) {
-    // A REST call tells a refused token (401: the token form) from a gateway that is down.
-    const onRefused = () => api.listControllers().catch(() => {});
-    feed = new LiveFeed({ onEvent, onStatus: setLive, onRefused });
-  }
-  feed.start();
 }
 
 async function haltAll() {
-  const results = await Promise.allSettled([...cards.keys()].map((id) => api.halt(id)));
-  results.forEach((r, i) => {
-    if (r.status === "rejected") [...cards.values()][i].opError.textContent = `halt: ${r.reason.message}`;
-  });
+  const ids = [...store.controllers.keys()];
+  const results = await Promise.allSettled(ids.map((id) => api.halt(id)));
+  const failed = results.map((r, i) => (r.status === "rejected" ? `${ids[i]}: ${r.reason.message}` : null))
+    .filter(Boolean);
+  $("halt-all-error").textContent = failed.length ? `halt failed for ${failed.join("; ")}` : "";
 }
 
 api.whenUnauthorized(() => askForToken(api.token() ? "that token was refused" : ""));
+store.on("live", setLive);
+window.addEventListener("hashchange", () => show($("view")));
 $("halt-all").addEventListener("click", haltAll);
 $("token-form").addEventListener("submit", (ev) => {
   ev.preventDefault();
@@ -100,5 +84,5 @@ $("token-form").addEventListener("submit", (ev) => {
   $("token-input").value = "";
   start();
 });
-setLive(false, "connecting");
+setLive({ live: false, detail: "connecting" });
 start();

@@ -4,21 +4,9 @@
 // not live (feed down or controller not connected).
 
 import * as api from "./api.js";
+import { el, formatUm } from "./dom.js";
 
 const STEPS_UM = [1, 10, 100, 1000, 10000];
-
-function el(tag, attrs = {}, ...children) {
-  const e = document.createElement(tag);
-  for (const [k, v] of Object.entries(attrs)) {
-    if (k === "class") e.className = v;
-    else if (k.startsWith("data-")) e.setAttribute(k, v);
-    else e[k] = v;
-  }
-  for (const c of children) e.append(c);
-  return e;
-}
-
-const formatUm = (v) => (typeof v === "number" ? v.toFixed(1) : "–");
 
 export class ControllerCard {
   constructor(id) {
@@ -42,10 +30,10 @@ export class ControllerCard {
     this.leaseLine = el("div", { class: "meta" }, "lease: …");
     this.stepSelect = el("select", { title: "jog step" },
                          ...STEPS_UM.map((s) => el("option", { value: String(s), selected: s === 100 }, `${s} µm`)));
-    this.jog = el("div", { class: "jog" }, el("span", {}, "jog"), this.stepSelect);
+    this.jog = el("div", { class: "jog", "data-needs": "operator" }, el("span", {}, "jog"), this.stepSelect);
     this.opError = el("div", { class: "op-error" });
     this.root = el("section", { class: "card offline", "data-controller": this.id },
-                   el("div", { class: "card-head" }, el("h2", {}, this.id), this.stateBadge, this.haltButton),
+                   el("div", { class: "card-head" }, el("h2", {}, el("a", { href: `#/controller/${encodeURIComponent(this.id)}` }, this.id)), this.stateBadge, this.haltButton),
                    this.lastError, this.identity, this.modules, this.axesTable, this.status, this.leaseLine,
                    this.jog, this.opError);
   }

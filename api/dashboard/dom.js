@@ -1,0 +1,41 @@
+// Small DOM helpers shared by every view: no framework, just elements.
+
+// el("button", {class: "halt", type: "button", "data-halt": id}, "HALT"): attributes named data-*,
+// aria-* and for are set as attributes, "class" as the class name, the rest as properties; children
+// are nodes or strings (text, never HTML).
+export function el(tag, attrs = {}, ...children) {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs)) {
+    if (v === undefined || v === null) continue;
+    if (k === "class") e.className = v;
+    else if (k.startsWith("data-") || k.startsWith("aria-") || k === "for") e.setAttribute(k, v);
+    else e[k] = v;
+  }
+  for (const c of children) if (c !== null && c !== undefined && c !== false) e.append(c);
+  return e;
+}
+
+// The same for SVG elements (every attribute set as an attribute).
+export function svg(tag, attrs = {}, ...children) {
+  const e = document.createElementNS("http://www.w3.org/2000/svg", tag);
+  for (const [k, v] of Object.entries(attrs)) if (v !== undefined && v !== null) e.setAttribute(k, v);
+  for (const c of children) if (c) e.append(c);
+  return e;
+}
+
+export const $ = (id) => document.getElementById(id);
+
+export const formatUm = (v) => (typeof v === "number" ? v.toFixed(1) : "–");
+
+// "1 h 02 min", "3 min 05 s", "12.3 s": durations for people.
+export function formatDuration(seconds) {
+  if (typeof seconds !== "number" || !Number.isFinite(seconds)) return "–";
+  const s = Math.max(0, seconds);
+  if (s < 60) return `${s.toFixed(1)} s`;
+  const m = Math.floor(s / 60);
+  if (m < 60) return `${m} min ${String(Math.floor(s % 60)).padStart(2, "0")} s`;
+  return `${Math.floor(m / 60)} h ${String(m % 60).padStart(2, "0")} min`;
+}
+
+// The text of an error for a person: an ApiError's detail, or the message.
+export const errorText = (e) => e?.message || String(e);
