@@ -54,8 +54,9 @@ bool accepts_gzip(std::string_view header) {
         auto item = trim(header.substr(0, comma));
         const auto semicolon = item.find(';');
         const auto coding = trim(item.substr(0, semicolon));
-        if (coding == "gzip" || coding == "*") {
-            auto params = semicolon == std::string_view::npos ? std::string_view{} : item.substr(semicolon + 1);
+        if (beast::iequals(coding, "gzip") || coding == "*") {
+            auto params =
+                semicolon == std::string_view::npos ? std::string_view{} : item.substr(semicolon + 1);
             params = trim(params);
             // "q=0", "q=0.0", "q=0.000": refused.
             const bool refused = params.starts_with("q=0") &&
@@ -110,7 +111,8 @@ string_response static_asset_response(const string_request& req, const std::stri
                                 req, request_id);
 
     auto encoding_it = req.find(http::field::accept_encoding);
-    const bool gzipped = !file->gzip.empty() && encoding_it != req.end() && accepts_gzip(encoding_it->value());
+    const bool gzipped =
+        !file->gzip.empty() && encoding_it != req.end() && accepts_gzip(encoding_it->value());
     // Each representation has its own strong ETag (RFC 9110 8.8.3).
     const std::string etag = "\"" + std::string(file->sha256.substr(0, 32)) + (gzipped ? "-gz\"" : "\"");
     auto it = req.find(http::field::if_none_match);

@@ -13,6 +13,7 @@ Exit code 0 when every check passed; the failures are listed otherwise.
 """
 
 import argparse
+import gzip
 import http.client
 import json
 import os
@@ -143,10 +144,11 @@ class Contract:
 
 
 class Response:
-    def __init__(self, status, headers, body):
+    def __init__(self, status, headers, raw):
         self.status = status
         self.headers = headers
-        self.body = body
+        self.raw = raw
+        self.body = raw.decode("utf-8", "replace")
 
     def json(self):
         return json.loads(self.body)
@@ -175,7 +177,7 @@ class Client:
         try:
             conn.request(method, path, body=data, headers=h)
             r = conn.getresponse()
-            res = Response(r.status, r.getheaders(), r.read().decode("utf-8", "replace"))
+            res = Response(r.status, r.getheaders(), r.read())
         finally:
             conn.close()
         check(res.header("X-Request-Id"), f"{method} {path}: no X-Request-Id in the response")
@@ -214,8 +216,19 @@ def test_public_endpoints(c):
         check(yaml.safe_load(r.body) == c.contract.doc, f"{path} differs from openapi/openapi.yaml")
 
 
-DASHBOARD_FILES = {"app.js": "text/javascript", "api.js": "text/javascript", "live.js": "text/javascript",
-                   "overview.js": "text/javascript", "style.css": "text/css", "favicon.svg": "image/svg+xml"}
+DASHBOARD_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "api", "dashboard")
+MEDIA_TYPES = {".html": "text/html", ".js": "text/javascript", ".css": "text/css", ".svg": "image/svg+xml"}
+# The third-party modules, served from node_modules under these names (api/CMakeLists.txt).
+VENDOR_FILES = {"vendor/uplot.min.js": "text/javascript", "vendor/uplot.min.css": "text/css",
+                "vendor/js-yaml.min.js": "text/javascript"}
+
+
+def dashboard_files():
+    """Every file the gateway embeds, by name under /dashboard/, with its media type."""
+    files = {name: MEDIA_TYPES[os.path.splitext(name)[1]] for name in os.listdir(DASHBOARD_DIR)
+             if os.path.splitext(name)[1] in MEDIA_TYPES}
+    files.update(VENDOR_FILES)
+    return files
 
 
 def test_dashboard_assets(c):
@@ -233,19 +246,20 @@ def test_dashboard_assets(c):
     check(not re.search(r"<script(?![^>]*\bsrc=)[^>]*>", html), "index.html has an inline script")
     check(not re.search(r"\sstyle=|\son[a-z]+=", html), "index.html has inline style or handler attributes")
     check("http://" not in html and "https://" not in html, "index.html names another origin")
+    files = dashboard_files()
     referenced = set(re.findall(r'(?:src|href)="/dashboard/([^"]+)"', html))
-    check(referenced and referenced <= set(DASHBOARD_FILES), f"index.html references {referenced}")
+    check(referenced and referenced <= set(files), f"index.html references {referenced}")
     tags = {}
-    for name, media in DASHBOARD_FILES.items():
+    for name, media in files.items():
         r = c.request("GET", "/dashboard/" + name)
         check(r.status == 200, f"/dashboard/{name}: {r.status}")
         check((r.header("Content-Type") or "").split(";")[0] == media, f"{name} type {r.header('Content-Type')}")
         check(r.header("Content-Security-Policy") == csp, f"{name} has another CSP")
         tags[name] = r.header("ETag")
-        if name.endswith(".js"):  # every module it imports is served too, from this origin
-            for imported in re.findall(r'from "([^"]+)"', r.body):
-                check(imported.startswith("./") and imported[2:] in DASHBOARD_FILES,
-                      f"{name} imports {imported}")
+        if name.endswith(".js") and not name.startswith("vendor/"):
+            # Every module it imports (statically or on demand) is served too, from this origin.
+            for imported in re.findall(r'(?:from |import\()"([^"]+)"', r.body):
+                check(imported.startswith("./") and imported[2:] in files, f"{name} imports {imported}")
     check(len(set(tags.values())) == len(tags), f"two files share an ETag: {tags}")
     # Revalidation: 304 without a body for the current tag (weak comparison), 200 for another.
     for match in (etag, "W/" + etag, f'"0000", {etag}', "*"):
@@ -269,6 +283,38 @@ def test_dashboard_assets(c):
     c.problem("GET", "/dashboard/", 404, "not-found", validate=False)
     c.problem("GET", "/dashboard/sub/app.js", 404, "not-found", validate=False)
     c.problem("GET", "/dashboard/..%2Fapi", 404, "not-found")
+    c.problem("GET", "/dashboard/vendor/", 404, "not-found", validate=False)
+    c.problem("GET", "/dashboard/vendor/../app.js", 404, "not-found", validate=False)
+    test_dashboard_gzip(c, tags)
+
+
+def test_dashboard_gzip(c, tags):
+    """gzip for clients that accept it: the same bytes, their own ETag, Vary; never for q=0."""
+    plain = c.request("GET", "/dashboard/vendor/uplot.min.js")
+    check(plain.header("Content-Encoding") is None, "gzip sent to a client that did not ask")
+    check(plain.header("Vary") == "Accept-Encoding", f"no Vary on a file with a gzip copy: {plain.header('Vary')}")
+    # Content codings are case-insensitive (RFC 9110 8.4.1).
+    for accept in ("gzip", "br, gzip;q=0.5", "deflate, *", "GZIP"):
+        r = c.request("GET", "/dashboard/vendor/uplot.min.js", headers={"Accept-Encoding": accept})
+        check(r.status == 200 and r.header("Content-Encoding") == "gzip", f"Accept-Encoding {accept}: "
+              f"{r.status} {r.header('Content-Encoding')}")
+        check(gzip.decompress(r.raw) == plain.raw, f"Accept-Encoding {accept}: not the file's bytes")
+        check(len(r.raw) < len(plain.raw) // 2, f"gzip saves little: {len(r.raw)} of {len(plain.raw)}")
+        check(r.header("Content-Length") == str(len(r.raw)), "gzip Content-Length")
+        gz_tag = r.header("ETag")
+        check(gz_tag == tags["vendor/uplot.min.js"][:-1] + '-gz"', f"gzip ETag {gz_tag}")
+    for accept in ("gzip;q=0", "identity", "gzip; q=0.000, br", "deflate"):
+        r = c.request("GET", "/dashboard/vendor/uplot.min.js", headers={"Accept-Encoding": accept})
+        check(r.header("Content-Encoding") is None and r.raw == plain.raw, f"Accept-Encoding {accept} got gzip")
+    r = c.request("GET", "/dashboard/vendor/uplot.min.js", headers={"Accept-Encoding": "gzip",
+                                                                    "If-None-Match": gz_tag})
+    check(r.status == 304 and r.header("ETag") == gz_tag, f"304 for the gzip tag: {r.status}")
+    r = c.request("GET", "/dashboard/vendor/uplot.min.js", headers={"If-None-Match": gz_tag})
+    check(r.status == 200, f"the gzip tag matched the plain representation: {r.status}")
+    gzipped = c.request("GET", "/dashboard/vendor/uplot.min.js", headers={"Accept-Encoding": "gzip"})
+    r = c.request("HEAD", "/dashboard/vendor/uplot.min.js", headers={"Accept-Encoding": "gzip"})
+    check(r.header("Content-Encoding") == "gzip" and r.header("Content-Length") == str(len(gzipped.raw)),
+          f"HEAD with gzip: {r.header('Content-Length')}")
 
 
 def test_controllers(c):

@@ -172,6 +172,9 @@ TEST_F(controller_test, timeout_fails_the_command_and_the_next_one_succeeds) {
 TEST_F(controller_test, queue_is_bounded) {
     auto s = settings();
     s.queue_limit = 3;
+    // A1 is held on purpose while the queue fills: its deadline must outlast that on a loaded machine
+    // (at 2 s it timed out once under ASan, a failure of the test, not of the queue).
+    s.command_timeout = 30s;
     start(s);
     fake_.hold();
     auto in_flight = submit(raw("A1"));
