@@ -48,8 +48,8 @@ class NewJob {
     this.modules = el("div", { class: "hint modules" });
     this.typeHost = el("div", { class: "type-form" });
     this.topError = el("div", { class: "error form-error", role: "alert" });
-    this.dryRunButton = el("button", { type: "submit", id: "dry-run", class: "primary" }, "Dry run");
-    this.submitButton = el("button", { type: "button", id: "submit-job", disabled: true }, "Submit job");
+    this.dryRunButton = el("button", { type: "submit", id: "dry-run" }, "Dry run");
+    this.submitButton = el("button", { type: "button", id: "submit-job", class: "primary", disabled: true }, "Submit job");
     this.submitButton.addEventListener("click", () => this.submit());
     this.status = el("span", { class: "meta form-status" });
     this.formEl = el("form", { class: "card job-form", id: "job-form", noValidate: true },
@@ -201,10 +201,11 @@ class NewJob {
   showPlan(plan) {
     this.planHint.hidden = true;
     this.planView.classList.remove("stale");
-    const fact = (label, value, cls) => el("div", { class: cls }, el("dt", {}, label), el("dd", {}, value));
+    const fact = (label, value, cls) => el("div", { class: cls }, el("dt", {}, label), el("dd", {}, ...[value].flat()));
     const bounds = plan.bounds;
-    const box = bounds && bounds.min.X !== undefined && bounds.min.Y !== undefined
-      ? `X ${bounds.min.X.toFixed(0)} … ${bounds.max.X.toFixed(0)} · Y ${bounds.min.Y.toFixed(0)} … ${bounds.max.Y.toFixed(0)} µm` : "–";
+    const range = (axis) => `${axis} ${bounds.min[axis].toFixed(0)} … ${bounds.max[axis].toFixed(0)} µm`;
+    const box = bounds && typeof bounds.min.X === "number" && typeof bounds.min.Y === "number"
+      ? [range("X"), el("br"), range("Y")] : "–";
     this.planView.replaceChildren(
       el("p", { class: "plan-summary" }, plan.summary),
       el("dl", { class: "plan-facts" },

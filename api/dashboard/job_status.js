@@ -105,6 +105,7 @@ export class ProgressClock {
 
   // "12.3 s", "waiting for Next (3.2 s of motion left)", "–".
   remainingText() {
+    if (TERMINAL_STATES.has(this.state)) return "–";
     const r = this.remainingS();
     const wait = waitingText(this.progress?.waiting_for);
     if (wait && !this.ticking()) return r === null ? wait : `${wait} (${formatDuration(r)} of motion left)`;

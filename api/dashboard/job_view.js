@@ -146,8 +146,9 @@ class JobView {
     this.waiting.hidden = !wait;
     this.waiting.textContent = wait ? `${wait[0].toUpperCase()}${wait.slice(1)}.` : "";
     this.waiting.dataset.waitingFor = p.waiting_for || "";
-    this.reason.hidden = !job.reason;
-    this.reason.textContent = job.reason ? `Reason: ${job.reason}` : "";
+    const reason = job.reason && job.reason !== job.state ? job.reason : "";
+    this.reason.hidden = !reason;
+    this.reason.textContent = reason ? `Reason: ${reason}` : "";
     this.renderActions();
     this.renderTimes();
     this.renderPlate();
@@ -176,7 +177,8 @@ class JobView {
     if (!this.plate?.root) return;
     const p = this.clock.progress || {};
     const running = this.job.state === "running";
-    this.plate.setCurrent(running ? p.current_step : null);
+    // Step events come when a well is done: the one in progress is the next in the visiting order.
+    this.plate.setCurrent(running ? this.plate.nextWell() : null);
     const { done, total } = this.plate.counts();
     this.plateCounts.textContent = `${done} of ${total} wells done`;
   }
@@ -212,8 +214,9 @@ class JobView {
     }
   }
 
+  // Stored events have no time of their own; a state event's record says when it changed.
   applyEvents(events) {
-    events.forEach((e, i) => this.addEvent(e, null, i + 1));
+    events.forEach((e, i) => this.addEvent(e, e.type === "state" ? e.job?.updated : null, i + 1));
   }
 
   onMessage(msg) {
@@ -264,7 +267,7 @@ class JobView {
   listEvent(e, time, seq) {
     const detail = e.type === "step"
       ? `${e.name}: ${e.steps_done}/${e.steps_total}${e.position ? ` at ${positionText(e.position)}` : ""}`
-      : e.type === "state" ? `${e.state}${e.reason ? `: ${e.reason}` : ""}` : JSON.stringify(e).slice(0, 160);
+      : e.type === "state" ? `${e.state}${e.reason && e.reason !== e.state ? `: ${e.reason}` : ""}` : JSON.stringify(e).slice(0, 160);
     const tr = el("tr", { "data-event": e.type }, el("td", { class: "num" }, seq ?? ""),
                   el("td", { class: "num" }, time ? formatTime(time) : elapsedLabel(e)),
                   el("td", {}, e.type), el("td", {}, detail));
@@ -281,7 +284,7 @@ class JobView {
       return;
     }
     const e = s.event;
-    const when = s.time ? `${formatTime(s.time)}, ` : "";
+    const when = s.time ? `at ${formatTime(s.time)}, ` : "";
     this.wellDetail.dataset.well = name;
     this.wellDetail.replaceChildren(
       el("strong", {}, name), ` — step ${e.index + 1} of ${e.steps_total}, done ${when}${formatDuration(e.elapsed_s)} into the job`,

@@ -191,8 +191,8 @@ class JobList {
     row.tr.dataset.controller = job.controller;
     cells.controller.textContent = job.controller;
     cells.type.textContent = job.type;
-    cells.state.replaceChildren(stateBadge(job.state, job.reason),
-                                job.reason ? el("div", { class: "reason" }, job.reason) : "");
+    const reason = job.reason && job.reason !== job.state ? job.reason : "";
+    cells.state.replaceChildren(stateBadge(job.state, job.reason), reason ? el("div", { class: "reason" }, reason) : "");
     cells.progress.set(p.percent, job.state);
     const counts = p.steps_total ? ` (${p.steps_done}/${p.steps_total})` : "";
     cells.step.textContent = `${p.current_step || "–"}${counts}`;

@@ -38,13 +38,13 @@ export function visitOrder(geometry, order = "serpentine") {
   return out;
 }
 
-// The wells this job visits: the subset (spec.wells) or all, from resume_from on.
+// The wells this job visits, in order: the subset (spec.wells) or all, from resume_from on.
 export function jobWells(spec, geometry) {
   const inOrder = visitOrder(geometry, spec.order || "serpentine");
   let wells = spec.wells ? inOrder.filter((w) => spec.wells.includes(w)) : inOrder;
   const from = spec.resume_from ? wells.indexOf(spec.resume_from) : -1;
   if (from > 0) wells = wells.slice(from);
-  return new Set(wells);
+  return wells;
 }
 
 export class PlateMap {
@@ -60,13 +60,14 @@ export class PlateMap {
       this.root = null;
       return;
     }
-    this.inJob = jobWells(spec, g);
+    this.visits = jobWells(spec, g);
+    this.inJob = new Set(this.visits);
     this.build();
   }
 
   build() {
     const { columns, rows } = this.geometry;
-    const cell = Math.max(14, Math.min(40, Math.floor(560 / Math.max(columns, rows * 1.5))));
+    const cell = Math.max(12, Math.min(56, Math.floor(480 / Math.max(columns, rows * 1.5))));
     const margin = 26;
     const r = cell * 0.4;
     const width = margin + columns * cell + 4;
@@ -99,6 +100,7 @@ export class PlateMap {
     const plate = svg("rect", { x: margin - 4, y: margin - 4, width: columns * cell + 8, height: rows * cell + 8,
                                 rx: 8, class: "plate-outline" });
     this.svg = svg("svg", { class: "plate-map", viewBox: `0 0 ${width + 4} ${height + 4}`, role: "img",
+                            width: width + 4, height: height + 4,
                             "aria-label": `plate map, ${columns} x ${rows} wells` }, plate, ...labels, ...circles);
     this.svg.addEventListener("click", (ev) => {
       const name = ev.target?.dataset?.well;
@@ -123,6 +125,11 @@ export class PlateMap {
     if (!c || c.classList.contains("done")) return;
     c.classList.add("current");
     this.current = name;
+  }
+
+  // The first well of the visiting order not done yet (where the stage is going), or null.
+  nextWell() {
+    return this.visits.find((w) => !this.wells.get(w)?.classList.contains("done")) ?? null;
   }
 
   select(name) {

@@ -104,7 +104,8 @@ async def test_array_from_form(b, port, shots):
     if shots:
         await b.wait_for("a few wells done", "document.querySelectorAll('.well.done').length >= 5", timeout=60)
         await b.click(".well.done")
-        await b.wait_for("the well's detail", "document.querySelector('.well-measured')")
+        await b.wait_for("the well's detail", "!!document.querySelector('.well-measured')")
+        await b.evaluate("window.scrollTo(0, 0)")
         await b.screenshot(os.path.join(shots, "plate-job.png"))
     await b.wait_for("succeeded on the page", "document.getElementById('job-state')?.dataset.state === 'succeeded'",
                      timeout=90)
@@ -132,10 +133,10 @@ async def test_validation(b, port):
     top = await b.evaluate("document.querySelector('.form-error').textContent")
     check("marked below" in top, f"top of the form: {top!r}")
     check(await b.evaluate("document.getElementById('submit-job').disabled"), "Submit enabled after a refusal")
-    # Far beyond the travel range: the gateway names the step (spec.steps[0]), no input: at the top.
+    # Beyond the soft limit (110 mm): the gateway names the step (spec.steps[0]), no input: at the top.
     await set_value(b, "[name='spec.grid.columns']", "2")
     check(not await b.evaluate(field_error("spec.grid.columns")), "the error stayed after an edit")
-    await set_value(b, "[name='spec.a1.X']", "900000000")
+    await set_value(b, "[name='spec.a1.X']", "200000")
     await b.click("#dry-run")
     top = await b.wait_for("the step error at the top", "document.querySelector('.form-error').textContent")
     check("spec.steps[0]" in top, f"top error {top!r}")
@@ -197,6 +198,11 @@ async def test_next(b, port):
     check(status == 200, f"cancel: {status}")
 
 
+def js_ids(ids):
+    """A JavaScript string literal of JSON.stringify(ids)."""
+    return json.dumps(json.dumps(ids, separators=(",", ":")))
+
+
 def list_rows():
     return ("[...document.querySelectorAll('table.jobs tbody tr')]"
             ".map(r => [r.dataset.job, r.dataset.controller, r.dataset.state])")
@@ -211,13 +217,13 @@ async def test_list(b, port, shots):
     await set_value(b, "#job-filter-controller", "sim2")
     _, page = rest(port, "GET", "/api/v1/jobs?controller=sim2&limit=25")
     want = [j["id"] for j in page["jobs"]]
-    await b.wait_for("sim2's jobs only", f"JSON.stringify({list_rows()}.map(r => r[0])) === {json.dumps(json.dumps(want))}")
+    await b.wait_for("sim2's jobs only", f"JSON.stringify({list_rows()}.map(r => r[0])) === {js_ids(want)}")
     check(len(want) >= 2, f"sim2 has {len(want)} jobs")
     await set_value(b, "#job-filter-state", "cancelled")
     _, page = rest(port, "GET", "/api/v1/jobs?controller=sim2&state=cancelled&limit=25")
     want = [j["id"] for j in page["jobs"]]
     check(want, "no cancelled sim2 job")
-    await b.wait_for("sim2's cancelled jobs", f"JSON.stringify({list_rows()}.map(r => r[0])) === {json.dumps(json.dumps(want))}")
+    await b.wait_for("sim2's cancelled jobs", f"JSON.stringify({list_rows()}.map(r => r[0])) === {js_ids(want)}")
     await set_value(b, "#job-filter-state", "")
     await set_value(b, "#job-filter-controller", "")
     await b.wait_for("every job again", f"{list_rows()}.length === {len(rest(port, 'GET', '/api/v1/jobs?limit=25')[1]['jobs'])}")
@@ -241,6 +247,8 @@ def unexpected_console(entries, allowed_422):
             continue
         if url.endswith("/lease") and "404" in (text or ""):
             continue  # GET /api/v1/controllers/{id}/lease answers 404 for a free controller
+        if url.endswith("/api/v1/whoami") and "404" in (text or ""):
+            continue  # a gateway without GET /api/v1/whoami yet (added for issue 14): the page shows everything
         if allowed_422 and "/api/v1/jobs?dry_run=true" in url and "422" in (text or ""):
             allowed_422 -= 1  # the validation check's refusals, by design
             continue
