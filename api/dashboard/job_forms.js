@@ -107,6 +107,18 @@ class NewJob {
     this.typeHost.replaceChildren(this.form.root);
     this.formEl.dataset.type = type.type;
     this.invalidate();
+    this.clearPlan();
+  }
+
+  // Another job type: the plan shown belongs to the previous one.
+  clearPlan() {
+    this.planView.replaceChildren();
+    this.planHint.hidden = false;
+    this.plot.removeOverlay("plan");
+    this.plot.removeOverlay("bbox");
+    this.zoom.hidden = true;
+    this.status.textContent = "";
+    if (this.zoomed) this.toggleZoom();
   }
 
   showController() {
@@ -131,6 +143,15 @@ class NewJob {
   showPosition() {
     const p = positionOf(this.controllerId());
     if (p) this.plot.setPosition(p.X, p.Y);
+  }
+
+  // The bounding box is under 3 % of the soft limits' span on both axes.
+  tiny(bounds) {
+    const span = (axis) => {
+      const l = this.limits?.[axis];
+      return l && typeof l.lower === "number" && typeof l.upper === "number" ? l.upper - l.lower : null;
+    };
+    return ["X", "Y"].every((a) => span(a) && bounds.max[a] - bounds.min[a] < 0.03 * span(a));
   }
 
   toggleZoom() {
@@ -225,6 +246,8 @@ class NewJob {
     if (box !== "–") this.plot.setBox("bbox", bounds.min, bounds.max);
     else this.plot.removeOverlay("bbox");
     this.zoom.hidden = false;
+    // A job a few pixels wide on the whole stage's map: show the job (a click shows the stage again).
+    if (box !== "–" && this.tiny(bounds) !== Boolean(this.zoomed)) this.toggleZoom();
   }
 
   async submit() {
