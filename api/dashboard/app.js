@@ -10,6 +10,7 @@ import { store } from "./store.js";
 route("/", () => import("./overview_view.js"));
 route("/controller/:id", () => import("./controller_view.js"));
 route("/jobs", () => import("./jobs_view.js"));
+route("/jobs/new", () => import("./job_forms.js"));  // before /jobs/:id, which would take "new"
 route("/jobs/:id", () => import("./job_view.js"));
 route("/gcode", () => import("./gcode_view.js"));
 
