@@ -158,6 +158,8 @@ export class TimeChart {
     const data = this.data(minT, now);
     if (!this.plot) this.plot = new uPlot(this.options(), data, this.root);
     else this.plot.setData(data);
+    this.root.dataset.samples = this.tracks.map((t) => `${t.name}:${t.samples.length}`).join(" ");
+    this.root.dataset.marks = String(this.marks.length);
   }
 
   drawMarks(u) {
@@ -175,11 +177,6 @@ export class TimeChart {
     }
     ctx.stroke();
     ctx.restore();
-  }
-
-  // Counts for tests and for a person's curiosity: samples kept per track, marks in the window.
-  counts() {
-    return Object.fromEntries([...this.tracks.map((t) => [t.name, t.samples.length]), ["marks", this.marks.length]]);
   }
 
   destroy() {
