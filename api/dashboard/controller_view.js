@@ -92,13 +92,13 @@ class ControllerView {
       ? `build ${id.build} · firmware ${id.version} · modules: ${id.modules.length ? id.modules.join(", ") : "none"}`
       : "not identified yet";
     this.modules.setState(s);
-    if (s.axes?.length) {
-      this.setAxes(s.axes);
-      this.setPositions(s.axes, s.busy, s.updated);
-      this.xy.setLimits(Object.fromEntries(s.axes.map((a) => [a.axis, a.soft_limits_um])));
-    }
-    this.followReports(s.report_port && s.report_port !== "none");
+    if (s.axes?.length) this.setAxes(s.axes);
+    this.followReports(Boolean(s.report_port && s.report_port !== "none"));
     this.setupChart();
+    if (s.axes?.length) {
+      this.xy.setLimits(Object.fromEntries(s.axes.map((a) => [a.axis, a.soft_limits_um])));
+      this.setPositions(s.axes, s.busy, s.updated);
+    }
   }
 
   setAxes(axes) {

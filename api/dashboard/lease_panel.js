@@ -39,7 +39,7 @@ export class LeasePanel {
                        this.forceButton);
     this.root = el("section", { class: "lease-panel", "data-lease-panel": this.id },
                    el("div", { class: "lease-line" }, this.status, this.countdown), this.controls, this.error);
-    this.show(null, null, false);
+    this.show(null, "pending", false);
   }
 
   ttlS() {
@@ -57,7 +57,8 @@ export class LeasePanel {
     const state = error ? "unknown" : !lease ? "free" : mine ? "mine" : "other";
     this.status.dataset.lease = state;
     this.root.dataset.lease = state;
-    if (state === "unknown") this.status.textContent = `lease: unknown (${error})`;
+    if (error === "pending") this.status.textContent = "lease: …";
+    else if (state === "unknown") this.status.textContent = `lease: unknown (${error})`;
     else if (state === "free") this.status.textContent = "lease: free";
     else if (state === "mine") this.status.textContent = `leased by this page (${lease.holder})`;
     else this.status.textContent = `leased by ${lease.holder}: moves from this page are refused`;

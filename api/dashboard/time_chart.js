@@ -67,7 +67,10 @@ export class TimeChart {
     this.range = [0, windowS];
     this.root = el("div", { class: "time-chart" });
     this.timer = setInterval(() => this.draw(), 1000 / fps);
-    this.resize = new ResizeObserver(() => this.plot?.setSize({ width: this.width(), height: this.height }));
+    // Resized on the next frame and only when the width changed: no resize loop.
+    this.resize = new ResizeObserver(() => requestAnimationFrame(() => {
+      if (this.plot && this.plot.width !== this.width()) this.plot.setSize({ width: this.width(), height: this.height });
+    }));
     this.resize.observe(this.root);
   }
 
