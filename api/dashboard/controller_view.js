@@ -33,7 +33,7 @@ class ControllerView {
     this.motion = new MotionControls(id);
     this.modules = new ModuleControls(id);
     this.xy = new XYPlot({ title: id });
-    this.chart = new TimeChart({ windowS: CHART_WINDOW_S });
+    this.chart = new TimeChart({ windowS: CHART_WINDOW_S, height: 230 });
     this.build();
     this.statsTimer = setInterval(() => this.renderStats(), 1000);
   }
@@ -52,17 +52,19 @@ class ControllerView {
     this.reportLine = el("div", { class: "report-stats live-value", hidden: true, "data-reports": this.id });
     this.root = el("div", { class: "ctl-view offline", "data-controller-view": this.id },
                    el("header", { class: "ctl-head" },
-                      el("div", { class: "ctl-title" },
-                         el("h2", {}, el("a", { href: "#/" }, "Controllers"), " / ", this.id), this.badge),
-                      this.identity, this.halt),
+                      el("div", { class: "ctl-heading" },
+                         el("div", { class: "ctl-title" },
+                            el("h2", {}, el("a", { href: "#/" }, "Controllers"), " / ", this.id), this.badge),
+                         this.identity),
+                      this.halt),
                    this.haltError, this.lastError, this.hint, this.lease.root,
                    el("div", { class: "ctl-grid" },
-                      el("section", { class: "panel" }, el("h3", {}, "Position"), this.axesTable, this.busy, this.xy.root),
-                      el("section", { class: "panel" }, el("h3", {}, "Motion"), this.motion.root),
-                      el("section", { class: "panel" }, el("h3", {}, "Modules"), this.modules.root)),
-                   el("section", { class: "panel chart-panel" },
-                      el("div", { class: "chart-head" }, el("h3", {}, `Last ${CHART_WINDOW_S} s`), this.chartNote),
-                      this.reportLine, this.chart.root));
+                      el("section", { class: "panel panel-position" }, el("h3", {}, "Position"), this.axesTable, this.busy, this.xy.root),
+                      el("section", { class: "panel panel-chart" },
+                         el("div", { class: "chart-head" }, el("h3", {}, `Last ${CHART_WINDOW_S} s`), this.chartNote),
+                         this.reportLine, this.chart.root),
+                      el("section", { class: "panel panel-motion" }, el("h3", {}, "Motion"), this.motion.root),
+                      el("section", { class: "panel panel-modules" }, el("h3", {}, "Modules"), this.modules.root)));
   }
 
   async haltNow() {

@@ -28,10 +28,16 @@ export async function runAction(button, errorLine, action, onDone) {
     const result = await action();
     onDone?.(result);
   } catch (e) {
-    errorLine.textContent = errorText(e);
+    errorLine.textContent = problemText(e);
   } finally {
     button.disabled = false;
   }
+}
+
+// An error for the line next to a control: a 422 names the field it is about ("volts: must be ...").
+export function problemText(e) {
+  const text = errorText(e);
+  return e?.field && !text.includes(e.field) ? `${e.field}: ${text}` : text;
 }
 
 // A number input; value() is the number typed, or null when it is empty.
