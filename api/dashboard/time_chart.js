@@ -125,7 +125,7 @@ export class TimeChart {
       axes: [{ stroke: "#475467", grid: { stroke: "#eaecf0" } },
              { label: this.yLabel, size: 70, stroke: "#475467", grid: { stroke: "#eaecf0" } }],
       cursor: { drag: { x: false, y: false } },
-      legend: { live: true },
+      legend: { live: false },
       hooks: { draw: [(u) => this.drawMarks(u)] },
     };
   }

@@ -210,17 +210,16 @@ async def test_reports(b, port, ext1):
 
 
 async def screenshot(b, port, ext1, path):
-    """ext1's view with its chart running: a slow diagonal move while 50 frames/s of reports come."""
-    await open_view(b, port, "ext1")
-    status, body = rest(port, "POST", "/api/v1/controllers/ext1/speed", {"axes": {"X": 0.4, "Y": 0.2}})
+    """ext1's view with its chart running: two moves while 50 frames/s of reports come."""
+    status, body = rest(port, "POST", "/api/v1/controllers/ext1/speed", {"axes": {"X": 1.5, "Y": 1.0}})
     check(status == 200, f"speed ext1: {status} {body}")
-    for i, (x, y) in enumerate([(8000, 4000), (-3000, 6000)]):
+    check(ext1.control(f"pulse 300 {50 / TIME_SCALE}") == "ok", "pulse train")
+    for x, y in [(30000, 20000), (-20000, 35000)]:
         status, body = rest(port, "POST", "/api/v1/controllers/ext1/move", {"axes": {"X": x, "Y": y}})
         check(status == 200, f"move ext1: {status} {body}")
-        if i == 0:
-            check(ext1.control(f"pulse 400 {50 / TIME_SCALE}") == "ok", "pulse train")
-        await asyncio.to_thread(wait_until, "ext1 stopped", lambda: state(port, "ext1")["busy"] is False)
-    await asyncio.sleep(1.0)
+        await asyncio.to_thread(wait_until, f"ext1 at ({x}, {y})",
+                                lambda: abs(position(port, "ext1", "X") - x) < 1 and abs(position(port, "ext1", "Y") - y) < 1)
+    await asyncio.sleep(0.5)
     await b.evaluate("window.scrollTo(0, 0)")
     await b.screenshot(path)
     print(f"screenshot: {path}")
