@@ -2,7 +2,8 @@
 """The controller view (#/controller/<id>) in headless chromium (cdp.py) against the real asi-gateway:
 three simulated controllers in-process (sim1 full, sim2 plain, sim3 planar with DAC and LED; time
 scale 10) plus one external ms2000-sim (ext1, preset full) with a report port and a control socket
-whose TTL pulse trains make encoder report frames.
+whose TTL pulse trains make encoder report frames, and ext2 (preset plain) whose pulses in IN0 mode 5
+make TTL position reports.
 
 Checks: the view shows the axes the controller has (and jog buttons for them only); a jog click
 moves the stage (REST agrees); go-to moves to the position and the XY marker follows; sim3 shows DAC
@@ -10,6 +11,7 @@ and LED controls, sim2 neither, and setting the LED from the page changes it (th
 answer to LED X?); TTL IN0 mode set from the page, then a pulse train: the page counts every report
 frame (equal to the pulses sent) at 500 frames/s while drawing a decimated few, and stays responsive
 (longest main-thread task and the worst gap between animation frames are printed and bounded);
+TTL events of ext2 (IN0 mode 5 set from the page) are marked on its chart;
 a lease taken, renewed and released from the page, a page move while holding it works while a REST
 move without it gets 409, HALT on the leased controller stops a move; a controller leased by someone
 else shows the 409 'leased' next to the control; the overview card shows the running job, the report
@@ -209,6 +211,27 @@ async def test_reports(b, port, ext1):
     check(perf["worstFrameGap"] < 500, f"the page stalled: {perf}")
 
 
+async def test_ttl_marks(b, port, ext2):
+    """A plain build in IN0 mode 5 (set from the page): a TTL edge starts serial position reports
+    (every RT X = 200 ms of simulated time), the next stops them; each is a controllers/<id>/ttl
+    event, marked on the chart."""
+    await open_view(b, port, "ext2")
+    await set_input(b, "[data-controller-view=ext2] [name=in0_mode]", 5)
+    await b.click("[data-controller-view=ext2] [data-action=ttl]")
+    await asyncio.to_thread(wait_until, "IN0 mode 5 (REST)", lambda: state(port, "ext2")["ttl"]["in0_mode"] == 5)
+    hidden = await b.evaluate(f"{view('ext2')}.querySelector('.report-stats').hidden")
+    check(hidden, "a report line on a controller without a report port")
+    events = f"+{view('ext2')}.querySelector('.chart-head .meta').dataset.ttlEvents"
+    check(ext2.control("pulse") == "ok", "pulse (start)")
+    try:
+        await b.wait_for("TTL events on the page", f"{events} >= 10")
+    finally:
+        check(ext2.control("pulse") == "ok", "pulse (stop)")
+    await asyncio.sleep(0.5)
+    counted = await b.evaluate(events)
+    await b.wait_for(f"{counted} marks on the chart", f"+{view('ext2')}.querySelector('.time-chart').dataset.marks === {counted}")
+
+
 async def screenshot(b, port, ext1, path):
     """ext1's view with its chart running: two moves while 50 frames/s of reports come."""
     status, body = rest(port, "POST", "/api/v1/controllers/ext1/speed", {"axes": {"X": 1.5, "Y": 1.0}})
@@ -332,11 +355,13 @@ def unexpected_console(entries):
 async def main_async(args, fx):
     chromium = find_chromium()
     ext1 = fx.start_sim(args.sim, "ext1", "full", time_scale=TIME_SCALE, report=True)
+    ext2 = fx.start_sim(args.sim, "ext2", "plain", time_scale=TIME_SCALE)
     port = free_port()
     config = {
         "http": {"listen_address": "127.0.0.1", "port": port},
         "controllers": [{"id": "ext1", "port": ext1.link, "report_port": ext1.report_link, "baud": 115200,
-                         "poll_ms": 100}],
+                         "poll_ms": 100},
+                        {"id": "ext2", "port": ext2.link, "baud": 115200, "poll_ms": 100}],
         "simulate": {"count": 3, "time_scale": TIME_SCALE, "directory": os.path.join(fx.tmp, "sim")},
         "storage": {"path": os.path.join(fx.tmp, "store")},
         "logging": {"level": "info"},
@@ -367,6 +392,7 @@ async def main_async(args, fx):
                   test_modules, b, port, expected=r"status of 422")
         await run("report frames at 500/s: every one counted, a few drawn, the page responsive",
                   test_reports, b, port, ext1)
+        await run("TTL events marked on the chart", test_ttl_marks, b, port, ext2)
         if args.screenshot_dir:
             os.makedirs(args.screenshot_dir, exist_ok=True)
             await run("screenshot", screenshot, b, port, ext1, os.path.join(args.screenshot_dir, "controller.png"))
