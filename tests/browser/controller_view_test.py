@@ -23,6 +23,7 @@ Run by ctest with Debian's /usr/bin/python3 (python3-websockets). Skipped (exit 
 
 import argparse
 import asyncio
+import http.client
 import json
 import os
 import re
@@ -34,29 +35,23 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "integration", "api"))
 from cdp import Browser, find_chromium  # noqa: E402
-from gateway_fixture import Failure, Fixture, check, free_port, http_request, wait_until  # noqa: E402
+from gateway_fixture import Failure, Fixture, check, free_port, wait_until  # noqa: E402
 
 TIME_SCALE = 10
 
 
 def rest(port, method, path, body=None, headers=None):
-    status, text = http_request(port, method, path, body, token=None) if not headers else \
-        request_with_headers(port, method, path, body, headers)
-    try:
-        return status, (json.loads(text) if text else None)
-    except ValueError:
-        return status, text
-
-
-def request_with_headers(port, method, path, body, headers):
-    import http.client
+    """(status, parsed JSON body) of one request without a token; headers such as Lease-Id."""
     conn = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
     data = json.dumps(body) if body is not None else None
-    conn.request(method, path, body=data, headers={"Content-Type": "application/json", **headers})
+    conn.request(method, path, body=data, headers={"Content-Type": "application/json", **(headers or {})})
     r = conn.getresponse()
     text = r.read().decode()
     conn.close()
-    return r.status, text
+    try:
+        return r.status, (json.loads(text) if text else None)
+    except ValueError:
+        return r.status, text
 
 
 def state(port, controller):
