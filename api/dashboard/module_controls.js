@@ -52,9 +52,9 @@ export class ModuleControls {
     if (!this.ttlState) return;
     const modes = (v) => (v === null || v === undefined ? "unknown" : String(v));
     this.ttlState.textContent = `now: IN0 mode ${modes(ttl?.in0_mode)}, OUT0 mode ${modes(ttl?.out0_mode)}`;
-    // Follow the controller unless the person is choosing a mode.
+    // Follow the controller, except a select the person changed and has not set yet.
     for (const [select, v] of [[this.in0Select, ttl?.in0_mode], [this.out0Select, ttl?.out0_mode]]) {
-      if (typeof v === "number" && document.activeElement !== select) select.value = String(v);
+      if (typeof v === "number" && !select.dataset.edited) select.value = String(v);
     }
   }
 
@@ -63,8 +63,17 @@ export class ModuleControls {
     this.in0Select = modeSelect("in0_mode", IN0_MODES, null);
     this.out0Select = modeSelect("out0_mode", OUT0_MODES, null);
     this.ttlState = el("div", { class: "meta live-value" });
+    for (const select of [this.in0Select, this.out0Select]) {
+      select.addEventListener("change", () => { select.dataset.edited = "yes"; });
+    }
     const setModes = actionButton("Set modes", g.error, () => api.operation(this.id, "ttl", {
-      in0_mode: Number(this.in0Select.value), out0_mode: Number(this.out0Select.value) }), { name: "ttl" });
+      in0_mode: Number(this.in0Select.value), out0_mode: Number(this.out0Select.value) }), {
+      name: "ttl",
+      onDone: () => {
+        delete this.in0Select.dataset.edited;
+        delete this.out0Select.dataset.edited;
+      },
+    });
     const level = (high) => actionButton(`OUT0 ${high ? "high" : "low"}`, g.error,
                                          () => api.operation(this.id, "ttl", { output_high: high }),
                                          { name: `ttl-${high ? "high" : "low"}` });

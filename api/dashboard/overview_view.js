@@ -62,6 +62,7 @@ export function mount(container) {
     else if (what === "state") {
       c.setState(controller.state);
       updateReportFollow();
+      showReports();
     } else if (controller.position) c.setPositions(controller.position.axes, controller.position.busy);
   };
   for (const [id, controller] of store.controllers) {

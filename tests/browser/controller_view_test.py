@@ -214,6 +214,7 @@ async def test_ttl_marks(b, port, ext2):
     await set_input(b, "[data-controller-view=ext2] [name=in0_mode]", 5)
     await b.click("[data-controller-view=ext2] [data-action=ttl]")
     await asyncio.to_thread(wait_until, "IN0 mode 5 (REST)", lambda: state(port, "ext2")["ttl"]["in0_mode"] == 5)
+    check(await op_error(b, "ext2", "ttl") == "", "TTL error shown")
     hidden = await b.evaluate(f"{view('ext2')}.querySelector('.report-stats').hidden")
     check(hidden, "a report line on a controller without a report port")
     events = f"+{view('ext2')}.querySelector('.chart-head .meta').dataset.ttlEvents"
@@ -229,6 +230,7 @@ async def test_ttl_marks(b, port, ext2):
 
 async def screenshot(b, port, ext1, path):
     """ext1's view with its chart running: two moves while 50 frames/s of reports come."""
+    await open_view(b, port, "ext1")
     status, body = rest(port, "POST", "/api/v1/controllers/ext1/speed", {"axes": {"X": 1.5, "Y": 1.0}})
     check(status == 200, f"speed ext1: {status} {body}")
     check(ext1.control(f"pulse 300 {50 / TIME_SCALE}") == "ok", "pulse train")
