@@ -1,10 +1,11 @@
 // One card per controller: connection state (and the last error when not connected), build and
-// modules, every axis's position in um, busy, TTL modes, the lease holder, a HALT button and a jog pad.
-// Values come from the WebSocket's state and position events; a card greys them out when they are
-// not live (feed down or controller not connected).
+// modules, every axis's position in um, busy, TTL modes, the lease holder, the running job with its
+// progress, the encoder-report rate and gaps where there is a report port, a HALT button, a jog pad
+// and a link to the controller view. Values come from the WebSocket's state and position events; a
+// card greys them out when they are not live (feed down or controller not connected).
 
 import * as api from "./api.js";
-import { el, formatUm } from "./dom.js";
+import { el, formatDuration, formatUm } from "./dom.js";
 
 const STEPS_UM = [1, 10, 100, 1000, 10000];
 
@@ -28,6 +29,8 @@ export class ControllerCard {
     this.axesTable = el("table", { class: "axes" });
     this.status = el("div", { class: "meta live-value" });
     this.leaseLine = el("div", { class: "meta" }, "lease: …");
+    this.jobLine = el("div", { class: "card-job live-value", hidden: true });
+    this.reportLine = el("div", { class: "meta live-value", hidden: true, "data-reports": this.id });
     this.stepSelect = el("select", { title: "jog step" },
                          ...STEPS_UM.map((s) => el("option", { value: String(s), selected: s === 100 }, `${s} µm`)));
     this.jog = el("div", { class: "jog", "data-needs": "operator" }, el("span", {}, "jog"), this.stepSelect);
@@ -35,7 +38,9 @@ export class ControllerCard {
     this.root = el("section", { class: "card offline", "data-controller": this.id },
                    el("div", { class: "card-head" }, el("h2", {}, el("a", { href: `#/controller/${encodeURIComponent(this.id)}` }, this.id)), this.stateBadge, this.haltButton),
                    this.lastError, this.identity, this.modules, this.axesTable, this.status, this.leaseLine,
-                   this.jog, this.opError);
+                   this.jobLine, this.reportLine, this.jog, this.opError,
+                   el("a", { class: "card-open", href: `#/controller/${encodeURIComponent(this.id)}`, "data-open": this.id },
+                      "Open controller view →"));
   }
 
   async halt() {
@@ -119,6 +124,32 @@ export class ControllerCard {
     if (error) this.leaseLine.textContent = `lease: unknown (${error})`;
     else if (!lease) this.leaseLine.textContent = "lease: free";
     else this.leaseLine.textContent = `lease: ${lease.holder} until ${lease.expires}`;
+  }
+
+  // The controller's running job (a Job from GET /api/v1/jobs), or null.
+  setJob(job) {
+    this.jobLine.hidden = !job;
+    this.root.dataset.job = job ? job.id : "";
+    if (!job) return this.jobLine.replaceChildren();
+    const p = job.progress || {};
+    const percent = Math.max(0, Math.min(100, p.percent ?? 0));
+    const step = p.current_step ? ` · ${p.current_step}` : "";
+    const waiting = p.waiting_for ? ` · waiting for ${p.waiting_for}` : "";
+    const endS = p.eta ? (Date.parse(p.eta) - Date.now()) / 1000 : p.remaining_s;
+    const left = typeof endS === "number" ? ` · ${formatDuration(Math.max(0, endS))} left` : "";
+    this.jobLine.replaceChildren(
+      el("a", { href: `#/jobs/${encodeURIComponent(job.id)}` }, `${job.type} job`),
+      ` ${percent.toFixed(0)} % (${p.steps_done ?? 0}/${p.steps_total ?? "?"})${step}${waiting}${left}`,
+      el("progress", { max: 100, value: percent }));
+  }
+
+  // The counts of the encoder report stream (report_stats.js), or null without a report port.
+  setReports(stats) {
+    this.reportLine.hidden = !stats;
+    if (stats) {
+      this.reportLine.textContent = `encoder reports: ${stats.summary()}`;
+      this.reportLine.dataset.frames = String(stats.frames);
+    }
   }
 
   gap() {
