@@ -62,6 +62,14 @@ export class XYPlot {
     this.setOverlay(name, { kind: "box", points: [[min.X, min.Y], [max.X, max.Y]], className });
   }
 
+  // A picture under the paths (the gateway's G-code preview) stretched over min..max in um, {X, Y}.
+  // Its element is kept across redraws so that the image is not decoded again at every position.
+  setImage(name, href, min, max, className = "xy-image") {
+    if (!href || !min || !max) return this.removeOverlay(name);
+    const node = svg("image", { class: className, "data-overlay": name, href, preserveAspectRatio: "none" });
+    this.setOverlay(name, { kind: "image", points: [[min.X, min.Y], [max.X, max.Y]], className, node });
+  }
+
   // A path overlay: points [[x, y], ...] in um; segments with ttl true get the class "ttl-on".
   setPath(name, points, className = "xy-path") {
     this.setOverlay(name, { kind: "path", points, className });
@@ -82,7 +90,7 @@ export class XYPlot {
   setOverlay(name, overlay) {
     this.overlays.set(name, overlay);
     const [x, y] = overlay.points[overlay.points.length - 1] || [];
-    if (!this.limits && (overlay.kind === "box" || !this.contains(x, y))) this.fit();
+    if (!this.limits && (overlay.kind !== "path" || !this.contains(x, y))) this.fit();
     else this.draw();
   }
 
@@ -141,9 +149,16 @@ export class XYPlot {
     }
     this.overlayGroup.replaceChildren();
     for (const [name, o] of this.overlays) {
-      if (o.kind === "box") {
+      if (o.kind === "box" || o.kind === "image") {
         const [x0, y0] = this.project([Math.min(o.points[0][0], o.points[1][0]), Math.max(o.points[0][1], o.points[1][1])]);
         const [x1, y1] = this.project([Math.max(o.points[0][0], o.points[1][0]), Math.min(o.points[0][1], o.points[1][1])]);
+        if (o.kind === "image") {
+          for (const [k, v] of Object.entries({ x: x0, y: y0, width: Math.max(1, x1 - x0), height: Math.max(1, y1 - y0) })) {
+            o.node.setAttribute(k, v);
+          }
+          this.overlayGroup.append(o.node);
+          continue;
+        }
         this.overlayGroup.append(svg("rect", { class: o.className, "data-overlay": name, x: x0, y: y0,
                                                width: Math.max(1, x1 - x0), height: Math.max(1, y1 - y0) }));
       } else {
