@@ -129,8 +129,13 @@ function constraints(s) {
     const hi = high === undefined ? "" : ` ${s.exclusiveMaximum !== undefined ? "<" : "≤"} ${high}`;
     parts.push(`${lo}value${hi}`);
   }
-  if (s.minLength !== undefined || s.maxLength !== undefined) parts.push(`length ${s.minLength ?? 0}..${s.maxLength ?? "∞"}`);
-  if (s.minItems !== undefined || s.maxItems !== undefined) parts.push(`items ${s.minItems ?? 0}..${s.maxItems ?? "∞"}`);
+  const range = (what, lo, hi) => {
+    if (lo !== undefined && hi !== undefined) parts.push(`${what} ${lo}..${hi}`);
+    else if (lo !== undefined) parts.push(`${what} ≥ ${lo}`);
+    else if (hi !== undefined) parts.push(`${what} ≤ ${hi}`);
+  };
+  range("length", s.minLength, s.maxLength);
+  range("items", s.minItems, s.maxItems);
   if (s.pattern) parts.push(`pattern ${s.pattern}`);
   return parts.join(" · ");
 }
@@ -176,8 +181,8 @@ function schemaBody(schema, depth = 0) {
       const a = deref(alt) || {};
       const shortRequired = !a.properties && Array.isArray(a.required)
         ? ["with ", ...joinNodes(a.required.map((r) => [el("code", {}, r)]), ", ")] : null;
-      return el("li", {}, ...(shortRequired || typeNodes(alt)),
-                !alt.$ref && a.properties && depth < MAX_DEPTH ? schemaBody(a, depth + 1) : null);
+      if (!alt.$ref && a.properties && depth < MAX_DEPTH) return el("li", {}, schemaBody(a, depth + 1));
+      return el("li", {}, ...(shortRequired || typeNodes(alt)));
     })));
   }
   if (!s.properties && !alternatives) {
@@ -372,9 +377,10 @@ function tableOfContents(groups) {
     el("h2", {}, "Contents"),
     el("ul", {},
       el("li", {}, link("#overview", "Overview")),
-      ...groups.map((g) => el("li", {}, link(`#tag-${g.tag}`, g.tag),
+      ...groups.map((g) => el("li", { class: "toc-tag" }, link(`#tag-${g.tag}`, g.tag),
         el("ul", {}, ...g.ops.map(({ path, method, op }) => el("li", {},
-          link(`#${opAnchor(op, method, path)}`, el("span", { class: `method method-${method}` }, method.toUpperCase()), " ", path)))))),
+          link(`#${opAnchor(op, method, path)}`, el("span", { class: `method method-${method}` }, method.toUpperCase()),
+               el("span", { class: "toc-path" }, path))))))),
       el("li", {}, link("#schemas", "Schemas"))),
   ];
 }

@@ -10,7 +10,8 @@ import { el, errorText, formatDuration } from "./dom.js";
 import { store } from "./store.js";
 import { XYPlot } from "./xy_plot.js";
 
-const PREVIEW_WIDTH_PX = 800;
+// The preview is asked for about as wide as it is shown, so that its 1 px lines stay visible.
+const PREVIEW_WIDTH_PX = 400;
 // Above this many lines the plan is asked for without its move list (moves=false): the preview still
 // comes from the gateway, but the trace is drawn in one colour (the TTL stretches come from the moves).
 const MAX_LINES_WITH_MOVES = 20000;
@@ -19,6 +20,8 @@ const MOTION = new Set(["rapid", "linear", "arc"]);
 
 const enc = encodeURIComponent;
 const mm = (v) => (typeof v === "number" ? `${v.toFixed(3)} mm` : "–");
+// replaceChildren() without the null children (it would show them as the text "null").
+const fill = (node, ...children) => node.replaceChildren(...children.filter((c) => c !== null && c !== undefined && c !== false));
 const lineCount = (text) => text.split("\n").length - (text.endsWith("\n") ? 1 : 0);
 
 // Where the gateway's preview.svg lies on the stage, in um: it scales the plan's XY bounds to
@@ -178,12 +181,12 @@ class GcodeView {
 
   fileRow(f) {
     const created = new Date(f.created);
+    const when = created.toLocaleString([], { dateStyle: "short", timeStyle: "short" });
     return el("tr", { "data-file": f.id },
-      el("td", { class: "file-name" }, el("button", { type: "button", class: "link", title: f.id,
-                                                      onclick: () => this.choose({ kind: "file", ...f }) }, f.name)),
-      el("td", { class: "meta" }, `${f.lines} lines · ${fileSize(f.bytes)}`),
-      el("td", { class: "meta", title: f.created }, created.toLocaleString([], { dateStyle: "short", timeStyle: "short" })),
-      el("td", {}, el("button", { type: "button", class: "small danger", "data-needs": "operator", title: `delete ${f.name}`,
+      el("td", { class: "file-name" },
+         el("button", { type: "button", class: "link", title: f.id, onclick: () => this.choose({ kind: "file", ...f }) }, f.name),
+         el("div", { class: "meta", title: f.created }, `${f.lines} lines · ${fileSize(f.bytes)} · ${when}`)),
+      el("td", { class: "file-actions" }, el("button", { type: "button", class: "small danger", "data-needs": "operator", title: `delete ${f.name}`,
                                   "aria-label": `delete ${f.name}`, onclick: (ev) => this.remove(f, ev.currentTarget) }, "Delete")));
   }
 
@@ -327,7 +330,7 @@ class GcodeView {
     const where = typeof p.line === "number" && p.line > 0 ? `Line ${p.line}${p.column ? `, column ${p.column}` : ""}: ` : "";
     const text = where ? `${where}${p.message || errorText(e)}` : errorText(e);
     const code = where && this.source?.kind === "text" ? this.source.text.split("\n")[p.line - 1] : null;
-    this.planError.replaceChildren(el("strong", {}, "Error. "), text,
+    fill(this.planError, el("strong", {}, "Error. "), text,
       code !== null && code !== undefined ? el("pre", { class: "error-line" }, `${String(p.line).padStart(4)} | ${code}`) : null);
     this.planError.dataset.line = p.line ?? "";
     this.planError.hidden = false;
@@ -367,7 +370,7 @@ class GcodeView {
       this.checked = { controller, source };
       this.runButton.disabled = false;
       this.runButton.textContent = `Run on ${controller}`;
-      this.estimate.replaceChildren(
+      fill(this.estimate,
         el("div", {}, el("strong", { "data-estimate": plan.estimated_s }, formatDuration(plan.estimated_s)),
            ` on ${controller}: ${plan.steps_total} steps, ${plan.path} path`),
         plan.summary ? el("div", { class: "meta" }, plan.summary) : null,
@@ -439,7 +442,9 @@ class GcodeView {
       this.setJob(ev.job);
     } else if (ev.type === "step") {
       t.doneLine = Math.max(t.doneLine, ev.line ?? lastLineOf(ev.name));
-      t.job = { ...t.job, progress: { ...t.job.progress, ...this.stepProgress(ev) } };
+      if ((ev.steps_done ?? 0) < (t.job.progress?.steps_done ?? 0)) return;  // an older step (the backfill)
+      // remaining_s is as of now: the countdown starts again from here.
+      t.job = { ...t.job, updated: new Date().toISOString(), progress: { ...t.job.progress, ...this.stepProgress(ev) } };
       this.showJob(t.job);
     }
   }
@@ -478,7 +483,8 @@ class GcodeView {
       if (["running", "paused"].includes(t.job.state) || t.last) this.tracePoint(x, y);
     } else if (!t || t.ended) {
       // Where the chosen controller's stage is, when that is on the map (the view does not zoom out for it).
-      if (id === this.controllerSelect.value && typeof x === "number" && this.plot.contains(x, y)) this.plot.setPosition(x, y);
+      const onMap = this.plot.overlays.has("preview") && typeof x === "number" && this.plot.contains(x, y);
+      if (id === this.controllerSelect.value && onMap) this.plot.setPosition(x, y);
     }
   }
 
@@ -515,7 +521,7 @@ class GcodeView {
     bar.firstChild.style.width = `${percent}%`;  // a property set from script: allowed by the CSP
     this.progress.hidden = false;
     this.progress.dataset.state = job.state;
-    this.progress.replaceChildren(
+    fill(this.progress,
       el("div", { class: "gcode-row" }, el("span", { class: `state job-state ${job.state}`, id: "gcode-job-state" }, job.state),
          el("a", { href: `#/jobs/${enc(job.id)}`, id: "gcode-job-link" }, job.id)),
       bar,
