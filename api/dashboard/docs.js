@@ -140,11 +140,14 @@ function constraints(s) {
   return parts.join(" · ");
 }
 
-// The inline object (not a named schema) a property holds, directly or as array items.
+// The object a property holds, directly or as array items, when it is not a named schema (those are
+// links): an inline one, or one reached by a $ref elsewhere (GcodeJobSpec's options are
+// #/components/parameters/GcodeOptions/schema).
 function inlineObject(schema) {
-  if (!schema || schema.$ref) return null;
-  if (schema.properties) return schema;
-  if (schema.items && !schema.items.$ref && schema.items.properties) return schema.items;
+  if (!schema || schemaName(schema.$ref)) return null;
+  const s = deref(schema);
+  if (s?.properties) return s;
+  if (s?.items && !schemaName(s.items.$ref) && deref(s.items)?.properties) return deref(s.items);
   return null;
 }
 
@@ -152,12 +155,15 @@ function propertyTable(s, depth) {
   const required = new Set(s.required || []);
   const rows = Object.entries(s.properties).map(([name, raw]) => {
     const p = deref(raw) || {};
+    // A named schema's own description is in the schemas section (its link); only a description
+    // written next to the $ref is shown here.
+    const description = schemaName(raw?.$ref) ? raw.description : p.description;
     const notes = constraints(p);
     const nested = depth < MAX_DEPTH ? inlineObject(raw) : null;
     return el("tr", {},
       el("td", { class: "prop-name" }, el("code", {}, name), required.has(name) ? el("span", { class: "required", title: "required" }, " *") : null),
       el("td", { class: "prop-type" }, ...typeNodes(raw)),
-      el("td", {}, p.description ? prose(p.description, "prose small") : null,
+      el("td", {}, description ? prose(description, "prose small") : null,
          notes ? el("div", { class: "meta" }, notes) : null,
          nested ? schemaBody(nested, depth + 1) : null));
   });

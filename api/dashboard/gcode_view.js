@@ -268,6 +268,7 @@ class GcodeView {
     this.warnings.replaceChildren();
     this.planError.hidden = true;
     this.plot.removeOverlay("preview");
+    if (this.trace?.ended) this.clearTrace();  // a running job's trace stays until it ends
     this.title.textContent = source ? source.name : "No program chosen";
     this.previewNote.textContent = source ? "Planning…" : "Upload, pick or paste a program to see its path.";
     this.root.dataset.plan = source ? "loading" : "none";
@@ -353,6 +354,7 @@ class GcodeView {
   resetCheck() {
     this.checked = null;
     this.runButton.disabled = true;
+    this.runButton.textContent = "Run";
     this.dryRunButton.disabled = !this.plan;
     this.estimate.replaceChildren();
     this.runError.textContent = "";
@@ -398,14 +400,25 @@ class GcodeView {
   // ---------------------------------------------------------------------------------------------
   // The trace
 
-  startTrace(job) {
+  clearTrace() {
     this.stopFollow?.();
+    this.stopFollow = null;
+    clearInterval(this.clock);
     for (const name of this.traceNames) this.plot.removeOverlay(name);
     this.traceNames = [];
+    this.trace = null;
+    this.watchCard.hidden = true;
+    delete this.root.dataset.jobState;
+    delete this.root.dataset.traced;
+  }
+
+  startTrace(job) {
+    this.clearTrace();
     this.plot.clearTrail();
     this.trace = { id: job.id, controller: job.controller, job, doneLine: 0, ttl: null, name: null,
                    last: null, points: 0, ended: false };
     this.root.dataset.traced = "0";
+    this.watchCard.hidden = false;
     const topic = `jobs/${job.id}`;
     this.stopFollow = store.follow(topic, (msg) => this.onJobMessage(msg));
     this.showJob(job);

@@ -9,7 +9,8 @@ whose bounds match the REST plan; a dry run from the page shows the estimate; Ru
 whose traced path grows while it runs and that ends succeeded (page and REST agree); every traced
 point lies on the preview's drawn path (the image's own coordinates mapped to the map), the TTL-on
 stretches on its red (TTL) path, in their own colour; a pasted program with an error shows it with
-its line; Delete (two clicks) removes the upload; the API docs page renders every path and every
+its line; Delete (two clicks) removes the upload; a pasted program runs, and the view finds the
+running job again (its program, its trace from then on) after the user left it and came back; the API docs page renders every path and every
 operation of the OpenAPI document, its schemas, and the GcodeOptions $ref resolved into query
 parameters; no console errors other than the 422s the bad program causes by design.
 With --screenshot-dir, writes gcode-trace.png (the trace part way, over the preview) and api-docs.png
@@ -51,6 +52,8 @@ G01 X1 Y6
 G01 X1 Y1
 G00 X0 Y0
 """
+# A 4 mm square at 2 mm/s with the TTL output on along it: about 4 s at time scale 2.
+SQUARE = "G21 G90\nG00 X0.5 Y0.5\nM03\nG01 X4.5 F120\nY4.5\nX0.5\nY0.5\nM05\nG00 X0 Y0\n"
 BAD_PROGRAM = "G21\nG00 X1\nG28 X0\n"
 TOLERANCE_PX = 4.0  # traced point to the preview's path, in map pixels (about 40 um here)
 
@@ -267,6 +270,31 @@ async def test_docs(b, port):
     check(role == "operator", f"uploadGcodeFile role {role!r}")
 
 
+async def test_pasted_run_reattach(b, port):
+    await b.evaluate(f"document.getElementById('gcode-text').value = {json.dumps(SQUARE)}")
+    await b.click("#gcode-check")
+    await b.wait_for("the pasted program planned", "document.getElementById('gcode').dataset.plan === 'ready'")
+    await b.click("#gcode-dry-run")
+    await b.wait_for("the dry run", "!document.getElementById('gcode-run').disabled")
+    await b.click("#gcode-run")
+    await b.wait_for("tracing", "document.getElementById('gcode').dataset.jobState === 'running' && "
+                     "+document.getElementById('gcode').dataset.traced >= 2")
+    job_id = await b.evaluate("document.getElementById('gcode-job-link').textContent")
+    await b.evaluate("location.hash = '#/'")
+    await b.wait_for("the overview", "!!document.getElementById('cards')")
+    await b.evaluate("location.hash = '#/gcode'")
+    await b.wait_for("the running job found again", "document.getElementById('gcode-job-link')?.textContent === "
+                     f"{json.dumps(job_id)} && document.getElementById('gcode').dataset.plan === 'ready'")
+    text = await b.evaluate("document.getElementById('gcode-text').value")
+    check(text == SQUARE, f"the job's program is not shown again: {text!r}")
+    final = await b.wait_for("the job ended", "(() => { const s = document.getElementById('gcode').dataset.jobState;"
+                             " return ['succeeded', 'failed', 'cancelled'].includes(s) && s; })()")
+    traced = await b.evaluate("+document.getElementById('gcode').dataset.traced")
+    check(final == "succeeded" and traced >= 3, f"after coming back: {final}, {traced} traced points")
+    status, job = rest(port, "GET", f"/api/v1/jobs/{job_id}")
+    check(status == 200 and job["state"] == "succeeded" and job["spec"].get("program") == SQUARE, f"REST job: {job}")
+
+
 def unexpected_console(entries):
     out = []
     for level, text, url in entries:
@@ -316,6 +344,8 @@ async def main_async(args, fx):
                 await run("the trace lies on the preview's path, TTL-on on the TTL path", test_trace_on_path, b, port, state)
             await run("a program error shows with its line", test_bad_program, b, port)
             await run("delete an upload (two clicks)", test_delete, b, port, state)
+            await run("a pasted program runs; the view finds its job again after leaving", test_pasted_run_reattach,
+                      b, port)
         await run("the API docs page renders every path of openapi.yaml", test_docs, b, port)
         if args.screenshot_dir:
             out = os.path.join(args.screenshot_dir, "api-docs.png")
