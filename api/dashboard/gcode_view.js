@@ -432,7 +432,7 @@ class GcodeView {
 
   onJobMessage(msg) {
     if (!this.trace) return;
-    if (msg.type === "event") this.onJobEvent(msg.data);
+    if (msg.type === "event") this.onJobEvent(msg.data, msg.time);
     else this.resync();  // a gap or a retired topic: ask REST where the job is
   }
 
@@ -448,13 +448,15 @@ class GcodeView {
     }
   }
 
-  onJobEvent(ev) {
+  // ev: a job event; time: when the gateway published it (live events only).
+  onJobEvent(ev, time) {
     const t = this.trace;
     if (!t || !ev) return;
     if (ev.type === "state" && ev.job) {
       this.setJob(ev.job);
     } else if (ev.type === "step") {
       t.doneLine = Math.max(t.doneLine, ev.line ?? lastLineOf(ev.name));
+      if (!t.ended) this.switchAt(ev.position, time);
       if ((ev.steps_done ?? 0) < (t.job.progress?.steps_done ?? 0)) return;  // an older step (the backfill)
       // remaining_s is as of now: the countdown starts again from here.
       t.job = { ...t.job, updated: new Date().toISOString(), progress: { ...t.job.progress, ...this.stepProgress(ev) } };
@@ -493,6 +495,8 @@ class GcodeView {
     const y = axisUm(controller.position, "Y");
     const t = this.trace;
     if (t && !t.ended && id === t.controller) {
+      const taken = Date.parse(controller.position.time || "");
+      if (t.switchedAt && taken < t.switchedAt) return;
       if (["running", "paused"].includes(t.job.state) || t.last) this.tracePoint(x, y);
     } else if (!t || t.ended) {
       // Where the chosen controller's stage is, when that is on the map (the view does not zoom out for it).
@@ -501,18 +505,36 @@ class GcodeView {
     }
   }
 
+  // A step ends where its last line's planned move ends: when the TTL output switches there, the
+  // stretch in the old colour ends exactly at that point and the new one starts from it. Positions
+  // come rate-limited (latest value wins), so one taken before the switch may arrive after it: those
+  // older than the switch are left out (the stage went straight to the switch point anyway).
+  switchAt(position, time) {
+    const t = this.trace;
+    const ttl = this.ttlLines ? ttlAfter(this.ttlLines, t.doneLine) : false;
+    if ((t.name && ttl === t.ttl) || typeof position?.X !== "number" || typeof position?.Y !== "number") return;
+    if (t.name) this.plot.extendPath(t.name, position.X, position.Y);
+    this.startStretch(ttl, [position.X, position.Y]);
+    t.last = [position.X, position.Y];
+    if (time) t.switchedAt = Date.parse(time);
+  }
+
+  startStretch(ttl, from) {
+    const t = this.trace;
+    t.ttl = ttl;
+    t.name = `trace-${this.traceNames.length}`;
+    this.traceNames.push(t.name);
+    if (from) this.plot.extendPath(t.name, from[0], from[1], ttl ? "xy-traced ttl-on" : "xy-traced");
+  }
+
   tracePoint(x, y) {
     const t = this.trace;
     if (typeof x !== "number" || typeof y !== "number") return;
     if (t.last && t.last[0] === x && t.last[1] === y) return;
     const ttl = this.ttlLines ? ttlAfter(this.ttlLines, t.doneLine) : false;
-    if (ttl !== t.ttl || !t.name) {
-      // A new stretch in its own colour, starting where the last one ended so the line stays whole.
-      t.ttl = ttl;
-      t.name = `trace-${this.traceNames.length}`;
-      this.traceNames.push(t.name);
-      if (t.last) this.plot.extendPath(t.name, t.last[0], t.last[1], ttl ? "xy-traced ttl-on" : "xy-traced");
-    }
+    // A switch the step events did not mark (a step seen late): the new stretch starts at the last
+    // point, so the line stays whole.
+    if (ttl !== t.ttl || !t.name) this.startStretch(ttl, t.last);
     this.plot.extendPath(t.name, x, y, ttl ? "xy-traced ttl-on" : "xy-traced");
     this.plot.setPosition(x, y);
     t.last = [x, y];

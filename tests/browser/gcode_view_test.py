@@ -205,11 +205,11 @@ async def test_trace_on_path(b, port, state):
           f"the trace has no TTL-on and TTL-off stretches: {[on for on, _ in overlays]}")
     worst = 0.0
     for on, text in overlays:
-        for i, p in enumerate(parse_points(text)):
+        for p in parse_points(text):
             d = distance_to_paths(p, to_map)
             worst = max(worst, d)
             check(d <= TOLERANCE_PX, f"traced point {p} is {d:.1f} px from the preview's path")
-            if on and i > 0:  # a stretch starts where the one before it ended (the line stays whole)
+            if on:
                 dt = distance_to_paths(p, ttl_lines)
                 check(dt <= TOLERANCE_PX, f"TTL-on traced point {p} is {dt:.1f} px from the TTL path")
     print(f"       traced points within {worst:.2f} px of the preview's path "
