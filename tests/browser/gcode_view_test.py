@@ -211,7 +211,7 @@ async def test_trace_on_path(b, port, state):
             check(d <= TOLERANCE_PX, f"traced point {p} is {d:.1f} px from the preview's path")
             if on:
                 dt = distance_to_paths(p, ttl_lines)
-                check(dt <= TOLERANCE_PX, f"TTL-on traced point {p} is {dt:.1f} px from the TTL path")
+                check(dt <= TOLERANCE_PX, f"TTL-on traced point {p} is {dt:.1f} px from the TTL path (stretches: {overlays})")
     print(f"       traced points within {worst:.2f} px of the preview's path "
           f"({sum(len(parse_points(t)) for _, t in overlays)} points, {len(overlays)} stretches)")
 
@@ -375,6 +375,8 @@ def main():
     if not find_chromium():
         print("chromium is not installed (scripts/install-deps --tests installs it): skipped")
         return 77
+    if args.screenshot_dir:
+        os.makedirs(args.screenshot_dir, exist_ok=True)
     fx = Fixture("gw-gcode-browser-")
     try:
         asyncio.run(main_async(args, fx))
