@@ -557,7 +557,7 @@ class GcodeView {
     this.progress.hidden = false;
     this.progress.dataset.state = job.state;
     fill(this.progress,
-      el("div", { class: "gcode-row" }, el("span", { class: `state job-state ${job.state}`, id: "gcode-job-state" }, job.state),
+      el("div", { class: "gcode-row" }, el("span", { class: `job-state ${job.state}`, id: "gcode-job-state" }, job.state),
          el("a", { href: `#/jobs/${enc(job.id)}`, id: "gcode-job-link" }, job.id)),
       bar,
       el("div", { class: "gcode-row" }, el("span", { id: "gcode-line" }, lineText),
