@@ -107,7 +107,7 @@ async def run(args, fx):
         "controllers": [{"id": n, "port": s.link, "baud": 115200, "poll_ms": 100,
                          **({"report_port": s.report_link} if s.report_link else {})} for n, s in sims.items()],
         "storage": {"path": os.path.join(fx.tmp, "store")},
-        "logging": {"level": "warning"},
+        "logging": {"level": "warn"},
     }
     fx.start_gateway(args.gateway, config)
     ids = sorted(sims)
@@ -136,7 +136,8 @@ async def run(args, fx):
         await asyncio.sleep(2)
         results.append((f"controller view {REPORTER} (charts, {REPORT_HZ} frames/s)",
                         await measure(b, args.seconds, args.frame_counter)))
-        bad = [e for e in b.console if e[0] in ("error", "exception")]
+        # GET .../lease answers 404 for a free controller, by design.
+        bad = [e for e in b.console if e[0] in ("error", "exception") and not e[2].endswith("/lease")]
         check(not bad, f"console errors: {bad[:3]}")
     finally:
         await b.close()
@@ -169,8 +170,8 @@ def main():
     ap.add_argument("--gateway", default=os.path.join(ROOT, "build", "gateway", "asi-gateway"))
     ap.add_argument("--sim", default=os.path.join(ROOT, "build", "devices", "sim", "ms2000-sim"))
     ap.add_argument("--seconds", type=float, default=20)
-    ap.add_argument("--frame-counter", default="Number(document.querySelector('[data-report-frames]')"
-                    "?.dataset.reportFrames ?? 0)", help="a JS expression: the report frames the page counted")
+    ap.add_argument("--frame-counter", default="Number(document.querySelector('.report-stats[data-reports]')"
+                    "?.dataset.frames ?? 0)", help="a JS expression: the report frames the page counted")
     ap.add_argument("--no-results", action="store_true")
     args = ap.parse_args()
     if not find_chromium():
