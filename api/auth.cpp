@@ -128,4 +128,11 @@ problem forbidden_problem(const auth_identity& who, gw::role needed) {
                                                    std::string(to_string(who.role)));
 }
 
+nlohmann::json whoami_json(const auth_config& auth, const auth_identity& who) {
+    const bool tokens = !auth.tokens.empty();
+    return {{"client", tokens ? nlohmann::json(who.name) : nlohmann::json(nullptr)},
+            {"role", std::string(to_string(who.role))},
+            {"auth", tokens ? "token" : "none"}};
+}
+
 }  // namespace gw::api

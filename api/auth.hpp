@@ -11,6 +11,8 @@
 #include <string>
 #include <string_view>
 
+#include <nlohmann/json.hpp>
+
 #include "api/problem.hpp"
 #include "gateway/config.hpp"
 
@@ -43,5 +45,11 @@ bool has_role(const auth_identity& who, gw::role needed);
 
 // 403 naming the needed role.
 problem forbidden_problem(const auth_identity& who, gw::role needed);
+
+// GET /api/v1/whoami, and the WebSocket hello: what the gateway makes of this client, so a page can
+// show or hide what its role allows.
+//   {"client":"viewer1","role":"viewer","auth":"token"}   a token of the config
+//   {"client":null,"role":"admin","auth":"none"}          no tokens configured: every client is admin
+nlohmann::json whoami_json(const auth_config& auth, const auth_identity& who);
 
 }  // namespace gw::api

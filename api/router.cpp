@@ -208,6 +208,13 @@ void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& re
         return reply(route, make_response(http::status::ok, ctx->metrics->exposition(),
                                           "text/plain; version=0.0.4; charset=utf-8", req, request_id));
     }
+    if (segments.size() == 1 && segments[0] == "whoami") {
+        const std::string route = "/api/v1/whoami";
+        if (!method_ok(route, http::verb::get)) return;
+        auto who = authorize(route, gw::role::viewer);
+        if (!who) return;
+        return reply(route, json_response(http::status::ok, whoami_json(ctx->auth, *who), req, request_id));
+    }
     if (segments.size() == 1 && segments[0] == "controllers") {
         const std::string route = "/api/v1/controllers";
         if (!method_ok(route, http::verb::get) || !authorize(route, gw::role::viewer)) return;

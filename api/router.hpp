@@ -4,6 +4,7 @@
 //
 //   GET  /api/v1/health                      liveness, public
 //   GET  /api/v1/ready                       200 when every controller is identified, else 503; public
+//   GET  /api/v1/whoami                      viewer; the client's token name, role and auth mode
 //   GET  /api/v1/controllers                 viewer
 //   GET  /api/v1/controllers/{id}            viewer
 //   POST /api/v1/controllers/{id}/{op}       operator (op: move halt home zero here speed ttl dac led)

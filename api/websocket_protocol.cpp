@@ -296,12 +296,14 @@ std::string ws_request_id(std::string_view connection, const json& client_id) {
     return id;
 }
 
-std::string ws_hello_message(std::string_view connection, std::string_view user, std::string_view role,
+std::string ws_hello_message(std::string_view connection, std::string_view user, const json& whoami,
                              std::size_t max_message_bytes) {
     return text(json{{"type", "hello"},
                      {"connection", connection},
                      {"user", user},
-                     {"role", role},
+                     {"role", whoami.value("role", "viewer")},
+                     {"client", whoami.value("client", json(nullptr))},
+                     {"auth", whoami.value("auth", "none")},
                      {"max_message_bytes", max_message_bytes}});
 }
 

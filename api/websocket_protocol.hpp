@@ -18,7 +18,8 @@
 // leased, commands (but halt), job submissions and job actions without its lease get 409 leased.
 // Job args are the REST body of POST /api/v1/jobs; roles as REST (get: viewer, others: operator).
 // Server -> client:
-//   {"type":"hello","connection":"ws-5","user":"anonymous","role":"admin","max_message_bytes":65536}
+//   {"type":"hello","connection":"ws-5","user":"anonymous","role":"admin","client":null,"auth":"none",
+//    "max_message_bytes":65536}      (role, client, auth: as GET /api/v1/whoami answers)
 //   {"type":"subscribed","id":1,"topics":[...],"resume":{...},"max_rate_hz":10}
 //   {"type":"unsubscribed","id":2,"topics":[...]}
 //   {"type":"result","id":"c7","result":{...the REST result body...}}
@@ -108,7 +109,8 @@ ws_protocol_error binary_frame_error();
 // serial traces of a WebSocket command lead back to the connection and the client's message.
 std::string ws_request_id(std::string_view connection, const nlohmann::json& client_id);
 
-std::string ws_hello_message(std::string_view connection, std::string_view user, std::string_view role,
+// `whoami`: whoami_json() of the client (api/auth.hpp); its role, client and auth go into the hello.
+std::string ws_hello_message(std::string_view connection, std::string_view user, const nlohmann::json& whoami,
                              std::size_t max_message_bytes);
 std::string ws_subscribed_message(const ws_subscribe& request);
 std::string ws_unsubscribed_message(const ws_unsubscribe& request);

@@ -135,7 +135,8 @@ void websocket_session::on_accept(beast::error_code ec) {
     if (ctx_->log)
         ctx_->log->info("{}: WebSocket open ({}, {})", connection_, who_.name, gw::to_string(who_.role));
     subscriber_ = ctx_->hub->add_subscriber(weak_from_this());
-    answer(ws_hello_message(connection_, who_.name, gw::to_string(who_.role), limits_.max_message_bytes));
+    answer(
+        ws_hello_message(connection_, who_.name, whoami_json(ctx_->auth, who_), limits_.max_message_bytes));
     schedule_watchdog();
     do_read();
 }

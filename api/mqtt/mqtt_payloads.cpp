@@ -106,7 +106,8 @@ bool mqtt_job_state::apply(const json& data) {
     if (type == "step" && job_.is_object()) {
         auto& p = job_["progress"];
         if (!p.is_object()) p = json::object();
-        for (const char* key : {"steps_done", "steps_total", "percent", "remaining_s", "elapsed_s"})
+        for (const char* key :
+             {"steps_done", "steps_total", "percent", "remaining_s", "elapsed_s", "waiting_for", "eta"})
             if (auto it = data.find(key); it != data.end()) p[key] = *it;
         if (auto it = data.find("name"); it != data.end()) p["current_step"] = *it;
         return true;

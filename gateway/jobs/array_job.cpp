@@ -416,7 +416,10 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
             co_await ctx.command(start);
             measured = co_await arrival(ctx, timeout);
         } else if (controller_steps) {
+            // The controller moves on the edge by itself: until the stage arrives, the job waits for it.
+            ctx.set_waiting(job_wait::ttl);
             measured = co_await controller_arrival(ctx, targets[i], tolerance_um, timeout);
+            ctx.set_waiting(std::nullopt);
         } else {
             co_await ctx.command("RM");
             measured = co_await arrival(ctx, timeout);
@@ -425,7 +428,7 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
             co_await ctx.command("TTL Y=1");
             co_await ctx.command("TTL Y=0");
         }
-        if (dwell.count() > 0) co_await ctx.sleep(dwell);
+        if (dwell.count() > 0) co_await ctx.dwell(dwell);
         ctx.step_done(i,
                       {{"well", well_name(visits[i])},
                        {"position", to_json(measured)},

@@ -612,7 +612,7 @@ boost::asio::awaitable<void> run_gcode(job_context& ctx) {
             }
             case gc::move_kind::dwell: {
                 const milliseconds dwell(std::llround(m.dwell_ms));
-                co_await ctx.sleep(dwell);
+                co_await ctx.dwell(dwell);
                 break;
             }
             case gc::move_kind::ttl:

@@ -25,6 +25,14 @@ constexpr std::array<std::pair<job_state, std::string_view>, 7> state_names{{
     {job_state::interrupted, "interrupted"},
 }};
 
+constexpr std::array<std::pair<job_wait, std::string_view>, 5> wait_names{{
+    {job_wait::next, "next"},
+    {job_wait::ttl, "ttl"},
+    {job_wait::timer, "timer"},
+    {job_wait::controller, "controller"},
+    {job_wait::storage, "storage"},
+}};
+
 template <typename Enum, std::size_t N>
 std::string_view name_of(const std::array<std::pair<Enum, std::string_view>, N>& names, Enum value) {
     for (const auto& [v, name] : names)
@@ -53,6 +61,14 @@ std::string_view to_string(job_state s) {
 }
 std::optional<job_state> parse_job_state(std::string_view s) {
     return value_of(state_names, s);
+}
+
+std::string_view to_string(job_wait w) {
+    return name_of(wait_names, w);
+}
+
+bool is_unbounded(job_wait w) {
+    return w != job_wait::timer;
 }
 
 bool is_terminal(job_state s) {

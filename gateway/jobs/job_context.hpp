@@ -14,6 +14,7 @@
 #include <exception>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -98,9 +99,17 @@ class job_context {
 
     // Cancellable waits.
     virtual boost::asio::awaitable<void> sleep(std::chrono::milliseconds duration) = 0;
+    // A planned wait (a dwell, a delay between tours, G04): sleep(), shown as waiting_for "timer"
+    // while it lasts when it is at least min_shown_timer. Polling uses sleep().
+    virtual boost::asio::awaitable<void> dwell(std::chrono::milliseconds duration) = 0;
     // Waits for the next advance of `source` (timer: returns at once). TTL edges and `next` calls
     // that arrive while no one waits are counted and consumed by the following waits (none is lost).
+    // Shown as waiting_for "ttl" / "next" while it waits.
     virtual boost::asio::awaitable<void> wait_advance(advance_source source) = 0;
+    // What the run waits for, for a wait it does by other means (the controller follows TTL edges by
+    // itself and the run polls until it arrives); empty when that wait is over. Shown as
+    // progress.waiting_for; a change is published on jobs/<id>.
+    virtual void set_waiting(std::optional<job_wait> what) = 0;
 };
 
 // settings_before("TTL", "X"): the IN0 mode to put back.

@@ -183,15 +183,32 @@ net::awaitable<void> job_execution::sleep(std::chrono::milliseconds duration) {
     }
 }
 
+net::awaitable<void> job_execution::dwell(std::chrono::milliseconds duration) {
+    throw_if_stopped();
+    const bool shown = duration >= min_shown_timer;
+    if (shown) set_waiting(job_wait::timer);
+    co_await sleep(duration);
+    if (shown) set_waiting(std::nullopt);
+}
+
 net::awaitable<void> job_execution::wait_advance(advance_source source) {
     throw_if_stopped();
     if (source == advance_source::timer) co_return;
     auto& pending = source == advance_source::ttl ? ttl_pending_ : next_pending_;
+    // An advance that came before it was awaited is no wait.
+    const bool waits = pending == 0;
+    if (waits) set_waiting(source == advance_source::ttl ? job_wait::ttl : job_wait::next);
     while (pending == 0) {
         co_await wait_until(steady_clock::time_point::max());
         throw_if_stopped();
     }
     --pending;
+    if (waits) set_waiting(std::nullopt);
+}
+
+void job_execution::set_waiting(std::optional<job_wait> what) {
+    if (abandoned_) return;
+    if (auto h = host_.lock()) h->on_waiting(*job_, what);
 }
 
 void job_execution::cancel() {

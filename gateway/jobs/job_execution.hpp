@@ -61,6 +61,8 @@ class execution_host {
     virtual void on_emit(live_job& job, nlohmann::json event) = 0;
     // checkpoint() honoured a pause request: the job is paused now.
     virtual void on_paused(live_job& job) = 0;
+    // The run started or stopped waiting (job_context::set_waiting, wait_advance, dwell).
+    virtual void on_waiting(live_job& job, std::optional<job_wait> what) = 0;
     // The job's stored "step" events, oldest first.
     virtual std::vector<nlohmann::json> step_events(const live_job& job) const = 0;
     // plan_context::gcode_files.
@@ -94,7 +96,9 @@ class job_execution final : public job_context, public std::enable_shared_from_t
     boost::asio::awaitable<move_result> move(move_request request) override;
     boost::asio::awaitable<void> wait_idle(std::chrono::milliseconds timeout) override;
     boost::asio::awaitable<void> sleep(std::chrono::milliseconds duration) override;
+    boost::asio::awaitable<void> dwell(std::chrono::milliseconds duration) override;
     boost::asio::awaitable<void> wait_advance(advance_source source) override;
+    void set_waiting(std::optional<job_wait> what) override;
 
     // From the manager (strand).
     void cancel();                     // every await from now on throws job_cancelled

@@ -41,6 +41,18 @@ json remaining_of(const job_record& job) {
     return rounded(std::max(0.0, *job.progress.remaining_s), 1000);
 }
 
+// Only a queued, running or paused job waits for anything; only a running one has an end to expect.
+json waiting_of(const job_record& job) {
+    const auto& w = job.progress.waiting_for;
+    const bool active =
+        job.state == job_state::queued || job.state == job_state::running || job.state == job_state::paused;
+    return active && w ? json(std::string(to_string(*w))) : json(nullptr);
+}
+
+json eta_of(const job_record& job) {
+    return job.state == job_state::running ? optional_time(job.progress.eta) : json(nullptr);
+}
+
 }  // namespace
 
 json to_json(const position_um& p) {
@@ -56,6 +68,7 @@ json to_json(const job_record& job, job_clock::time_point now) {
         {"steps_done", p.steps_done},        {"steps_total", p.steps_total},
         {"percent", percent_of(job)},        {"current_step", p.current_step},
         {"elapsed_s", elapsed_of(job, now)}, {"remaining_s", remaining_of(job)},
+        {"waiting_for", waiting_of(job)},    {"eta", eta_of(job)},
     };
     return {
         {"id", job.id},
@@ -111,10 +124,9 @@ json dry_run_json(const std::string& controller, job_type type, const job_plan& 
 
 json state_event(const job_record& job, job_clock::time_point now) {
     // The record goes under "job": its own "type" (the job type) would clash with the event's.
-    return {{"type", "state"},
-            {"state", std::string(to_string(job.state))},
-            {"reason", job.reason},
-            {"job", to_json(job, now)}};
+    return {{"type", "state"},      {"state", std::string(to_string(job.state))},
+            {"reason", job.reason}, {"waiting_for", waiting_of(job)},
+            {"eta", eta_of(job)},   {"job", to_json(job, now)}};
 }
 
 json step_event(const job_record& job, std::size_t index, const std::string& name, const json& detail,
@@ -130,6 +142,9 @@ json step_event(const job_record& job, std::size_t index, const std::string& nam
     e["percent"] = percent_of(job);
     e["remaining_s"] = remaining_of(job);
     e["elapsed_s"] = elapsed_of(job, now);
+    e["waiting_for"] = waiting_of(job);
+    e["eta"] = eta_of(job);
+    e["at"] = format_timestamp(now);
     return e;
 }
 

@@ -52,14 +52,25 @@ constexpr std::chrono::milliseconds shutdown_grace{5000};
 // How often writes that the job store refused are tried again.
 constexpr std::chrono::milliseconds store_retry_interval{1000};
 
-// Seconds the steps from `first` on still need; empty when one of them waits for a trigger.
-std::optional<double> remaining_from(const job_plan& plan, std::size_t first) {
+// Seconds the steps from `first` on still need: their motion, settle and dwell estimates. A step that
+// waits for a trigger counts without its wait, which no one can predict (waiting_for shows it).
+double remaining_from(const job_plan& plan, std::size_t first) {
     double s = 0;
-    for (std::size_t i = first; i < plan.steps.size(); ++i) {
-        if (plan.steps[i].waits_for_trigger) return std::nullopt;
+    for (std::size_t i = first; i < plan.steps.size(); ++i)
         s += plan.steps[i].estimated_s;
-    }
     return s;
+}
+
+// progress.eta from remaining_s as of `now`: only a running job that waits for nothing unbounded has an
+// end to expect.
+void estimate_end(job_record& r, job_clock::time_point now) {
+    auto& p = r.progress;
+    const bool predictable =
+        r.state == job_state::running && p.remaining_s && !(p.waiting_for && is_unbounded(*p.waiting_for));
+    p.eta.reset();
+    if (predictable)
+        p.eta = now + std::chrono::duration_cast<job_clock::duration>(
+                          std::chrono::duration<double>(std::max(0.0, *p.remaining_s)));
 }
 
 // gcode_file_store's directory (api/server.cpp makes the API's store on the same one).
@@ -140,6 +151,7 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void on_step_done(live_job& job, std::size_t index, json detail) override;
     void on_emit(live_job& job, json event) override;
     void on_paused(live_job& job) override;
+    void on_waiting(live_job& job, std::optional<job_wait> what) override;
     std::vector<json> step_events(const live_job& job) const override;
     std::filesystem::path gcode_files() const override { return gcode_files_directory(settings_); }
     void on_restore_commands_changed(live_job& job) override;
@@ -185,8 +197,15 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void submit_planned(submit_request r, job_manager::handler<submit_result> h, motion_model model);
     void plan_again(std::shared_ptr<live_job> job, std::function<void(operation_result<void>)> done);
 
-    // Changes the state, persists it (transition) and publishes {"type":"state",...}.
-    void set_state(live_job& job, job_state s, std::string reason);
+    // Changes the state, persists it (transition) and publishes {"type":"state",...}. `waiting`: what
+    // the job waits for in its new state (a run sets its own waits: on_waiting).
+    void set_state(live_job& job, job_state s, std::string reason,
+                   std::optional<job_wait> waiting = std::nullopt);
+    // Changes progress.waiting_for (and eta: unknown from the start of an unbounded wait, estimated again
+    // at its end) and publishes it as a state event; nothing when it is the same.
+    void set_waiting(live_job& job, std::optional<job_wait> what);
+    // A job queued on `controller` now waits for it when another job holds it or is queued before it.
+    std::optional<job_wait> queue_wait(const std::string& controller) const;
     // Stores the job's record (state, progress, a transition) and/or one of its events, in one
     // transaction, behind the job's writes that the store refused before (store_write).
     void save(const std::string& id, std::optional<job_record> record, const json& event);
@@ -424,9 +443,16 @@ void manager_core::retry_unstored_later() {
         std::vector<std::string> ids;
         for (const auto& [id, history] : self->unstored_)
             ids.push_back(id);
-        for (const auto& id : ids)
-            if (auto stored = self->write_unstored(id); !stored)
+        for (const auto& id : ids) {
+            if (auto stored = self->write_unstored(id); !stored) {
                 self->unstored_[id].error = stored.error().message;
+                continue;
+            }
+            // A job paused for its history waits for a client's resume now, which is possible again.
+            auto job = self->jobs_.find(id);
+            if (job != self->jobs_.end() && job->second->record.progress.waiting_for == job_wait::storage)
+                self->set_waiting(*job->second, std::nullopt);
+        }
         if (!self->unstored_.empty()) self->retry_unstored_later();
     });
 }
@@ -446,7 +472,8 @@ void manager_core::publish(const job_record& job, const json& event) {
     if (is_terminal(job.state)) hub_->retire_topic(job_topic(job.id), settings_.ended_job_topic_ttl);
 }
 
-void manager_core::set_state(live_job& job, job_state s, std::string reason) {
+void manager_core::set_state(live_job& job, job_state s, std::string reason,
+                             std::optional<job_wait> waiting) {
     if (abandoned_) return;
     auto& r = job.record;
     const auto now = job_clock::now();
@@ -456,12 +483,40 @@ void manager_core::set_state(live_job& job, job_state s, std::string reason) {
     if (s == job_state::running && !r.started) r.started = now;
     if (is_terminal(s)) r.finished = now;
     if (s == job_state::succeeded) r.progress.remaining_s = 0.0;
+    r.progress.waiting_for = waiting;
+    estimate_end(r, now);
     const auto event = state_event(r, now);
     save(r.id, r, event);
     publish(r, event);
     log_->info("job {} ({} on {}): {}{}{}", r.id, to_string(r.type), r.controller, to_string(s),
                r.reason.empty() ? "" : ": ", r.reason);
     if (is_terminal(s)) jobs_.erase(r.id);
+}
+
+void manager_core::set_waiting(live_job& job, std::optional<job_wait> what) {
+    auto& r = job.record;
+    auto& p = r.progress;
+    if (abandoned_ || p.waiting_for == what) return;
+    // A run reports its waits while running; once stopped, set_state has said what it waits for.
+    if (r.state != job_state::running && what != std::nullopt) return;
+    const auto now = job_clock::now();
+    const bool was_unbounded = p.waiting_for && is_unbounded(*p.waiting_for);
+    const bool unbounded = what && is_unbounded(*what);
+    p.waiting_for = what;
+    r.updated = now;
+    // A timer is part of the step's estimate: the eta from the last step still holds.
+    if (was_unbounded != unbounded) estimate_end(r, now);
+    const auto event = state_event(r, now);
+    save(r.id, r, event);
+    publish(r, event);
+}
+
+std::optional<job_wait> manager_core::queue_wait(const std::string& controller) const {
+    auto it = lanes_.find(controller);
+    if (it == lanes_.end()) return std::nullopt;
+    const auto& l = it->second;
+    if (l.holder.empty() && l.queue.empty() && !l.dispatching) return std::nullopt;
+    return job_wait::controller;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -481,9 +536,19 @@ operation_result<job_record> manager_core::get(const std::string& id) const {
 }
 
 operation_result<job_page> manager_core::list(const job_filter& f) const {
-    std::lock_guard lock(store_mutex_);
-    if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
-    return store_->list(f);
+    operation_result<job_page> page = job_page{};
+    {
+        std::lock_guard lock(store_mutex_);
+        if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
+        page = store_->list(f);
+    }
+    if (!page) return page;
+    // Active jobs as get() shows them: with what they wait for and their eta (which the store does not
+    // keep), and their latest progress.
+    std::lock_guard lock(records_mutex_);
+    for (auto& j : page->jobs)
+        if (auto it = live_records_.find(j.id); it != live_records_.end()) j = it->second;
+    return page;
 }
 
 operation_result<std::vector<json>> manager_core::events(const std::string& id, std::size_t limit) const {
@@ -553,6 +618,8 @@ void manager_core::start() {
             const auto id = job->record.id;
             const auto controller = job->record.controller;
             self->jobs_[id] = job;
+            // Queued again, it waits for its controller (the first one starts at once); kept, for a resume.
+            if (self->settings_.restart_queued) job->record.progress.waiting_for = job_wait::controller;
             {
                 std::lock_guard lock(self->records_mutex_);
                 self->live_records_[id] = job->record;
@@ -727,6 +794,7 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
             std::move(h), make_error(kind::queue_full, fmt::format("{} already has {} queued jobs",
                                                                    r.controller, l.queue.size())));
     rec.id = make_job_id();
+    rec.progress.waiting_for = queue_wait(r.controller);
     // Stored with the job, in one transaction: a store that cannot take the job's history refuses the
     // job, rather than letting it run unrecorded.
     const auto queued_event = state_event(rec, now);
@@ -883,8 +951,9 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
         set_state(*job, job_state::cancelled, "cancelled");
         release(controller, id);
     } else if (disconnected) {
-        // The job keeps the controller: resume continues from the last completed step.
-        set_state(*job, job_state::paused, "controller disconnected: " + failure);
+        // The job keeps the controller: resume continues from the last completed step, once it is back.
+        set_state(*job, job_state::paused, "controller disconnected: " + failure,
+                  controller_connected(controller) ? std::nullopt : std::optional(job_wait::controller));
         const auto& r = job->restore_commands;
         if (std::find(r.begin(), r.end(), "TTL Y=0") != r.end()) {
             job->ttl_low_on_reconnect = true;
@@ -1146,9 +1215,11 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
             job->exec->resume();
             return self->deliver<job_record>(std::move(h), job->record);
         }
-        self->set_state(*job, job_state::queued, "");
+        const bool goes_first = l.holder == a.job_id;
+        self->set_state(*job, job_state::queued, "",
+                        goes_first ? std::nullopt : self->queue_wait(controller));
         job->queued_in_lane = true;
-        if (l.holder == a.job_id) {
+        if (goes_first) {
             // It kept the controller while paused (a disconnect): it goes first.
             l.holder.clear();
             l.queue.push_front(a.job_id);
@@ -1175,6 +1246,8 @@ void manager_core::next(job_action a, job_manager::handler<job_record> h) {
                                                      to_string(job->record.state)),
                                          "state"));
         job->exec->next();
+        // The answer shows the wait over: the run takes this call as soon as it is back on the strand.
+        if (job->record.progress.waiting_for == job_wait::next) self->set_waiting(*job, std::nullopt);
         self->deliver<job_record>(std::move(h), job->record);
     });
 }
@@ -1199,7 +1272,11 @@ void manager_core::controller_reconnected(const std::string& controller) {
         auto it = self->lanes_.find(controller);
         if (it == self->lanes_.end() || it->second.holder.empty()) return;
         auto job = self->jobs_.find(it->second.holder);
-        if (job == self->jobs_.end() || !job->second->ttl_low_on_reconnect) return;
+        if (job == self->jobs_.end()) return;
+        // Paused by the disconnect: it waits for a client's resume now, which is possible again.
+        if (job->second->record.progress.waiting_for == job_wait::controller)
+            self->set_waiting(*job->second, std::nullopt);
+        if (!job->second->ttl_low_on_reconnect) return;
         self->ttl_low_after_disconnect(job->second);
     });
 }
@@ -1436,6 +1513,7 @@ void manager_core::on_step_done(live_job& job, std::size_t index, json detail) {
     p.steps_done = std::max(p.steps_done, std::min(index + 1, job.plan->steps.size()));
     p.current_step = name;
     p.remaining_s = remaining_from(*job.plan, index + 1);
+    estimate_end(job.record, now);
     job.record.updated = now;
     const auto event = step_event(job.record, index, name, detail, now);
     save(job.record.id, job.record, event);
@@ -1470,8 +1548,12 @@ void manager_core::on_restore_commands_changed(live_job& job) {
 }
 
 void manager_core::on_paused(live_job& job) {
-    set_state(job, job_state::paused,
-              job.storage_failure.empty() ? "paused" : "storage unavailable: " + job.storage_failure);
+    if (job.storage_failure.empty()) return set_state(job, job_state::paused, "paused");
+    set_state(job, job_state::paused, "storage unavailable: " + job.storage_failure, job_wait::storage);
+}
+
+void manager_core::on_waiting(live_job& job, std::optional<job_wait> what) {
+    set_waiting(job, what);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -385,7 +385,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
             co_await ctx.checkpoint();
             const std::size_t slot = tour == first_tour ? first_slot : 0;
             if (tour != first_tour) {
-                co_await ctx.sleep(milliseconds(static_cast<long long>(spec.delay_ms)));
+                co_await ctx.dwell(milliseconds(static_cast<long long>(spec.delay_ms)));
                 co_await ctx.command(pointer_command(0));
             }
             ctx.step_started(spec.forever() ? slot : tour * n + slot);
@@ -406,7 +406,10 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
         co_await ctx.command("TTL X=1");
         if (spec.trigger == trigger_kind::ttl) {
             ctx.step_started(base + slot);
+            // The controller steps on each edge by itself; the run follows it, waiting for the edges.
+            ctx.set_waiting(job_wait::ttl);
             co_await follow(ctx, u, {spec.forever() ? 0 : static_cast<int>(tour), slot, false, false});
+            ctx.set_waiting(std::nullopt);
         } else {
             for (std::size_t k = slot; k < n; ++k) {
                 if (k != slot) co_await ctx.checkpoint();
@@ -437,7 +440,7 @@ boost::asio::awaitable<void> run_host(job_context& ctx, const rb_setup& u) {
             if (spec.trigger == trigger_kind::ttl) co_await ctx.wait_advance(advance_source::ttl);
             if (spec.trigger == trigger_kind::next) co_await ctx.wait_advance(advance_source::next);
             if (spec.trigger == trigger_kind::autoplay && moved)
-                co_await ctx.sleep(milliseconds(static_cast<long long>(spec.delay_ms)));
+                co_await ctx.dwell(milliseconds(static_cast<long long>(spec.delay_ms)));
             move_request request;
             request.wait = true;
             for (char a : u.hardware_axes)

@@ -426,6 +426,49 @@ def test_auth(c):
     check(r.status == 200, "health is public")
 
 
+def test_whoami(c):
+    for role, token in TOKENS.items():
+        r = c.request("GET", "/api/v1/whoami", token=token)
+        check(r.status == 200 and r.json() == {"client": role + "1", "role": role, "auth": "token"},
+              f"whoami as {role}: {r.status} {r.body}")
+    c.problem("GET", "/api/v1/whoami", 401, "unauthorized")
+    c.problem("GET", "/api/v1/whoami", 401, "unauthorized", token="not-a-token-0123456789")
+    c.problem("POST", "/api/v1/whoami", 405, "method-not-allowed", token=TOKENS["viewer"])
+
+
+def test_whoami_without_tokens(gateway, tmp, contract):
+    """A gateway without tokens (loopback only): every client is admin, with or without a token."""
+    port = free_port()
+    cfg = os.path.join(tmp, "open.json")
+    with open(cfg, "w") as f:
+        json.dump({"http": {"listen_address": "127.0.0.1", "port": port}, "simulate": {"count": 0},
+                   "storage": {"path": os.path.join(tmp, "open-store")}}, f)
+    log = open(os.path.join(tmp, "open.log"), "w")
+    p = subprocess.Popen([gateway, "--config", cfg], stdout=log, stderr=subprocess.STDOUT)
+    try:
+        c = Client(port, contract)
+
+        def up():
+            check(p.poll() is None, f"the gateway without tokens exited with {p.returncode}")
+            try:
+                return c.request("GET", "/api/v1/health").status == 200
+            except OSError:
+                return False
+
+        wait_until("the gateway without tokens", up)
+        for token in (None, "any-token-at-all-0123"):
+            r = c.request("GET", "/api/v1/whoami", token=token)
+            check(r.status == 200 and r.json() == {"client": None, "role": "admin", "auth": "none"},
+                  f"whoami without tokens ({token}): {r.status} {r.body}")
+    finally:
+        p.terminate()
+        try:
+            p.wait(timeout=WAIT)
+        except subprocess.TimeoutExpired:
+            p.kill()
+        log.close()
+
+
 def test_request_ids(c):
     r = c.request("POST", "/api/v1/controllers/sim2/halt", token=TOKENS["operator"],
                   headers={"X-Request-Id": "client-id-42"})
@@ -651,6 +694,8 @@ def main():
         run("a slow operation does not block others", test_slow_operation_does_not_block_others, c)
         run("error kinds", test_errors, c)
         run("auth roles", test_auth, c)
+        run("whoami", test_whoami, c)
+        run("whoami without tokens", test_whoami_without_tokens, args.gateway, fx.tmp, contract)
         run("request ids", test_request_ids, c)
         run("unplug (503) and timeout (504)", test_unplug_and_timeout, c, control)
         run("metrics", test_metrics, c)

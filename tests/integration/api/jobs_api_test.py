@@ -18,6 +18,7 @@ Exit code 0 when every check passed; the failures are listed otherwise.
 """
 
 import argparse
+import datetime
 import os
 import sqlite3
 import sys
@@ -76,7 +77,13 @@ def wait_state(c, job_id, states, timeout=JOB_WAIT):
 
 
 def waiting_for_next(job):
-    return job["state"] == "running" and job["progress"]["remaining_s"] is None
+    return job["state"] == "running" and job["progress"]["waiting_for"] == "next"
+
+
+def epoch_s(timestamp):
+    """Seconds since the epoch of a gateway timestamp ("2026-11-22T05:30:00.123Z")."""
+    t = datetime.datetime.strptime(timestamp, "%Y-%m-%dT%H:%M:%S.%fZ")
+    return t.replace(tzinfo=datetime.timezone.utc).timestamp()
 
 
 def run_to_end(c, job_id, cancel_after_steps=None, timeout=JOB_WAIT):
@@ -397,6 +404,54 @@ def test_cancel_pause_resume_next(c):
     c.problem("POST", "/api/v1/jobs/j-01NOSUCHJOB0000000000000000/cancel", 404, "unknown-job", token=OP)
 
 
+def test_waiting_for_and_eta(c):
+    """A job that waits for `next` says so (waiting_for), keeps the motion ahead in remaining_s and has no
+    eta; a `next` gives it an eta of now + remaining_s; the waits are events on its history; the list
+    filters by controller and state and shows the same; an ended job has neither."""
+    job = submit(c, job_body("sim2", "array", {"grid": {"columns": 3, "rows": 1, "column_step_mm": 2,
+                                                        "row_step_mm": -1},
+                                               "a1": {"X": 0, "Y": 0}, "advance": "next", "mode": "host"})).json()
+    jid = job["id"]
+    check(job["progress"]["remaining_s"] is not None and job["progress"]["remaining_s"] > 0,
+          f"a next-advance job has its motion estimated from the start: {job['progress']}")
+    j = wait_until("the job to wait for next", lambda: (lambda j: j if waiting_for_next(j) else None)(get_job(c, jid)))
+    p = j["progress"]
+    check(j["reason"] == "" and p["steps_done"] == 1, f"waiting job {j['state']} {j['reason']!r} {p}")
+    check(p["remaining_s"] is not None and p["remaining_s"] > 0, f"the two moves ahead are in remaining_s: {p}")
+    check(p["eta"] is None, f"no eta while waiting for next: {p}")
+    # Filters: controller and state together; the listed job is the one GET shows.
+    listed = c.request("GET", "/api/v1/jobs?controller=sim2&state=running", token=VIEW).json()["jobs"]
+    check([x["id"] for x in listed] == [jid], f"controller+state filter: {[x['id'] for x in listed]}")
+    check(listed[0]["progress"]["waiting_for"] == "next", f"the list shows the wait: {listed[0]['progress']}")
+    other = c.request("GET", "/api/v1/jobs?controller=sim3&state=running", token=VIEW).json()["jobs"]
+    check(jid not in [x["id"] for x in other], "another controller's filter lists it")
+    before = time.time()
+    r = control(c, jid, "next").json()
+    after = time.time()
+    check(r["progress"]["waiting_for"] is None and r["progress"]["eta"] is not None,
+          f"after next: waiting_for {r['progress']['waiting_for']}, eta {r['progress']['eta']}")
+    eta = epoch_s(r["progress"]["eta"])
+    ahead = p["remaining_s"]
+    check(before + ahead - 0.5 <= eta <= after + ahead + 0.5,
+          f"eta {r['progress']['eta']} is not now + {ahead} s (asked at {before:.3f}..{after:.3f})")
+    final = run_to_end(c, jid)
+    check(final["state"] == "succeeded", f"ended {final['state']}: {final['reason']}")
+    check(final["progress"]["waiting_for"] is None and final["progress"]["eta"] is None
+          and final["progress"]["remaining_s"] == 0, f"an ended job: {final['progress']}")
+    # The history: every wait and its end as a state event; steps with what a plate map shows.
+    events = c.request("GET", f"/api/v1/jobs/{jid}/events", token=VIEW).json()["events"]
+    waits = [e for e in events if e["type"] == "state" and e.get("waiting_for") == "next"]
+    check(len(waits) == 2 and all(e["state"] == "running" and e["eta"] is None for e in waits),
+          f"two next waits in the history: {[(e['type'], e.get('state'), e.get('waiting_for')) for e in events]}")
+    steps = [e for e in events if e["type"] == "step"]
+    check([s["well"] for s in steps] == ["A1", "A2", "A3"], f"wells {[s.get('well') for s in steps]}")
+    for s, x in zip(steps, (0, 2000, 4000)):
+        check(abs(s["target"]["X"] - x) < 0.01 and abs(s["target"]["Y"]) < 0.01, f"target of {s['well']}: {s}")
+        check(abs(s["position"]["X"] - x) <= 1 and abs(s["position"]["Y"]) <= 1, f"measured {s['well']}: {s}")
+        check(before - 60 < epoch_s(s["at"]) < time.time() + 1, f"at of {s['well']}: {s['at']}")
+    check([epoch_s(s["at"]) for s in steps] == sorted(epoch_s(s["at"]) for s in steps), "steps in time order")
+
+
 def test_bad_inputs(c):
     ok = small_next_array("sim2", 2)
     c.problem("POST", "/api/v1/jobs", 400, "malformed-json", raw_body=b'{"controller": ', token=OP,
@@ -677,6 +732,7 @@ def main():
         run("leases", test_leases, c)
         run("a lease waits for earlier jobs", test_lease_waits_for_earlier_jobs, c)
         run("cancel, pause, resume, next", test_cancel_pause_resume_next, c)
+        run("waiting_for and eta", test_waiting_for_and_eta, c)
         run("websocket job commands and events", test_websocket, c, port)
         run("every openapi example (dry run and real run)", test_examples, c, contract, results,
             set(filter(None, args.skip_examples.split(","))))

@@ -258,6 +258,7 @@ def test_protocol_errors(port):
     c = WsClient(port, TOKENS["viewer"], "errors")
     hello = c.hello
     check(hello["role"] == "viewer" and hello["user"] == "viewer1", f"hello {hello}")
+    check(hello["client"] == "viewer1" and hello["auth"] == "token", f"hello as GET /api/v1/whoami: {hello}")
     check(hello["connection"].startswith("ws-") and hello["max_message_bytes"] > 0, f"hello {hello}")
     cases = [
         ("{not json", None, 400, "malformed-json", None),

@@ -355,7 +355,10 @@ TEST_F(array_run_test, ttl_advance_firmware_with_ttl_report) {
     const auto id = submitted->job.id;
     EXPECT_EQ(submitted->job.plan_path, "firmware");
     ASSERT_TRUE(wait_steps(id, 1));
-    EXPECT_FALSE(job(id)->progress.remaining_s);  // waits for an edge: unpredictable
+    // It waits for an edge, which no one can predict: shown apart from the motion still ahead.
+    ASSERT_TRUE(wait_until([&] { return job(id)->progress.waiting_for == job_wait::ttl; }));
+    EXPECT_GT(job(id)->progress.remaining_s.value_or(0), 0);
+    EXPECT_FALSE(job(id)->progress.eta);
     for (std::size_t n = 2; n <= 6; ++n) {
         sim->ttl_pulse();
         ASSERT_TRUE(wait_steps(id, n));
@@ -377,6 +380,8 @@ TEST_F(array_run_test, ttl_advance_firmware_controller_steps_itself) {
     const auto id = submitted->job.id;
     EXPECT_EQ(submitted->job.plan_path, "firmware");
     ASSERT_TRUE(wait_steps(id, 1));
+    // The gateway polls while the controller waits for the edge: the job still shows it waits for one.
+    ASSERT_TRUE(wait_until([&] { return job(id)->progress.waiting_for == job_wait::ttl; }));
     for (std::size_t n = 2; n <= 6; ++n) {
         sim->ttl_pulse();
         ASSERT_TRUE(wait_steps(id, n));

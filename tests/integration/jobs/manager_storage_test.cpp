@@ -70,11 +70,13 @@ class manager_storage_failure_test : public manager_fixture {
         return out;
     }
 
-    // "state:reason" of the stored state events, in stored order.
+    // The states of the stored state events, in stored order; a state event that repeats the state
+    // (waiting_for changed: a `next` wait, the store back) counts once.
     std::vector<std::string> stored_states(const std::string& id) {
         std::vector<std::string> out;
         for (const auto& e : stored_events(id))
-            if (e.value("type", "") == "state") out.push_back(e.value("state", ""));
+            if (e.value("type", "") == "state" && (out.empty() || out.back() != e.value("state", "")))
+                out.push_back(e.value("state", ""));
         return out;
     }
 
@@ -228,6 +230,7 @@ TEST_F(manager_failing_writes_test, a_running_job_pauses_when_writes_fail_and_re
     auto j = job(id);
     EXPECT_EQ(j->progress.steps_done, 2u);
     EXPECT_EQ(j->reason.rfind("storage unavailable: ", 0), 0u) << j->reason;
+    EXPECT_EQ(j->progress.waiting_for, job_wait::storage);
     EXPECT_EQ(moves_of(id), 2u);
     expect_silence(id);
     auto refused = resume(id);
@@ -237,6 +240,15 @@ TEST_F(manager_failing_writes_test, a_running_job_pauses_when_writes_fail_and_re
     EXPECT_EQ(stored_steps(id), all_steps(1));
 
     vfs_.fail_writes(0);
+    // The retry stores the history: the job waits for a client's resume now, and says so on its topic.
+    ASSERT_TRUE(wait_until([&] { return !job(id)->progress.waiting_for; }, 10s)) << "still waits for the store";
+    EXPECT_EQ(job(id)->state, job_state::paused);
+    EXPECT_EQ(stored_steps(id), all_steps(2));
+    ASSERT_TRUE(wait_until([&] {
+        const auto events = sink_->of(id);
+        return !events.empty() && events.back().value("state", "") == "paused" &&
+               events.back()["waiting_for"].is_null();
+    })) << "no event for the end of the wait";
     ASSERT_TRUE(resume(id));
     finish(id, wells);
     EXPECT_EQ(moves_of(id), wells);

@@ -229,9 +229,14 @@ TEST(websocket_protocol, request_ids_name_connection_and_client_id) {
 }
 
 TEST(websocket_protocol, hello) {
-    EXPECT_EQ(json::parse(ws_hello_message("ws-1", "anonymous", "admin", 65536)),
+    const json open = {{"client", nullptr}, {"role", "admin"}, {"auth", "none"}};
+    EXPECT_EQ(json::parse(ws_hello_message("ws-1", "anonymous", open, 65536)),
               json::parse(R"({"type":"hello","connection":"ws-1","user":"anonymous","role":"admin",
-                              "max_message_bytes":65536})"));
+                              "client":null,"auth":"none","max_message_bytes":65536})"));
+    const json token = {{"client", "viewer1"}, {"role", "viewer"}, {"auth", "token"}};
+    EXPECT_EQ(json::parse(ws_hello_message("ws-2", "viewer1", token, 65536)),
+              json::parse(R"({"type":"hello","connection":"ws-2","user":"viewer1","role":"viewer",
+                              "client":"viewer1","auth":"token","max_message_bytes":65536})"));
 }
 
 TEST(websocket_protocol, result_wraps_the_rest_body) {

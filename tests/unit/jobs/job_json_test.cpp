@@ -60,6 +60,42 @@ TEST(job_json, a_running_job_has_every_field_of_the_contract) {
     EXPECT_EQ(j["started"], "2026-11-22T05:30:01.123Z");
     EXPECT_TRUE(j["finished"].is_null());
     EXPECT_EQ(j["updated"], "2026-11-22T05:30:05.123Z");
+    EXPECT_TRUE(j["progress"]["waiting_for"].is_null());
+    EXPECT_TRUE(j["progress"]["eta"].is_null()) << "no eta estimated";
+}
+
+TEST(job_json, waiting_for_and_eta_show_only_while_they_mean_something) {
+    struct row {
+        const char* what;
+        job_state state;
+        std::optional<job_wait> waiting;
+        json waiting_json, eta_json;
+    };
+    const row rows[] = {
+        {"running, moving", job_state::running, std::nullopt, nullptr, "2026-11-22T05:31:20.623Z"},
+        {"running, waits for next", job_state::running, job_wait::next, "next", "2026-11-22T05:31:20.623Z"},
+        {"running, dwells", job_state::running, job_wait::timer, "timer", "2026-11-22T05:31:20.623Z"},
+        {"running, waits for an edge", job_state::running, job_wait::ttl, "ttl", "2026-11-22T05:31:20.623Z"},
+        {"queued behind another job", job_state::queued, job_wait::controller, "controller", nullptr},
+        {"paused, disconnected", job_state::paused, job_wait::controller, "controller", nullptr},
+        {"paused, store refuses", job_state::paused, job_wait::storage, "storage", nullptr},
+        {"ended: no wait, no eta", job_state::succeeded, job_wait::next, nullptr, nullptr},
+        {"cancelled", job_state::cancelled, job_wait::timer, nullptr, nullptr},
+        {"interrupted", job_state::interrupted, job_wait::controller, nullptr, nullptr},
+    };
+    for (const auto& r : rows) {
+        auto job = running_job();
+        job.state = r.state;
+        job.progress.waiting_for = r.waiting;
+        job.progress.eta = at(80500ms);  // to_json shows it only while running
+        const auto p = to_json(job, at(11200ms))["progress"];
+        EXPECT_EQ(p["waiting_for"], r.waiting_json) << r.what;
+        EXPECT_EQ(p["eta"], r.eta_json) << r.what;
+    }
+    EXPECT_EQ(to_string(job_wait::storage), "storage");
+    EXPECT_FALSE(is_unbounded(job_wait::timer));
+    for (auto w : {job_wait::next, job_wait::ttl, job_wait::controller, job_wait::storage})
+        EXPECT_TRUE(is_unbounded(w)) << to_string(w);
 }
 
 TEST(job_json, elapsed_remaining_and_percent_follow_the_state) {
@@ -143,10 +179,22 @@ TEST(job_json, events_carry_the_type_and_the_progress) {
     EXPECT_EQ(state["reason"], "");
     EXPECT_EQ(state["job"], to_json(job, at(11200ms)));
     EXPECT_EQ(state["job"]["type"], "array");
+    EXPECT_TRUE(state["waiting_for"].is_null());
+    EXPECT_TRUE(state["eta"].is_null());
+    auto waiting = job;
+    waiting.progress.waiting_for = job_wait::next;
+    waiting.progress.eta = at(80500ms);
+    const auto waits = state_event(waiting, at(11200ms));
+    EXPECT_EQ(waits["waiting_for"], "next");
+    EXPECT_EQ(waits["eta"], "2026-11-22T05:31:20.623Z");
+    EXPECT_EQ(waits["job"]["progress"]["waiting_for"], "next");
 
     // The detail adds fields; it cannot override the manager's.
-    const auto step =
-        step_event(job, 11, "B1", {{"well", "B1"}, {"position", {{"X", 1.0}}}, {"index", 99}}, at(11200ms));
+    auto stepped = job;
+    stepped.progress.eta = at(81323ms);
+    const auto step = step_event(
+        stepped, 11, "B1", {{"well", "B1"}, {"position", {{"X", 1.0}}}, {"index", 99}, {"at", "then"}},
+        at(11200ms));
     EXPECT_EQ(step["type"], "step");
     EXPECT_EQ(step["index"], 11);
     EXPECT_EQ(step["name"], "B1");
@@ -156,6 +204,9 @@ TEST(job_json, events_carry_the_type_and_the_progress) {
     EXPECT_EQ(step["steps_total"], 96);
     EXPECT_DOUBLE_EQ(step["percent"].get<double>(), 12.5);
     EXPECT_DOUBLE_EQ(step["remaining_s"].get<double>(), 70.123);
+    EXPECT_TRUE(step["waiting_for"].is_null());
+    EXPECT_EQ(step["eta"], "2026-11-22T05:31:21.446Z");
+    EXPECT_EQ(step["at"], "2026-11-22T05:30:11.323Z") << "when the step ended, not the detail's";
     EXPECT_EQ(job_topic(job.id), "jobs/j-01JD0000000000000000000000");
 }
 

@@ -92,10 +92,13 @@ TEST(mqtt_payloads, job_state_follows_state_and_step_events) {
         R"({"type":"state","state":"running","reason":"","job":{"id":"j-1","state":"running","progress":{"steps_done":0,"steps_total":4}}})")));
     EXPECT_FALSE(s.terminal());
     ASSERT_TRUE(s.apply(json::parse(
-        R"({"type":"step","index":0,"name":"well A1","steps_done":1,"steps_total":4,"percent":25.0,"remaining_s":3.0,"elapsed_s":1.0})")));
+        R"({"type":"step","index":0,"name":"well A1","steps_done":1,"steps_total":4,"percent":25.0,"remaining_s":3.0,"elapsed_s":1.0,"waiting_for":null,"eta":"2026-11-22T05:30:04.000Z","at":"2026-11-22T05:30:01.000Z"})")));
     EXPECT_EQ(s.job()["progress"]["steps_done"], 1);
     EXPECT_EQ(s.job()["progress"]["current_step"], "well A1");
     EXPECT_EQ(s.job()["progress"]["percent"], 25.0);
+    EXPECT_EQ(s.job()["progress"]["eta"], "2026-11-22T05:30:04.000Z");
+    EXPECT_TRUE(s.job()["progress"]["waiting_for"].is_null());
+    EXPECT_FALSE(s.job()["progress"].contains("at")) << "the step's time is not the job's";
     EXPECT_FALSE(s.apply(json::parse(R"({"type":"other"})")));
     EXPECT_FALSE(s.apply(json::parse(R"([1,2])")));
     ASSERT_TRUE(s.apply(
