@@ -21,7 +21,6 @@ With --screenshot-dir, writes controller.png (the ext1 view with the chart runni
 Run by ctest with Debian's /usr/bin/python3 (python3-websockets). Skipped (exit 77) without chromium.
 """
 
-import argparse
 import asyncio
 import http.client
 import json
@@ -34,8 +33,10 @@ sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "integration", "api"))
+import browser_checks  # noqa: E402
+from browser_checks import lease_404, whoami_404  # noqa: E402
 from cdp import Browser, find_chromium  # noqa: E402
-from gateway_fixture import Failure, Fixture, check, free_port, wait_until  # noqa: E402
+from gateway_fixture import check, free_port, wait_until  # noqa: E402
 
 TIME_SCALE = 10
 
@@ -337,16 +338,7 @@ async def test_overview_card(b, port, ext1):
 
 
 def unexpected_console(entries):
-    out = []
-    for level, text, url in entries:
-        if level not in ("error", "assert", "exception"):
-            continue
-        if url.endswith("/lease") and "404" in (text or ""):
-            continue  # GET /api/v1/controllers/{id}/lease answers 404 for a free controller
-        if url.endswith("/api/v1/whoami") and "404" in (text or ""):
-            continue  # a gateway from before GET /api/v1/whoami: the page then shows everything
-        out.append((level, text, url))
-    return out
+    return browser_checks.unexpected_console(entries, lease_404, whoami_404)
 
 
 async def main_async(args, fx):
@@ -365,22 +357,10 @@ async def main_async(args, fx):
     }
     fx.start_gateway(args.gateway, config)
     b = Browser(chromium, os.path.join(fx.tmp, "profile"), free_port())
-    by_design = set()  # console entries the API causes on purpose (the 409s and 422 the tests provoke)
     try:
         await b.connect()
-
-        async def run(name, coro_fn, *a, expected=None):
-            first = len(b.console)
-            try:
-                await coro_fn(*a)
-                fx.passed.append(name)
-                print(f"[ OK ] {name}", flush=True)
-            except (Failure, AssertionError, RuntimeError, OSError, asyncio.TimeoutError, KeyError, TypeError) as e:
-                fx.failures.append((name, e))
-                print(f"[FAIL] {name}: {e}", flush=True)
-            if expected:
-                by_design.update(i for i in range(first, len(b.console)) if re.search(expected, b.console[i][1] or ""))
-
+        checks = browser_checks.Checks(fx, b, also_catch=(KeyError, TypeError))
+        run = checks.run
         started = time.monotonic()
         await run("the view shows the axes the controller has", test_axes, b, port)
         await run("a jog click moves the stage", test_jog, b, port)
@@ -398,37 +378,17 @@ async def main_async(args, fx):
         await run("a controller leased by someone else: the 409 next to the control", test_leased_by_other, b, port,
                   expected=r"status of 409")
         await run("overview card: running job, report count, link to the view", test_overview_card, b, port, ext1)
-        bad = unexpected_console([e for i, e in enumerate(b.console) if i not in by_design])
-        if bad:
-            fx.failures.append(("no console errors", Failure(f"{bad[:5]}")))
-            print(f"[FAIL] no console errors: {bad[:5]}")
-        else:
-            fx.passed.append("no console errors")
-            print(f"[ OK ] no console errors ({len(b.console)} console entries seen)")
+        # the console entries the API causes on purpose (the 409s and 422 the checks provoke) are left out
+        checks.console_check(unexpected_console([e for i, e in enumerate(b.console) if i not in checks.by_design]))
         print(f"browser checks took {time.monotonic() - started:.1f} s")
-        if os.environ.get("GW_BROWSER_TEST_VERBOSE"):
-            for e in b.console:
-                print("console:", e)
     finally:
         await b.close()
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--gateway", required=True)
-    ap.add_argument("--sim", required=True)
+    ap = browser_checks.parser()
     ap.add_argument("--screenshot-dir", help="write controller.png (the controller view) here")
-    args = ap.parse_args()
-    if not find_chromium():
-        print("chromium is not installed (scripts/install-deps --tests installs it): skipped")
-        return 77
-    fx = Fixture("gw-ctl-view-test-")
-    try:
-        asyncio.run(main_async(args, fx))
-        fx.finish_log(60)
-    finally:
-        fx.cleanup()
-    return fx.report()
+    return browser_checks.main(ap.parse_args(), main_async, "gw-ctl-view-test-")
 
 
 if __name__ == "__main__":

@@ -17,7 +17,6 @@ down; the 401s and the viewer's 403 of the token check). With --screenshot, writ
 Run by ctest with Debian's /usr/bin/python3 (python3-websockets). Skipped (exit 77) without chromium.
 """
 
-import argparse
 import asyncio
 import json
 import os
@@ -28,9 +27,10 @@ sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "integration", "api"))
+import browser_checks  # noqa: E402
+from browser_checks import lease_404  # noqa: E402
 from cdp import Browser, find_chromium  # noqa: E402
-from gateway_fixture import (TOKENS, Failure, Fixture, auth_tokens, check, free_port, http_request,  # noqa: E402
-                             wait_until)
+from gateway_fixture import TOKENS, auth_tokens, check, free_port, http_request, wait_until  # noqa: E402
 
 IDS = ["ext1", "sim1", "sim2", "sim3"]
 
@@ -203,14 +203,7 @@ async def test_tokens(b, fx, gateway):
 
 
 def unexpected_console(entries):
-    out = []
-    for level, text, url in entries:
-        if level not in ("error", "assert", "exception"):
-            continue
-        if url.endswith("/lease") and "404" in (text or ""):
-            continue  # GET /api/v1/controllers/{id}/lease answers 404 for a free controller
-        out.append((level, text, url))
-    return out
+    return browser_checks.unexpected_console(entries, lease_404)
 
 
 async def main_async(args, fx):
@@ -229,16 +222,8 @@ async def main_async(args, fx):
     b = Browser(chromium, os.path.join(fx.tmp, "profile"), free_port())
     try:
         await b.connect()
-
-        async def run(name, coro_fn, *a):
-            try:
-                await coro_fn(*a)
-                fx.passed.append(name)
-                print(f"[ OK ] {name}", flush=True)
-            except (Failure, AssertionError, RuntimeError, OSError, asyncio.TimeoutError) as e:
-                fx.failures.append((name, e))
-                print(f"[FAIL] {name}: {e}", flush=True)
-
+        checks = browser_checks.Checks(fx, b)
+        run = checks.run
         await run("overview: every controller connected with positions", test_overview, b, port)
         await run("a REST move shows on the page", test_rest_move_shows, b, port)
         await run("a jog click moves the stage", test_jog_click, b, port)
@@ -261,36 +246,15 @@ async def main_async(args, fx):
             if re.search(r"status of (401|403)", b.console[i][1] or ""):
                 restart_ids.add(i)
         console = [e for i, e in enumerate(b.console) if i not in restart_ids or "127.0.0.1" not in (e[1] or "") + e[2]]
-        bad = unexpected_console(console)
-        if bad:
-            fx.failures.append(("no console errors", Failure(f"{bad[:5]}")))
-            print(f"[FAIL] no console errors: {bad[:5]}")
-        else:
-            fx.passed.append("no console errors")
-            print(f"[ OK ] no console errors ({len(b.console)} console entries seen)")
-        if os.environ.get("GW_BROWSER_TEST_VERBOSE"):
-            for e in b.console:
-                print("console:", e)
+        checks.console_check(unexpected_console(console))
     finally:
         await b.close()
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--gateway", required=True)
-    ap.add_argument("--sim", required=True)
+    ap = browser_checks.parser()
     ap.add_argument("--screenshot", help="write a PNG of the overview here")
-    args = ap.parse_args()
-    if not find_chromium():
-        print("chromium is not installed (scripts/install-deps --tests installs it): skipped")
-        return 77
-    fx = Fixture("gw-browser-test-")
-    try:
-        asyncio.run(main_async(args, fx))
-        fx.finish_log(60)
-    finally:
-        fx.cleanup()
-    return fx.report()
+    return browser_checks.main(ap.parse_args(), main_async, "gw-browser-test-")
 
 
 if __name__ == "__main__":

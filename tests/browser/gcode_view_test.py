@@ -20,7 +20,6 @@ Run by ctest with Debian's /usr/bin/python3 (python3-websockets, python3-yaml). 
 without chromium.
 """
 
-import argparse
 import asyncio
 import http.client
 import json
@@ -36,8 +35,9 @@ sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "integration", "api"))
+import browser_checks  # noqa: E402
 from cdp import Browser, find_chromium  # noqa: E402
-from gateway_fixture import Failure, Fixture, check, free_port, http_request, wait_until  # noqa: E402
+from gateway_fixture import check, free_port, http_request, wait_until  # noqa: E402
 
 # A 4 x 5 mm rectangle from (1, 1) with its upper right corner rounded (a quarter circle of radius 2):
 # the TTL output is on along the bottom edge, the right edge and the arc (lines 4-6), off for the rest.
@@ -296,19 +296,18 @@ async def test_pasted_run_reattach(b, port):
 
 
 def unexpected_console(entries):
-    out = []
-    for level, text, url in entries:
-        if level not in ("error", "assert", "exception"):
-            continue
-        if "status of 404" in (text or "") and (url.endswith("/lease") or url.endswith("/whoami")):
-            continue  # a free controller's lease; /whoami on a gateway without it yet
-        if "status of 422" in (text or "") and re.search(r"/api/v1/gcode/(plan|preview\.svg)", url):
-            continue  # the bad program, by design
-        out.append((level, text, url))
-    return out
+    def lease_or_whoami_404(text, url):  # a free controller's lease; /whoami on a gateway without it yet
+        return "status of 404" in text and (url.endswith("/lease") or url.endswith("/whoami"))
+
+    def bad_program_422(text, url):  # the bad program, by design
+        return "status of 422" in text and re.search(r"/api/v1/gcode/(plan|preview\.svg)", url)
+
+    return browser_checks.unexpected_console(entries, lease_or_whoami_404, bad_program_422)
 
 
 async def main_async(args, fx):
+    if args.screenshot_dir:
+        os.makedirs(args.screenshot_dir, exist_ok=True)
     chromium = find_chromium()
     port = free_port()
     config = {
@@ -322,18 +321,8 @@ async def main_async(args, fx):
     state = {}
     try:
         await b.connect()
-
-        async def run(name, coro_fn, *a):
-            try:
-                await coro_fn(*a)
-                fx.passed.append(name)
-                print(f"[ OK ] {name}", flush=True)
-                return True
-            except (Failure, AssertionError, RuntimeError, OSError, asyncio.TimeoutError, KeyError) as e:
-                fx.failures.append((name, e))
-                print(f"[FAIL] {name}: {e}", flush=True)
-                return False
-
+        checks = browser_checks.Checks(fx, b, also_catch=(KeyError,))
+        run = checks.run
         started = time.monotonic()
         if await run("upload from the page: listed, preview and summary match the REST plan",
                      test_upload_preview, b, fx, port, state):
@@ -351,39 +340,17 @@ async def main_async(args, fx):
             out = os.path.join(args.screenshot_dir, "api-docs.png")
             await b.screenshot(out)
             print(f"screenshot: {out}")
-        bad = unexpected_console(b.console)
-        if bad:
-            fx.failures.append(("no console errors", Failure(f"{bad[:5]}")))
-            print(f"[FAIL] no console errors: {bad[:5]}")
-        else:
-            fx.passed.append("no console errors")
-            print(f"[ OK ] no console errors ({len(b.console)} console entries seen)")
+        checks.console_check(unexpected_console(b.console))
         print(f"browser part: {time.monotonic() - started:.1f} s")
-        if os.environ.get("GW_BROWSER_TEST_VERBOSE"):
-            for e in b.console:
-                print("console:", e)
     finally:
         await b.close()
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--gateway", required=True)
-    ap.add_argument("--sim", help="unused (the controller is simulated in-process); accepted like the other browser tests")
+    ap = browser_checks.parser(
+        sim_unused="unused (the controller is simulated in-process); accepted like the other browser tests")
     ap.add_argument("--screenshot-dir", help="write gcode-trace.png and api-docs.png here")
-    args = ap.parse_args()
-    if not find_chromium():
-        print("chromium is not installed (scripts/install-deps --tests installs it): skipped")
-        return 77
-    if args.screenshot_dir:
-        os.makedirs(args.screenshot_dir, exist_ok=True)
-    fx = Fixture("gw-gcode-browser-")
-    try:
-        asyncio.run(main_async(args, fx))
-        fx.finish_log(60)
-    finally:
-        fx.cleanup()
-    return fx.report()
+    return browser_checks.main(ap.parse_args(), main_async, "gw-gcode-browser-")
 
 
 if __name__ == "__main__":

@@ -22,7 +22,6 @@ jobs-list.png there.
 Run by ctest with Debian's /usr/bin/python3 (python3-websockets). Skipped (exit 77) without chromium.
 """
 
-import argparse
 import asyncio
 import json
 import os
@@ -33,8 +32,10 @@ sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "integration", "api"))
+import browser_checks  # noqa: E402
+from browser_checks import lease_404, whoami_404  # noqa: E402
 from cdp import Browser, find_chromium  # noqa: E402
-from gateway_fixture import Failure, Fixture, check, free_port, http_request, wait_until  # noqa: E402
+from gateway_fixture import check, free_port, http_request, wait_until  # noqa: E402
 
 
 def rest(port, method, path, body=None):
@@ -241,19 +242,14 @@ async def test_list(b, port, shots):
 
 
 def unexpected_console(entries, allowed_422):
-    out = []
-    for level, text, url in entries:
-        if level not in ("error", "assert", "exception"):
-            continue
-        if url.endswith("/lease") and "404" in (text or ""):
-            continue  # GET /api/v1/controllers/{id}/lease answers 404 for a free controller
-        if url.endswith("/api/v1/whoami") and "404" in (text or ""):
-            continue  # a gateway without GET /api/v1/whoami yet (added for issue 14): the page shows everything
-        if allowed_422 and "/api/v1/jobs?dry_run=true" in url and "422" in (text or ""):
+    def validation_422(text, url):
+        nonlocal allowed_422
+        if allowed_422 and "/api/v1/jobs?dry_run=true" in url and "422" in text:
             allowed_422 -= 1  # the validation check's refusals, by design
-            continue
-        out.append((level, text, url))
-    return out
+            return True
+        return False
+
+    return browser_checks.unexpected_console(entries, lease_404, whoami_404, validation_422)
 
 
 async def main_async(args, fx):
@@ -271,52 +267,23 @@ async def main_async(args, fx):
     b = Browser(find_chromium(), os.path.join(fx.tmp, "profile"), free_port())
     try:
         await b.connect()
-
-        async def run(name, coro_fn, *a):
-            started = time.monotonic()
-            try:
-                await coro_fn(*a)
-                fx.passed.append(name)
-                print(f"[ OK ] {name} ({time.monotonic() - started:.1f} s)", flush=True)
-            except (Failure, AssertionError, RuntimeError, OSError, asyncio.TimeoutError) as e:
-                fx.failures.append((name, e))
-                print(f"[FAIL] {name}: {e}", flush=True)
-
+        checks = browser_checks.Checks(fx, b, timed=True)
+        run = checks.run
         await run("an array job from the form: dry run, submit, runs to succeeded", test_array_from_form, b, port, shots)
         await run("validation errors next to their field", test_validation, b, port)
         await run("pause, resume and cancel from the buttons", test_pause_resume_cancel, b, port)
         await run("advance next: waiting for Next, the Next button", test_next, b, port)
         await run("the list: filters, live", test_list, b, port, shots)
-        bad = unexpected_console(b.console, 2)
-        if bad:
-            fx.failures.append(("no console errors", Failure(f"{bad[:5]}")))
-            print(f"[FAIL] no console errors: {bad[:5]}")
-        else:
-            fx.passed.append("no console errors")
-            print(f"[ OK ] no console errors ({len(b.console)} console entries seen)")
-        if os.environ.get("GW_BROWSER_TEST_VERBOSE"):
-            for e in b.console:
-                print("console:", e)
+        checks.console_check(unexpected_console(b.console, 2))
     finally:
         await b.close()
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--gateway", required=True)
-    ap.add_argument("--sim", help="unused (the controllers are simulated in the gateway); accepted like the other browser tests")
+    ap = browser_checks.parser(
+        sim_unused="unused (the controllers are simulated in the gateway); accepted like the other browser tests")
     ap.add_argument("--screenshot-dir", help="write plate-job.png, new-job.png and jobs-list.png here")
-    args = ap.parse_args()
-    if not find_chromium():
-        print("chromium is not installed (scripts/install-deps --tests installs it): skipped")
-        return 77
-    fx = Fixture("gw-jobs-browser-test-")
-    try:
-        asyncio.run(main_async(args, fx))
-        fx.finish_log(60)
-    finally:
-        fx.cleanup()
-    return fx.report()
+    return browser_checks.main(ap.parse_args(), main_async, "gw-jobs-browser-test-")
 
 
 if __name__ == "__main__":
