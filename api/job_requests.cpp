@@ -83,8 +83,8 @@ std::string joined(const Names& names) {
     return list;
 }
 
-constexpr std::array<std::string_view, 4> job_type_names = {"array", "scan", "ring_buffer",
-                                                            "planar_correction"};
+constexpr std::array<std::string_view, 5> job_type_names = {"array", "scan", "ring_buffer",
+                                                            "planar_correction", "gcode"};
 constexpr std::array<std::string_view, 7> job_state_names = {"queued", "running",   "paused",     "succeeded",
                                                              "failed", "cancelled", "interrupted"};
 constexpr std::array<std::string_view, 4> command_names = {"cancel", "pause", "resume", "next"};

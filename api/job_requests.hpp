@@ -78,7 +78,7 @@ struct job_submission {
     nlohmann::json spec;
 };
 
-// {"controller": "<id>", "type": "array"|"scan"|"ring_buffer"|"planar_correction", "spec": {...}}.
+// {"controller": "<id>", "type": "array"|"scan"|"ring_buffer"|"planar_correction"|"gcode", "spec": {...}}.
 // Unknown top-level fields, wrong types, a missing field: invalid_value naming it. "spec" must be an
 // object; its content is the job type's to validate (when planning).
 operation_result<job_submission> parse_job_submission(const nlohmann::json& body);

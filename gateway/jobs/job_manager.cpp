@@ -207,17 +207,20 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // A job queued on `controller` now waits for it when another job holds it or is queued before it.
     std::optional<job_wait> queue_wait(const std::string& controller) const;
     // Stores the job's record (state, progress, a transition) and/or one of its events, in one
-    // transaction, behind the job's writes that the store refused before (store_write).
-    void save(const std::string& id, std::optional<job_record> record, const json& event);
+    // transaction, behind the job's writes that the store refused before (store_write). `progress`: the
+    // write records what the job did (a step, a transition), so a refusal pauses it (store_refused); a
+    // change of what it waits for does not (its step's write, queued behind it, will).
+    void save(const std::string& id, std::optional<job_record> record, const json& event,
+              bool progress = true);
     // Writes go through the job's queue of unstored writes, so that they reach the store in order:
     // appends `w`, then writes what is queued. A refusal keeps the rest queued (store_refused).
-    void store_write(const std::string& id, unstored_write w);
+    void store_write(const std::string& id, unstored_write w, bool progress = true);
     // Writes the job's queued writes, oldest first, until one fails: its error. Forgets the job when
     // all are stored.
     operation_result<void> write_unstored(const std::string& id);
-    // The store refused a write of the job: a running job pauses at its next checkpoint (nothing may run
-    // unrecorded), and the writes are retried every store_retry_interval.
-    void store_refused(const std::string& id, const operation_error& e);
+    // The store refused a write of the job: the writes are retried every store_retry_interval, and, for
+    // a write of its progress, a running job pauses at its next checkpoint (nothing may run unrecorded).
+    void store_refused(const std::string& id, const operation_error& e, bool progress);
     void retry_unstored_later();
     // Persists the job's restore commands (empty: removes them); a storage error is logged.
     void store_restore_commands(const std::string& id, const std::vector<std::string>& commands);
@@ -350,9 +353,10 @@ void manager_core::attach() {
 // written again every store_retry_interval, before a resume (which is refused until it is stored) and at
 // a clean shutdown. Meanwhile the record in memory is the truth, and get() answers from it.
 
-void manager_core::save(const std::string& id, std::optional<job_record> record, const json& event) {
+void manager_core::save(const std::string& id, std::optional<job_record> record, const json& event,
+                        bool progress) {
     const std::optional<job_record> saved = record;
-    store_write(id, unstored_write{std::move(record), event});
+    store_write(id, unstored_write{std::move(record), event}, progress);
     if (!saved) return;
     // get() answers from memory for active jobs, and for ended ones until the store has their end. Set
     // after the write: what get() shows of a step is stored (unless the store refused it).
@@ -363,7 +367,7 @@ void manager_core::save(const std::string& id, std::optional<job_record> record,
         live_records_[id] = *saved;
 }
 
-void manager_core::store_write(const std::string& id, unstored_write w) {
+void manager_core::store_write(const std::string& id, unstored_write w, bool progress) {
     auto& history = unstored_[id];
     history.writes.push_back(std::move(w));
     if (history.writes.size() > std::max<std::size_t>(settings_.max_unstored_writes_per_job, 1)) {
@@ -376,7 +380,7 @@ void manager_core::store_write(const std::string& id, unstored_write w) {
                 "given up",
                 id, settings_.max_unstored_writes_per_job);
     }
-    if (auto stored = write_unstored(id); !stored) store_refused(id, stored.error());
+    if (auto stored = write_unstored(id); !stored) store_refused(id, stored.error(), progress);
 }
 
 operation_result<void> manager_core::write_unstored(const std::string& id) {
@@ -413,13 +417,14 @@ operation_result<void> manager_core::write_unstored(const std::string& id) {
     return {};
 }
 
-void manager_core::store_refused(const std::string& id, const operation_error& e) {
+void manager_core::store_refused(const std::string& id, const operation_error& e, bool progress) {
     auto& history = unstored_[id];
     if (history.error.empty())
         log_->error("job {}: the job store refused its history ({} write(s) kept, retried every {} ms): {}",
                     id, history.writes.size(), store_retry_interval.count(), e.message);
     history.error = e.message;
     retry_unstored_later();
+    if (!progress) return;
     // A step that cannot be recorded would be sent again by a resume after a restart: the run stops at
     // its next checkpoint (after the current step), as a client's pause does, and a resume continues once
     // the store takes the history again.
@@ -507,7 +512,7 @@ void manager_core::set_waiting(live_job& job, std::optional<job_wait> what) {
     // A timer is part of the step's estimate: the eta from the last step still holds.
     if (was_unbounded != unbounded) estimate_end(r, now);
     const auto event = state_event(r, now);
-    save(r.id, r, event);
+    save(r.id, r, event, false);
     publish(r, event);
 }
 

@@ -110,7 +110,12 @@ TEST_F(store_test, insert_then_find_round_trips_every_field) {
     ASSERT_TRUE(store);
     auto j = make_job(make_job_id());
     j.state = job_state::paused;
-    j.progress = {.steps_done = 12, .steps_total = 96, .current_step = "B1", .remaining_s = 70.25};
+    j.progress = {.steps_done = 12,
+                  .steps_total = 96,
+                  .current_step = "B1",
+                  .remaining_s = 70.25,
+                  .waiting_for = job_wait::controller,
+                  .eta = at_ms(1'700'000'072'000)};
     j.idempotency_key = "key-1";
     j.reason = "controller disconnected";
     j.started = at_ms(1'700'000'001'000);
@@ -122,6 +127,9 @@ TEST_F(store_test, insert_then_find_round_trips_every_field) {
     ASSERT_TRUE(found) << found.error().message;
     ASSERT_TRUE(found->has_value());
     expect_same(**found, j);
+    // Live only: after a restart no job waits or runs.
+    EXPECT_FALSE((*found)->progress.waiting_for);
+    EXPECT_FALSE((*found)->progress.eta);
 
     auto missing = store->find("j-nope");
     ASSERT_TRUE(missing);
