@@ -7,7 +7,7 @@ Checks: the overview shows every controller connected with its positions; a REST
 on the page; a jog click moves sim2 (the REST state agrees); a HALT click stops a long move (the
 halt reaches the gateway: its request counter and the stage stopping short), and HALT ALL stops two
 moves and halts all four; an unplugged ext1 shows
-as disconnected with its error, and connected again after replug; a gateway restart shows the banner
+as disconnected with its error (within 2 s of the unplug), and connected again after replug; a gateway restart shows the banner
 and greys the values, then the page reconnects by itself and resumes its topics from the last
 sequence numbers it saw; with tokens, the page asks for one, refuses a wrong one, works with a viewer
 token and shows the 403 of its HALT; no console errors other than the ones the
@@ -22,6 +22,7 @@ import json
 import os
 import re
 import sys
+import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -133,8 +134,11 @@ async def test_halt_all(b, port):
 
 async def test_unplug(b, control):
     check(control("unplug") == "ok", "unplug")
+    unplugged = time.monotonic()
     await b.wait_for("ext1 not connected on the page",
                      "document.querySelector('[data-controller=ext1]').dataset.state !== 'connected'", timeout=20)
+    shown_after = time.monotonic() - unplugged
+    check(shown_after <= 2.0, f"the unplug showed on the page after {shown_after:.2f} s (at most 2 s)")
     await b.wait_for("ext1 greyed out", "document.querySelector('[data-controller=ext1]')"
                      ".classList.contains('offline')")
     await b.wait_for("ext1's error shown", "(() => { const e = document.querySelector("
@@ -168,7 +172,8 @@ async def test_restart(b, fx, gateway, config, port):
 
 async def test_tokens(b, fx, gateway):
     """A gateway with tokens: the page asks for one, says when it is refused, then works with a viewer
-    token (REST and the WebSocket's access_token); a HALT with a viewer token shows the 403."""
+    token (REST and the WebSocket's access_token); a HALT with a viewer token shows the 403; the viewer
+    sees no operator controls (the jog pad), an operator's token shows them."""
     port = free_port()
     config = {
         "http": {"listen_address": "127.0.0.1", "port": port},
@@ -200,6 +205,22 @@ async def test_tokens(b, fx, gateway):
     err = await b.wait_for("the 403 of a viewer's halt",
                            "document.querySelector('[data-controller=sim1] .op-error').textContent")
     check(err.startswith("halt: ") and "operator" in err, f"viewer halt shows {err!r}")
+    # The role hides what it may not do: a viewer sees no jog pad, and says who it is.
+    role = await b.wait_for("the viewer's role on the page", "document.body.dataset.role !== 'unknown' && "
+                            "document.body.dataset.role")
+    check(role == "viewer", f"body role {role!r}")
+    jog_shown = "getComputedStyle(document.querySelector('[data-controller=sim1] .jog')).display !== 'none'"
+    check(not await b.evaluate(jog_shown), "a viewer sees the jog pad")
+    who = await b.evaluate("document.getElementById('whoami').textContent")
+    check("viewer" in who, f"whoami line {who!r}")
+    # An operator's token shows it again (a new page session: the token form takes the new token).
+    await b.evaluate("sessionStorage.clear()")
+    await b.navigate("about:blank")
+    await b.navigate(f"http://127.0.0.1:{port}/")
+    await b.wait_for("the token form again", form_shown)
+    await submit(TOKENS["operator"])
+    await b.wait_for("the operator's role on the page", "document.body.dataset.role === 'operator'")
+    await b.wait_for("an operator sees the jog pad", jog_shown)
 
 
 def unexpected_console(entries):
