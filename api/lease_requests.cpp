@@ -158,4 +158,17 @@ api_outcome get_lease(api_context& ctx, const std::string& controller, const std
     return out;
 }
 
+api_outcome list_leases(api_context& ctx, const std::string& request_id) {
+    if (!ctx.leases)
+        return failed(make_problem(http_error::not_implemented, "leases are not enabled on this gateway"),
+                      request_id);
+    const auto now = std::chrono::system_clock::now();
+    json leases = json::array();
+    for (const auto& l : ctx.leases->all())
+        leases.push_back(lease_json(l, false, now));
+    api_outcome out;
+    out.body = json{{"leases", std::move(leases)}};
+    return out;
+}
+
 }  // namespace gw::api

@@ -8,6 +8,7 @@
 //   DELETE /api/v1/controllers/{id}/lease         operator  Lease-Id header -> 204;
 //          ?force=true (admin) ends whoever's lease
 //   GET    /api/v1/controllers/{id}/lease         viewer    200 the lease without its id; 404 when free
+//   GET    /api/v1/leases                         viewer    200 {"leases":[...]} every lease without its id
 // The holder is the caller's principal, plus "/<holder label>" when the body names one
 // ("operator1/notebook-3"). Unknown controller: 404 before anything else.
 
@@ -46,5 +47,8 @@ api_outcome release_lease(api_context& ctx, const std::string& controller,
                           const std::optional<std::string>& lease_id, bool force,
                           const std::string& request_id);
 api_outcome get_lease(api_context& ctx, const std::string& controller, const std::string& request_id);
+
+// Every current lease (without ids), by controller: what a dashboard shows without asking per controller.
+api_outcome list_leases(api_context& ctx, const std::string& request_id);
 
 }  // namespace gw::api

@@ -303,6 +303,11 @@ void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& re
             });
     };
 
+    if (segments.size() == 1 && segments[0] == "leases") {
+        const std::string route = "/api/v1/leases";
+        if (!method_ok(route, http::verb::get) || !authorize(route, gw::role::viewer)) return;
+        return reply_outcome(route, list_leases(*ctx, request_id));
+    }
     if (segments.size() == 1 && segments[0] == "ports") {
         const std::string route = "/api/v1/ports";
         if (!method_ok(route, http::verb::get) || !authorize(route, gw::role::admin)) return;

@@ -90,6 +90,16 @@ std::optional<lease> lease_manager::current(const std::string& controller) const
     return it->second;
 }
 
+std::vector<lease> lease_manager::all() const {
+    std::lock_guard lock(mutex_);
+    std::erase_if(leases_, [t = now()](const auto& entry) { return entry.second.expires <= t; });
+    std::vector<lease> out;
+    out.reserve(leases_.size());
+    for (const auto& [controller, l] : leases_)
+        out.push_back(l);
+    return out;
+}
+
 operation_result<void> lease_manager::check(const std::string& controller,
                                             std::optional<std::string_view> lease_id) const {
     std::lock_guard lock(mutex_);

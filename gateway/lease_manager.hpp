@@ -14,6 +14,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "gateway/operation_error.hpp"
 
@@ -48,6 +49,8 @@ class lease_manager {
     operation_result<lease> release(const std::string& controller, std::string_view lease_id, bool force);
     // The unexpired lease on the controller, if any.
     std::optional<lease> current(const std::string& controller) const;
+    // Every unexpired lease, by controller id.
+    std::vector<lease> all() const;
 
     // Ok when the controller is not leased, or `lease_id` is its lease. Otherwise `leased`, with a
     // message naming the holder and the expiry time.

@@ -90,15 +90,8 @@ export const halt = (id) => operation(id, "halt");
 export const moveRelative = (id, axes) => operation(id, "move", { axes, mode: "relative" });
 export const moveAbsolute = (id, axes) => operation(id, "move", { axes, mode: "absolute" });
 
-// The lease on a controller, or null when it is free (404).
-export async function lease(id) {
-  try {
-    return await request("GET", `/api/v1/controllers/${enc(id)}/lease`);
-  } catch (e) {
-    if (e.status === 404) return null;
-    throw e;
-  }
-}
+// Every current lease (without ids): one request for all controllers.
+export const listLeases = () => request("GET", "/api/v1/leases");
 
 export async function takeLease(id, ttlS, holder) {
   const body = { ttl_s: ttlS };

@@ -42,19 +42,21 @@ class Store extends EventTarget {
   // Leases have no events: polled every 5 s (and at once after this page changes one).
   async refreshLeases() {
     clearTimeout(this.leaseTimer);
-    await Promise.all([...this.controllers.keys()].map(async (id) => {
-      let entry;
-      try {
-        entry = { lease: await api.lease(id), error: null };
-      } catch (e) {
-        entry = { lease: null, error: e.message };
-      }
+    let byController = null;
+    let error = null;
+    try {
+      byController = new Map((await api.listLeases()).leases.map((l) => [l.controller, l]));
+    } catch (e) {
+      error = e.message;
+    }
+    for (const id of this.controllers.keys()) {
+      const entry = { lease: byController?.get(id) ?? null, error };
       const mine = api.heldLeases()[id];
       // Gone or not ours any more (expired, ended by a restart or an admin): stop sending it.
-      if (mine && !entry.error && (!entry.lease || entry.lease.acquired !== mine.acquired)) api.forgetLease(id);
+      if (mine && !error && (!entry.lease || entry.lease.acquired !== mine.acquired)) api.forgetLease(id);
       this.leases.set(id, entry);
       this.emit("lease", { id, ...entry, mine: Boolean(api.heldLeases()[id]) });
-    }));
+    }
     this.leaseTimer = setTimeout(() => this.refreshLeases(), LEASE_POLL_MS);
   }
 

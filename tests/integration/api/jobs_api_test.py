@@ -289,6 +289,13 @@ def test_leases(c):
     r = c.request("GET", base + "/lease", token=VIEW)
     check(r.status == 200 and "lease_id" not in r.json() and r.json()["holder"] == "operator1/notebook-3",
           f"GET lease {r.body}")
+    # The list: this lease, without its id, as GET .../lease shows it.
+    r = c.request("GET", "/api/v1/leases", token=VIEW)
+    listed = [x for x in r.json()["leases"] if x["controller"] == "sim2"]
+    check(r.status == 200 and len(listed) == 1 and "lease_id" not in listed[0] and
+          listed[0]["holder"] == "operator1/notebook-3" and listed[0]["expires"] == lease["expires"],
+          f"GET /api/v1/leases {r.body}")
+    c.problem("POST", "/api/v1/leases", 405, "method-not-allowed", token=OP)
     # Others: 409 leased for moves, operations, jobs; halt is always allowed.
     p = c.problem("POST", base + "/move", 409, "leased", body={"axes": {"X": 100}}, token=OP)
     check("operator1/notebook-3" in p["detail"], f"leased problem names the holder: {p['detail']}")
@@ -319,6 +326,8 @@ def test_leases(c):
     r = c.request("DELETE", base + "/lease", token=OP, headers=held, validate=False)  # 204: no body to validate
     check(r.status == 204 and r.body == "", f"release: {r.status} {r.body}")
     c.problem("GET", base + "/lease", 404, "not-found", token=VIEW)
+    r = c.request("GET", "/api/v1/leases", token=VIEW)
+    check(all(x["controller"] != "sim2" for x in r.json()["leases"]), f"a released lease is listed: {r.body}")
     r = c.request("POST", base + "/move", {"axes": {"X": 0}, "wait": True}, token=OP)
     check(r.status == 200, f"move after release: {r.status}")
     # Expiry.

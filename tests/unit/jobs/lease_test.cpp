@@ -42,6 +42,23 @@ TEST(lease, acquire_gives_an_unguessable_id_and_the_times) {
     EXPECT_NE(other->id, l->id);
 }
 
+TEST(lease, all_lists_the_unexpired_leases_by_controller) {
+    manual_clock clock;
+    lease_manager m(clock.fn());
+    EXPECT_TRUE(m.all().empty());
+    ASSERT_TRUE(m.acquire("sim2", "bob", 60s));
+    ASSERT_TRUE(m.acquire("sim1", "alice", 10s));
+    auto all = m.all();
+    ASSERT_EQ(all.size(), 2u);
+    EXPECT_EQ(all[0].controller, "sim1");
+    EXPECT_EQ(all[1].controller, "sim2");
+    clock.advance(10s);  // alice's lease ends now
+    all = m.all();
+    ASSERT_EQ(all.size(), 1u);
+    EXPECT_EQ(all[0].holder, "bob");
+    EXPECT_FALSE(m.current("sim1"));
+}
+
 TEST(lease, a_second_acquire_conflicts_naming_holder_and_expiry) {
     manual_clock clock;
     lease_manager m(clock.fn());
