@@ -18,10 +18,11 @@ using std::chrono::milliseconds;
 
 // A host-driven row of `wells` wells `pitch_mm` apart from (0, 0).
 json row(int wells, double pitch_mm, const std::string& advance, int dwell_ms = 0) {
-    json spec = {{"grid", {{"columns", wells}, {"rows", 1}, {"column_step_mm", pitch_mm}, {"row_step_mm", -1}}},
-                 {"a1", {{"X", 0}, {"Y", 0}}},
-                 {"advance", advance},
-                 {"mode", "host"}};
+    json spec = {
+        {"grid", {{"columns", wells}, {"rows", 1}, {"column_step_mm", pitch_mm}, {"row_step_mm", -1}}},
+        {"a1", {{"X", 0}, {"Y", 0}}},
+        {"advance", advance},
+        {"mode", "host"}};
     if (dwell_ms > 0) spec["dwell_ms"] = dwell_ms;
     return spec;
 }
@@ -35,8 +36,8 @@ std::int64_t epoch_ms_of(const std::string& t) {
     };
     using namespace std::chrono;
     const sys_days day{year{number(0, 4)} / month{static_cast<unsigned>(number(5, 2))} / number(8, 2)};
-    const auto time = hours{number(11, 2)} + minutes{number(14, 2)} + seconds{number(17, 2)} +
-                      milliseconds{number(20, 3)};
+    const auto time =
+        hours{number(11, 2)} + minutes{number(14, 2)} + seconds{number(17, 2)} + milliseconds{number(20, 3)};
     return duration_cast<milliseconds>((day + time).time_since_epoch()).count();
 }
 
@@ -222,8 +223,8 @@ TEST_F(manager_progress_test, a_long_dwell_is_a_timer_wait_that_keeps_the_eta) {
             if (e.value("state", "") == "running") eta_before_wait = e["eta"];
         }
     }
-    EXPECT_EQ(seen, (std::vector<std::string>{"queued", "running", "timer", "running", "step", "timer", "running",
-                                              "step", "succeeded"}));
+    EXPECT_EQ(seen, (std::vector<std::string>{"queued", "running", "timer", "running", "step", "timer",
+                                              "running", "step", "succeeded"}));
 }
 
 TEST_F(manager_progress_test, a_disconnected_controller_is_waited_for_until_it_is_back) {
@@ -241,7 +242,8 @@ TEST_F(manager_progress_test, a_disconnected_controller_is_waited_for_until_it_i
     sim->replug();
     ASSERT_TRUE(wait_until([&] { return registry_->ready(); })) << "never reconnected";
     // Back: the job waits for a client's resume now, and a page learns it from the topic.
-    ASSERT_TRUE(wait_until([&] { return waiting_for(id, std::nullopt); })) << "still waits for the controller";
+    ASSERT_TRUE(wait_until([&] { return waiting_for(id, std::nullopt); }))
+        << "still waits for the controller";
     EXPECT_EQ(job(id)->state, job_state::paused);
     ASSERT_TRUE(wait_until([&] {
         const auto e = sink_->of(id);

@@ -241,7 +241,8 @@ TEST_F(manager_failing_writes_test, a_running_job_pauses_when_writes_fail_and_re
 
     vfs_.fail_writes(0);
     // The retry stores the history: the job waits for a client's resume now, and says so on its topic.
-    ASSERT_TRUE(wait_until([&] { return !job(id)->progress.waiting_for; }, 10s)) << "still waits for the store";
+    ASSERT_TRUE(wait_until([&] { return !job(id)->progress.waiting_for; }, 10s))
+        << "still waits for the store";
     EXPECT_EQ(job(id)->state, job_state::paused);
     EXPECT_EQ(stored_steps(id), all_steps(2));
     ASSERT_TRUE(wait_until([&] {

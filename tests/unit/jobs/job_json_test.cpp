@@ -192,9 +192,9 @@ TEST(job_json, events_carry_the_type_and_the_progress) {
     // The detail adds fields; it cannot override the manager's.
     auto stepped = job;
     stepped.progress.eta = at(81323ms);
-    const auto step = step_event(
-        stepped, 11, "B1", {{"well", "B1"}, {"position", {{"X", 1.0}}}, {"index", 99}, {"at", "then"}},
-        at(11200ms));
+    const auto step =
+        step_event(stepped, 11, "B1",
+                   {{"well", "B1"}, {"position", {{"X", 1.0}}}, {"index", 99}, {"at", "then"}}, at(11200ms));
     EXPECT_EQ(step["type"], "step");
     EXPECT_EQ(step["index"], 11);
     EXPECT_EQ(step["name"], "B1");
