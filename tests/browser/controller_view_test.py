@@ -138,6 +138,36 @@ async def test_goto_and_xy(b, port):
     check(trail >= 3, f"trail of {trail} points")
 
 
+async def test_origin_speed_and_ttl_level(b, port):
+    """Set here, zero, speed, home and the OUT0 level from the page; the controller agrees."""
+    await open_view(b, port, "sim2")
+    await set_input(b, "[data-controller-view=sim2] [name=here-X]", 1234)
+    await b.click("[data-controller-view=sim2] [data-action=here]")
+    await asyncio.to_thread(wait_until, "sim2 X called 1234 (REST)", lambda: abs(position(port, "sim2", "X") - 1234) < 1)
+    await b.click("[data-controller-view=sim2] [data-action=zero]")
+    await asyncio.to_thread(wait_until, "sim2 zeroed (REST)", lambda: all(
+        abs(a["position_um"]) < 1 for a in state(port, "sim2")["axes"]))
+    await set_input(b, "[data-controller-view=sim2] [name=speed-X]", 2.5)
+    await b.click("[data-controller-view=sim2] [data-action=speed]")
+    await asyncio.to_thread(wait_until, "sim2 X speed 2.5 mm/s (S X?)", lambda: re.search(
+        r"X=2\.50*\b", rest(port, "POST", "/api/v1/controllers/sim2/command", {"command": "S X?"})[1]["raw_reply"]))
+    status, body = rest(port, "POST", "/api/v1/controllers/sim2/move", {"axes": {"X": 3000}, "wait": True})
+    check(status == 200, f"move sim2: {status} {body}")
+    await b.click("[data-controller-view=sim2] [data-action=home]")
+    await asyncio.to_thread(wait_until, "sim2 X left 3000 for its home (REST)",
+                            lambda: abs(position(port, "sim2", "X") - 3000) > 1)
+    for group in ("origin", "speed"):
+        check(await op_error(b, "sim2", group) == "", f"{group} error shown")
+    await b.click("[data-halt=sim2]")  # homing can be long: stop it
+    await asyncio.to_thread(wait_until, "sim2 still after the halt", lambda: state(port, "sim2")["busy"] is False)
+    await b.click("[data-controller-view=sim2] [data-action=ttl-high]")
+    await asyncio.to_thread(wait_until, "sim2 OUT0 high (REST ttl.out0_mode 1)",
+                            lambda: state(port, "sim2")["ttl"]["out0_mode"] == 1)
+    await b.click("[data-controller-view=sim2] [data-action=ttl-low]")
+    await asyncio.to_thread(wait_until, "sim2 OUT0 low (REST ttl.out0_mode 0)",
+                            lambda: state(port, "sim2")["ttl"]["out0_mode"] == 0)
+
+
 async def test_modules(b, port):
     await open_view(b, port, "sim2")
     groups = await b.evaluate(f"[...{view('sim2')}.querySelectorAll('[data-control]')].map(e => e.dataset.control)")
@@ -365,6 +395,7 @@ async def main_async(args, fx):
         await run("the view shows the axes the controller has", test_axes, b, port)
         await run("a jog click moves the stage", test_jog, b, port)
         await run("go-to moves there and the XY marker follows", test_goto_and_xy, b, port)
+        await run("here, zero, speed, home and the OUT0 level from the page", test_origin_speed_and_ttl_level, b, port)
         await run("module controls: DAC and LED only where the build has them; LED set from the page",
                   test_modules, b, port, expected=r"status of 422")
         await run("report frames at 500/s: every one counted, a few drawn, the page responsive",
