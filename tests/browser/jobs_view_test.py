@@ -23,6 +23,7 @@ Run by ctest with Debian's /usr/bin/python3 (python3-websockets). Skipped (exit 
 """
 
 import asyncio
+import http.client
 import json
 import os
 import sys
@@ -75,6 +76,37 @@ async def open_form(b, port, controller):
 
 def field_error(field):
     return f"document.querySelector('.field[data-field=\"{field}\"] .field-error')?.textContent"
+
+
+def upload_gcode(port, name, text):
+    """An uploaded program's id (POST /api/v1/gcode/files with a text body)."""
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
+    conn.request("POST", f"/api/v1/gcode/files?name={name}", body=text.encode(), headers={"Content-Type": "text/plain"})
+    r = conn.getresponse()
+    body = r.read().decode()
+    conn.close()
+    check(r.status == 201, f"upload {name}: {r.status} {body}")
+    return json.loads(body)["id"]
+
+
+async def test_gcode_from_form(b, port):
+    file_id = upload_gcode(port, "form-square.ngc", "G21 G90\nG00 X1 Y1\nG01 X2 F600\nG01 Y2\nG01 X1\nM2\n")
+    await open_form(b, port, "sim2")
+    await b.click("#job-form [data-type=gcode]")
+    await b.wait_for("the uploaded program offered", "[...document.querySelectorAll(\"[name='spec.file'] option\")]"
+                     f".some(o => o.value === {json.dumps(file_id)})")
+    await set_value(b, "[name='spec.file']", file_id)
+    await b.click("#dry-run")
+    await b.wait_for("the dry run's estimate", "document.querySelector('.plan-estimate dd')?.textContent")
+    path = await b.evaluate("document.querySelector('.plan-path dd').textContent")
+    check(path == "host", f"a G-code trace runs host-driven: path {path!r}")
+    await b.click("#submit-job")
+    job_id = await b.wait_for("the job's page", "/^#\\/jobs\\/j-/.test(location.hash) && location.hash.slice(7)")
+    await b.wait_for("succeeded on the page", "document.getElementById('job-state')?.dataset.state === 'succeeded'",
+                     timeout=90)
+    j = job(port, job_id)
+    check(j["type"] == "gcode" and j["state"] == "succeeded" and j["spec"]["file"] == file_id,
+          f"REST job {j['type']} {j['state']} {j['spec']}")
 
 
 async def test_array_from_form(b, port, shots):
@@ -270,6 +302,8 @@ async def main_async(args, fx):
         checks = browser_checks.Checks(fx, b, timed=True)
         run = checks.run
         await run("an array job from the form: dry run, submit, runs to succeeded", test_array_from_form, b, port, shots)
+        await run("a G-code job from the form: an uploaded program, dry run, submit, succeeded", test_gcode_from_form,
+                  b, port)
         await run("validation errors next to their field", test_validation, b, port)
         await run("pause, resume and cancel from the buttons", test_pause_resume_cancel, b, port)
         await run("advance next: waiting for Next, the Next button", test_next, b, port)
