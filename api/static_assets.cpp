@@ -1,6 +1,7 @@
 #include "api/static_assets.hpp"
 
 #include <algorithm>
+#include <optional>
 
 #include "api/dashboard_files.hpp"
 
@@ -47,26 +48,27 @@ std::string_view trim(std::string_view s) {
     return s;
 }
 
-// True when Accept-Encoding lists gzip (or *) with a non-zero weight.
+// True when Accept-Encoding accepts gzip: named with a non-zero weight, or not named and "*" accepted
+// (an explicit "gzip;q=0" wins over "*", RFC 9110 12.5.3).
 bool accepts_gzip(std::string_view header) {
+    std::optional<bool> gzip;
+    std::optional<bool> any;
     while (!header.empty()) {
         const auto comma = header.find(',');
         auto item = trim(header.substr(0, comma));
         const auto semicolon = item.find(';');
         const auto coding = trim(item.substr(0, semicolon));
-        if (beast::iequals(coding, "gzip") || coding == "*") {
-            auto params =
-                semicolon == std::string_view::npos ? std::string_view{} : item.substr(semicolon + 1);
-            params = trim(params);
-            // "q=0", "q=0.0", "q=0.000": refused.
-            const bool refused = params.starts_with("q=0") &&
-                                 params.substr(3).find_first_not_of(".0") == std::string_view::npos;
-            if (!refused) return true;
-        }
+        const auto params =
+            trim(semicolon == std::string_view::npos ? std::string_view{} : item.substr(semicolon + 1));
+        // "q=0", "q=0.0", "q=0.000": refused.
+        const bool refused =
+            params.starts_with("q=0") && params.substr(3).find_first_not_of(".0") == std::string_view::npos;
+        if (beast::iequals(coding, "gzip")) gzip = !refused;
+        if (coding == "*") any = !refused;
         if (comma == std::string_view::npos) break;
         header.remove_prefix(comma + 1);
     }
-    return false;
+    return gzip.value_or(any.value_or(false));
 }
 
 // If-None-Match uses the weak comparison (RFC 9110 13.1.2): W/"x" matches "x"; "*" matches anything.
