@@ -197,7 +197,7 @@ async def frames(b):
     return await b.evaluate(f"+{view('ext1')}.querySelector('.report-stats').dataset.frames")
 
 
-async def test_reports(b, port, ext1):
+async def test_reports(b, port, ext1, rate):
     await open_view(b, port, "ext1")
     await b.wait_for("the report line", f"!{view('ext1')}.querySelector('.report-stats').hidden")
     await set_input(b, "[data-controller-view=ext1] [name=in0_mode]", 1)
@@ -212,7 +212,7 @@ async def test_reports(b, port, ext1):
         const tick = (t) => { __perf.worstFrameGap = Math.max(__perf.worstFrameGap, t - last); last = t;
           __perf.frames++; if (!__perf.stop) requestAnimationFrame(tick); };
         requestAnimationFrame(tick); })()""")
-    n, rate = 1500, 500  # 3 s at 500 frames/s (the simulator's rate is in simulated time)
+    n = 3 * rate  # 3 s of frames (the simulator's rate is in simulated time)
     started = time.monotonic()
     check(ext1.control(f"pulse {n} {rate / TIME_SCALE}") == "ok", "pulse train")
     await b.wait_for(f"{n} frames counted", f"+{view('ext1')}.querySelector('.report-stats').dataset.frames >= {n}",
@@ -232,7 +232,7 @@ async def test_reports(b, port, ext1):
     check(10 <= drawn <= took * 50 + 5, f"report frames kept for drawing: {drawn} (of {n} in {took:.1f} s)")
     canvas = await b.evaluate(f"!!{view('ext1')}.querySelector('.time-chart canvas')")
     check(canvas, "no uPlot canvas")
-    print(f"       500 frames/s for {n / rate:.0f} s: longest task {perf['longest']:.0f} ms, worst gap between "
+    print(f"       {rate} frames/s for {n / rate:.0f} s: longest task {perf['longest']:.0f} ms, worst gap between "
           f"animation frames {perf['worstFrameGap']:.0f} ms ({perf['frames']} frames)", flush=True)
     check(perf["worstFrameGap"] < 500, f"the page stalled: {perf}")
 
@@ -399,7 +399,7 @@ async def main_async(args, fx):
         await run("module controls: DAC and LED only where the build has them; LED set from the page",
                   test_modules, b, port, expected=r"status of 422")
         await run("report frames at 500/s: every one counted, a few drawn, the page responsive",
-                  test_reports, b, port, ext1)
+                  test_reports, b, port, ext1, args.report_rate)
         await run("TTL events marked on the chart", test_ttl_marks, b, port, ext2)
         if args.screenshot_dir:
             os.makedirs(args.screenshot_dir, exist_ok=True)
@@ -419,6 +419,8 @@ async def main_async(args, fx):
 def main():
     ap = browser_checks.parser()
     ap.add_argument("--screenshot-dir", help="write controller.png (the controller view) here")
+    # The sanitizer build's simulator cannot keep its report port at 500 frames/s (ctest passes 100 there).
+    ap.add_argument("--report-rate", type=int, default=500, help="report frames/s of the stream test")
     return browser_checks.main(ap.parse_args(), main_async, "gw-ctl-view-test-")
 
 
