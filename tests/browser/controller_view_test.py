@@ -398,7 +398,7 @@ async def main_async(args, fx):
         await run("here, zero, speed, home and the OUT0 level from the page", test_origin_speed_and_ttl_level, b, port)
         await run("module controls: DAC and LED only where the build has them; LED set from the page",
                   test_modules, b, port, expected=r"status of 422")
-        await run("report frames at 500/s: every one counted, a few drawn, the page responsive",
+        await run("report frames (500/s; 100/s under ASan): every one counted, a few drawn, the page responsive",
                   test_reports, b, port, ext1, args.report_rate)
         await run("TTL events marked on the chart", test_ttl_marks, b, port, ext2)
         if args.screenshot_dir:
