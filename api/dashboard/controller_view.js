@@ -4,7 +4,7 @@
 // frame counted, a few drawn), with TTL events marked; the motion and module controls.
 
 import * as api from "./api.js";
-import { el, errorText, formatUm } from "./dom.js";
+import { el, errorText, formatUm, showConnectionState } from "./dom.js";
 import { LeasePanel } from "./lease_panel.js";
 import { ModuleControls } from "./module_controls.js";
 import { MotionControls } from "./motion_controls.js";
@@ -79,10 +79,7 @@ class ControllerView {
   // A ControllerState (REST or a state event).
   setState(s) {
     this.state = s;
-    this.badge.textContent = s.state;
-    this.badge.className = `state ${s.state}`;
-    this.root.dataset.state = s.state;
-    this.root.classList.toggle("offline", s.state !== "connected");
+    showConnectionState(this.root, this.badge, s.state);
     const err = s.last_error;
     const down = s.state !== "connected";
     this.lastError.hidden = !down || !err;

@@ -25,6 +25,14 @@ export function svg(tag, attrs = {}, ...children) {
 
 export const $ = (id) => document.getElementById(id);
 
+// A controller's connection state on its card or view: the badge, data-state, and greyed when offline.
+export function showConnectionState(root, badge, state) {
+  badge.textContent = state;
+  badge.className = `state ${state}`;
+  root.dataset.state = state;
+  root.classList.toggle("offline", state !== "connected");
+}
+
 export const formatUm = (v) => (typeof v === "number" ? v.toFixed(1) : "–");
 
 // "1 h 02 min", "3 min 05 s", "12.3 s": durations for people.

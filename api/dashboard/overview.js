@@ -5,7 +5,7 @@
 // card greys them out when they are not live (feed down or controller not connected).
 
 import * as api from "./api.js";
-import { el, formatDuration, formatUm } from "./dom.js";
+import { el, formatDuration, formatUm, showConnectionState } from "./dom.js";
 
 const STEPS_UM = [1, 10, 100, 1000, 10000];
 
@@ -99,10 +99,7 @@ export class ControllerCard {
   // A ControllerState (REST or a controllers/<id>/state event).
   setState(s) {
     this.state = s;
-    this.stateBadge.textContent = s.state;
-    this.stateBadge.className = `state ${s.state}`;
-    this.root.dataset.state = s.state;
-    this.root.classList.toggle("offline", s.state !== "connected");
+    showConnectionState(this.root, this.stateBadge, s.state);
     const err = s.last_error;
     this.lastError.hidden = s.state === "connected" || !err;
     this.lastError.textContent = err ? `${err.text || err.name} (${err.time})` : "";
