@@ -233,12 +233,8 @@ void controller::do_write(std::uint64_t sequence) {
     in_flight_->started = steady_clock::now();
 
     // The deadline covers the write too: a port that stops draining is caught as well.
-    const auto timeout =
-        in_flight_->job.cmd.long_reply ? settings_.long_reply_timeout : settings_.command_timeout;
-    command_timer_.expires_after(timeout);
-    command_timer_.async_wait([self = shared_from_this(), sequence](error_code ec) {
-        if (!ec) self->guarded("handling a timeout", [&] { self->on_timeout(sequence); });
-    });
+    arm_command_timer(
+        in_flight_->job.cmd.long_reply ? settings_.long_reply_timeout : settings_.command_timeout, sequence);
 
     // The buffer is shared with the handler: it outlives the command if the port is closed meanwhile.
     auto wire = std::make_shared<std::string>(in_flight_->job.cmd.wire);
@@ -250,6 +246,13 @@ void controller::do_write(std::uint64_t sequence) {
         }));
 }
 
+void controller::arm_command_timer(steady_clock::duration after, std::uint64_t sequence) {
+    command_timer_.expires_after(after);
+    command_timer_.async_wait([self = shared_from_this(), sequence](error_code ec) {
+        if (!ec) self->guarded("handling a timeout", [&] { self->on_timeout(sequence); });
+    });
+}
+
 void controller::on_write(std::uint64_t sequence, error_code ec) {
     if (ec && ec != net::error::operation_aborted) return disconnect(ec, "write");
     if (in_flight_ && in_flight_->sequence == sequence) in_flight_->write_done = true;
@@ -258,6 +261,12 @@ void controller::on_write(std::uint64_t sequence, error_code ec) {
 void controller::on_timeout(std::uint64_t sequence) {
     // An expired timer cannot be cancelled: the sequence number tells a stale one apart.
     if (!in_flight_ || in_flight_->sequence != sequence) return;
+    if (in_flight_->held) {
+        // Nothing followed the held reply: it was this command's own answer, identical by chance.
+        auto r = std::move(*in_flight_->held);
+        const auto line = r.raw;
+        return accept(std::move(r), line);
+    }
     if (!in_flight_->write_done) {
         // Not even the command left: the port is stuck (a hung adapter). Start over.
         return disconnect(ms2000::error::timeout, "write stalled");
@@ -315,15 +324,15 @@ void controller::on_line(const std::string& line) {
         return pump();
     }
 
+    if (in_flight_->held) {
+        // A line after a reply identical to the previous answer: that reply was the copy.
+        const auto copy = in_flight_->held->raw;
+        mark_out_of_step(link_fault::kind::mismatch, "a reply that repeats the previous one");
+        return finish(ms2000::error::unrecognized_reply, std::nullopt, copy);
+    }
+
     const auto& cmd = in_flight_->job.cmd;
     auto parsed = ms2000::accept_reply(cmd, line);
-    if (parsed && repeats_last_answer(cmd, *parsed, line)) {
-        // It fits, but it may be the previous reply sent twice: not proven to be this command's.
-        last_answer_ = {};
-        mark_out_of_step(link_fault::kind::mismatch, "a reply that repeats the previous one");
-        return finish(ms2000::error::unrecognized_reply, std::nullopt, line);
-    }
-    if (parsed) last_answer_ = {line, cmd.wire, steady_clock::now()};
     if (!parsed) {
         // Noise, or the right shape for another command (a late reply): never an answer.
         if (!text) {
@@ -333,12 +342,26 @@ void controller::on_line(const std::string& line) {
         mark_out_of_step(link_fault::kind::mismatch, "a reply that does not fit its command");
         return finish(parsed.error(), std::nullopt, line);
     }
-    if (parsed->what == ms2000::reply::kind::error) {
-        // HALT answers ":N-21" when it stopped a move: that is what HALT is for.
-        if (cmd.is_halt && parsed->error_code == ms2000::halted) return finish({}, std::move(*parsed), line);
-        return finish(ms2000::error::controller_rejected, std::move(*parsed), line);
+    if (repeats_last_answer(cmd, *parsed, line)) {
+        // It fits, but it may be the previous answer sent again (an adapter that repeats a buffer),
+        // with this command's own answer still on its way. Different commands may also share an
+        // answer ("RS Y?" and "RS Z?" both ":A N"), so only a line that follows proves a copy.
+        log_->debug("holding \"{}\": identical to the previous answer", line);
+        in_flight_->held = std::move(*parsed);
+        return arm_command_timer(settings_.repeated_reply_window, in_flight_->sequence);
     }
-    finish({}, std::move(*parsed), line);
+    accept(std::move(*parsed), line);
+}
+
+void controller::accept(ms2000::reply r, const std::string& line) {
+    const auto& cmd = in_flight_->job.cmd;
+    last_answer_ = {line, cmd.wire, steady_clock::now()};
+    if (r.what == ms2000::reply::kind::error) {
+        // HALT answers ":N-21" when it stopped a move: that is what HALT is for.
+        if (cmd.is_halt && r.error_code == ms2000::halted) return finish({}, std::move(r), line);
+        return finish(ms2000::error::controller_rejected, std::move(r), line);
+    }
+    finish({}, std::move(r), line);
 }
 
 bool controller::repeats_last_answer(const ms2000::command& cmd, const ms2000::reply& r,

@@ -105,6 +105,9 @@ class controller : public std::enable_shared_from_this<controller> {
         bool accepting = false;  // lines before the command is written are stale
         std::chrono::steady_clock::time_point started;
         bool write_done = false;  // the write completed (a reply may come first)
+        // A reply identical to the previous answer, held for repeated_reply_window: it is this
+        // command's answer if no other line follows, a copy of the previous one if one does.
+        std::optional<ms2000::reply> held;
     };
 
     enum class poll_step : std::uint8_t { idle, where, status, axis_status };
@@ -212,6 +215,8 @@ class controller : public std::enable_shared_from_this<controller> {
     answered last_answer_;
     bool repeats_last_answer(const ms2000::command& cmd, const ms2000::reply& r,
                              const std::string& line) const;
+    void arm_command_timer(std::chrono::steady_clock::duration after, std::uint64_t sequence);
+    void accept(ms2000::reply r, const std::string& line);
     std::chrono::milliseconds backoff_;
     bool node_gone_ = false;  // the device node vanished since the last connection attempt
     // Bytes received since the port was opened, until identified, and the first of them.

@@ -26,8 +26,9 @@ struct controller_settings {
     std::size_t resync_attempts = 10;
     std::chrono::milliseconds resync_timeout{10000};
     // A reply identical to the previous command's, arriving this soon after it, for another command,
-    // may be that reply repeated (an adapter that sends a buffer twice, USB packets that arrive late)
-    // and is not taken as an answer. Bare ":A" acks and ":N-<code>" errors are exempt: they repeat.
+    // may be that reply repeated (an adapter that sends a buffer twice, USB packets that arrive late).
+    // It is held this long: if another line follows, it was the copy and is refused; if not, it is the
+    // answer. Bare ":A" acks and ":N-<code>" errors are exempt: they repeat.
     std::chrono::milliseconds repeated_reply_window{50};
     std::size_t queue_limit = 64;  // user commands waiting (HALT and polls do not count)
 

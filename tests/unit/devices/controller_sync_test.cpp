@@ -296,6 +296,55 @@ TEST_F(controller_sync_test, a_reply_repeated_after_the_guard_is_not_the_next_co
     EXPECT_EQ(count_of(kind::mismatch), mismatches_before + 1);
 }
 
+TEST_F(controller_sync_test, identical_answers_to_different_commands_are_each_their_own) {
+    // Different queries may share an answer (two idle axes, two axes at 0). Each is held for the
+    // repeated-reply window and, with nothing after it, taken: no refusal, no resynchronisation.
+    start(settings());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
+        if (c == "RS X?" || c == "RS Y?") return {":A N\r\n"};
+        if (c == "W X" || c == "W Y") return {":A 0\r\n"};
+        return test::drv_pty_controller::default_reply(c);
+    });
+    const auto resynced_before = count_of(kind::resynced);
+    for (const char* line : {"RS X?", "RS Y?", "W X", "W Y", "RS X?"}) {
+        const auto [ec, r] = call(raw(line));
+        ASSERT_FALSE(ec) << line << ": " << ec.message();
+        EXPECT_EQ(r.raw, line[0] == 'R' ? ":A N" : ":A 0") << line;
+    }
+    EXPECT_EQ(count_of(kind::mismatch), 0u);
+    EXPECT_EQ(count_of(kind::resynced), resynced_before);
+}
+
+TEST_F(controller_sync_test, a_moving_stage_is_polled_without_link_faults) {
+    // While the stage is busy every poll round asks each axis "RS <axis>?", and the axes answer
+    // alike, one right after the other.
+    fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
+        if (c == "/") return {"B\r\n"};
+        if (c == "RS X?" || c == "RS Y?") return {":A B\r\n"};
+        return test::drv_pty_controller::default_reply(c);
+    });
+    auto s = settings();
+    s.poll_interval = 10ms;
+    start(s);
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    const auto resynced_at_connect = count_of(kind::resynced);
+    fake_.clear_commands();
+    const auto rounds = [&] {
+        const auto sent = fake_.commands();
+        return std::count(sent.begin(), sent.end(), "RS Y?");
+    };
+    for (int i = 0; i < 500 && rounds() < 5; ++i)
+        std::this_thread::sleep_for(20ms);
+    ASSERT_GE(rounds(), 5) << "the poll never asked every axis";
+    const auto snapshot = observer_->latest();
+    EXPECT_TRUE(snapshot.busy);
+    ASSERT_EQ(snapshot.axes.size(), 2u);
+    EXPECT_TRUE(snapshot.axes[0].busy && snapshot.axes[1].busy);
+    EXPECT_EQ(count_of(kind::mismatch), 0u);
+    EXPECT_EQ(count_of(kind::resynced), resynced_at_connect);
+}
+
 TEST_F(controller_sync_test, identical_acks_of_different_moves_are_each_their_own) {
     start(settings());
     ASSERT_TRUE(observer_->wait_state(connection_state::connected));
