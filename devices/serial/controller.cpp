@@ -366,11 +366,16 @@ void controller::accept(ms2000::reply r, const std::string& line) {
 
 bool controller::repeats_last_answer(const ms2000::command& cmd, const ms2000::reply& r,
                                      const std::string& line) const {
-    // Bare ":A" acks and ":N-<code>" errors repeat legitimately from command to command (every move
-    // answers ":A"; a HALT's ":N-21" is followed by the next move's while the stage still stops).
-    const bool bare_ack = r.what == ms2000::reply::kind::ack && r.values.empty() && r.axes.empty();
-    const bool error = r.what == ms2000::reply::kind::error;
-    return !bare_ack && !error && line == last_answer_.line && cmd.wire != last_answer_.wire &&
+    // Replies that carry no more than a flag repeat legitimately from command to command: bare ":A"
+    // acks (every move), ":N-<code>" errors (a HALT's ":N-21", then the next move's), "/"'s "B" and
+    // one-character values (":A B" to "RS X?", "RS Y?" and "RS Z?" alike while the stage moves; ":A 0"
+    // to "TTL X?" and "TTL Y?"). Holding them would add the window to every poll round of a moving
+    // stage; a copy of one is still caught when the command's own answer arrives as a stray line.
+    const bool flag_only =
+        r.what == ms2000::reply::kind::error || r.what == ms2000::reply::kind::status ||
+        (r.what == ms2000::reply::kind::ack && r.axes.empty() &&
+         std::all_of(r.values.begin(), r.values.end(), [](const std::string& v) { return v.size() <= 1; }));
+    return !flag_only && line == last_answer_.line && cmd.wire != last_answer_.wire &&
            steady_clock::now() - last_answer_.at < settings_.repeated_reply_window;
 }
 

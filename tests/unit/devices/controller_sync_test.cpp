@@ -297,20 +297,21 @@ TEST_F(controller_sync_test, a_reply_repeated_after_the_guard_is_not_the_next_co
 }
 
 TEST_F(controller_sync_test, identical_answers_to_different_commands_are_each_their_own) {
-    // Different queries may share an answer (two idle axes, two axes at 0). Each is held for the
-    // repeated-reply window and, with nothing after it, taken: no refusal, no resynchronisation.
+    // Different queries may share an answer (two axes at the same place): each is held for the
+    // repeated-reply window and, with nothing after it, taken. One-character answers (two idle axes)
+    // are not held at all. No refusal, no resynchronisation.
     start(settings());
     ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
         if (c == "RS X?" || c == "RS Y?") return {":A N\r\n"};
-        if (c == "W X" || c == "W Y") return {":A 0\r\n"};
+        if (c == "W X" || c == "W Y") return {":A 12.5\r\n"};
         return test::drv_pty_controller::default_reply(c);
     });
     const auto resynced_before = count_of(kind::resynced);
     for (const char* line : {"RS X?", "RS Y?", "W X", "W Y", "RS X?"}) {
         const auto [ec, r] = call(raw(line));
         ASSERT_FALSE(ec) << line << ": " << ec.message();
-        EXPECT_EQ(r.raw, line[0] == 'R' ? ":A N" : ":A 0") << line;
+        EXPECT_EQ(r.raw, line[0] == 'R' ? ":A N" : ":A 12.5") << line;
     }
     EXPECT_EQ(count_of(kind::mismatch), 0u);
     EXPECT_EQ(count_of(kind::resynced), resynced_before);
