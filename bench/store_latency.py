@@ -1,0 +1,518 @@
+#!/usr/bin/python3
+"""Benchmark: REST and WebSocket latency while jobs write their step events to the store.
+
+The job store commits every step event (SQLite, WAL, synchronous=FULL); where that commit runs on the
+gateway's I/O thread, each fsync may hold up HTTP, WebSocket, MQTT and serial polling. This script
+shows the effect, for one or more gateway binaries side by side in one run. For each binary (in the
+order given) it starts the real gateway on a fresh scratch storage directory with --controllers
+simulated controllers (in-process, --time-scale, --poll-ms), then measures two phases of --seconds:
+
+1. baseline: no job running;
+2. jobs: array jobs with many short steps (a 20 x 20 grid of 10 um steps, no dwell, advance timer:
+   400 steps, resubmitted as soon as one ends) on sim1, sim2 and sim3 at once.
+
+In both phases the last controller (the watched one, sim4 by default) keeps moving (slow moves from
+one end of X to the other, so its position changes at every poll and a position event is due every
+--poll-ms), and the script records:
+
+* GET /api/v1/controllers/{watched} issued at --rate per second on a steady schedule over one
+  keep-alive connection: latency from sending the request to reading the whole answer;
+* the interarrival of WebSocket events on controllers/{watched}/position (a stdlib WebSocket client
+  subscribed as the dashboard does), by the client's receive time.
+
+It prints one markdown table (p50 / p99 / max of both, per binary and phase, with the step events per
+second the jobs made) and, with --results, appends it to bench/RESULTS.md as a new section. Standard
+library only; run with Debian's /usr/bin/python3:
+
+  scripts/build && /usr/bin/python3 bench/store_latency.py                      # the current build
+  /usr/bin/python3 bench/store_latency.py --gateway before=OLD/asi-gateway --gateway after=NEW/asi-gateway
+
+The scratch directory is on --tmp-dir (default: the system's temporary directory); on a tmpfs an
+fsync costs nothing and the benchmark shows nothing, so the filesystem is printed with the results.
+"""
+
+import argparse
+import base64
+import datetime
+import http.client
+import json
+import os
+import platform
+import shlex
+import shutil
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+TERMINAL = {"succeeded", "failed", "cancelled", "interrupted"}
+# A1 at a fixed place, 10 um steps: every step is a short move, so the steps (and their store commits)
+# come as fast as the job's arrival polling allows.
+SPEC = {"grid": {"columns": 20, "rows": 20, "column_step_mm": 0.01, "row_step_mm": 0.01},
+        "a1": {"X": 0, "Y": 0}, "dwell_ms": 0, "advance": "timer"}
+JOB_CONTROLLERS = 3
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_until(what, fn, timeout=60.0):
+    deadline = time.monotonic() + timeout
+    last = None
+    while time.monotonic() < deadline:
+        try:
+            last = fn()
+            if last:
+                return last
+        except (OSError, http.client.HTTPException) as e:
+            last = e
+        time.sleep(0.1)
+    raise RuntimeError(f"timed out waiting for {what} (last: {last!r})")
+
+
+class Http:
+    """One keep-alive connection (one per thread)."""
+
+    def __init__(self, port, timeout=60):
+        self.port = port
+        self.timeout = timeout
+        self.conn = None
+
+    def request(self, method, path, body=None):
+        for attempt in range(3):
+            try:
+                if self.conn is None:
+                    self.conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=self.timeout)
+                headers = {"Content-Type": "application/json"} if body is not None else {}
+                self.conn.request(method, path, body=None if body is None else json.dumps(body), headers=headers)
+                r = self.conn.getresponse()
+                return r.status, r.read().decode()
+            except (OSError, http.client.HTTPException):
+                if self.conn:
+                    self.conn.close()
+                self.conn = None
+                if attempt == 2:
+                    raise
+                time.sleep(0.2)
+
+
+class WsPositions(threading.Thread):
+    """A stdlib WebSocket client subscribed to one topic: records the receive time of every event on it."""
+
+    def __init__(self, port, topic):
+        super().__init__(daemon=True)
+        self.topic = topic
+        self.sock = socket.create_connection(("127.0.0.1", port), timeout=60)
+        key = base64.b64encode(os.urandom(16)).decode()
+        self.sock.sendall((f"GET /api/v1/ws HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\n"
+                           f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n")
+                          .encode())
+        data = b""
+        while b"\r\n\r\n" not in data:
+            chunk = self.sock.recv(4096)
+            if not chunk:
+                raise RuntimeError("WebSocket upgrade: connection closed")
+            data += chunk
+        head, self.buf = data.split(b"\r\n\r\n", 1)
+        if b" 101 " not in head.split(b"\r\n")[0]:
+            raise RuntimeError(f"WebSocket upgrade refused: {head[:200]!r}")
+        self.lock = threading.Lock()
+        self.times = []  # monotonic receive times of the topic's events
+        self.error = None
+        self.send({"op": "subscribe", "id": 1, "topics": [topic]})
+
+    def send(self, obj):
+        payload = json.dumps(obj).encode()
+        mask = os.urandom(4)
+        n = len(payload)
+        header = bytes([0x81]) + (bytes([0x80 | n]) if n < 126 else bytes([0x80 | 126]) + struct.pack("!H", n))
+        self.sock.sendall(header + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+
+    def _read(self, n):
+        while len(self.buf) < n:
+            chunk = self.sock.recv(65536)
+            if not chunk:
+                raise EOFError("closed")
+            self.buf += chunk
+        out, self.buf = self.buf[:n], self.buf[n:]
+        return out
+
+    def take(self):
+        """The receive times so far; starts a new list."""
+        with self.lock:
+            out, self.times = self.times, []
+        return out
+
+    def run(self):
+        self.sock.settimeout(None)
+        marker = f'"topic":"{self.topic}"'.encode()
+        try:
+            while True:
+                b0, b1 = self._read(2)
+                n = b1 & 0x7F
+                if n == 126:
+                    n = struct.unpack("!H", self._read(2))[0]
+                elif n == 127:
+                    n = struct.unpack("!Q", self._read(8))[0]
+                payload = self._read(n)
+                now = time.monotonic()
+                op = b0 & 0x0F
+                if op == 0x8:
+                    self.error = f"closed by the gateway: {payload[2:].decode(errors='replace')}"
+                    return
+                if op == 0x9:  # ping: pong with the same payload (masked, as a client must)
+                    mask = os.urandom(4)
+                    self.sock.sendall(bytes([0x8A, 0x80 | len(payload)]) + mask +
+                                      bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+                    continue
+                if b'"type":"event"' in payload and marker in payload:
+                    with self.lock:
+                        self.times.append(now)
+        except (OSError, EOFError) as e:
+            if self.error is None:
+                self.error = str(e)
+
+
+def percentile(values, p):
+    """Nearest-rank percentile of a non-empty list."""
+    s = sorted(values)
+    k = max(0, min(len(s) - 1, int(round(p / 100 * len(s) + 0.5)) - 1))
+    return s[k]
+
+
+def summary_ms(values):
+    if not values:
+        return None
+    return {"n": len(values), "p50": percentile(values, 50) * 1000, "p99": percentile(values, 99) * 1000,
+            "max": max(values) * 1000}
+
+
+class Gateway:
+    """One binary on a fresh scratch directory: start, phases, stop."""
+
+    def __init__(self, label, binary, args):
+        self.label = label
+        self.binary = binary
+        self.args = args
+        self.tmp = tempfile.mkdtemp(prefix="asi-store-latency-", dir=args.tmp_dir)
+        self.port = free_port()
+        self.proc = None
+        self.ws = None
+        self.watched = f"sim{args.controllers}"
+        self.stop_mover = threading.Event()
+        self.mover = None
+        self.mover_error = None
+
+    def start(self):
+        a = self.args
+        config = {
+            "http": {"listen_address": "127.0.0.1", "port": self.port},
+            "simulate": {"count": a.controllers, "time_scale": a.time_scale,
+                         "directory": os.path.join(self.tmp, "sims")},
+            "storage": {"path": os.path.join(self.tmp, "store")},
+            "logging": {"level": "warn"},
+        }
+        cfg = os.path.join(self.tmp, "gateway.json")
+        with open(cfg, "w") as f:
+            json.dump(config, f)
+        log = open(os.path.join(self.tmp, "gateway.log"), "w")
+        self.proc = subprocess.Popen([self.binary, "--config", cfg, "--poll-ms", str(a.poll_ms)], stdout=log,
+                                     stderr=subprocess.STDOUT)
+        log.close()
+
+        def ready():
+            if self.proc.poll() is not None:
+                raise RuntimeError("the gateway exited at start-up:\n" + self.log_tail())
+            return Http(self.port).request("GET", "/api/v1/ready")[0] == 200
+        wait_until("gateway ready", ready)
+        self.ws = WsPositions(self.port, f"controllers/{self.watched}/position")
+        self.ws.start()
+        # The watched stage moves slowly from end to end (about 2 mm/s of real time whatever the time
+        # scale): its position changes at every poll, so a position event is due every poll.
+        h = Http(self.port)
+        speed = min(50.0, max(0.001, 2.0 / a.time_scale))
+        status, text = h.request("POST", f"/api/v1/controllers/{self.watched}/speed", {"axes": {"X": speed}})
+        if status != 200:
+            raise RuntimeError(f"speed on {self.watched}: {status} {text[:300]}")
+        self.mover = threading.Thread(target=self.move_forever, daemon=True)
+        self.mover.start()
+        time.sleep(2)  # the first move under way
+        self.ws.take()
+
+    def move_forever(self):
+        """Moves without "wait" (a waited move polls STATUS on the same serial link as the position polls),
+        reversing once the stage is idle (read every 0.5 s)."""
+        h = Http(self.port)
+        target = 100000
+        try:
+            while not self.stop_mover.is_set():
+                status, text = h.request("POST", f"/api/v1/controllers/{self.watched}/move", {"axes": {"X": target}})
+                if status != 200:
+                    raise RuntimeError(f"move on {self.watched}: {status} {text[:300]}")
+                time.sleep(1)
+                while not self.stop_mover.wait(0.5):
+                    status, text = h.request("GET", f"/api/v1/controllers/{self.watched}")
+                    if status == 200 and not json.loads(text).get("busy"):
+                        break
+                target = -target
+        except Exception as e:  # noqa: BLE001 - reported with the phase
+            self.mover_error = str(e)
+
+    def log_tail(self, n=30):
+        try:
+            with open(os.path.join(self.tmp, "gateway.log")) as f:
+                return "".join(f.readlines()[-n:])
+        except OSError:
+            return ""
+
+    def job_worker(self, controller, stop, counts, errors):
+        """Array jobs one after the other on `controller` until `stop`; the last one is cancelled."""
+        h = Http(self.port)
+        try:
+            while not stop.is_set():
+                status, text = h.request("POST", "/api/v1/jobs", {"controller": controller, "type": "array",
+                                                                  "spec": SPEC})
+                if status != 201:
+                    raise RuntimeError(f"submit on {controller}: {status} {text[:300]}")
+                job = json.loads(text)
+                counts["path"] = job.get("path")
+                state, cancelled = None, False
+                while state not in TERMINAL:
+                    if stop.wait(self.args.job_poll_s) and not cancelled:
+                        h.request("POST", f"/api/v1/jobs/{job['id']}/cancel", {})
+                        cancelled = True
+                    status, text = h.request("GET", f"/api/v1/jobs/{job['id']}")
+                    record = json.loads(text) if status == 200 else {}
+                    state = record.get("state")
+                    if stop.is_set() and state not in TERMINAL:
+                        time.sleep(0.1)
+                counts["steps"] += record.get("progress", {}).get("steps_done", 0)
+                counts["jobs"] += 1
+                counts["failed"] += state not in ("succeeded", "cancelled")
+        except Exception as e:  # noqa: BLE001 - reported once the phase ends
+            errors.append(f"{controller}: {e}")
+
+    def phase(self, name, with_jobs):
+        a = self.args
+        stop = threading.Event()
+        workers, counts, errors = [], [], []
+        if with_jobs:
+            for i in range(JOB_CONTROLLERS):
+                c = {"controller": f"sim{i + 1}", "steps": 0, "jobs": 0, "failed": 0, "path": None}
+                counts.append(c)
+                t = threading.Thread(target=self.job_worker, args=(c["controller"], stop, c, errors), daemon=True)
+                workers.append(t)
+                t.start()
+            time.sleep(1)  # the jobs under way before the window opens
+        h = Http(self.port)
+        latencies, bad = [], 0
+        self.ws.take()
+        t0 = time.monotonic()
+        period = 1.0 / a.rate
+        i = 0
+        while True:
+            due = t0 + i * period
+            if due - t0 >= a.seconds:
+                break
+            now = time.monotonic()
+            if due > now:
+                time.sleep(due - now)
+            sent = time.monotonic()
+            status, _ = h.request("GET", f"/api/v1/controllers/{self.watched}")
+            latencies.append(time.monotonic() - sent)
+            bad += status != 200
+            i += 1
+        window = time.monotonic() - t0
+        arrivals = self.ws.take()
+        stop.set()
+        for t in workers:
+            t.join(timeout=60)
+        if self.proc.poll() is not None:
+            raise RuntimeError("the gateway died:\n" + self.log_tail())
+        if errors:
+            raise RuntimeError("; ".join(errors))
+        gaps = [b - a_ for a_, b in zip(arrivals, arrivals[1:])]
+        steps = sum(c["steps"] for c in counts)
+        return {"gateway": self.label, "phase": name, "window_s": window, "get": summary_ms(latencies),
+                "get_not_ok": bad, "ws": summary_ms(gaps), "ws_events": len(arrivals),
+                "jobs": sum(c["jobs"] for c in counts), "failed": sum(c["failed"] for c in counts),
+                "steps_per_s": steps / window if with_jobs else 0.0,
+                "paths": ", ".join(f"{c['controller']} {c['path']}" for c in counts),
+                "mover_error": self.mover_error, "ws_error": self.ws.error}
+
+    def stop(self):
+        self.stop_mover.set()
+        if self.proc and self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        if not self.args.keep:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+        else:
+            print(f"kept {self.tmp}")
+
+
+def load_average():
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:
+        return "?"
+
+
+def git_commit():
+    try:
+        return subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                              check=False).stdout.strip()
+    except OSError:
+        return ""
+
+
+def cpu_model():
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "?"
+
+
+def filesystem(path):
+    """'ext4 on /dev/vda (rotational)' for the filesystem that holds `path`."""
+    try:
+        out = subprocess.run(["findmnt", "-n", "-o", "FSTYPE,SOURCE", "-T", path], capture_output=True, text=True,
+                             check=False).stdout.split()
+    except OSError:
+        return "?"
+    if len(out) < 2:
+        return "?"
+    fstype, source = out[0], out[1]
+    text = f"{fstype} on {source}"
+    dev = os.path.basename(source)
+    try:
+        with open(f"/sys/block/{dev}/queue/rotational") as f:
+            text += " (the kernel reports it rotational)" if f.read().strip() == "1" else " (non-rotational)"
+    except OSError:
+        pass
+    return text
+
+
+def fmt(s, key):
+    return "-" if s is None else f"{s[key]:.1f}"
+
+
+def table(rows):
+    lines = ["| gateway | phase | GET p50 ms | GET p99 ms | GET max ms | GETs | WS position p50 ms | "
+             "WS p99 ms | WS max ms | WS events | step events/s |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        g, w = r["get"], r["ws"]
+        lines.append(f"| {r['gateway']} | {r['phase']} | {fmt(g, 'p50')} | {fmt(g, 'p99')} | {fmt(g, 'max')} | "
+                     f"{g['n'] if g else 0} | {fmt(w, 'p50')} | {fmt(w, 'p99')} | {fmt(w, 'max')} | "
+                     f"{r['ws_events']} | {r['steps_per_s']:.0f} |")
+    return "\n".join(lines)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--gateway", action="append", default=[],
+                   help="LABEL=PATH or PATH (repeatable; default build/gateway/asi-gateway)")
+    p.add_argument("--seconds", type=float, default=25, help="length of each phase")
+    p.add_argument("--rate", type=float, default=50, help="GET requests per second")
+    p.add_argument("--controllers", type=int, default=4, help="simulated controllers (jobs on the first three, "
+                                                              "the last one watched)")
+    p.add_argument("--time-scale", type=float, default=50, help="simulator speed-up (short steps, frequent commits)")
+    p.add_argument("--poll-ms", type=int, default=50, help="the gateway's position polling interval")
+    p.add_argument("--job-poll-s", type=float, default=0.2, help="how often a job worker reads its job's state")
+    p.add_argument("--tmp-dir", default=None, help="where the scratch storage directories go (default: $TMPDIR or /tmp)")
+    p.add_argument("--results", default="", help="append the table to this file (e.g. bench/RESULTS.md) as a "
+                                                 "new section")
+    p.add_argument("--title", default="Latency while jobs run", help="the section's title with --results")
+    p.add_argument("--keep", action="store_true", help="keep the scratch directories")
+    args = p.parse_args()
+    if args.controllers < JOB_CONTROLLERS + 1:
+        sys.exit(f"--controllers must be at least {JOB_CONTROLLERS + 1}")
+    gateways = []
+    for g in args.gateway or [os.path.join(ROOT, "build", "gateway", "asi-gateway")]:
+        label, sep, path = g.partition("=")
+        if not sep:
+            label, path = os.path.relpath(os.path.abspath(g), ROOT), g
+        if not os.path.exists(path):
+            sys.exit(f"no gateway at {path}: run scripts/build first")
+        gateways.append((label, os.path.abspath(path)))
+    started = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M")
+    load_start = load_average()
+    rows = []
+    for label, path in gateways:
+        gw = Gateway(label, path, args)
+        try:
+            gw.start()
+            for name, with_jobs in (("no job", False), (f"{JOB_CONTROLLERS} array jobs", True)):
+                print(f"{label}: {name} for {args.seconds:g} s ...", flush=True)
+                r = gw.phase(name, with_jobs)
+                rows.append(r)
+                g = r["get"]
+                print(f"  GET p50 {fmt(g, 'p50')} p99 {fmt(g, 'p99')} max {fmt(g, 'max')} ms; WS p50 "
+                      f"{fmt(r['ws'], 'p50')} p99 {fmt(r['ws'], 'p99')} max {fmt(r['ws'], 'max')} ms "
+                      f"({r['ws_events']} events); {r['jobs']} jobs, {r['steps_per_s']:.0f} steps/s"
+                      f"{' (' + r['paths'] + ')' if with_jobs else ''}", flush=True)
+                for key in ("mover_error", "ws_error"):
+                    if r[key]:
+                        print(f"  note: {key}: {r[key]}")
+                if r["get_not_ok"] or r["failed"]:
+                    print(f"  note: {r['get_not_ok']} GETs not 200, {r['failed']} jobs neither succeeded nor "
+                          f"cancelled")
+        except Exception as e:  # noqa: BLE001
+            print(f"error ({label}): {e}\n{gw.log_tail()}", file=sys.stderr)
+            gw.stop()
+            return 1
+        gw.stop()
+    load_end = load_average()
+    tmp = args.tmp_dir or tempfile.gettempdir()
+    lines = [f"## {args.title}", "",
+             f"`bench/store_latency.py`, run of {started} UTC, commit {git_commit()}: " +
+             "; ".join(f"`{label}` = `{os.path.relpath(path, ROOT) if not os.path.relpath(path, ROOT).startswith('..') else path}`"
+                       for label, path in gateways) + ".", "",
+             f"Each gateway on a fresh storage directory in {tmp} ({filesystem(tmp)}), {args.controllers} "
+             f"simulated controllers (time scale {args.time_scale:g}, --poll-ms {args.poll_ms}); "
+             f"sim{args.controllers} moves all the time. GET /api/v1/controllers/sim{args.controllers} at "
+             f"{args.rate:g}/s (send to answer, one keep-alive connection); WebSocket interarrival of "
+             f"controllers/sim{args.controllers}/position events (client receive times); each phase "
+             f"{args.seconds:g} s. Jobs: 20 x 20 array jobs of 10 um steps, no dwell, on sim1-sim3, resubmitted "
+             f"as each ends; \"step events/s\" is the steps the jobs completed (each one a store commit) per "
+             f"second of the window (about: it counts the jobs' steps from 1 s before the window to their "
+             f"cancellation after it).", "",
+             "Command: `/usr/bin/python3 " + shlex.join(sys.argv) + "`", "",
+             f"Machine: {cpu_model()}, {os.cpu_count()} cores (nproc), shared with other work: load average "
+             f"{load_start} at the start, {load_end} at the end (1, 5, 15 min); Debian "
+             f"{open('/etc/debian_version').read().strip() if os.path.exists('/etc/debian_version') else '?'}, "
+             f"kernel {platform.release()}, Python {platform.python_version()}.", "",
+             table(rows), ""]
+    paths = sorted({r["paths"] for r in rows if r["paths"]})
+    if paths:
+        lines += [f"Job paths: {'; '.join(paths)}.", ""]
+    text = "\n".join(lines)
+    print("\n" + text)
+    if args.results:
+        with open(args.results) as f:
+            old = f.read()
+        with open(args.results, "w") as f:
+            f.write(old.rstrip("\n") + "\n\n" + text)
+        print(f"appended the section to {args.results}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
