@@ -19,75 +19,27 @@ Prints the trend and replaces the "Reliability: memory over finished jobs" secti
 """
 
 import argparse
-import base64
 import datetime
-import http.client
 import json
 import os
 import platform
 import shutil
 import socket
-import struct
 import subprocess
 import sys
 import tempfile
 import threading
 import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
+from gateway_rig import (HERE, ROOT, TERMINAL, Http, WsClient, free_port, git_commit, load_average, log_tail,
+                         start_gateway, stop_process, wait_until)
+
 MOSQUITTO = "/usr/sbin/mosquitto"
 SECTION = "Reliability: memory over finished jobs"
-TERMINAL = {"succeeded", "failed", "cancelled", "interrupted"}
 # A1 at a fixed place: with "current" each job would start where the last one ended and the stage would
 # walk off its soft limits after a few thousand jobs.
 SPEC = {"grid": {"columns": 3, "rows": 2, "column_step_mm": 0.1, "row_step_mm": 0.1}, "a1": {"X": 0, "Y": 0},
         "dwell_ms": 0, "advance": "timer"}
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_until(what, fn, timeout=60.0):
-    deadline = time.monotonic() + timeout
-    last = None
-    while time.monotonic() < deadline:
-        try:
-            last = fn()
-            if last:
-                return last
-        except (OSError, http.client.HTTPException) as e:
-            last = e
-        time.sleep(0.1)
-    raise RuntimeError(f"timed out waiting for {what} (last: {last!r})")
-
-
-class Http:
-    """One keep-alive connection (one per thread)."""
-
-    def __init__(self, port):
-        self.port = port
-        self.conn = None
-
-    def request(self, method, path, body=None):
-        for attempt in range(3):
-            try:
-                if self.conn is None:
-                    self.conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=60)
-                headers = {"Content-Type": "application/json"} if body is not None else {}
-                self.conn.request(method, path, body=None if body is None else json.dumps(body), headers=headers)
-                r = self.conn.getresponse()
-                return r.status, r.read().decode()
-            except (OSError, http.client.HTTPException):
-                if self.conn:
-                    self.conn.close()
-                self.conn = None
-                if attempt == 2:
-                    raise
-                time.sleep(0.2)
 
 
 def metrics(port):
@@ -113,72 +65,18 @@ def rss_kib(pid):
     return out
 
 
-class WsReader(threading.Thread):
-    """A stdlib WebSocket client subscribed to `filter`: reads (and counts) every message until closed."""
+class WsReader(WsClient):
+    """Subscribed to `topic_filter`: reads (and counts) every message until closed."""
 
     def __init__(self, port, topic_filter):
-        super().__init__(daemon=True)
-        self.sock = socket.create_connection(("127.0.0.1", port), timeout=60)
-        key = base64.b64encode(os.urandom(16)).decode()
-        self.sock.sendall((f"GET /api/v1/ws HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\n"
-                           f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n")
-                          .encode())
-        data = b""
-        while b"\r\n\r\n" not in data:
-            chunk = self.sock.recv(4096)
-            if not chunk:
-                raise RuntimeError("WebSocket upgrade: connection closed")
-            data += chunk
-        head, self.buf = data.split(b"\r\n\r\n", 1)
-        if b" 101 " not in head.split(b"\r\n")[0]:
-            raise RuntimeError(f"WebSocket upgrade refused: {head[:200]!r}")
+        super().__init__(port, topic_filter)
         self.messages = 0
         self.events = 0
-        self.error = None
-        self.send({"op": "subscribe", "id": 1, "topics": [topic_filter]})
 
-    def send(self, obj):
-        payload = json.dumps(obj).encode()
-        mask = os.urandom(4)
-        n = len(payload)
-        header = bytes([0x81]) + (bytes([0x80 | n]) if n < 126 else bytes([0x80 | 126]) + struct.pack("!H", n))
-        self.sock.sendall(header + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
-
-    def _read(self, n):
-        while len(self.buf) < n:
-            chunk = self.sock.recv(65536)
-            if not chunk:
-                raise EOFError("closed")
-            self.buf += chunk
-        out, self.buf = self.buf[:n], self.buf[n:]
-        return out
-
-    def run(self):
-        self.sock.settimeout(None)
-        try:
-            while True:
-                b0, b1 = self._read(2)
-                n = b1 & 0x7F
-                if n == 126:
-                    n = struct.unpack("!H", self._read(2))[0]
-                elif n == 127:
-                    n = struct.unpack("!Q", self._read(8))[0]
-                payload = self._read(n)
-                op = b0 & 0x0F
-                if op == 0x8:
-                    self.error = f"closed by the gateway: {payload[2:].decode(errors='replace')}"
-                    return
-                if op == 0x9:  # ping: pong with the same payload (masked, as a client must)
-                    mask = os.urandom(4)
-                    self.sock.sendall(bytes([0x8A, 0x80 | len(payload)]) + mask +
-                                      bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
-                    continue
-                self.messages += 1
-                if b'"type":"event"' in payload:
-                    self.events += 1
-        except (OSError, EOFError) as e:
-            if self.error is None:
-                self.error = str(e)
+    def on_message(self, payload, received):
+        self.messages += 1
+        if b'"type":"event"' in payload:
+            self.events += 1
 
 
 class Run:
@@ -225,21 +123,10 @@ class Run:
                               "gateway_id": "bench"}
             if a.topic_ttl_s == "none":  # an older gateway: its own clearing time
                 config["mqtt"]["jobs"] = {"retain_finished_s": 5}
-        cfg = os.path.join(self.tmp, "gateway.json")
-        with open(cfg, "w") as f:
-            json.dump(config, f)
-        log = open(os.path.join(self.tmp, "gateway.log"), "w")
         wrapper = ["heaptrack", "-o", a.heaptrack] if a.heaptrack else []
-        self.gateway = subprocess.Popen([*wrapper, a.gateway, "--config", cfg], stdout=log, stderr=subprocess.STDOUT)
-        log.close()
+        self.gateway = start_gateway([*wrapper, a.gateway], config, self.tmp, self.port)
         self.procs.append(self.gateway)
         self.pid = self.gateway.pid
-
-        def ready():
-            if self.gateway.poll() is not None:
-                raise RuntimeError("the gateway exited at start-up:\n" + self.log_tail())
-            return Http(self.port).request("GET", "/api/v1/ready")[0] == 200
-        wait_until("gateway ready", ready)
         if a.heaptrack:  # the gateway is heaptrack's child
             self.pid = wait_until("the gateway under heaptrack", lambda: gateway_pid(self.gateway.pid, a.gateway))
         self.mqtt = mqtt
@@ -248,11 +135,7 @@ class Run:
             self.ws.start()
 
     def log_tail(self, n=30):
-        try:
-            with open(os.path.join(self.tmp, "gateway.log")) as f:
-                return "".join(f.readlines()[-n:])
-        except OSError:
-            return ""
+        return log_tail(self.tmp, n)
 
     def sample(self):
         m = metrics(self.port)
@@ -331,13 +214,7 @@ class Run:
             except OSError:
                 pass
         for p in self.procs:
-            if p.poll() is None:
-                p.terminate()
-                try:
-                    p.wait(timeout=20)
-                except subprocess.TimeoutExpired:
-                    p.kill()
-                    p.wait()
+            stop_process(p)
         if not self.args.keep:
             shutil.rmtree(self.tmp, ignore_errors=True)
         else:
@@ -383,21 +260,6 @@ def slope_kib_per_job(points):
     if sxx == 0:
         return None
     return sum((p[0] - mx) * (p[1] - my) for p in points) / sxx
-
-
-def load_average():
-    try:
-        return " ".join(f"{x:.1f}" for x in os.getloadavg())
-    except OSError:
-        return "?"
-
-
-def git_commit():
-    try:
-        return subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                              check=False).stdout.strip()
-    except OSError:
-        return ""
 
 
 def cpu_model():
@@ -491,7 +353,7 @@ def main():
     if not os.path.exists(args.gateway):
         sys.exit(f"no gateway at {args.gateway}: run scripts/build first")
     started = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M")
-    load_start = load_average()
+    load_start = load_average(1)
     run = Run(args)
     try:
         run.start()
@@ -503,7 +365,7 @@ def main():
         print(f"error: {e}\n{run.log_tail()}", file=sys.stderr)
         run.cleanup()
         return 1
-    load_end = load_average()
+    load_end = load_average(1)
     text = section(run, started, load_start, load_end)
     print("\n" + text)
     run.cleanup()

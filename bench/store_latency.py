@@ -32,25 +32,21 @@ fsync costs nothing and the benchmark shows nothing, so the filesystem is printe
 """
 
 import argparse
-import base64
 import datetime
-import http.client
 import json
 import os
 import platform
 import shlex
 import shutil
-import socket
-import struct
 import subprocess
 import sys
 import tempfile
 import threading
 import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-TERMINAL = {"succeeded", "failed", "cancelled", "interrupted"}
+from gateway_rig import (ROOT, TERMINAL, Http, WsClient, free_port, git_commit, load_average, log_tail,
+                         start_gateway, stop_process)
+
 # A1 at a fixed place, 10 um steps: every step is a short move, so the steps (and their store commits)
 # come as fast as the job's arrival polling allows.
 SPEC = {"grid": {"columns": 20, "rows": 20, "column_step_mm": 0.01, "row_step_mm": 0.01},
@@ -58,92 +54,15 @@ SPEC = {"grid": {"columns": 20, "rows": 20, "column_step_mm": 0.01, "row_step_mm
 JOB_CONTROLLERS = 3
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_until(what, fn, timeout=60.0):
-    deadline = time.monotonic() + timeout
-    last = None
-    while time.monotonic() < deadline:
-        try:
-            last = fn()
-            if last:
-                return last
-        except (OSError, http.client.HTTPException) as e:
-            last = e
-        time.sleep(0.1)
-    raise RuntimeError(f"timed out waiting for {what} (last: {last!r})")
-
-
-class Http:
-    """One keep-alive connection (one per thread)."""
-
-    def __init__(self, port, timeout=60):
-        self.port = port
-        self.timeout = timeout
-        self.conn = None
-
-    def request(self, method, path, body=None):
-        for attempt in range(3):
-            try:
-                if self.conn is None:
-                    self.conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=self.timeout)
-                headers = {"Content-Type": "application/json"} if body is not None else {}
-                self.conn.request(method, path, body=None if body is None else json.dumps(body), headers=headers)
-                r = self.conn.getresponse()
-                return r.status, r.read().decode()
-            except (OSError, http.client.HTTPException):
-                if self.conn:
-                    self.conn.close()
-                self.conn = None
-                if attempt == 2:
-                    raise
-                time.sleep(0.2)
-
-
-class WsPositions(threading.Thread):
-    """A stdlib WebSocket client subscribed to one topic: records the receive time of every event on it."""
+class WsPositions(WsClient):
+    """Subscribed to one topic: records the receive time of every event on it."""
 
     def __init__(self, port, topic):
-        super().__init__(daemon=True)
+        super().__init__(port, topic)
         self.topic = topic
-        self.sock = socket.create_connection(("127.0.0.1", port), timeout=60)
-        key = base64.b64encode(os.urandom(16)).decode()
-        self.sock.sendall((f"GET /api/v1/ws HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\n"
-                           f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n")
-                          .encode())
-        data = b""
-        while b"\r\n\r\n" not in data:
-            chunk = self.sock.recv(4096)
-            if not chunk:
-                raise RuntimeError("WebSocket upgrade: connection closed")
-            data += chunk
-        head, self.buf = data.split(b"\r\n\r\n", 1)
-        if b" 101 " not in head.split(b"\r\n")[0]:
-            raise RuntimeError(f"WebSocket upgrade refused: {head[:200]!r}")
+        self.marker = f'"topic":"{topic}"'.encode()
         self.lock = threading.Lock()
         self.times = []  # monotonic receive times of the topic's events
-        self.error = None
-        self.send({"op": "subscribe", "id": 1, "topics": [topic]})
-
-    def send(self, obj):
-        payload = json.dumps(obj).encode()
-        mask = os.urandom(4)
-        n = len(payload)
-        header = bytes([0x81]) + (bytes([0x80 | n]) if n < 126 else bytes([0x80 | 126]) + struct.pack("!H", n))
-        self.sock.sendall(header + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
-
-    def _read(self, n):
-        while len(self.buf) < n:
-            chunk = self.sock.recv(65536)
-            if not chunk:
-                raise EOFError("closed")
-            self.buf += chunk
-        out, self.buf = self.buf[:n], self.buf[n:]
-        return out
 
     def take(self):
         """The receive times so far; starts a new list."""
@@ -151,34 +70,10 @@ class WsPositions(threading.Thread):
             out, self.times = self.times, []
         return out
 
-    def run(self):
-        self.sock.settimeout(None)
-        marker = f'"topic":"{self.topic}"'.encode()
-        try:
-            while True:
-                b0, b1 = self._read(2)
-                n = b1 & 0x7F
-                if n == 126:
-                    n = struct.unpack("!H", self._read(2))[0]
-                elif n == 127:
-                    n = struct.unpack("!Q", self._read(8))[0]
-                payload = self._read(n)
-                now = time.monotonic()
-                op = b0 & 0x0F
-                if op == 0x8:
-                    self.error = f"closed by the gateway: {payload[2:].decode(errors='replace')}"
-                    return
-                if op == 0x9:  # ping: pong with the same payload (masked, as a client must)
-                    mask = os.urandom(4)
-                    self.sock.sendall(bytes([0x8A, 0x80 | len(payload)]) + mask +
-                                      bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
-                    continue
-                if b'"type":"event"' in payload and marker in payload:
-                    with self.lock:
-                        self.times.append(now)
-        except (OSError, EOFError) as e:
-            if self.error is None:
-                self.error = str(e)
+    def on_message(self, payload, received):
+        if b'"type":"event"' in payload and self.marker in payload:
+            with self.lock:
+                self.times.append(received)
 
 
 def percentile(values, p):
@@ -220,19 +115,7 @@ class Gateway:
             "storage": {"path": os.path.join(self.tmp, "store")},
             "logging": {"level": "warn"},
         }
-        cfg = os.path.join(self.tmp, "gateway.json")
-        with open(cfg, "w") as f:
-            json.dump(config, f)
-        log = open(os.path.join(self.tmp, "gateway.log"), "w")
-        self.proc = subprocess.Popen([self.binary, "--config", cfg, "--poll-ms", str(a.poll_ms)], stdout=log,
-                                     stderr=subprocess.STDOUT)
-        log.close()
-
-        def ready():
-            if self.proc.poll() is not None:
-                raise RuntimeError("the gateway exited at start-up:\n" + self.log_tail())
-            return Http(self.port).request("GET", "/api/v1/ready")[0] == 200
-        wait_until("gateway ready", ready)
+        self.proc = start_gateway([self.binary], config, self.tmp, self.port, ["--poll-ms", str(a.poll_ms)])
         self.ws = WsPositions(self.port, f"controllers/{self.watched}/position")
         self.ws.start()
         # The watched stage moves slowly from end to end (about 2 mm/s of real time whatever the time
@@ -267,11 +150,7 @@ class Gateway:
             self.mover_error = str(e)
 
     def log_tail(self, n=30):
-        try:
-            with open(os.path.join(self.tmp, "gateway.log")) as f:
-                return "".join(f.readlines()[-n:])
-        except OSError:
-            return ""
+        return log_tail(self.tmp, n)
 
     def job_worker(self, controller, stop, counts, errors):
         """Array jobs one after the other on `controller` until `stop`; the last one is cancelled."""
@@ -350,32 +229,11 @@ class Gateway:
 
     def stop(self):
         self.stop_mover.set()
-        if self.proc and self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+        stop_process(self.proc)
         if not self.args.keep:
             shutil.rmtree(self.tmp, ignore_errors=True)
         else:
             print(f"kept {self.tmp}")
-
-
-def load_average():
-    try:
-        return " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        return "?"
-
-
-def git_commit():
-    try:
-        return subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                              check=False).stdout.strip()
-    except OSError:
-        return ""
 
 
 def cpu_model():
