@@ -397,6 +397,9 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
         return pump();
     }
     if (!ec && !done.job.internal && sets_ttl_mode(done.job.cmd)) refresh_ttl_modes();
+    // Whoever asked "/" (a waited move, a job), its answer is the newest word on motion: the snapshot
+    // must not go on saying "moving" after a move's waiter was told it stopped.
+    if (!ec && !done.job.poll && reply && reply->what == ms2000::reply::kind::status) note_busy(reply->busy);
 
     if (ec && !done.job.internal) {
         if (ec == ms2000::error::controller_rejected && reply) {
@@ -835,6 +838,13 @@ std::optional<controller::pending> controller::next_poll_command() {
     return std::nullopt;
 }
 
+void controller::note_busy(bool busy) {
+    snapshot_.busy = busy;
+    if (busy) return;  // which axes move is for "RS <axis>?" to say
+    for (auto& a : snapshot_.axes)
+        a.busy = false;
+}
+
 void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_code ec,
                                const ms2000::reply& r) {
     if (ec) {
@@ -850,14 +860,12 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
             return;
         case poll_step::status:
             // reply: "B" or "N"
-            snapshot_.busy = r.busy;
+            note_busy(r.busy);
             if (r.busy && !snapshot_.axes.empty()) {
                 poll_step_ = poll_step::axis_status;
                 poll_axis_ = 0;
                 return;
             }
-            for (auto& a : snapshot_.axes)
-                a.busy = false;
             break;
         case poll_step::axis_status: {
             apply_axis_busy(snapshot_, axis_index, r);

@@ -217,6 +217,7 @@ class controller : public std::enable_shared_from_this<controller> {
                              const std::string& line) const;
     void arm_command_timer(std::chrono::steady_clock::duration after, std::uint64_t sequence);
     void accept(ms2000::reply r, const std::string& line);
+    void note_busy(bool busy);  // a "/" answer: the stage (and, if stopped, every axis) moving or not
     std::chrono::milliseconds backoff_;
     bool node_gone_ = false;  // the device node vanished since the last connection attempt
     // Bytes received since the port was opened, until identified, and the first of them.

@@ -76,8 +76,11 @@ def page_position(controller, axis):
 
 async def open_view(b, port, controller):
     await b.navigate(f"http://127.0.0.1:{port}/#/controller/{controller}")
-    await b.wait_for(f"the {controller} view, connected and live",
-                     f"document.body.dataset.live === 'yes' && {view(controller)}?.dataset.state === 'connected'")
+    # The controls are built once the controller's axes are known (a later state event than the
+    # connection state): an input filled before then would be replaced, its value lost.
+    await b.wait_for(f"the {controller} view, connected and live, its controls built",
+                     f"document.body.dataset.live === 'yes' && {view(controller)}?.dataset.state === 'connected'"
+                     f" && !!{view(controller)}.querySelector('[name=goto-X]')")
 
 
 async def set_input(b, selector, value):
