@@ -12,6 +12,7 @@
 #include "devices/ms2000/error.hpp"
 #include "devices/ms2000/motion_profile.hpp"
 #include "devices/ms2000/report_frame.hpp"
+#include "devices/sim/letter_parameters.hpp"
 
 namespace gw::devices::sim {
 
@@ -539,9 +540,8 @@ std::string ms2000_model::cmd_axis_param(const command_line& cmd, sim_time now) 
                 v = std::clamp(v, screw_.max_speed_mm_s / 1e4, screw_.max_speed_mm_s);
             } else if (row.verb == "CNTS" || row.verb == "Z2B") {
                 continue;  // read-only
-            } else if (v < row.min || v > row.max || (row.verb == "UM" && v == 0)) {
-                return error(ms2000::parameter_out_of_range);
-            } else if ((row.verb == "SETUP" && v <= a.params["SETLOW"]) ||
+            } else if (v < row.min || v > row.max || (row.verb == "UM" && v == 0) ||
+                       (row.verb == "SETUP" && v <= a.params["SETLOW"]) ||
                        (row.verb == "SETLOW" && v >= a.params["SETUP"])) {
                 return error(ms2000::parameter_out_of_range);
             }
@@ -829,53 +829,35 @@ std::string ms2000_model::position_report_line(sim_time at) const {
 }
 
 std::string ms2000_model::cmd_zstack(const command_line& cmd, sim_time now) {
-    std::vector<std::pair<char, std::string>> q;
-    for (const auto& arg : cmd.args) {
-        if (arg.kind == op::query) {
-            switch (arg.letter) {
-                case 'X':
-                    q.emplace_back('X', trimmed(zstack_.dz_units, 4));
-                    break;
-                case 'Y':
-                    q.emplace_back('Y', std::to_string(zstack_.slices));
-                    break;
-                case 'Z':
-                    q.emplace_back('Z', std::to_string(zstack_.mode));
-                    break;
-                case 'T':
-                    q.emplace_back('T', std::to_string(zstack_.index));
-                    break;
-                case 'M':
-                    q.emplace_back('M', std::to_string(!zstack_.active ? 0 : zstack_.direction > 0 ? 1 : 2));
-                    break;
-                default:
-                    return error(ms2000::unrecognized_axis);
-            }
-            continue;
-        }
-        switch (arg.letter) {
-            case 'X':
-                zstack_.dz_units = arg.value;
-                break;
-            case 'Y':
-                if (arg.value < 1 || arg.value > 32767) return error(ms2000::parameter_out_of_range);
-                zstack_.slices = static_cast<int>(arg.value);
-                break;
-            case 'Z':
-                if (arg.value != 0 && arg.value != 1) return error(ms2000::parameter_out_of_range);
-                zstack_.mode = static_cast<int>(arg.value);
-                break;
-            case 'F':
-                break;  // stack timeout: accepted
-            case 'M':
-                if (arg.value == 0) zstack_.active = false;  // "ZS M=0" aborts
-                break;
-            default:
-                return error(ms2000::unrecognized_axis);
-        }
-    }
+    // "ZS M?": 0 while no stack runs, else 1 (slices counting up) or 2 (a triangle stack on its way back).
+    const auto stack_direction = [&] { return !zstack_.active ? 0 : zstack_.direction > 0 ? 1 : 2; };
+    // Settings apply as they are read: one refused keeps those before it.
+    const letter_parameter letters[] = {
+        {'X', [&] { return trimmed(zstack_.dz_units, 4); }, assigns(zstack_.dz_units)},
+        {'Y', [&] { return std::to_string(zstack_.slices); },
+         [&](double v) {
+             if (v < 1 || v > 32767) return ms2000::parameter_out_of_range;
+             zstack_.slices = static_cast<int>(v);
+             return 0;
+         }},
+        {'Z', [&] { return std::to_string(zstack_.mode); },
+         [&](double v) {
+             if (v != 0 && v != 1) return ms2000::parameter_out_of_range;
+             zstack_.mode = static_cast<int>(v);
+             return 0;
+         }},
+        {'F', nullptr, ignores},  // stack timeout: accepted
+        {'T', [&] { return std::to_string(zstack_.index); }, nullptr},
+        {'M', [&] { return std::to_string(stack_direction()); },
+         [&](double v) {
+             if (v == 0) zstack_.active = false;  // "ZS M=0" aborts
+             return 0;
+         }},
+    };
     (void)now;
-    return q.empty() ? ack() : axes_a(q);
+    const auto outcome = apply_letter_parameters(cmd, letters);
+    if (outcome.error != 0) return error(outcome.error);
+    return outcome.answers.empty() ? ack() : axes_a(outcome.answers);
 }
 
 void ms2000_model::zstack_pulse(sim_time now) {

@@ -6,6 +6,7 @@
 
 #include "devices/ms2000/command.hpp"
 #include "devices/ms2000/error.hpp"
+#include "devices/sim/letter_parameters.hpp"
 #include "devices/sim/ms2000_model.hpp"
 
 namespace gw::devices::sim {
@@ -274,56 +275,29 @@ std::string ms2000_model::cmd_aij(const command_line& cmd, sim_time now) {
 
 std::string ms2000_model::cmd_scanr(const command_line& cmd) {
     if (cmd.args.empty()) return error(ms2000::missing_parameters);
-    auto next = scan_;
+    auto next = scan_;  // settings apply only when every argument is taken and nothing is queried
     const double counts = screw_.counts_per_mm;
     bool pixels_given = false;
-    std::vector<std::pair<char, std::string>> q;
-    for (const auto& arg : cmd.args) {
-        if (arg.kind == op::query) {
-            switch (arg.letter) {
-                case 'X':
-                    q.emplace_back('X', num(scan_.r_start));
-                    break;
-                case 'Y':
-                    q.emplace_back('Y', num(scan_.r_stop));
-                    break;
-                case 'Z':
-                    q.emplace_back('Z', std::to_string(scan_.divide));
-                    break;
-                case 'F':
-                    q.emplace_back('F', std::to_string(scan_.pixels));
-                    break;
-                case 'R':
-                    q.emplace_back('R', num(scan_.retrace_pct));
-                    break;
-                default:
-                    return error(ms2000::unrecognized_axis);
-            }
-            continue;
-        }
-        switch (arg.letter) {
-            case 'X':
-                next.r_start = arg.value;
-                break;
-            case 'Y':
-                next.r_stop = arg.value;
-                break;
-            case 'Z':
-                if (arg.value < 1 || arg.value >= 32768) return error(ms2000::parameter_out_of_range);
-                next.divide = static_cast<int>(arg.value);
-                break;
-            case 'F':
-                pixels_given = true;
-                next.pixels = static_cast<int>(arg.value);
-                break;
-            case 'R':
-                next.retrace_pct = arg.value;
-                break;
-            default:
-                return error(ms2000::unrecognized_axis);
-        }
-    }
-    if (!q.empty()) return axes_a(q);
+    const letter_parameter letters[] = {
+        {'X', [&] { return num(scan_.r_start); }, assigns(next.r_start)},
+        {'Y', [&] { return num(scan_.r_stop); }, assigns(next.r_stop)},
+        {'Z', [&] { return std::to_string(scan_.divide); },
+         [&](double v) {
+             if (v < 1 || v >= 32768) return ms2000::parameter_out_of_range;
+             next.divide = static_cast<int>(v);
+             return 0;
+         }},
+        {'F', [&] { return std::to_string(scan_.pixels); },
+         [&](double v) {
+             pixels_given = true;
+             next.pixels = static_cast<int>(v);
+             return 0;
+         }},
+        {'R', [&] { return num(scan_.retrace_pct); }, assigns(next.retrace_pct)},
+    };
+    const auto outcome = apply_letter_parameters(cmd, letters);
+    if (outcome.error != 0) return error(outcome.error);
+    if (!outcome.answers.empty()) return axes_a(outcome.answers);
     // Pixels per line = counts/mm x length / divide; both it and divide must stay below 32768.
     if (pixels_given) {
         if (next.pixels < 1 || next.pixels >= 32768) return error(ms2000::parameter_out_of_range);
@@ -339,44 +313,22 @@ std::string ms2000_model::cmd_scanr(const command_line& cmd) {
 
 std::string ms2000_model::cmd_scanv(const command_line& cmd) {
     if (cmd.args.empty()) return error(ms2000::missing_parameters);
-    auto next = scan_;
-    std::vector<std::pair<char, std::string>> q;
-    for (const auto& arg : cmd.args) {
-        if (arg.kind == op::query) {
-            switch (arg.letter) {
-                case 'X':
-                    q.emplace_back('X', num(scan_.v_start));
-                    break;
-                case 'Y':
-                    q.emplace_back('Y', num(scan_.v_stop));
-                    break;
-                case 'Z':
-                    q.emplace_back('Z', std::to_string(scan_.lines));
-                    break;
-                default:
-                    return error(ms2000::unrecognized_axis);
-            }
-            continue;
-        }
-        switch (arg.letter) {
-            case 'X':
-                next.v_start = arg.value;
-                break;
-            case 'Y':
-                next.v_stop = arg.value;
-                break;
-            case 'Z':
-                if (arg.value < 1 || arg.value >= 32768) return error(ms2000::parameter_out_of_range);
-                next.lines = static_cast<int>(arg.value);
-                break;
-            case 'F':
-            case 'T':
-                break;  // overshoot time and factor: accepted, not simulated
-            default:
-                return error(ms2000::unrecognized_axis);
-        }
-    }
-    if (!q.empty()) return axes_a(q);
+    auto next = scan_;  // settings apply only when every argument is taken and nothing is queried
+    const letter_parameter letters[] = {
+        {'X', [&] { return num(scan_.v_start); }, assigns(next.v_start)},
+        {'Y', [&] { return num(scan_.v_stop); }, assigns(next.v_stop)},
+        {'Z', [&] { return std::to_string(scan_.lines); },
+         [&](double v) {
+             if (v < 1 || v >= 32768) return ms2000::parameter_out_of_range;
+             next.lines = static_cast<int>(v);
+             return 0;
+         }},
+        {'F', nullptr, ignores},  // overshoot time and factor: accepted, not simulated
+        {'T', nullptr, ignores},
+    };
+    const auto outcome = apply_letter_parameters(cmd, letters);
+    if (outcome.error != 0) return error(outcome.error);
+    if (!outcome.answers.empty()) return axes_a(outcome.answers);
     scan_ = next;
     return ack();
 }
@@ -384,55 +336,41 @@ std::string ms2000_model::cmd_scanv(const command_line& cmd) {
 std::string ms2000_model::cmd_scan(const command_line& cmd, sim_time now) {
     bool start = cmd.args.empty();
     bool stop = false;
-    std::vector<std::pair<char, std::string>> q;
-    for (const auto& arg : cmd.args) {
-        if (arg.kind == op::query) {
-            switch (arg.letter) {
-                case 'X':
-                    q.emplace_back('X', scan_.running ? "S" : "P");
-                    break;
-                case 'Y':
-                    q.emplace_back('Y', std::to_string(scan_.fast_axis));
-                    break;
-                case 'Z':
-                    q.emplace_back('Z', std::to_string(scan_.slow_axis));
-                    break;
-                case 'F':
-                    q.emplace_back('F', std::to_string(scan_.pattern));
-                    break;
-                default:
-                    return error(ms2000::unrecognized_axis);
-            }
-            continue;
-        }
-        const auto axes_count = static_cast<double>(axes_.size());
-        switch (arg.letter) {
-            case 'S':
-                start = true;
-                break;
-            case 'P':
-                stop = true;
-                break;
-            case 'X':  // older syntax "SCAN X=1": start; "SCAN X=0": stop
-                (arg.value != 0 ? start : stop) = true;
-                break;
-            case 'Y':
-                if (arg.value < 0 || arg.value >= axes_count) return error(ms2000::parameter_out_of_range);
-                scan_.fast_axis = static_cast<int>(arg.value);
-                break;
-            case 'Z':
-                if (arg.value < 0 || arg.value >= axes_count) return error(ms2000::parameter_out_of_range);
-                scan_.slow_axis = static_cast<int>(arg.value);
-                break;
-            case 'F':
-                if (arg.value != 0 && arg.value != 1) return error(ms2000::parameter_out_of_range);
-                scan_.pattern = static_cast<int>(arg.value);
-                break;
-            default:
-                return error(ms2000::unrecognized_axis);
-        }
-    }
-    if (!q.empty()) return axes_a(q);
+    const auto axes_count = static_cast<double>(axes_.size());
+    const auto sets_axis = [&](int& field) {
+        return [&field, axes_count](double v) {
+            if (v < 0 || v >= axes_count) return ms2000::parameter_out_of_range;
+            field = static_cast<int>(v);
+            return 0;
+        };
+    };
+    const auto raises = [](bool& flag) {
+        return [&flag](double) {
+            flag = true;
+            return 0;
+        };
+    };
+    const letter_parameter letters[] = {
+        {'S', nullptr, raises(start)},
+        {'P', nullptr, raises(stop)},
+        // Older syntax "SCAN X=1": start; "SCAN X=0": stop.
+        {'X', [&] { return std::string(scan_.running ? "S" : "P"); },
+         [&](double v) {
+             (v != 0 ? start : stop) = true;
+             return 0;
+         }},
+        {'Y', [&] { return std::to_string(scan_.fast_axis); }, sets_axis(scan_.fast_axis)},
+        {'Z', [&] { return std::to_string(scan_.slow_axis); }, sets_axis(scan_.slow_axis)},
+        {'F', [&] { return std::to_string(scan_.pattern); },
+         [&](double v) {
+             if (v != 0 && v != 1) return ms2000::parameter_out_of_range;
+             scan_.pattern = static_cast<int>(v);
+             return 0;
+         }},
+    };
+    const auto outcome = apply_letter_parameters(cmd, letters);
+    if (outcome.error != 0) return error(outcome.error);
+    if (!outcome.answers.empty()) return axes_a(outcome.answers);
     if (stop) {
         if (scan_.running) {
             scan_.running = false;

@@ -24,6 +24,7 @@
 #include "gateway/event_hub.hpp"
 #include "gateway/jobs/job_execution.hpp"
 #include "gateway/jobs/job_id.hpp"
+#include "gateway/jobs/job_journal.hpp"
 #include "gateway/jobs/job_json.hpp"
 #include "gateway/jobs/job_kinds.hpp"
 #include "gateway/jobs/job_store.hpp"
@@ -164,20 +165,6 @@ class manager_core final : public execution_host, public std::enable_shared_from
         std::vector<std::string> restore;  // the run's stored restore commands, registration order
     };
 
-    // A write of save(): the job record (state, progress) and/or one of its events (null: none).
-    struct unstored_write {
-        std::optional<job_record> record;
-        json event;
-    };
-    // A job's writes that are not stored yet, oldest first, and the store's last error. A running job
-    // pauses at its next checkpoint, so usually only the steps until then wait here; a run without
-    // checkpoints is bounded by settings_.max_unstored_writes_per_job (the oldest writes are given up).
-    struct unstored_history {
-        std::deque<unstored_write> writes;
-        std::string error;
-        std::size_t given_up = 0;
-    };
-
     struct lane {
         std::deque<std::string> queue;  // FIFO of queued job ids
         std::string holder;             // the job that has the controller: running, or paused
@@ -214,9 +201,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
               bool progress = true);
     // Writes go through the job's queue of unstored writes, so that they reach the store in order:
     // appends `w`, then writes what is queued. A refusal keeps the rest queued (store_refused).
-    void store_write(const std::string& id, unstored_write w, bool progress = true);
-    // Writes the job's queued writes, oldest first, until one fails: its error. Forgets the job when
-    // all are stored.
+    void store_write(const std::string& id, job_journal::write w, bool progress = true);
+    // journal_.write_pending; an ended job whose history is all stored is read from the store after it.
     operation_result<void> write_unstored(const std::string& id);
     // The store refused a write of the job: the writes are retried every store_retry_interval, and, for
     // a write of its progress, a running job pauses at its next checkpoint (nothing may run unrecorded).
@@ -293,9 +279,10 @@ class manager_core final : public execution_host, public std::enable_shared_from
     std::map<std::string, recovery> recovery_pending_;
     // Controllers a recovery is being sent to (send_recovery); a run there waits for it.
     std::set<std::string> recovering_;
-    // Job id -> its writes the store refused (disk full, read-only file), retried in order (strand
-    // only). Kept after the job has ended: its final state must reach the store too.
-    std::map<std::string, unstored_history> unstored_;
+    // Each job's writes the store refused (disk full, read-only file), retried in order (strand only).
+    // Kept after the job has ended: its final state must reach the store too. A running job pauses at its
+    // next checkpoint, so usually only the steps until then wait there.
+    job_journal journal_{store_mutex_, store_, settings_.max_unstored_writes_per_job, log_};
     net::steady_timer store_retry_{strand_};
     bool store_retry_armed_ = false;
 
@@ -349,80 +336,43 @@ void manager_core::attach() {
 // Persistence and publication (strand).
 
 // A write the store refuses (disk full, read-only file) is never dropped: it waits in the job's
-// unstored_ queue, later writes of the job queue behind it (the history stays in order), and the queue is
+// queue in journal_, later writes of the job queue behind it (the history stays in order), and the queue is
 // written again every store_retry_interval, before a resume (which is refused until it is stored) and at
 // a clean shutdown. Meanwhile the record in memory is the truth, and get() answers from it.
 
 void manager_core::save(const std::string& id, std::optional<job_record> record, const json& event,
                         bool progress) {
     const std::optional<job_record> saved = record;
-    store_write(id, unstored_write{std::move(record), event}, progress);
+    store_write(id, job_journal::write{std::move(record), event}, progress);
     if (!saved) return;
     // get() answers from memory for active jobs, and for ended ones until the store has their end. Set
     // after the write: what get() shows of a step is stored (unless the store refused it).
     std::lock_guard lock(records_mutex_);
-    if (is_terminal(saved->state) && !unstored_.contains(id))
+    if (is_terminal(saved->state) && !journal_.has_pending(id))
         live_records_.erase(id);
     else
         live_records_[id] = *saved;
 }
 
-void manager_core::store_write(const std::string& id, unstored_write w, bool progress) {
-    auto& history = unstored_[id];
-    history.writes.push_back(std::move(w));
-    if (history.writes.size() > std::max<std::size_t>(settings_.max_unstored_writes_per_job, 1)) {
-        // Memory is bounded too. A later record carries the job's state and progress, so what is lost is
-        // the oldest event.
-        history.writes.pop_front();
-        if (history.given_up++ == 0)
-            log_->error(
-                "job {}: more than {} writes of its history wait for the job store; the oldest are "
-                "given up",
-                id, settings_.max_unstored_writes_per_job);
-    }
-    if (auto stored = write_unstored(id); !stored) store_refused(id, stored.error(), progress);
+void manager_core::store_write(const std::string& id, job_journal::write w, bool progress) {
+    if (auto stored = journal_.append(id, std::move(w)); !stored) store_refused(id, stored.error(), progress);
 }
 
 operation_result<void> manager_core::write_unstored(const std::string& id) {
-    auto it = unstored_.find(id);
-    if (it == unstored_.end()) return {};
-    auto& writes = it->second.writes;
-    std::optional<job_record> last_record;
-    while (!writes.empty()) {
-        const auto& w = writes.front();
-        operation_result<void> ok;
-        {
-            std::lock_guard lock(store_mutex_);
-            if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
-            ok = w.record ? store_->save(*w.record, w.event) : store_->append_event(id, w.event);
-        }
-        if (!ok && ok.error().kind == kind::storage_unavailable) return ok.error();  // kept: tried again
-        // Any other error (the job is not stored at all) would come back every time.
-        if (!ok) log_->error("job {}: cannot store its history: {}", id, describe(ok.error()));
-        if (w.record) last_record = w.record;
-        writes.pop_front();
-    }
-    if (it->second.given_up > 0)
-        log_->error(
-            "job {}: the job store takes its history again; {} write(s) of it were given up meanwhile", id,
-            it->second.given_up);
-    else if (!it->second.error.empty())
-        log_->info("job {}: the job store takes its history again; it is stored up to date", id);
-    unstored_.erase(it);
+    bool ended = false;
+    auto stored = journal_.write_pending(id, &ended);
     // An ended job is read from the store from now on.
-    if (last_record && is_terminal(last_record->state)) {
+    if (stored && ended) {
         std::lock_guard lock(records_mutex_);
         live_records_.erase(id);
     }
-    return {};
+    return stored;
 }
 
 void manager_core::store_refused(const std::string& id, const operation_error& e, bool progress) {
-    auto& history = unstored_[id];
-    if (history.error.empty())
+    if (journal_.refused(id, e.message))
         log_->error("job {}: the job store refused its history ({} write(s) kept, retried every {} ms): {}",
-                    id, history.writes.size(), store_retry_interval.count(), e.message);
-    history.error = e.message;
+                    id, journal_.pending_count(id), store_retry_interval.count(), e.message);
     retry_unstored_later();
     if (!progress) return;
     // A step that cannot be recorded would be sent again by a resume after a restart: the run stops at
@@ -445,12 +395,9 @@ void manager_core::retry_unstored_later() {
     store_retry_.async_wait([self = shared_from_this()](boost::system::error_code ec) {
         self->store_retry_armed_ = false;
         if (ec || self->abandoned_) return;
-        std::vector<std::string> ids;
-        for (const auto& [id, history] : self->unstored_)
-            ids.push_back(id);
-        for (const auto& id : ids) {
+        for (const auto& id : self->journal_.jobs_pending()) {
             if (auto stored = self->write_unstored(id); !stored) {
-                self->unstored_[id].error = stored.error().message;
+                self->journal_.refused(id, stored.error().message);
                 continue;
             }
             // A job paused for its history waits for a client's resume now, which is possible again.
@@ -458,7 +405,7 @@ void manager_core::retry_unstored_later() {
             if (job != self->jobs_.end() && job->second->record.progress.waiting_for == job_wait::storage)
                 self->set_waiting(*job->second, std::nullopt);
         }
-        if (!self->unstored_.empty()) self->retry_unstored_later();
+        if (!self->journal_.empty()) self->retry_unstored_later();
     });
 }
 
@@ -672,15 +619,12 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
     if (running_ > 0) log_->warn("shutdown: {} job(s) did not stop in time", running_);
     // A last try for what the store refused; what it still refuses is lost, and said so.
     store_retry_.cancel();
-    std::vector<std::string> unstored;
-    for (const auto& [id, history] : unstored_)
-        unstored.push_back(id);
-    for (const auto& id : unstored)
+    for (const auto& id : journal_.jobs_pending())
         if (auto stored = write_unstored(id); !stored)
             log_->error(
                 "shutdown: job {}: {} write(s) of its history are lost (after a restart it shows its last "
                 "stored state): {}",
-                id, unstored_[id].writes.size(), stored.error().message);
+                id, journal_.pending_count(id), stored.error().message);
     {
         std::lock_guard lock(store_mutex_);
         if (store_) {
@@ -1538,9 +1482,8 @@ std::vector<json> manager_core::step_events(const live_job& job) const {
     auto stored = store_->events(job.record.id, all);
     if (!stored) return {};
     // Then those the store has not taken yet, which follow them.
-    if (auto it = unstored_.find(job.record.id); it != unstored_.end())
-        for (const auto& w : it->second.writes)
-            if (!w.event.is_null()) stored->push_back(w.event);
+    for (auto& e : journal_.pending_events(job.record.id))
+        stored->push_back(std::move(e));
     std::vector<json> out;
     for (auto& e : *stored)
         if (e.is_object() && e.value("type", "") == "step") out.push_back(std::move(e));

@@ -36,6 +36,7 @@
 
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_plan.hpp"
+#include "gateway/jobs/job_query.hpp"
 #include "gateway/lease_manager.hpp"
 #include "gateway/operation_error.hpp"
 
@@ -78,19 +79,6 @@ struct submit_result {
     job_record job;         // dry run: a record that was not stored (id empty, state queued)
     job_plan plan;          // the plan it runs (dry run: the plan it would run)
     bool replayed = false;  // Idempotency-Key seen before: `job` is the first submission's job
-};
-
-struct job_filter {
-    std::optional<std::string> controller;
-    std::optional<job_type> type;
-    std::optional<job_state> state;
-    std::size_t limit = 50;             // 1..500
-    std::optional<std::string> before;  // cursor: jobs created before this job id (newest first)
-};
-
-struct job_page {
-    std::vector<job_record> jobs;     // newest first
-    std::optional<std::string> next;  // cursor for the next page, when there is one
 };
 
 // Who asks for a control action (cancel/pause/resume/next), for lease checks.

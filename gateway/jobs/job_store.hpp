@@ -22,7 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gateway/jobs/job.hpp"
-#include "gateway/jobs/job_manager.hpp"
+#include "gateway/jobs/job_query.hpp"
 #include "gateway/operation_error.hpp"
 
 struct sqlite3;
