@@ -39,7 +39,11 @@ void controller_events_bridge::on_snapshot(const devices::controller_snapshot& s
         }
     }
     hub_->publish(controller_topic(s.id, "state"), state_json(s), time);
-    if (moved) hub_->publish(controller_topic(s.id, "position"), position, time);
+    // A position event is stamped with when its positions were read: one published because only the
+    // busy flags changed must not look newer than a step event published before it (the G-code trace
+    // keeps positions by this time).
+    auto read_at = known(s.positions_read);
+    if (moved) hub_->publish(controller_topic(s.id, "position"), position, read_at ? read_at : time);
 }
 
 void controller_events_bridge::on_report(const devices::report_event& e) {

@@ -856,6 +856,7 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
     switch (step) {
         case poll_step::where:
             apply_where(snapshot_, r);
+            snapshot_.positions_read = system_clock::now();
             poll_step_ = poll_step::status;
             return;
         case poll_step::status:

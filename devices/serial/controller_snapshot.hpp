@@ -74,11 +74,15 @@ struct controller_snapshot {
     std::optional<std::chrono::system_clock::time_point> last_attempt;
     std::optional<std::chrono::system_clock::time_point> next_retry;
     std::chrono::system_clock::time_point updated;  // last time anything above changed or was polled
+    // When the axes' positions were last read (W). A later change of the busy flags alone leaves it:
+    // the positions are still those of that moment, not of `updated`.
+    std::chrono::system_clock::time_point positions_read;
 
     const axis_state* axis(char letter) const;
 };
 
-// True when everything but `updated` is equal (snapshots are only published on a change).
+// True when everything but `updated` and `positions_read` is equal (snapshots are only published on a
+// change).
 bool same_content(const controller_snapshot& a, const controller_snapshot& b);
 
 }  // namespace gw::devices

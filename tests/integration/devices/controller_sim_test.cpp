@@ -1,4 +1,5 @@
 // The serial driver against the in-process simulator: a real pty, the simulated firmware behind it.
+#include <algorithm>
 #include <cmath>
 #include <future>
 #include <memory>
@@ -83,6 +84,23 @@ TEST_F(controller_sim_test, a_move_shows_in_snapshots_until_arrival) {
         },
         60s));
     EXPECT_FALSE(c.observer->latest().axes[0].busy);
+
+    // Each snapshot says when its positions were read: new positions come with a newer time, a change
+    // of the busy flags alone keeps the time of the positions it carries.
+    const auto snapshots = c.observer->locked([&] { return c.observer->snapshots; });
+    for (std::size_t i = 1; i < snapshots.size(); ++i) {
+        const auto& before = snapshots[i - 1];
+        const auto& now = snapshots[i];
+        if (now.state != connection_state::connected || before.state != connection_state::connected) continue;
+        EXPECT_LE(now.positions_read, now.updated) << "snapshot " << i;
+        const bool moved = !std::equal(
+            now.axes.begin(), now.axes.end(), before.axes.begin(), before.axes.end(),
+            [](const axis_state& a, const axis_state& b) { return a.position_um == b.position_um; });
+        if (moved)
+            EXPECT_GT(now.positions_read, before.positions_read) << "snapshot " << i;
+        else
+            EXPECT_GE(now.positions_read, before.positions_read) << "snapshot " << i;
+    }
 }
 
 TEST_F(controller_sim_test, unplug_fails_commands_then_replug_reconnects_and_reidentifies) {

@@ -169,6 +169,28 @@ TEST_F(bridge_test, position_only_when_positions_or_busy_change) {
     EXPECT_EQ(sink_->on("controllers/stage2/position")[0]->sequence, 1u);
 }
 
+TEST_F(bridge_test, position_time_is_when_the_positions_were_read) {
+    // A "/" answer after a move changes only the busy flags: the position event it causes carries the
+    // positions read earlier, and says so with their time, not the snapshot's newer one.
+    auto s = connected_snapshot();
+    s.positions_read = at_ms(1795322740000);
+    bridge_.on_snapshot(s);
+    run();
+    s.busy = false;
+    s.axes[1].busy = false;
+    s.updated = at_ms(1795322740500);
+    bridge_.on_snapshot(s);
+    run();
+    auto position = sink_->on("controllers/stage1/position");
+    auto state = sink_->on("controllers/stage1/state");
+    ASSERT_EQ(position.size(), 2u);
+    EXPECT_EQ(position[0]->time, at_ms(1795322740000));
+    EXPECT_EQ(position[1]->time, at_ms(1795322740000));
+    EXPECT_EQ(json::parse(*position[1]->message)["time"], "2026-11-22T04:45:40.000Z");
+    ASSERT_EQ(state.size(), 2u);
+    EXPECT_EQ(state[1]->time, at_ms(1795322740500));
+}
+
 TEST_F(bridge_test, report_event_becomes_a_reports_event) {
     gw::devices::report_event r;
     r.controller_id = "stage1";
