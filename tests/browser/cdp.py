@@ -117,14 +117,26 @@ class Browser:
             await asyncio.sleep(0.1)
         raise AssertionError(f"timed out waiting for {what} (last: {last!r})")
 
-    async def click(self, selector):
-        """A real mouse click in the middle of the element (scrolled into view)."""
-        box = await self.evaluate(
-            f"(() => {{ const e = document.querySelector({json.dumps(selector)}); if (!e) return null;"
-            " e.scrollIntoView({block: 'center'}); const r = e.getBoundingClientRect();"
-            " return [r.x + r.width / 2, r.y + r.height / 2]; })()")
-        if not box:
-            raise AssertionError(f"no element {selector}")
+    async def click(self, selector, timeout=10):
+        """A real mouse click in the middle of the element (scrolled into view), once the element
+        holds still for an animation frame and is the one the mouse would hit there: a panel that
+        grows above it (live data arriving) moves it between finding it and pressing the button."""
+        find = (f"(async () => {{ const e = document.querySelector({json.dumps(selector)}); if (!e) return null;"
+                " e.scrollIntoView({block: 'center'}); const a = e.getBoundingClientRect();"
+                " await new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)));"
+                " const b = e.getBoundingClientRect(); const x = b.x + b.width / 2, y = b.y + b.height / 2;"
+                " const hit = document.elementFromPoint(x, y);"
+                " const still = a.x === b.x && a.y === b.y && a.width === b.width && a.height === b.height;"
+                " return [x, y, still && !!hit && e.contains(hit)]; })()")
+        deadline = time.monotonic() + timeout
+        while True:
+            box = await self.evaluate(find)
+            if not box:
+                raise AssertionError(f"no element {selector}")
+            if box[2]:
+                break
+            if time.monotonic() > deadline:
+                raise AssertionError(f"{selector} did not hold still under the mouse within {timeout} s")
         for kind in ("mousePressed", "mouseReleased"):
             await self.call("Input.dispatchMouseEvent", type=kind, x=box[0], y=box[1], button="left", clickCount=1)
 
