@@ -1,0 +1,177 @@
+#include "gateway/app/application.hpp"
+
+#include <csignal>
+#include <functional>
+#include <string>
+#include <unistd.h>
+#include <utility>
+#include <vector>
+
+#include <spdlog/spdlog.h>
+
+#include "api/mqtt/mqtt_bridge.hpp"
+#include "api/server.hpp"
+#include "gateway/controller_events_bridge.hpp"
+#include "gateway/event_hub.hpp"
+#include "gateway/jobs/job_manager.hpp"
+#include "gateway/lease_manager.hpp"
+#include "gateway/log_observer.hpp"
+#include "gateway/logging.hpp"
+#include "gateway/metrics.hpp"
+#include "gateway/startup_summary.hpp"
+#include "gateway/version.hpp"
+
+namespace gw {
+
+namespace {
+
+using step = std::function<void(std::function<void()> next)>;
+
+// Runs asynchronous steps one after another: each calls `next` when it is done.
+void run_in_order(const std::shared_ptr<std::vector<step>>& steps, std::size_t index = 0) {
+    if (index == steps->size()) return;
+    (*steps)[index]([steps, index] { run_in_order(steps, index + 1); });
+}
+
+std::string host_name() {
+    char host[256] = {};
+    ::gethostname(host, sizeof host - 1);
+    return host;
+}
+
+}  // namespace
+
+application::application(launch_settings launch) : launch_(std::move(launch)), log_(get_logger("gateway")) {}
+
+application::~application() {
+    if (watchdog_.joinable()) watchdog_.join();
+}
+
+int application::run() {
+    if (!start()) return 1;
+    signals_.async_wait([this](boost::system::error_code ec, int signal) {
+        if (ec) return;
+        log_->info("signal {}: stopping", signal);
+        shutdown();
+    });
+    serve();
+    {
+        std::lock_guard lock(mutex_);
+        finished_ = true;
+    }
+    finished_cv_.notify_all();
+    if (watchdog_.joinable()) watchdog_.join();
+    log_->info("stopped");
+    return 0;
+}
+
+bool application::start() {
+    const auto& config = launch_.config;
+    if (config.controllers.empty() && config.simulate.count == 0)
+        log_->warn("no controllers configured: give --simulate N, --serial ID=PATH or a config file");
+    if (config.auth.tokens.empty())
+        log_->info("no auth tokens configured: listening on loopback only ({})", config.http.listen_address);
+
+    // One gateway per storage directory, taken before any serial port is opened.
+    auto storage = storage_lock::acquire(config.storage.path);
+    if (!storage) {
+        log_->error("{}", storage.error().message);
+        return false;
+    }
+    storage_.emplace(std::move(*storage));
+
+    // Observers come before start, so nothing is missed: the log, and the event hub that REST,
+    // WebSocket and MQTT read.
+    registry_ = std::make_unique<controller_registry>(ioc_.get_executor(), std::move(launch_.registry));
+    registry_->add_observer(std::shared_ptr<devices::controller_observer>(std::make_shared<log_observer>()));
+    metrics_ = std::make_shared<metrics>();
+    hub_ = event_hub::create(ioc_.get_executor());
+    registry_->add_observer(
+        std::shared_ptr<devices::controller_observer>(std::make_shared<controller_events_bridge>(hub_)));
+
+    // Jobs: leases and the job manager over the durable store (an unusable storage path is fatal).
+    leases_ = std::make_shared<lease_manager>();
+    const auto job_settings = jobs::make_job_manager_settings(config);
+    auto jobs = jobs::job_manager::create(ioc_.get_executor(), *registry_, hub_, leases_, job_settings);
+    if (!jobs) {
+        log_->error("cannot open the job store in \"{}\": {}", job_settings.storage_path,
+                    jobs.error().message);
+        return false;
+    }
+    jobs_ = std::move(*jobs);
+    http_ = std::make_unique<api::server>(ioc_.get_executor(), config, *registry_, hub_, metrics_, jobs_,
+                                          leases_);
+
+    try {
+        registry_->start();
+    } catch (const std::exception& e) {
+        log_->error("cannot start the simulated controllers: {}", e.what());
+        return false;
+    }
+    jobs_->start();  // restart recovery: interrupted jobs, queued ones kept
+    try {
+        http_->start();
+    } catch (const std::exception& e) {
+        log_->error("{}", e.what());
+        registry_->stop();
+        hub_->stop();
+        return false;
+    }
+    // MQTT (mqtt.enabled): the fleet interface over the same API context as REST and WebSocket.
+    if (config.mqtt.enabled) {
+        api::mqtt_bridge_settings mqtt_settings;
+        mqtt_settings.config = config.mqtt;
+        mqtt_settings.gateway_id = api::resolve_gateway_id(config.mqtt.gateway_id, host_name());
+        mqtt_settings.log = get_logger("mqtt");
+        mqtt_ = api::mqtt_bridge::create(http_->context(), std::move(mqtt_settings));
+        try {
+            mqtt_->start();
+        } catch (const std::exception& e) {
+            log_->error("{}", e.what());
+            return false;
+        }
+    }
+    log_->info("asi-gateway {} {}", version,
+               startup_summary(http_->local_endpoint(), config.storage.path, registry_->list(),
+                               config.mqtt.enabled ? config.mqtt.brokers : std::vector<std::string>{}));
+    return true;
+}
+
+// The order in which the gateway stops: no new requests; running jobs HALTed, TTL low, interrupted and
+// stored; the controllers (HALTed when shutdown.halt_on_exit); MQTT, which publishes "offline" itself;
+// last the hub, after the jobs' and controllers' final events have gone out.
+void application::shutdown() {
+    http_->stop();
+    run_in_order(std::make_shared<std::vector<step>>(std::vector<step>{
+        [this](auto next) { jobs_->async_shutdown(std::move(next)); },
+        [this](auto next) { registry_->async_shutdown(std::move(next)); },
+        [this](auto next) {
+            if (mqtt_)
+                mqtt_->async_stop(std::move(next));
+            else
+                next();
+        },
+        [this](auto) {
+            hub_->stop();
+            watchdog_ = std::thread([this] {
+                std::unique_lock lock(mutex_);
+                if (!finished_cv_.wait_for(lock, std::chrono::seconds(2), [this] { return finished_; }))
+                    ioc_.stop();
+            });
+        },
+    }));
+}
+
+// One handler that throws must not take every controller, job and client down: log and go on.
+void application::serve() {
+    for (;;) {
+        try {
+            ioc_.run();
+            return;
+        } catch (const std::exception& e) {
+            log_->critical("unhandled exception in an I/O handler, continuing: {}", e.what());
+        }
+    }
+}
+
+}  // namespace gw

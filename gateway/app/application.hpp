@@ -1,0 +1,74 @@
+#pragma once
+// The composition root: the one object that sees every layer. It owns the services (controller
+// registry, event hub, leases, job manager, HTTP/WebSocket server, MQTT bridge) on one io_context,
+// starts them in dependency order, runs until SIGINT/SIGTERM, and stops them in one readable order.
+//
+//   gw::application app(std::move(launch));
+//   return app.run();  // 0 after a clean stop, 1 when a service could not start
+
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/signal_set.hpp>
+
+#include "gateway/app/command_line.hpp"
+#include "gateway/storage_lock.hpp"
+
+namespace spdlog {
+class logger;
+}
+
+namespace gw {
+
+class event_hub;
+class lease_manager;
+class metrics;
+namespace jobs {
+class job_manager;
+}
+namespace api {
+class server;
+class mqtt_bridge;
+}  // namespace api
+
+class application {
+  public:
+    explicit application(launch_settings launch);
+    ~application();
+    application(const application&) = delete;
+    application& operator=(const application&) = delete;
+
+    // Starts everything, serves until a signal has stopped it all, and returns the exit code.
+    int run();
+
+  private:
+    bool start();
+    void shutdown();
+    void serve();
+
+    launch_settings launch_;
+    std::shared_ptr<spdlog::logger> log_;
+    std::optional<storage_lock> storage_;  // held until every handler holding the store is gone
+    boost::asio::io_context ioc_;
+    std::unique_ptr<controller_registry> registry_;
+    std::shared_ptr<metrics> metrics_;
+    std::shared_ptr<event_hub> hub_;
+    std::shared_ptr<lease_manager> leases_;
+    std::shared_ptr<jobs::job_manager> jobs_;
+    std::unique_ptr<api::server> http_;
+    std::shared_ptr<api::mqtt_bridge> mqtt_;
+    boost::asio::signal_set signals_{ioc_, SIGINT, SIGTERM};
+
+    // After shutdown, run() ends when the last handler has run; the watchdog (a thread, not a timer on
+    // ioc_, which would itself keep run() going) stops it if something lingers.
+    std::mutex mutex_;
+    std::condition_variable finished_cv_;
+    bool finished_ = false;
+    std::thread watchdog_;
+};
+
+}  // namespace gw
