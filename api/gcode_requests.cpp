@@ -12,6 +12,7 @@
 
 #include "api/auth.hpp"
 #include "api/gcode_worker.hpp"
+#include "api/printable_text.hpp"
 #include "gateway/gcode/gcode_plan_json.hpp"
 #include "gateway/gcode/gcode_plan_summary_json.hpp"
 #include "gateway/gcode/gcode_planner.hpp"
@@ -77,13 +78,6 @@ class capped_buf final : public std::streambuf {
     std::string text_;
     bool overflowed_ = false;
 };
-
-// For messages and fields: the text itself when printable and short, else "..." (a query string is
-// the client's: control characters or a kilobyte of name do not go into the problem).
-std::string shown(std::string_view s) {
-    const bool printable = std::all_of(s.begin(), s.end(), [](char c) { return c > 0x20 && c < 0x7f; });
-    return s.size() <= 64 && printable ? std::string(s) : "...";
-}
 
 // What a response needs from its request once the request itself is gone (worker thread).
 struct reply_meta {
@@ -355,7 +349,8 @@ gcode_program_admission admit_gcode_program(const std::shared_ptr<api_context>& 
 operation_result<gcode_query> parse_gcode_query(const query_params& q, gcode_output output) {
     gcode_query r;
     auto bad_value = [](const std::string& name, const std::string& why, const std::string& value) {
-        return make_error(operation_error_kind::invalid_value, why + ", not \"" + shown(value) + "\"", name);
+        return make_error(operation_error_kind::invalid_value,
+                          why + ", not \"" + shown_in_message(value) + "\"", name);
     };
     for (const auto& [name, value] : q) {
         if (output == gcode_output::plan && name == "moves") {
@@ -375,10 +370,10 @@ operation_result<gcode_query> parse_gcode_query(const query_params& q, gcode_out
             if (why->starts_with("unknown option"))  // set_option's word for a name it lacks
                 return make_error(
                     operation_error_kind::invalid_value,
-                    "unknown parameter \"" + shown(name) + "\" (known: " +
+                    "unknown parameter \"" + shown_in_message(name) + "\" (known: " +
                         (output == gcode_output::plan ? "moves" : "view, width_px, max_points") +
                         " and the G-code options of gateway/gcode/README.md)",
-                    shown(name));
+                    shown_in_message(name));
             return bad_value(name, *why, value);
         }
     }

@@ -11,6 +11,7 @@
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/post.hpp>
 
+#include "api/printable_text.hpp"
 #include "gateway/jobs/job_json.hpp"
 
 namespace gw::api {
@@ -29,18 +30,6 @@ operation_error invalid(std::string field, std::string message) {
 std::string_view type_name(const json& v) {
     if (v.is_number()) return "a number";
     return v.type_name();
-}
-
-bool printable(std::string_view s) {
-    for (unsigned char c : s)
-        if (c < 0x21 || c > 0x7e) return false;
-    return true;
-}
-
-// For messages: the text itself when printable and short, else "...".
-std::string shown(std::string_view s) {
-    if (s.size() <= 64 && printable(s)) return std::string(s);
-    return "...";
 }
 
 int hex_digit(char c) {
@@ -120,12 +109,15 @@ operation_result<query_params> parse_query(std::string_view target) {
         if (part.empty()) continue;
         auto eq = part.find('=');
         auto name = percent_decode(part.substr(0, eq));
-        if (!name) return invalid(shown(part.substr(0, eq)), "malformed percent escape in a parameter name");
+        if (!name)
+            return invalid(shown_in_message(part.substr(0, eq)),
+                           "malformed percent escape in a parameter name");
         std::optional<std::string> value = std::string();
         if (eq != std::string_view::npos) value = percent_decode(part.substr(eq + 1));
-        if (!value) return invalid(*name, "malformed percent escape in the value of " + shown(*name));
+        if (!value)
+            return invalid(*name, "malformed percent escape in the value of " + shown_in_message(*name));
         for (const auto& [n, _] : out)
-            if (n == *name) return invalid(*name, "parameter " + shown(*name) + " is given twice");
+            if (n == *name) return invalid(*name, "parameter " + shown_in_message(*name) + " is given twice");
         out.emplace_back(std::move(*name), std::move(*value));
     }
     return out;
@@ -141,8 +133,8 @@ operation_result<void> check_known_parameters(const query_params& q,
             std::string list;
             for (auto k : known)
                 list += (list.empty() ? "" : ", ") + std::string(k);
-            return invalid(shown(name),
-                           "unknown parameter \"" + shown(name) + "\"" +
+            return invalid(shown_in_message(name),
+                           "unknown parameter \"" + shown_in_message(name) + "\"" +
                                (list.empty() ? " (this route takes none)" : " (known: " + list + ")"));
         }
     }
@@ -161,7 +153,7 @@ operation_result<bool> query_flag(const query_params& q, std::string_view name, 
     if (*v == "true" || *v == "1" || v->empty()) return true;
     if (*v == "false" || *v == "0") return false;
     return invalid(std::string(name),
-                   std::string(name) + " must be true or false, not \"" + shown(*v) + "\"");
+                   std::string(name) + " must be true or false, not \"" + shown_in_message(*v) + "\"");
 }
 
 operation_result<jobs::job_filter> parse_job_filter(const query_params& q) {
@@ -169,21 +161,21 @@ operation_result<jobs::job_filter> parse_job_filter(const query_params& q) {
         return known.error();
     jobs::job_filter f;
     if (auto v = query_value(q, "controller")) {
-        if (v->empty() || v->size() > 64 || !printable(*v))
+        if (v->empty() || v->size() > 64 || !is_printable_word(*v))
             return invalid("controller", "controller must be a controller id");
         f.controller = *v;
     }
     if (auto v = query_value(q, "type")) {
         f.type = jobs::parse_job_type(*v);
         if (!f.type)
-            return invalid("type",
-                           "unknown job type \"" + shown(*v) + "\" (one of: " + joined(job_type_names) + ")");
+            return invalid("type", "unknown job type \"" + shown_in_message(*v) +
+                                       "\" (one of: " + joined(job_type_names) + ")");
     }
     if (auto v = query_value(q, "state")) {
         f.state = jobs::parse_job_state(*v);
         if (!f.state)
-            return invalid(
-                "state", "unknown job state \"" + shown(*v) + "\" (one of: " + joined(job_state_names) + ")");
+            return invalid("state", "unknown job state \"" + shown_in_message(*v) +
+                                        "\" (one of: " + joined(job_state_names) + ")");
     }
     if (auto v = query_value(q, "limit")) {
         auto n = parse_count(*v);
@@ -216,8 +208,8 @@ operation_result<job_submission> parse_job_submission(const json& body_in) {
         return invalid("", "the body must be a JSON object {\"controller\", \"type\", \"spec\"}");
     for (const auto& [key, value] : body.items())
         if (key != "controller" && key != "type" && key != "spec")
-            return invalid(shown(key),
-                           "unknown field \"" + shown(key) + "\" (known: controller, type, spec)");
+            return invalid(shown_in_message(key),
+                           "unknown field \"" + shown_in_message(key) + "\" (known: controller, type, spec)");
     job_submission s;
     auto c = body.find("controller");
     if (c == body.end()) return invalid("controller", "controller is required (a controller id)");
@@ -230,7 +222,7 @@ operation_result<job_submission> parse_job_submission(const json& body_in) {
     if (!t->is_string()) return invalid("type", "type must be a string, not " + std::string(type_name(*t)));
     auto type = jobs::parse_job_type(t->get_ref<const std::string&>());
     if (!type)
-        return invalid("type", "unknown job type \"" + shown(t->get_ref<const std::string&>()) +
+        return invalid("type", "unknown job type \"" + shown_in_message(t->get_ref<const std::string&>()) +
                                    "\" (one of: " + joined(job_type_names) + ")");
     s.type = *type;
     auto sp = body.find("spec");
@@ -242,7 +234,7 @@ operation_result<job_submission> parse_job_submission(const json& body_in) {
 }
 
 bool is_valid_key(std::string_view key) {
-    return !key.empty() && key.size() <= max_key_bytes && printable(key);
+    return !key.empty() && key.size() <= max_key_bytes && is_printable_word(key);
 }
 
 std::optional<job_command> parse_job_command(std::string_view name) {

@@ -7,6 +7,7 @@
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/post.hpp>
 
+#include "api/printable_text.hpp"
 #include "gateway/controller_registry.hpp"
 #include "gateway/jobs/job_manager.hpp"
 #include "gateway/timestamp.hpp"
@@ -20,12 +21,6 @@ namespace {
 
 operation_error invalid(std::string field, std::string message) {
     return make_error(operation_error_kind::invalid_value, std::move(message), std::move(field));
-}
-
-bool printable(std::string_view s) {
-    for (unsigned char c : s)
-        if (c < 0x20 || c > 0x7e) return false;
-    return true;
 }
 
 std::optional<api_outcome> check_controller(api_context& ctx, const std::string& controller,
@@ -58,7 +53,7 @@ operation_result<lease_body> parse_lease_body(const json& body_in, bool allow_ho
     if (!body.is_object()) return invalid("", "the body must be a JSON object");
     for (const auto& [key, value] : body.items()) {
         if (key == "ttl_s" || (allow_holder && key == "holder")) continue;
-        const std::string name = printable(key) && key.size() <= 64 ? key : std::string("...");
+        const std::string name = shown_in_message(key);
         return invalid(
             name, "unknown field \"" + name + "\" (known: " + (allow_holder ? "ttl_s, holder)" : "ttl_s)"));
     }
@@ -75,7 +70,8 @@ operation_result<lease_body> parse_lease_body(const json& body_in, bool allow_ho
     }
     if (auto it = body.find("holder"); it != body.end()) {
         if (!it->is_string() || it->get_ref<const std::string&>().empty() ||
-            it->get_ref<const std::string&>().size() > 64 || !printable(it->get_ref<const std::string&>()))
+            it->get_ref<const std::string&>().size() > 64 ||
+            !is_printable_label(it->get_ref<const std::string&>()))
             return invalid("holder", "holder must be a label of 1..64 printable characters");
         out.label = it->get<std::string>();
     }

@@ -7,6 +7,7 @@
 
 #include "api/job_requests.hpp"
 #include "api/operation_requests.hpp"
+#include "api/printable_text.hpp"
 #include "gateway/operation_error.hpp"
 #include "gateway/topic.hpp"
 
@@ -33,18 +34,12 @@ std::string_view type_name(const json& v) {
     return v.type_name();
 }
 
-bool printable(std::string_view s) {
-    for (unsigned char c : s)
-        if (c < 0x20 || c > 0x7e) return false;
-    return true;
-}
-
 // A valid client id, or the reason it is not one.
 std::optional<std::string> id_problem(const json& id) {
     if (id.is_number_integer()) return std::nullopt;
     if (id.is_string()) {
         const auto& s = id.get_ref<const std::string&>();
-        if (s.empty() || s.size() > ws_max_client_id_bytes || !printable(s))
+        if (s.empty() || s.size() > ws_max_client_id_bytes || !is_printable_label(s))
             return "\"id\" must be 1.." + std::to_string(ws_max_client_id_bytes) +
                    " printable ASCII characters";
         return std::nullopt;
@@ -88,9 +83,9 @@ boost::system::result<std::vector<std::string>, ws_protocol_error> read_topics(c
             return invalid(id, field, field + " must be a string, not " + std::string(type_name(t)));
         const auto& s = t.get_ref<const std::string&>();
         if (auto ec = validate_topic_filter(s))
-            return invalid(
-                id, field,
-                "invalid topic filter \"" + (printable(s) ? s : std::string("...")) + "\": " + ec.message());
+            return invalid(id, field,
+                           "invalid topic filter \"" + (is_printable_label(s) ? s : std::string("...")) +
+                               "\": " + ec.message());
         topics.push_back(s);
     }
     return {boost::system::in_place_value, std::move(topics)};
@@ -116,7 +111,7 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_subscribe(cons
         if (!it->is_object())
             return invalid(id, "resume", "\"resume\" must be an object {\"<topic>\": <sequence number>}");
         for (const auto& [topic, seq] : it->items()) {
-            const auto field = "resume." + (printable(topic) ? topic : std::string("..."));
+            const auto field = "resume." + (is_printable_label(topic) ? topic : std::string("..."));
             if (auto ec = validate_topic_name(topic))
                 return invalid(id, field,
                                "\"resume\" keys must be topic names without wildcards: " + ec.message());
@@ -164,7 +159,7 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_job(const json
     const auto& a = action->get_ref<const std::string&>();
     if (a != "submit" && a != "get" && !parse_job_command(a))
         return invalid(id, "action",
-                       "unknown action \"" + (printable(a) ? a : std::string("...")) +
+                       "unknown action \"" + (is_printable_label(a) ? a : std::string("...")) +
                            "\" (one of: " + std::string(actions) + ")");
     ws_job j;
     j.id = id;
@@ -220,9 +215,9 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_command(const 
         std::string list;
         for (auto n : operation_names())
             list += (list.empty() ? "" : ", ") + std::string(n);
-        return invalid(
-            id, "operation",
-            "unknown operation \"" + (printable(op) ? op : std::string("...")) + "\" (one of: " + list + ")");
+        return invalid(id, "operation",
+                       "unknown operation \"" + (is_printable_label(op) ? op : std::string("...")) +
+                           "\" (one of: " + list + ")");
     }
     json args = json::object();
     if (auto it = msg.find("args"); it != msg.end() && !it->is_null()) {
@@ -278,7 +273,7 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_client_json(co
         return ws_ping{std::move(id)};
     }
     return invalid(id, "op",
-                   "unknown op \"" + (printable(name) ? name : std::string("...")) +
+                   "unknown op \"" + (is_printable_label(name) ? name : std::string("...")) +
                        "\" (one of: subscribe, unsubscribe, command, job, ping)");
 }
 
