@@ -11,6 +11,7 @@
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/post.hpp>
 
+#include "api/json_object.hpp"
 #include "api/printable_text.hpp"
 #include "gateway/jobs/job_json.hpp"
 
@@ -25,11 +26,6 @@ constexpr std::size_t max_list_limit = 500;
 
 operation_error invalid(std::string field, std::string message) {
     return make_error(operation_error_kind::invalid_value, std::move(message), std::move(field));
-}
-
-std::string_view type_name(const json& v) {
-    if (v.is_number()) return "a number";
-    return v.type_name();
 }
 
 int hex_digit(char c) {
@@ -206,20 +202,19 @@ operation_result<job_submission> parse_job_submission(const json& body_in) {
     const json& body = body_in.is_null() ? empty : body_in;
     if (!body.is_object())
         return invalid("", "the body must be a JSON object {\"controller\", \"type\", \"spec\"}");
-    for (const auto& [key, value] : body.items())
-        if (key != "controller" && key != "type" && key != "spec")
-            return invalid(shown_in_message(key),
-                           "unknown field \"" + shown_in_message(key) + "\" (known: controller, type, spec)");
+    if (auto unknown = find_unknown_field(body, {"controller", "type", "spec"}))
+        return invalid(unknown->field, unknown->message);
     job_submission s;
     auto c = body.find("controller");
     if (c == body.end()) return invalid("controller", "controller is required (a controller id)");
     if (!c->is_string() || c->get_ref<const std::string&>().empty())
         return invalid("controller", "controller must be a controller id (a non-empty string), not " +
-                                         std::string(type_name(*c)));
+                                         std::string(json_type_name(*c)));
     s.controller = c->get<std::string>();
     auto t = body.find("type");
     if (t == body.end()) return invalid("type", "type is required (one of: " + joined(job_type_names) + ")");
-    if (!t->is_string()) return invalid("type", "type must be a string, not " + std::string(type_name(*t)));
+    if (!t->is_string())
+        return invalid("type", "type must be a string, not " + std::string(json_type_name(*t)));
     auto type = jobs::parse_job_type(t->get_ref<const std::string&>());
     if (!type)
         return invalid("type", "unknown job type \"" + shown_in_message(t->get_ref<const std::string&>()) +
@@ -228,7 +223,7 @@ operation_result<job_submission> parse_job_submission(const json& body_in) {
     auto sp = body.find("spec");
     if (sp == body.end()) return invalid("spec", "spec is required (an object; {} takes every default)");
     if (!sp->is_object())
-        return invalid("spec", "spec must be an object, not " + std::string(type_name(*sp)));
+        return invalid("spec", "spec must be an object, not " + std::string(json_type_name(*sp)));
     s.spec = *sp;
     return s;
 }

@@ -7,6 +7,7 @@
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/post.hpp>
 
+#include "api/json_object.hpp"
 #include "api/printable_text.hpp"
 #include "gateway/controller_registry.hpp"
 #include "gateway/jobs/job_manager.hpp"
@@ -51,12 +52,9 @@ operation_result<lease_body> parse_lease_body(const json& body_in, bool allow_ho
     static const json empty = json::object();
     const json& body = body_in.is_null() ? empty : body_in;
     if (!body.is_object()) return invalid("", "the body must be a JSON object");
-    for (const auto& [key, value] : body.items()) {
-        if (key == "ttl_s" || (allow_holder && key == "holder")) continue;
-        const std::string name = shown_in_message(key);
-        return invalid(
-            name, "unknown field \"" + name + "\" (known: " + (allow_holder ? "ttl_s, holder)" : "ttl_s)"));
-    }
+    auto unknown =
+        allow_holder ? find_unknown_field(body, {"ttl_s", "holder"}) : find_unknown_field(body, {"ttl_s"});
+    if (unknown) return invalid(unknown->field, unknown->message);
     lease_body out;
     if (auto it = body.find("ttl_s"); it != body.end()) {
         const auto range =

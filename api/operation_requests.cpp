@@ -10,6 +10,7 @@
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/post.hpp>
 
+#include "api/json_object.hpp"
 #include "devices/ms2000/error.hpp"
 #include "gateway/controller_registry.hpp"
 #include "gateway/event_json.hpp"
@@ -30,11 +31,6 @@ operation_error invalid(std::string field, std::string message) {
     return make_error(operation_error_kind::invalid_value, std::move(message), std::move(field));
 }
 
-std::string_view type_name(const json& v) {
-    if (v.is_number()) return "a number";
-    return v.type_name();
-}
-
 // Reads one JSON object strictly: every key must be known, every value of the expected type.
 class body_reader {
   public:
@@ -43,19 +39,8 @@ class body_reader {
             error_ = invalid("", "the body must be a JSON object");
             return;
         }
-        for (const auto& [key, value] : body_.items()) {
-            bool ok = false;
-            for (auto k : known)
-                ok = ok || k == key;
-            if (!ok) {
-                std::string list;
-                for (auto k : known)
-                    list += (list.empty() ? "" : ", ") + std::string(k);
-                fail(key, "unknown field \"" + key + "\"" +
-                              (list.empty() ? " (this operation takes none)" : " (known: " + list + ")"));
-                return;
-            }
-        }
+        if (auto unknown = find_unknown_field(body_, known, "this operation takes none"))
+            fail(unknown->field, unknown->message);
     }
 
     const json* get(const char* key) const {
@@ -66,28 +51,28 @@ class body_reader {
 
     std::optional<double> number(const char* key, const json& v) {
         if (!v.is_number() || !std::isfinite(v.get<double>())) {
-            fail(key, std::string(key) + " must be a finite number, not " + std::string(type_name(v)));
+            fail(key, std::string(key) + " must be a finite number, not " + std::string(json_type_name(v)));
             return std::nullopt;
         }
         return v.get<double>();
     }
     std::optional<std::int64_t> integer(const char* key, const json& v) {
         if (!v.is_number_integer()) {
-            fail(key, std::string(key) + " must be an integer, not " + std::string(type_name(v)));
+            fail(key, std::string(key) + " must be an integer, not " + std::string(json_type_name(v)));
             return std::nullopt;
         }
         return v.get<std::int64_t>();
     }
     std::optional<bool> boolean(const char* key, const json& v) {
         if (!v.is_boolean()) {
-            fail(key, std::string(key) + " must be true or false, not " + std::string(type_name(v)));
+            fail(key, std::string(key) + " must be true or false, not " + std::string(json_type_name(v)));
             return std::nullopt;
         }
         return v.get<bool>();
     }
     std::optional<std::string> string(const char* key, const json& v) {
         if (!v.is_string()) {
-            fail(key, std::string(key) + " must be a string, not " + std::string(type_name(v)));
+            fail(key, std::string(key) + " must be a string, not " + std::string(json_type_name(v)));
             return std::nullopt;
         }
         return v.get<std::string>();
@@ -117,7 +102,7 @@ class body_reader {
                     return {};
                 }
             if (!value.is_number() || !std::isfinite(value.get<double>())) {
-                fail(field, field + " must be a finite number, not " + std::string(type_name(value)));
+                fail(field, field + " must be a finite number, not " + std::string(json_type_name(value)));
                 return {};
             }
             out.emplace_back(*letter, value.get<double>());

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "api/job_requests.hpp"
+#include "api/json_object.hpp"
 #include "api/operation_requests.hpp"
 #include "api/printable_text.hpp"
 #include "gateway/operation_error.hpp"
@@ -29,11 +30,6 @@ std::string text(const json& j) {
     return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
-std::string_view type_name(const json& v) {
-    if (v.is_number()) return "a number";
-    return v.type_name();
-}
-
 // A valid client id, or the reason it is not one.
 std::optional<std::string> id_problem(const json& id) {
     if (id.is_number_integer()) return std::nullopt;
@@ -44,25 +40,7 @@ std::optional<std::string> id_problem(const json& id) {
                    " printable ASCII characters";
         return std::nullopt;
     }
-    return std::string("\"id\" must be a string or an integer, not ") + std::string(type_name(id));
-}
-
-std::string known_list(std::initializer_list<std::string_view> known) {
-    std::string list;
-    for (auto k : known)
-        list += (list.empty() ? "" : ", ") + std::string(k);
-    return list;
-}
-
-// The first key of `msg` that is not in `known`, if any.
-std::optional<std::string> unknown_key(const json& msg, std::initializer_list<std::string_view> known) {
-    for (const auto& [key, value] : msg.items()) {
-        bool ok = false;
-        for (auto k : known)
-            ok = ok || k == key;
-        if (!ok) return key;
-    }
-    return std::nullopt;
+    return std::string("\"id\" must be a string or an integer, not ") + std::string(json_type_name(id));
 }
 
 // "topics": a non-empty array of valid filters.
@@ -80,7 +58,7 @@ boost::system::result<std::vector<std::string>, ws_protocol_error> read_topics(c
         const auto& t = (*it)[i];
         const auto field = "topics[" + std::to_string(i) + "]";
         if (!t.is_string())
-            return invalid(id, field, field + " must be a string, not " + std::string(type_name(t)));
+            return invalid(id, field, field + " must be a string, not " + std::string(json_type_name(t)));
         const auto& s = t.get_ref<const std::string&>();
         if (auto ec = validate_topic_filter(s))
             return invalid(id, field,
@@ -92,16 +70,15 @@ boost::system::result<std::vector<std::string>, ws_protocol_error> read_topics(c
 }
 
 boost::system::result<ws_client_message, ws_protocol_error> parse_subscribe(const json& msg, json id) {
-    if (auto key = unknown_key(msg, {"op", "id", "topics", "resume", "max_rate_hz"}))
-        return invalid(id, *key,
-                       "unknown field \"" + *key + "\" (known: op, id, topics, resume, max_rate_hz)");
+    if (auto unknown = find_unknown_field(msg, {"op", "id", "topics", "resume", "max_rate_hz"}))
+        return invalid(id, unknown->field, unknown->message);
     auto topics = read_topics(msg, id);
     if (!topics) return topics.error();
     ws_subscribe s{.id = id, .topics = std::move(*topics), .resume = {}, .max_rate_hz = 0};
     if (auto it = msg.find("max_rate_hz"); it != msg.end()) {
         if (!it->is_number())
             return invalid(id, "max_rate_hz",
-                           "\"max_rate_hz\" must be a number, not " + std::string(type_name(*it)));
+                           "\"max_rate_hz\" must be a number, not " + std::string(json_type_name(*it)));
         const double hz = it->get<double>();
         if (!std::isfinite(hz) || hz < 0 || hz > ws_max_rate_hz)
             return invalid(id, "max_rate_hz", "\"max_rate_hz\" must be between 0 (no limit) and 1000");
@@ -128,8 +105,8 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_subscribe(cons
 }
 
 boost::system::result<ws_client_message, ws_protocol_error> parse_unsubscribe(const json& msg, json id) {
-    if (auto key = unknown_key(msg, {"op", "id", "topics"}))
-        return invalid(id, *key, "unknown field \"" + *key + "\" (known: op, id, topics)");
+    if (auto unknown = find_unknown_field(msg, {"op", "id", "topics"}))
+        return invalid(id, unknown->field, unknown->message);
     auto topics = read_topics(msg, id);
     if (!topics) return topics.error();
     return ws_unsubscribe{.id = std::move(id), .topics = std::move(*topics)};
@@ -146,11 +123,9 @@ boost::system::result<std::optional<std::string>, ws_protocol_error> read_key(co
 }
 
 boost::system::result<ws_client_message, ws_protocol_error> parse_job(const json& msg, json id) {
-    if (auto key =
-            unknown_key(msg, {"op", "id", "action", "job", "args", "lease", "idempotency_key", "dry_run"}))
-        return invalid(id, *key,
-                       "unknown field \"" + *key +
-                           "\" (known: op, id, action, job, args, lease, idempotency_key, dry_run)");
+    if (auto unknown = find_unknown_field(
+            msg, {"op", "id", "action", "job", "args", "lease", "idempotency_key", "dry_run"}))
+        return invalid(id, unknown->field, unknown->message);
     if (id.is_null()) return invalid(id, "id", "a job message needs an \"id\" (echoed in its answer)");
     constexpr std::string_view actions = "submit, get, cancel, pause, resume, next";
     auto action = msg.find("action");
@@ -193,9 +168,8 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_job(const json
 }
 
 boost::system::result<ws_client_message, ws_protocol_error> parse_command(const json& msg, json id) {
-    if (auto key = unknown_key(msg, {"op", "id", "controller", "operation", "args", "lease"}))
-        return invalid(id, *key,
-                       "unknown field \"" + *key + "\" (known: op, id, controller, operation, args, lease)");
+    if (auto unknown = find_unknown_field(msg, {"op", "id", "controller", "operation", "args", "lease"}))
+        return invalid(id, unknown->field, unknown->message);
     if (id.is_null()) return invalid(id, "id", "a command needs an \"id\" (echoed in its answer)");
     auto controller = msg.find("controller");
     if (controller == msg.end() || !controller->is_string() ||
@@ -222,7 +196,7 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_command(const 
     json args = json::object();
     if (auto it = msg.find("args"); it != msg.end() && !it->is_null()) {
         if (!it->is_object())
-            return invalid(id, "args", "\"args\" must be an object, not " + std::string(type_name(*it)));
+            return invalid(id, "args", "\"args\" must be an object, not " + std::string(json_type_name(*it)));
         args = *it;
     }
     auto lease = read_key(msg, id, "lease");
@@ -267,9 +241,8 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_client_json(co
     if (name == "command") return parse_command(msg, std::move(id));
     if (name == "job") return parse_job(msg, std::move(id));
     if (name == "ping") {
-        if (auto key = unknown_key(msg, {"op", "id"}))
-            return invalid(id, *key,
-                           "unknown field \"" + *key + "\" (known: " + known_list({"op", "id"}) + ")");
+        if (auto unknown = find_unknown_field(msg, {"op", "id"}))
+            return invalid(id, unknown->field, unknown->message);
         return ws_ping{std::move(id)};
     }
     return invalid(id, "op",
