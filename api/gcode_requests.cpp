@@ -13,6 +13,7 @@
 #include "api/auth.hpp"
 #include "api/gcode_worker.hpp"
 #include "api/printable_text.hpp"
+#include "api/response_headers.hpp"
 #include "gateway/gcode/gcode_plan_json.hpp"
 #include "gateway/gcode/gcode_plan_summary_json.hpp"
 #include "gateway/gcode/gcode_planner.hpp"
@@ -79,39 +80,16 @@ class capped_buf final : public std::streambuf {
     bool overflowed_ = false;
 };
 
-// What a response needs from its request once the request itself is gone (worker thread).
-struct reply_meta {
-    unsigned version = 11;
-    bool keep_alive = true;
-    std::string target;
-    std::string request_id;
-};
-
-string_response body_response(http::status status, std::string body, std::string_view content_type,
-                              const reply_meta& m) {
-    string_response res{status, m.version};
-    res.set(http::field::server, "asi-gateway");
-    res.set("X-Request-Id", m.request_id);
-    res.set(http::field::cache_control, "no-store");
-    res.keep_alive(m.keep_alive);
-    if (status != http::status::no_content) {
-        res.set(http::field::content_type, content_type);
-        res.body() = std::move(body);
-    }
-    res.prepare_payload();
-    return res;
-}
-
-string_response problem_of(problem p, const reply_meta& m) {
+string_response problem_of(problem p, const response_meta& m) {
     return problem_response(std::move(p), m.version, m.keep_alive, m.target, m.request_id);
 }
 
-string_response error_of(const operation_error& e, const reply_meta& m) {
+string_response error_of(const operation_error& e, const response_meta& m) {
     return problem_of(make_problem(e), m);
 }
 
 // 422 invalid-gcode: the problem plus the program error's line, column and message.
-string_response gcode_error_response(const gcode::gcode_error& e, const reply_meta& m) {
+string_response gcode_error_response(const gcode::gcode_error& e, const response_meta& m) {
     problem p;
     p.status = 422;
     p.kind = "invalid_gcode";
@@ -125,18 +103,11 @@ string_response gcode_error_response(const gcode::gcode_error& e, const reply_me
     j["line"] = e.line;
     j["column"] = e.column;
     j["message"] = e.message;
-    string_response res{http::status::unprocessable_entity, m.version};
-    res.set(http::field::server, "asi-gateway");
-    res.set(http::field::content_type, problem_content_type);
-    res.set("X-Request-Id", m.request_id);
-    res.set(http::field::cache_control, "no-store");
-    res.keep_alive(m.keep_alive);
-    res.body() = j.dump(-1, ' ', false, json::error_handler_t::replace);
-    res.prepare_payload();
-    return res;
+    return body_response(http::status::unprocessable_entity,
+                         j.dump(-1, ' ', false, json::error_handler_t::replace), problem_content_type, m);
 }
 
-string_response plan_response(std::istream& in, const gcode_query& q, const reply_meta& m) {
+string_response plan_response(std::istream& in, const gcode_query& q, const response_meta& m) {
     const auto start = in.tellg();
     auto checked = gcode::check_program(in, q.options);
     if (auto* e = std::get_if<gcode::gcode_error>(&checked)) return gcode_error_response(*e, m);
@@ -164,7 +135,7 @@ string_response plan_response(std::istream& in, const gcode_query& q, const repl
     return body_response(http::status::ok, std::move(buf.text()), "application/json", m);
 }
 
-string_response preview_response(std::istream& in, const gcode_query& q, const reply_meta& m) {
+string_response preview_response(std::istream& in, const gcode_query& q, const response_meta& m) {
     std::ostringstream out;
     if (auto e = gcode::write_preview_svg(in, q.options, q.preview, out)) return gcode_error_response(*e, m);
     return body_response(http::status::ok, std::move(out).str(), "image/svg+xml", m);
@@ -172,24 +143,13 @@ string_response preview_response(std::istream& in, const gcode_query& q, const r
 
 // The program file of an uploaded id, opened; or the error response.
 std::variant<std::ifstream, string_response> open_file(gcode_file_store& store, const std::string& id,
-                                                       const reply_meta& m) {
+                                                       const response_meta& m) {
     auto path = store.path_of(id);
     if (!path) return error_of(path.error(), m);
     std::ifstream in(*path, std::ios::binary);
     if (!in)  // deleted in between
         return error_of(make_error(operation_error_kind::unknown_file, "no G-code file \"" + id + "\""), m);
     return in;
-}
-
-std::vector<std::string_view> split(std::string_view path) {
-    std::vector<std::string_view> out;
-    while (!path.empty()) {
-        auto slash = path.find('/');
-        out.push_back(path.substr(0, slash));
-        if (slash == std::string_view::npos) break;
-        path.remove_prefix(slash + 1);
-    }
-    return out;
 }
 
 problem planner_busy(const gcode_worker& worker) {
@@ -244,11 +204,11 @@ std::optional<problem> check_program_header(const api_context& ctx, const http::
     auto parsed =
         parse_gcode_query(*q, r.action == program_action::plan ? gcode_output::plan : gcode_output::preview);
     if (!parsed) return make_problem(parsed.error());
-    r.query = std::move(*parsed);
+    r.query = *parsed;
     return std::nullopt;
 }
 
-string_response created_response(const gcode_file_info& info, const reply_meta& m) {
+string_response created_response(const gcode_file_info& info, const response_meta& m) {
     auto res = body_response(http::status::created,
                              to_json(info).dump(-1, ' ', false, json::error_handler_t::replace),
                              "application/json", m);
@@ -257,7 +217,7 @@ string_response created_response(const gcode_file_info& info, const reply_meta& 
 }
 
 // The route's work on a program held in `in` (plan, preview) or in memory (save, in-memory bodies).
-string_response plan_or_preview(const program_request& r, std::istream& in, const reply_meta& m) {
+string_response plan_or_preview(const program_request& r, std::istream& in, const response_meta& m) {
     return r.action == program_action::plan ? plan_response(in, r.query, m)
                                             : preview_response(in, r.query, m);
 }
@@ -267,7 +227,7 @@ string_response plan_or_preview(const program_request& r, std::istream& in, cons
 struct gcode_program_intake::state {
     std::shared_ptr<api_context> ctx;
     program_request request;
-    reply_meta meta;
+    response_meta meta;
     std::optional<gcode_worker::slot> slot;
     std::optional<gcode_upload> upload;
 
@@ -303,7 +263,7 @@ std::optional<string_response> gcode_program_intake::append(std::string_view chu
 }
 
 void gcode_program_intake::finish(std::shared_ptr<gcode_program_intake> self,
-                                  net::any_io_executor session_executor, response_handler done) {
+                                  const net::any_io_executor& session_executor, response_handler done) {
     auto& worker = *self->s_->ctx->gcode_thread;
     auto slot = std::move(*self->s_->slot);
     self->s_->slot.reset();
@@ -327,7 +287,7 @@ gcode_program_admission admit_gcode_program(const std::shared_ptr<api_context>& 
     if (!r) return a;
     a.applies = true;
     // The body is not read when refused: the connection closes after the answer.
-    reply_meta meta{header.version(), false, std::string(header.target()), request_id};
+    response_meta meta{header.version(), false, std::string(header.target()), request_id};
     auto refuse = [&](problem p) {
         a.refusal = routed_response{problem_of(std::move(p), meta), r->route};
         return a;
@@ -402,170 +362,122 @@ std::uint64_t max_gcode_body_bytes(const api_context& ctx) {
     return ctx.gcode_files ? ctx.gcode_files->settings().max_file_bytes : 0;
 }
 
-void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_request&& req,
-                          std::string request_id, net::any_io_executor session_executor,
-                          response_handler done) {
-    const std::string path(target_path(req.target()));
-    const auto method = req.method();
-    const auto seg = split(std::string_view(path).substr(gcode_prefix.size()));
-    reply_meta meta{req.version(), req.keep_alive(), std::string(req.target()), std::move(request_id)};
+namespace {
 
-    auto reply = [&](const std::string& route, string_response res) { done({std::move(res), route}); };
-    auto fail = [&](const std::string& route, problem p) { reply(route, problem_of(std::move(p), meta)); };
-    auto methods_ok = [&](const std::string& route, std::initializer_list<http::verb> allowed) {
-        for (auto v : allowed)
-            if (method == v) return true;
-        std::string list;
-        for (auto v : allowed)
-            list += (list.empty() ? "" : ", ") + std::string(http::to_string(v));
-        auto res =
-            problem_of(make_problem(http_error::method_not_allowed,
-                                    std::string(req.method_string()) + " is not allowed here; use " + list),
-                       meta);
-        res.set(http::field::allow, list);
-        reply(route, std::move(res));
-        return false;
-    };
-    auto authorize = [&](const std::string& route, gw::role needed) {
-        problem p;
-        auto who = identify(*ctx, req, p);
-        if (!who) {
-            fail(route, std::move(p));
-            return false;
-        }
-        if (!has_role(*who, needed)) {
-            fail(route, forbidden_problem(*who, needed));
-            return false;
-        }
-        return true;
-    };
-    auto query = [&](const std::string& route) -> std::optional<query_params> {
-        auto q = parse_query(req.target());
-        if (!q) {
-            fail(route, make_problem(q.error()));
-            return std::nullopt;
-        }
-        return std::move(*q);
-    };
-    auto output_query = [&](const std::string& route, gcode_output output) -> std::optional<gcode_query> {
-        auto q = query(route);
-        if (!q) return std::nullopt;
-        auto parsed = parse_gcode_query(*q, output);
-        if (!parsed) {
-            fail(route, make_problem(parsed.error()));
-            return std::nullopt;
-        }
-        return *parsed;
-    };
-    // The blocking part on the worker thread; its response back on the session's executor.
-    auto run_blocking = [&](const std::string& route, auto work) {
-        // `done` is copied: it answers here when the worker refuses the task.
-        auto task = [work = std::move(work), route, session_executor, done]() mutable {
-            string_response res = work();
-            net::post(session_executor, [done = std::move(done), res = std::move(res), route]() mutable {
-                done({std::move(res), route});
-            });
-        };
-        if (!ctx->gcode_thread) return task();
-        if (!ctx->gcode_thread->try_post(std::move(task)))
-            reply(route, problem_of(planner_busy(*ctx->gcode_thread), meta));
-    };
-    auto need_store = [&](const std::string& route) -> std::shared_ptr<gcode_file_store> {
-        if (!ctx->gcode_files)
-            fail(route, make_problem(make_error(operation_error_kind::storage_unavailable,
-                                                "this gateway has no G-code file store")));
-        return ctx->gcode_files;
-    };
-
-    // A program in the body, here in memory (http_session streams it to the store when there is one:
-    // admit_gcode_program).
-    if (auto r = program_route(method, path)) {
-        if (auto p = check_program_header(*ctx, req, *r)) return fail(r->route, std::move(*p));
-        if (r->action == program_action::save && !need_store(r->route)) return;
-        const std::string route = r->route;
-        return run_blocking(
-            route, [store = ctx->gcode_files, body = std::move(req.body()), r = std::move(*r), meta]() {
-                view_buf buf(body);
-                std::istream in(&buf);
-                if (r.action != program_action::save) return plan_or_preview(r, in, meta);
-                auto saved = store->save(in, r.name);
-                if (!saved) return error_of(saved.error(), meta);
-                return created_response(*saved, meta);
-            });
-    }
-    if (seg.size() == 1 && (seg[0] == "plan" || seg[0] == "preview.svg")) {
-        methods_ok(seg[0] == "plan" ? "/api/v1/gcode/plan" : "/api/v1/gcode/preview.svg", {http::verb::post});
-        return;  // a POST is a program: above
-    }
-    if (seg.size() == 1 && seg[0] == "files") {
-        const std::string route = "/api/v1/gcode/files";
-        // GET: a POST carries a program (above).
-        if (!methods_ok(route, {http::verb::get, http::verb::post})) return;
-        auto q = query(route);
-        if (!q) return;
-        if (!authorize(route, gw::role::viewer)) return;
-        if (auto known = check_known_parameters(*q, {}); !known)
-            return fail(route, make_problem(known.error()));
-        auto store = need_store(route);
-        if (!store) return;
-        return run_blocking(route, [store, meta]() {
-            auto files = store->list();
-            if (!files) return error_of(files.error(), meta);
-            json list = json::array();
-            for (const auto& f : *files)
-                list.push_back(to_json(f));
-            json body;
-            body["files"] = std::move(list);
-            return body_response(http::status::ok, body.dump(-1, ' ', false, json::error_handler_t::replace),
-                                 "application/json", meta);
+// The blocking part on the worker thread; its response back on the session's executor.
+template <typename Work>
+void run_blocking(request_context& c, Work work) {
+    // `done` is copied: it answers here when the worker refuses the task.
+    auto task = [work = std::move(work), route = c.route, session_executor = c.session_executor,
+                 done = c.done]() mutable {
+        string_response res = work();
+        net::post(session_executor, [done = std::move(done), res = std::move(res), route]() mutable {
+            done({std::move(res), route});
         });
-    }
-    if (seg.size() >= 2 && seg.size() <= 3 && seg[0] == "files" && !seg[1].empty()) {
-        const std::string id(seg[1]);
-        if (seg.size() == 2) {
-            const std::string route = "/api/v1/gcode/files/{id}";
-            if (!methods_ok(route, {http::verb::get, http::verb::delete_})) return;
-            if (!authorize(route, method == http::verb::get ? gw::role::viewer : gw::role::operator_)) return;
-            auto q = query(route);
-            if (!q) return;
-            if (auto known = check_known_parameters(*q, {}); !known)
-                return fail(route, make_problem(known.error()));
-            auto store = need_store(route);
-            if (!store) return;
-            if (method == http::verb::get)
-                return run_blocking(route, [store, id, meta]() {
-                    auto info = store->get(id);
-                    if (!info) return error_of(info.error(), meta);
-                    return body_response(http::status::ok,
-                                         to_json(*info).dump(-1, ' ', false, json::error_handler_t::replace),
-                                         "application/json", meta);
-                });
-            return run_blocking(route, [store, id, meta]() {
-                auto removed = store->remove(id);
-                if (!removed) return error_of(removed.error(), meta);
-                return body_response(http::status::no_content, {}, {}, meta);
-            });
-        }
-        if (seg[2] == "plan" || seg[2] == "preview.svg") {
-            const bool plan = seg[2] == "plan";
-            const std::string route =
-                plan ? "/api/v1/gcode/files/{id}/plan" : "/api/v1/gcode/files/{id}/preview.svg";
-            if (!methods_ok(route, {plan ? http::verb::post : http::verb::get}) ||
-                !authorize(route, gw::role::viewer))
-                return;
-            auto q = output_query(route, plan ? gcode_output::plan : gcode_output::preview);
-            if (!q) return;
-            auto store = need_store(route);
-            if (!store) return;
-            return run_blocking(route, [store, id, q = *q, meta, plan]() {
-                auto opened = open_file(*store, id, meta);
-                if (auto* res = std::get_if<string_response>(&opened)) return std::move(*res);
-                auto& in = std::get<std::ifstream>(opened);
-                return plan ? plan_response(in, q, meta) : preview_response(in, q, meta);
-            });
-        }
-    }
-    fail("unmatched", make_problem(http_error::not_found, "no route for " + path));
+    };
+    if (!c.ctx->gcode_thread) return task();
+    if (!c.ctx->gcode_thread->try_post(std::move(task))) c.fail(planner_busy(*c.ctx->gcode_thread));
+}
+
+std::shared_ptr<gcode_file_store> need_store(request_context& c) {
+    if (!c.ctx->gcode_files)
+        c.fail(
+            make_error(operation_error_kind::storage_unavailable, "this gateway has no G-code file store"));
+    return c.ctx->gcode_files;
+}
+
+// A program in the body, here in memory (http_session streams it to the store when there is one:
+// admit_gcode_program).
+void program_in_body(request_context& c) {
+    auto r = program_route(c.req.method(), target_path(c.req.target()));
+    if (!r) return c.fail(make_problem(http_error::not_found, "no route for " + std::string(c.req.target())));
+    if (auto p = check_program_header(*c.ctx, c.req, *r)) return c.fail(std::move(*p));
+    if (r->action == program_action::save && !need_store(c)) return;
+    run_blocking(c, [store = c.ctx->gcode_files, body = std::move(c.req.body()), r = std::move(*r),
+                     meta = c.meta()]() {
+        view_buf buf(body);
+        std::istream in(&buf);
+        if (r.action != program_action::save) return plan_or_preview(r, in, meta);
+        auto saved = store->save(in, r.name);
+        if (!saved) return error_of(saved.error(), meta);
+        return created_response(*saved, meta);
+    });
+}
+
+void list_files(request_context& c) {
+    if (!c.query_with({})) return;
+    auto store = need_store(c);
+    if (!store) return;
+    run_blocking(c, [store, meta = c.meta()]() {
+        auto files = store->list();
+        if (!files) return error_of(files.error(), meta);
+        json list = json::array();
+        for (const auto& f : *files)
+            list.push_back(to_json(f));
+        json body;
+        body["files"] = std::move(list);
+        return body_response(http::status::ok, body.dump(-1, ' ', false, json::error_handler_t::replace),
+                             "application/json", meta);
+    });
+}
+
+void get_file(request_context& c) {
+    if (!c.query_with({})) return;
+    auto store = need_store(c);
+    if (!store) return;
+    run_blocking(c, [store, id = c.params[0], meta = c.meta()]() {
+        auto info = store->get(id);
+        if (!info) return error_of(info.error(), meta);
+        return body_response(http::status::ok,
+                             to_json(*info).dump(-1, ' ', false, json::error_handler_t::replace),
+                             "application/json", meta);
+    });
+}
+
+void delete_file(request_context& c) {
+    if (!c.query_with({})) return;
+    auto store = need_store(c);
+    if (!store) return;
+    run_blocking(c, [store, id = c.params[0], meta = c.meta()]() {
+        auto removed = store->remove(id);
+        if (!removed) return error_of(removed.error(), meta);
+        return body_response(http::status::no_content, {}, {}, meta);
+    });
+}
+
+// POST files/{id}/plan, GET files/{id}/preview.svg: as /gcode/plan and /gcode/preview.svg on a stored file.
+void stored_file_output(request_context& c, gcode_output output) {
+    auto q = c.query();
+    if (!q) return;
+    auto parsed = parse_gcode_query(*q, output);
+    if (!parsed) return c.fail(parsed.error());
+    auto store = need_store(c);
+    if (!store) return;
+    run_blocking(c, [store, id = c.params[0], q = *parsed, meta = c.meta(), output]() {
+        auto opened = open_file(*store, id, meta);
+        if (auto* res = std::get_if<string_response>(&opened)) return std::move(*res);
+        auto& in = std::get<std::ifstream>(opened);
+        return output == gcode_output::plan ? plan_response(in, q, meta) : preview_response(in, q, meta);
+    });
+}
+
+}  // namespace
+
+std::vector<route> gcode_routes() {
+    using http::verb;
+    const std::string g = "/api/v1/gcode";
+    return {
+        {verb::post, g + "/plan", gw::role::viewer, program_in_body},
+        {verb::post, g + "/preview.svg", gw::role::viewer, program_in_body},
+        {verb::get, g + "/files", gw::role::viewer, list_files},
+        {verb::post, g + "/files", gw::role::operator_, program_in_body},
+        {verb::get, g + "/files/{id}", gw::role::viewer, get_file},
+        {verb::delete_, g + "/files/{id}", gw::role::operator_, delete_file},
+        {verb::post, g + "/files/{id}/plan", gw::role::viewer,
+         [](request_context& c) { stored_file_output(c, gcode_output::plan); }},
+        {verb::get, g + "/files/{id}/preview.svg", gw::role::viewer,
+         [](request_context& c) { stored_file_output(c, gcode_output::preview); }},
+    };
 }
 
 }  // namespace gw::api

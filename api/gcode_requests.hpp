@@ -32,6 +32,7 @@
 #include "api/api_context.hpp"
 #include "api/job_requests.hpp"
 #include "api/net.hpp"
+#include "api/route_table.hpp"
 #include "api/router.hpp"
 #include "gateway/gcode/gcode_options.hpp"
 #include "gateway/gcode/gcode_preview_svg.hpp"
@@ -52,7 +53,7 @@ enum class gcode_output : std::uint8_t { plan, preview };
 // Pure: the query's options, or invalid_value naming the parameter.
 operation_result<gcode_query> parse_gcode_query(const query_params& q, gcode_output output);
 
-// True for the paths handle_gcode_request serves ("/api/v1/gcode/...").
+// True for the paths under /api/v1/gcode/ (gcode_routes() serves them).
 bool is_gcode_path(std::string_view path);
 // The body limit for a request whose header says `method` and `target`: the G-code POSTs may carry a
 // program up to the store's size cap; nullopt for everything else (the normal limit applies).
@@ -76,8 +77,8 @@ class gcode_program_intake {
     std::optional<string_response> append(std::string_view chunk);
     // Once the whole body is in: plans, previews or stores it on the planner thread, in the slot taken
     // from the header; `done` gets the response on `session_executor`.
-    static void finish(std::shared_ptr<gcode_program_intake> self, net::any_io_executor session_executor,
-                       response_handler done);
+    static void finish(std::shared_ptr<gcode_program_intake> self,
+                       const net::any_io_executor& session_executor, response_handler done);
     const std::string& route() const;  // for metrics
 
   private:
@@ -94,8 +95,7 @@ gcode_program_admission admit_gcode_program(const std::shared_ptr<api_context>& 
                                             const http::request<http::empty_body>& header,
                                             const std::string& request_id);
 
-void handle_gcode_request(const std::shared_ptr<api_context>& ctx, string_request&& request,
-                          std::string request_id, net::any_io_executor session_executor,
-                          response_handler done);
+// The /api/v1/gcode routes above, for the route table.
+std::vector<route> gcode_routes();
 
 }  // namespace gw::api

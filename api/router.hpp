@@ -1,21 +1,11 @@
 #pragma once
-// Maps one HTTP request to one response: the REST routes under /api/v1, auth, request ids and the
-// problem+json errors. Transport-free: http_session reads and writes, the router decides.
+// Maps one HTTP request to one response: the dashboard's files, then the route table (route_table.hpp)
+// of the REST routes (rest_routes.hpp) and the G-code routes (gcode_requests.hpp), with auth, request
+// ids and the problem+json errors. Transport-free: http_session reads and writes, the router decides.
 //
-//   GET  /api/v1/health                      liveness, public
-//   GET  /api/v1/ready                       200 when every controller is identified, else 503; public
-//   GET  /api/v1/whoami                      viewer; the client's token name, role and auth mode
-//   GET  /api/v1/controllers                 viewer
-//   GET  /api/v1/controllers/{id}            viewer
-//   POST /api/v1/controllers/{id}/{op}       operator (op: move halt home zero here speed ttl dac led)
-//   POST /api/v1/controllers/{id}/command    admin
-//   GET/POST/DELETE /api/v1/controllers/{id}/lease, POST .../lease/renew   (api/lease_requests.hpp)
-//   GET/POST /api/v1/jobs, GET /api/v1/jobs/{id}[/events], POST /api/v1/jobs/{id}/{cancel|pause|resume|next}
-//                                            (api/job_requests.hpp)
-//   /api/v1/gcode/...                         plan, preview, uploaded programs (api/gcode_requests.hpp)
-//   GET  /api/v1/metrics                     viewer; Prometheus text
-//   GET  /api/v1/openapi.yaml, /openapi.yaml public
-//   GET|HEAD /, /dashboard/<file>            public; the dashboard (api/static_assets.hpp)
+// The routes, each with its method and the role it needs, are the tables of rest_routes() (rest_routes.cpp)
+// and gcode_routes() (gcode_requests.cpp), plus GET /api/v1/openapi.yaml and /openapi.yaml (public);
+// GET|HEAD / and /dashboard/<file> serve the dashboard (static_assets.hpp).
 // Thread safety: handle() may be called from any session strand; `done` is called exactly once, on
 // `session_executor` (immediately, inside handle(), for everything but the controller operations and
 // the job submissions and job commands).
@@ -28,11 +18,9 @@
 #include "api/auth.hpp"
 #include "api/net.hpp"
 #include "api/problem.hpp"
+#include "api/response_headers.hpp"
 
 namespace gw::api {
-
-using string_request = http::request<http::string_body>;
-using string_response = http::response<http::string_body>;
 
 struct routed_response {
     string_response response;

@@ -121,15 +121,12 @@ string_response static_asset_response(const string_request& req, const std::stri
     const bool not_modified = it != req.end() && none_match_hits(it->value(), etag);
 
     string_response res{not_modified ? http::status::not_modified : http::status::ok, req.version()};
-    res.set(http::field::server, "asi-gateway");
-    res.set("X-Request-Id", request_id);
+    set_common_headers(res, request_id, req.keep_alive(), "no-cache");  // revalidated by ETag
     res.set(http::field::etag, etag);
-    res.set(http::field::cache_control, "no-cache");
     res.set("Content-Security-Policy", content_security_policy);
     res.set("X-Content-Type-Options", "nosniff");
     res.set("Referrer-Policy", "no-referrer");
     if (!file->gzip.empty()) res.set(http::field::vary, "Accept-Encoding");
-    res.keep_alive(req.keep_alive());
     if (not_modified) return res;  // no body, no Content-Length (RFC 9110 15.4.5)
     res.set(http::field::content_type, content_type_of(file->name));
     const auto body = gzipped ? file->gzip : file->data;

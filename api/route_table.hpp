@@ -1,0 +1,56 @@
+#pragma once
+// HTTP routes as data: method, path template, the role it needs, handler. The table finds the route
+// for a request, answers 404 when no template matches the path and 405 (with Allow) when one matches
+// but not with this method, authorises the caller for the route's role (401/403), and only then calls
+// the handler with the path parameters and the caller in its request_context.
+//
+//   route_table table({
+//       {http::verb::get, "/api/v1/controllers/{id}", gw::role::viewer, get_controller},
+//       {http::verb::get, "/api/v1/health", std::nullopt, health},  // public
+//   });
+//   table.dispatch(context);  // context.route, params and who filled in
+//
+// A template is matched segment by segment: "{name}" takes any non-empty segment, anything else must
+// be equal. The first template in table order that matches decides.
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "api/net.hpp"
+#include "api/request_context.hpp"
+#include "gateway/config.hpp"
+
+namespace gw::api {
+
+using route_handler = std::function<void(request_context&)>;
+
+struct route {
+    http::verb method;
+    std::string pattern;
+    std::optional<gw::role> role;  // nullopt: public (no token needed)
+    route_handler handler;
+};
+
+class route_table {
+  public:
+    explicit route_table(std::vector<route> routes);
+
+    // True when some template matches the path (whatever the method).
+    bool serves(std::string_view path) const;
+    // Answers the request: through its route's handler, or with the 404/405/401/403 above.
+    void dispatch(request_context& c) const;
+
+  private:
+    struct compiled {
+        route r;
+        std::vector<std::string> segments;
+    };
+    // The routes of the first template matching `path`, with its parameters.
+    std::vector<const compiled*> find(std::string_view path, std::vector<std::string>& params) const;
+
+    std::vector<compiled> routes_;
+};
+
+}  // namespace gw::api
