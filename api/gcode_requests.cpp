@@ -404,42 +404,42 @@ void program_in_body(request_context& c) {
     });
 }
 
-void list_files(request_context& c) {
+// A request on the file store without query parameters: `work(store, meta)` on the G-code thread.
+template <typename Work>
+void on_store(request_context& c, Work work) {
     if (!c.query_with({})) return;
     auto store = need_store(c);
     if (!store) return;
-    run_blocking(c, [store, meta = c.meta()]() {
-        auto files = store->list();
+    run_blocking(c, [store, meta = c.meta(), work = std::move(work)]() { return work(*store, meta); });
+}
+
+string_response json_ok(const json& body, const response_meta& meta) {
+    return body_response(http::status::ok, body.dump(-1, ' ', false, json::error_handler_t::replace),
+                         "application/json", meta);
+}
+
+void list_files(request_context& c) {
+    on_store(c, [](gcode_file_store& store, const response_meta& meta) {
+        auto files = store.list();
         if (!files) return error_of(files.error(), meta);
         json list = json::array();
         for (const auto& f : *files)
             list.push_back(to_json(f));
-        json body;
-        body["files"] = std::move(list);
-        return body_response(http::status::ok, body.dump(-1, ' ', false, json::error_handler_t::replace),
-                             "application/json", meta);
+        return json_ok({{"files", std::move(list)}}, meta);
     });
 }
 
 void get_file(request_context& c) {
-    if (!c.query_with({})) return;
-    auto store = need_store(c);
-    if (!store) return;
-    run_blocking(c, [store, id = c.params[0], meta = c.meta()]() {
-        auto info = store->get(id);
+    on_store(c, [id = c.params[0]](gcode_file_store& store, const response_meta& meta) {
+        auto info = store.get(id);
         if (!info) return error_of(info.error(), meta);
-        return body_response(http::status::ok,
-                             to_json(*info).dump(-1, ' ', false, json::error_handler_t::replace),
-                             "application/json", meta);
+        return json_ok(to_json(*info), meta);
     });
 }
 
 void delete_file(request_context& c) {
-    if (!c.query_with({})) return;
-    auto store = need_store(c);
-    if (!store) return;
-    run_blocking(c, [store, id = c.params[0], meta = c.meta()]() {
-        auto removed = store->remove(id);
+    on_store(c, [id = c.params[0]](gcode_file_store& store, const response_meta& meta) {
+        auto removed = store.remove(id);
         if (!removed) return error_of(removed.error(), meta);
         return body_response(http::status::no_content, {}, {}, meta);
     });
