@@ -6,10 +6,8 @@
 #include "api/gcode_requests.hpp"
 #include "api/gcode_worker.hpp"
 #include "api/request_id.hpp"
-#include "gateway/metrics.hpp"
-#if GW_API_HAS_WEBSOCKET
 #include "api/websocket_session.hpp"
-#endif
+#include "gateway/metrics.hpp"
 
 namespace gw::api {
 
@@ -255,18 +253,11 @@ void http_session::on_read(beast::error_code ec, std::size_t) {
             who = identify(*ctx_, req, p);
         }
         if (!who) return do_write(problem_response(std::move(p), req, request_id_), "/api/v1/ws", true);
-#if GW_API_HAS_WEBSOCKET
         ctx_->metrics->increment("gw_http_requests_total",
                                  {{"route", "/api/v1/ws"}, {"method", method_}, {"status", "101"}});
         body_memory_.reset();
         return start_websocket_session(std::move(stream_), parser_->release(), ctx_, std::move(*who),
                                        std::move(permit_));
-#else
-        return do_write(problem_response(make_problem(http_error::not_implemented,
-                                                      "WebSocket sessions are not available in this build"),
-                                         req, request_id_),
-                        "/api/v1/ws", true);
-#endif
     }
 
     handle_request(ctx_, parser_->release(), request_id_, stream_.get_executor(),
