@@ -5,6 +5,7 @@
 #include <boost/asio/bind_executor.hpp>
 #include <nlohmann/json.hpp>
 
+#include "api/calls.hpp"
 #include "api/lease_requests.hpp"
 #include "api/operation_requests.hpp"
 #include "api/port_requests.hpp"
@@ -87,18 +88,9 @@ void operation(request_context& c, const std::string& name) {
     if (!body) return;
     // Known controller? (a clear 404 before any body field is judged)
     if (!c.ctx->registry.get(c.params[0])) return c.fail(unknown_controller(c.params[0]));
-    std::optional<std::string> lease_id;
-    if (!c.key_header("Lease-Id", lease_id)) return;
-    run_operation(
-        *c.ctx, c.params[0], name, *body, c.request_id, c.who->role, std::move(lease_id),
-        net::bind_executor(c.session_executor, [route = c.route, meta = c.meta(),
-                                                done = std::move(c.done)](operation_outcome o) {
-            if (o.error)
-                return done({problem_response(std::move(*o.error), meta.version, meta.keep_alive, meta.target,
-                                              meta.request_id),
-                             route});
-            done({body_response(http::status::ok, to_json_text(o.result), "application/json", meta), route});
-        }));
+    caller who{c.who->name, c.who->role, c.request_id, {}};
+    if (!c.key_header("Lease-Id", who.lease_id)) return;
+    dispatch_call(*c.ctx, who, operation_call{c.params[0], name, std::move(*body)}, c.async_reply());
 }
 
 // ---- leases ----
@@ -165,16 +157,14 @@ void submit(request_context& c) {
     if (!q) return;
     auto dry_run = query_flag(*q, "dry_run", false);
     if (!dry_run) return c.fail(dry_run.error());
-    submit_options options;
-    options.dry_run = *dry_run;
-    if (!c.key_header("Idempotency-Key", options.idempotency_key) ||
-        !c.key_header("Lease-Id", options.lease_id))
+    job_submit_call submit{{}, *dry_run, {}};
+    caller who{c.who->name, c.who->role, c.request_id, {}};
+    if (!c.key_header("Idempotency-Key", submit.idempotency_key) || !c.key_header("Lease-Id", who.lease_id))
         return;
     auto body = c.json_body();
     if (!body) return;
-    options.principal = c.who->name;
-    options.request_id = c.request_id;
-    submit_job(*c.ctx, *body, std::move(options), c.async_reply());
+    submit.request = std::move(*body);
+    dispatch_call(*c.ctx, who, std::move(submit), c.async_reply());
 }
 
 // A job id that cannot be one (a typo, a path) is not looked up.
@@ -204,12 +194,9 @@ void job_command_route(request_context& c, job_command command) {
     if (!body) return;
     if (!body->is_null() && !(body->is_object() && body->empty()))
         return c.fail(make_error(operation_error_kind::invalid_value, "this request takes no body (or {})"));
-    jobs::job_action action;
-    action.job_id = c.params[0];
-    if (!c.key_header("Lease-Id", action.lease_id)) return;
-    action.principal = c.who->name;
-    action.request_id = c.request_id;
-    control_job(*c.ctx, command, std::move(action), c.async_reply());
+    caller who{c.who->name, c.who->role, c.request_id, {}};
+    if (!c.key_header("Lease-Id", who.lease_id)) return;
+    dispatch_call(*c.ctx, who, job_action_call{c.params[0], command}, c.async_reply());
 }
 
 }  // namespace

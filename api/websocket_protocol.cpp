@@ -304,4 +304,16 @@ std::string ws_pong_message(const json& id) {
     return text(json{{"type", "pong"}, {"id", id}});
 }
 
+call to_call(ws_command m) {
+    return operation_call{std::move(m.controller), std::move(m.operation), std::move(m.args)};
+}
+
+call to_call(ws_job m) {
+    if (m.action == "submit")
+        return job_submit_call{std::move(m.args), m.dry_run, std::move(m.idempotency_key)};
+    if (m.action == "get") return job_get_call{std::move(m.job)};
+    // parse_job_command: the message parser accepted only known actions.
+    return job_action_call{std::move(m.job), parse_job_command(m.action).value_or(job_command::cancel)};
+}
+
 }  // namespace gw::api

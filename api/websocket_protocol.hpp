@@ -45,6 +45,7 @@
 #include <boost/system/result.hpp>
 #include <nlohmann/json.hpp>
 
+#include "api/calls.hpp"
 #include "api/problem.hpp"
 
 namespace gw::api {
@@ -114,6 +115,10 @@ std::string ws_hello_message(std::string_view connection, std::string_view user,
                              std::size_t max_message_bytes);
 std::string ws_subscribed_message(const ws_subscribe& request);
 std::string ws_unsubscribed_message(const ws_unsubscribe& request);
+// The call a command or job message asks for (api/calls.hpp); the lease is the caller's.
+call to_call(ws_command m);
+call to_call(ws_job m);
+
 std::string ws_result_message(const nlohmann::json& id, const nlohmann::json& result, bool replayed = false);
 std::string ws_error_message(const nlohmann::json& id, const problem& error);
 std::string ws_pong_message(const nlohmann::json& id);

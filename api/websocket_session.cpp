@@ -226,72 +226,34 @@ void websocket_session::handle_message(std::string_view text) {
                     ctx_->hub->unsubscribe(subscriber_, t);
                 }
                 answer(ws_unsubscribed_message(m));
-            } else if constexpr (std::is_same_v<T, ws_command>) {
-                count("command");
-                ++commands_in_flight_;
-                // The same function as REST: same validation, roles and request ids.
-                run_operation(*ctx_, m.controller, m.operation, m.args, ws_request_id(connection_, m.id),
-                              who_.role, m.lease,
-                              net::bind_executor(ws_.get_executor(), [self = shared_from_this(),
-                                                                      id = m.id](operation_outcome out) {
-                                  self->on_command_done(id, std::move(out));
-                              }));
-            } else if constexpr (std::is_same_v<T, ws_job>) {
-                count("job");
-                handle_job(m);
+            } else if constexpr (std::is_same_v<T, ws_command> || std::is_same_v<T, ws_job>) {
+                count(std::is_same_v<T, ws_command> ? "command" : "job");
+                // Taken before the message is moved into its call.
+                json id = m.id;
+                auto lease = m.lease;
+                run_call(id, std::move(lease), to_call(std::move(m)));
             }
         },
         *parsed);
 }
 
-// The same functions as the REST job routes: same validation, roles, leases and shapes.
-void websocket_session::handle_job(ws_job& m) {
-    const auto request_id = ws_request_id(connection_, m.id);
-    const gw::role needed = m.action == "get" ? gw::role::viewer : gw::role::operator_;
-    if (!has_role(who_, needed)) return answer_error(m.id, forbidden_problem(who_, needed));
-    if (m.action == "get") {
-        auto out = get_job(*ctx_, m.job, request_id);
-        if (out.error) return answer_error(m.id, std::move(*out.error));
-        return answer(ws_result_message(m.id, out.body));
-    }
+// The same dispatch as REST and MQTT: same roles, leases, validation and shapes.
+void websocket_session::run_call(const json& id, std::optional<std::string> lease, call c) {
     ++commands_in_flight_;
-    auto done = net::bind_executor(
-        ws_.get_executor(),
-        [self = shared_from_this(), id = m.id](api_outcome out) { self->on_job_done(id, std::move(out)); });
-    if (m.action == "submit") {
-        submit_options options;
-        options.dry_run = m.dry_run;
-        options.idempotency_key = std::move(m.idempotency_key);
-        options.lease_id = std::move(m.lease);
-        options.principal = who_.name;
-        options.request_id = request_id;
-        return submit_job(*ctx_, m.args, std::move(options), std::move(done));
-    }
-    jobs::job_action action;
-    action.job_id = m.job;
-    action.lease_id = std::move(m.lease);
-    action.principal = who_.name;
-    action.request_id = request_id;
-    control_job(*ctx_, *parse_job_command(m.action), std::move(action), std::move(done));
+    caller who{who_.name, who_.role, ws_request_id(connection_, id), std::move(lease)};
+    dispatch_call(*ctx_, who, std::move(c),
+                  net::bind_executor(ws_.get_executor(), [self = shared_from_this(), id](api_outcome out) {
+                      self->on_call_done(id, std::move(out));
+                  }));
 }
 
-void websocket_session::on_job_done(const json& id, api_outcome outcome) {
+void websocket_session::on_call_done(const json& id, api_outcome outcome) {
     --commands_in_flight_;
     if (phase_ != phase::open) return;
     if (outcome.error)
         answer_error(id, std::move(*outcome.error));
     else
         answer(ws_result_message(id, outcome.body, outcome.replayed));
-    maybe_resume_reading();
-}
-
-void websocket_session::on_command_done(const json& id, operation_outcome outcome) {
-    --commands_in_flight_;
-    if (phase_ != phase::open) return;
-    if (outcome.error)
-        answer_error(id, std::move(*outcome.error));
-    else
-        answer(ws_result_message(id, outcome.result));
     maybe_resume_reading();
 }
 

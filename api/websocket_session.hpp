@@ -28,6 +28,7 @@
 
 #include "api/api_context.hpp"
 #include "api/auth.hpp"
+#include "api/calls.hpp"
 #include "api/connection_permit.hpp"
 #include "api/net.hpp"
 #include "api/operation_requests.hpp"
@@ -92,9 +93,9 @@ class websocket_session final : public gw::event_sink,
     void handle_message(std::string_view text);
     void answer(std::string text);
     void answer_error(const nlohmann::json& id, problem p);
-    void on_command_done(const nlohmann::json& id, operation_outcome outcome);
-    void handle_job(ws_job& m);
-    void on_job_done(const nlohmann::json& id, api_outcome outcome);
+    // A command or job message: dispatched as a call (api/calls.hpp), answered with its outcome.
+    void run_call(const nlohmann::json& id, std::optional<std::string> lease, call c);
+    void on_call_done(const nlohmann::json& id, api_outcome outcome);
     void on_deliver(std::vector<std::shared_ptr<const event>> batch);
     void do_write();
     void on_write(beast::error_code ec, std::size_t bytes);

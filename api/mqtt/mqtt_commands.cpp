@@ -8,7 +8,6 @@
 
 #include "api/job_requests.hpp"
 #include "api/mqtt/mqtt_request.hpp"
-#include "api/operation_requests.hpp"
 #include "api/websocket_protocol.hpp"
 #include "gateway/metrics.hpp"
 
@@ -98,43 +97,28 @@ void mqtt_commands::run(mqtt_request& request, const auth_identity& who, const r
     const std::string topic = request.target.kind == mqtt_command_kind::controller
                                   ? topics_.controller(request.target.controller, "cmd")
                                   : topics_.job_command(request.target.kind);
-    auto self = shared_from_this();
-    if (auto* c = std::get_if<ws_command>(&request.message)) {
-        ++in_flight_;
-        // The same function as REST: role (by operation), lease, validation, request id.
-        return run_operation(
-            *ctx_, c->controller, c->operation, c->args, request_id, who.role, c->lease,
-            net::bind_executor(strand_, [self, to, id = c->id, topic](operation_outcome out) {
-                --self->in_flight_;
-                if (out.error) return self->answer_error(to, id, std::move(*out.error), topic);
-                self->answer(to, ws_result_message(id, out.result), "ok");
-            }));
+    // The same dispatch as REST and WebSocket: role, lease, validation, request id.
+    std::optional<call> c;
+    json id;
+    std::optional<std::string> lease;
+    if (auto* command = std::get_if<ws_command>(&request.message)) {
+        id = command->id;
+        lease = command->lease;
+        c = to_call(std::move(*command));
+    } else if (auto* job = std::get_if<ws_job>(&request.message)) {
+        id = job->id;
+        lease = job->lease;
+        c = to_call(std::move(*job));
+    } else {
+        return;  // parse_mqtt_request only builds commands and jobs
     }
-    auto* j = std::get_if<ws_job>(&request.message);
-    if (!j) return;  // parse_mqtt_request only builds commands and jobs
-    if (!has_role(who, gw::role::operator_))
-        return answer_error(to, j->id, forbidden_problem(who, gw::role::operator_), topic);
     ++in_flight_;
-    auto done = net::bind_executor(strand_, [self, to, id = j->id, topic](api_outcome out) {
-        --self->in_flight_;
-        if (out.error) return self->answer_error(to, id, std::move(*out.error), topic);
-        self->answer(to, ws_result_message(id, out.body, out.replayed), "ok");
-    });
-    if (j->action == "submit") {
-        submit_options options;
-        options.dry_run = j->dry_run;
-        options.idempotency_key = std::move(j->idempotency_key);
-        options.lease_id = std::move(j->lease);
-        options.principal = who.name;
-        options.request_id = request_id;
-        return submit_job(*ctx_, j->args, std::move(options), std::move(done));
-    }
-    jobs::job_action action;
-    action.job_id = j->job;
-    action.lease_id = std::move(j->lease);
-    action.principal = who.name;
-    action.request_id = request_id;
-    control_job(*ctx_, *parse_job_command(j->action), std::move(action), std::move(done));
+    dispatch_call(*ctx_, caller{who.name, who.role, request_id, std::move(lease)}, std::move(*c),
+                  net::bind_executor(strand_, [self = shared_from_this(), to, id, topic](api_outcome out) {
+                      --self->in_flight_;
+                      if (out.error) return self->answer_error(to, id, std::move(*out.error), topic);
+                      self->answer(to, ws_result_message(id, out.body, out.replayed), "ok");
+                  }));
 }
 
 }  // namespace gw::api

@@ -108,6 +108,8 @@ async def test_axes(b, port):
 async def test_jog(b, port):
     before = position(port, "sim1", "X")
     await b.click("[data-controller-view=sim1] [data-step='1000']")
+    await b.wait_for("the 1 mm step chosen",
+                     f"{view('sim1')}.querySelector(\"[data-step='1000']\").getAttribute('aria-pressed') === 'true'")
     await b.click("[data-controller-view=sim1] [data-jog='X+']")
     await asyncio.to_thread(wait_until, "sim1 X 1000 um further (REST)",
                             lambda: abs(position(port, "sim1", "X") - (before + 1000)) < 1)

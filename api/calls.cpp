@@ -1,0 +1,67 @@
+#include "api/calls.hpp"
+
+#include <boost/asio/append.hpp>
+#include <boost/asio/associated_executor.hpp>
+#include <boost/asio/bind_executor.hpp>
+#include <boost/asio/post.hpp>
+
+#include "api/auth.hpp"
+#include "api/operation_requests.hpp"
+
+namespace gw::api {
+
+namespace {
+
+// Delivers an outcome known at once, on `done`'s executor and not inline (the contract above).
+void deliver(api_context& ctx, api_handler done, api_outcome out) {
+    // post() runs the handler on its associated executor (the transport's), ctx.executor if none.
+    boost::asio::post(ctx.executor, boost::asio::append(std::move(done), std::move(out)));
+}
+
+}  // namespace
+
+gw::role role_for(const call& c) {
+    if (const auto* op = std::get_if<operation_call>(&c)) return required_role(op->operation);
+    if (std::holds_alternative<job_get_call>(c)) return gw::role::viewer;
+    return gw::role::operator_;
+}
+
+void dispatch_call(api_context& ctx, const caller& who, call c, api_handler done) {
+    const auto needed = role_for(c);
+    if (!has_role(auth_identity{who.name, who.role}, needed))
+        return deliver(ctx, std::move(done),
+                       failed(forbidden_problem(auth_identity{who.name, who.role}, needed), who.request_id));
+
+    if (auto* op = std::get_if<operation_call>(&c)) {
+        auto ex = boost::asio::get_associated_executor(done, ctx.executor);
+        return run_operation(
+            ctx, op->controller, op->operation, op->args, who.request_id, who.role, who.lease_id,
+            boost::asio::bind_executor(ex, [done = std::move(done)](operation_outcome o) mutable {
+                api_outcome out;
+                out.error = std::move(o.error);
+                out.body = std::move(o.result);
+                std::move(done)(std::move(out));
+            }));
+    }
+    if (auto* submit = std::get_if<job_submit_call>(&c)) {
+        submit_options options;
+        options.dry_run = submit->dry_run;
+        options.idempotency_key = std::move(submit->idempotency_key);
+        options.lease_id = who.lease_id;
+        options.principal = who.name;
+        options.request_id = who.request_id;
+        return submit_job(ctx, submit->request, std::move(options), std::move(done));
+    }
+    if (auto* action = std::get_if<job_action_call>(&c)) {
+        jobs::job_action a;
+        a.job_id = action->job_id;
+        a.lease_id = who.lease_id;
+        a.principal = who.name;
+        a.request_id = who.request_id;
+        return control_job(ctx, action->command, std::move(a), std::move(done));
+    }
+    const auto& get = std::get<job_get_call>(c);
+    deliver(ctx, std::move(done), get_job(ctx, get.job_id, who.request_id));
+}
+
+}  // namespace gw::api

@@ -1,0 +1,59 @@
+#pragma once
+// One call model for every transport: a caller (who, with which role, under which request id and
+// lease) and a closed set of calls on controllers and jobs. REST, WebSocket and MQTT decode their wire
+// format into a call, dispatch_call() authorises it, checks the lease rules, validates and runs it, and
+// its one outcome type (api_outcome) goes back to the transport to encode.
+//
+//   dispatch_call(ctx, caller{"ada", role::operator_, "rid-1", lease_id},
+//                 job_action_call{"j-01...", job_command::pause}, std::move(done));
+
+#include <optional>
+#include <string>
+#include <variant>
+
+#include <nlohmann/json.hpp>
+
+#include "api/api_context.hpp"
+#include "api/job_requests.hpp"
+#include "gateway/config.hpp"
+
+namespace gw::api {
+
+struct caller {
+    std::string name = "anonymous";  // the token's name
+    gw::role role = gw::role::viewer;
+    std::string request_id;
+    std::optional<std::string> lease_id;  // the lease the caller holds on the controller, if any
+};
+
+// A named operation on a controller (move, halt, ..., command): args is its JSON object (null: {}).
+struct operation_call {
+    std::string controller;
+    std::string operation;
+    nlohmann::json args;
+};
+// A job submission: `request` is {"controller", "type", "spec"} (validated when dispatched).
+struct job_submit_call {
+    nlohmann::json request;
+    bool dry_run = false;
+    std::optional<std::string> idempotency_key;
+};
+struct job_action_call {
+    std::string job_id;
+    job_command command = job_command::cancel;
+};
+struct job_get_call {
+    std::string job_id;
+};
+
+using call = std::variant<operation_call, job_submit_call, job_action_call, job_get_call>;
+
+// The role a call needs: operator for operations (admin for "command"), job submissions and actions;
+// viewer to read a job.
+gw::role role_for(const call& c);
+
+// Runs `c` for `who` and calls `done` once, on its associated executor (default ctx.executor), never
+// inline: 403 when the role is not enough, else the outcome of the operation or job call.
+void dispatch_call(api_context& ctx, const caller& who, call c, api_handler done);
+
+}  // namespace gw::api
