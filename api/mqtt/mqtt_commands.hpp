@@ -1,6 +1,7 @@
 #pragma once
 // Commands received on the MQTT command topics, decoded into calls and run by the same dispatch as
-// REST and WebSocket (api/calls.hpp): the same validation, roles, leases and result shapes. Each request carries a bearer token ("token") with the roles of auth.tokens.
+// REST and WebSocket (api/calls.hpp): the same validation, roles, leases and result shapes. Each request
+// carries a bearer token ("token") with the roles of auth.tokens.
 //
 // Answers (the WebSocket "result" / "error" messages) go to the MQTT 5 response topic with the
 // request's correlation data, else to the payload's "reply_to". A request with neither is still run
