@@ -5,10 +5,10 @@
 // reports, ttl, jobs/#) and owns the MQTT client (api/mqtt/mqtt_client.hpp). Topics and payloads:
 // api/mqtt/mqtt_topics.hpp, api/mqtt/mqtt_payloads.hpp, openapi/asyncapi.yaml.
 //
-// After every (re)connect: the retained birth on <base>/status, every controller's last state and
-// every tracked job's state again (retained), the job state changes queued while disconnected (in
-// order), report batches carrying the count of frames dropped meanwhile, and the command
-// subscriptions (when enabled). While disconnected: positions, reports and TTL events are dropped
+// After every (re)connect, in this order: the command subscriptions (when enabled), the retained birth
+// on <base>/status, every controller's last state, the job state changes queued while disconnected (in
+// order), every tracked job's state again (retained), and report batches carrying the count of frames
+// dropped meanwhile. While disconnected: positions, reports and TTL events are dropped
 // and counted (gw_mqtt_dropped_total; reports also in the next batch's "missed"), controller states
 // are kept (the newest per controller), job state changes are queued (mqtt.jobs.queue_limit; the
 // oldest is dropped beyond it: counted in gw_mqtt_dropped_total{kind="jobs"}, logged once per outage;

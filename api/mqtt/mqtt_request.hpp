@@ -51,7 +51,8 @@ boost::system::result<mqtt_request, mqtt_request_error> parse_mqtt_request(const
                                                                            std::string_view payload,
                                                                            std::string_view generated_id);
 
-// The request id written next to serial commands: "mqtt.<client id>".
+// The request id written next to serial commands: "mqtt.<the request's id>" (the message's "id", or
+// the generated "mqtt-<n>").
 std::string mqtt_request_id(const nlohmann::json& id);
 
 }  // namespace gw::api

@@ -20,8 +20,9 @@ struct launch_settings {
     registry_options registry;
 };
 
-// Either the settings to run the service with, or the exit code of what ran instead (0 for --help,
-// --version and a subcommand that succeeded; 2 for a usage or config error, printed on `err`).
+// Either the settings to run the service with, or the exit code of what ran instead: 0 for --help and
+// --version, a subcommand's own code (gcode, ports, --check-config), 2 for a usage or config error
+// (printed on `err`).
 std::variant<launch_settings, int> parse_command_line(int argc, const char* const* argv, std::ostream& out,
                                                       std::ostream& err);
 
