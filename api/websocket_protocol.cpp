@@ -136,7 +136,7 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_job(const json
         return invalid(id, "action",
                        "unknown action \"" + (is_printable_label(a) ? a : std::string("...")) +
                            "\" (one of: " + std::string(actions) + ")");
-    ws_job j;
+    job_message j;
     j.id = id;
     j.action = a;
     auto lease = read_key(msg, id, "lease");
@@ -201,11 +201,11 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_command(const 
     }
     auto lease = read_key(msg, id, "lease");
     if (!lease) return lease.error();
-    return ws_command{.id = std::move(id),
-                      .controller = controller->get<std::string>(),
-                      .operation = op,
-                      .args = std::move(args),
-                      .lease = std::move(*lease)};
+    return command_message{.id = std::move(id),
+                           .controller = controller->get<std::string>(),
+                           .operation = op,
+                           .args = std::move(args),
+                           .lease = std::move(*lease)};
 }
 
 }  // namespace
@@ -304,11 +304,11 @@ std::string ws_pong_message(const json& id) {
     return text(json{{"type", "pong"}, {"id", id}});
 }
 
-call to_call(ws_command m) {
+call to_call(command_message m) {
     return operation_call{std::move(m.controller), std::move(m.operation), std::move(m.args)};
 }
 
-call to_call(ws_job m) {
+call to_call(job_message m) {
     if (m.action == "submit")
         return job_submit_call{std::move(m.args), m.dry_run, std::move(m.idempotency_key)};
     if (m.action == "get") return job_get_call{std::move(m.job)};

@@ -67,7 +67,9 @@ struct ws_unsubscribe {
     std::vector<std::string> topics;
 };
 
-struct ws_command {
+// The two messages WebSocket and MQTT share (MQTT parses its payloads with parse_client_json): an
+// operation on a controller, and a job submission or action. Both become calls (api/calls.hpp).
+struct command_message {
     nlohmann::json id;  // never null
     std::string controller;
     std::string operation;             // one of operation_names()
@@ -76,7 +78,7 @@ struct ws_command {
 };
 
 // A job submission or a job action.
-struct ws_job {
+struct job_message {
     nlohmann::json id;    // never null
     std::string action;   // "submit", "get", "cancel", "pause", "resume", "next"
     std::string job;      // the job id: every action but submit
@@ -90,7 +92,7 @@ struct ws_ping {
     nlohmann::json id;
 };
 
-using ws_client_message = std::variant<ws_subscribe, ws_unsubscribe, ws_command, ws_job, ws_ping>;
+using ws_client_message = std::variant<ws_subscribe, ws_unsubscribe, command_message, job_message, ws_ping>;
 
 // Why a client message was refused; `id` is the message's id when it had a valid one, else null.
 struct ws_protocol_error {
@@ -116,8 +118,8 @@ std::string ws_hello_message(std::string_view connection, std::string_view user,
 std::string ws_subscribed_message(const ws_subscribe& request);
 std::string ws_unsubscribed_message(const ws_unsubscribe& request);
 // The call a command or job message asks for (api/calls.hpp); the lease is the caller's.
-call to_call(ws_command m);
-call to_call(ws_job m);
+call to_call(command_message m);
+call to_call(job_message m);
 
 std::string ws_result_message(const nlohmann::json& id, const nlohmann::json& result, bool replayed = false);
 std::string ws_error_message(const nlohmann::json& id, const problem& error);

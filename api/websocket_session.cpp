@@ -226,8 +226,8 @@ void websocket_session::handle_message(std::string_view text) {
                     ctx_->hub->unsubscribe(subscriber_, t);
                 }
                 answer(ws_unsubscribed_message(m));
-            } else if constexpr (std::is_same_v<T, ws_command> || std::is_same_v<T, ws_job>) {
-                count(std::is_same_v<T, ws_command> ? "command" : "job");
+            } else if constexpr (std::is_same_v<T, command_message> || std::is_same_v<T, job_message>) {
+                count(std::is_same_v<T, command_message> ? "command" : "job");
                 // Taken before the message is moved into its call.
                 json id = m.id;
                 auto lease = m.lease;

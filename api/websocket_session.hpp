@@ -37,7 +37,7 @@
 
 namespace gw::api {
 
-struct ws_job;
+struct job_message;
 struct api_outcome;
 
 // Takes over the connection: accepts the upgrade `request` (already read, already authenticated as

@@ -101,11 +101,11 @@ void mqtt_commands::run(mqtt_request& request, const auth_identity& who, const r
     std::optional<call> c;
     json id;
     std::optional<std::string> lease;
-    if (auto* command = std::get_if<ws_command>(&request.message)) {
+    if (auto* command = std::get_if<command_message>(&request.message)) {
         id = command->id;
         lease = command->lease;
         c = to_call(std::move(*command));
-    } else if (auto* job = std::get_if<ws_job>(&request.message)) {
+    } else if (auto* job = std::get_if<job_message>(&request.message)) {
         id = job->id;
         lease = job->lease;
         c = to_call(std::move(*job));

@@ -34,7 +34,7 @@ struct mqtt_request {
     mqtt_command_target target;
     std::string token;                    // "" when absent (refused later as 401)
     std::optional<std::string> reply_to;  // the payload's reply_to, already checked
-    ws_client_message message;            // ws_command or ws_job
+    ws_client_message message;            // command_message or job_message
     nlohmann::json id;                    // the message id (given or generated)
 };
 

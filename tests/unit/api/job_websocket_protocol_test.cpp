@@ -12,12 +12,12 @@ namespace {
 
 using nlohmann::json;
 
-TEST(ws_job, submit_with_every_field) {
+TEST(job_message, submit_with_every_field) {
     auto r = parse_client_message(
         R"({"op":"job","id":"s1","action":"submit","args":{"controller":"sim1","type":"array","spec":{"plate":"96"}},)"
         R"("lease":"l-0123","idempotency_key":"plate-7","dry_run":true})");
     ASSERT_TRUE(r.has_value()) << r.error().error.detail;
-    const auto* j = std::get_if<ws_job>(&*r);
+    const auto* j = std::get_if<job_message>(&*r);
     ASSERT_NE(j, nullptr);
     EXPECT_EQ(j->id, "s1");
     EXPECT_EQ(j->action, "submit");
@@ -29,13 +29,13 @@ TEST(ws_job, submit_with_every_field) {
     EXPECT_TRUE(j->job.empty());
 }
 
-TEST(ws_job, actions_on_a_job) {
+TEST(job_message, actions_on_a_job) {
     for (std::string_view action : {"get", "cancel", "pause", "resume", "next"}) {
         auto text =
             std::string(R"({"op":"job","id":7,"action":")") + std::string(action) + R"(","job":"j-01ABC"})";
         auto r = parse_client_message(text);
         ASSERT_TRUE(r.has_value()) << text << ": " << r.error().error.detail;
-        const auto* j = std::get_if<ws_job>(&*r);
+        const auto* j = std::get_if<job_message>(&*r);
         ASSERT_NE(j, nullptr);
         EXPECT_EQ(j->action, action);
         EXPECT_EQ(j->job, "j-01ABC");
@@ -45,16 +45,16 @@ TEST(ws_job, actions_on_a_job) {
     }
 }
 
-TEST(ws_command, carries_the_lease) {
+TEST(command_message, carries_the_lease) {
     auto r = parse_client_message(
         R"({"op":"command","id":"c1","controller":"sim1","operation":"move","args":{"axes":{"X":1}},"lease":"l-9"})");
     ASSERT_TRUE(r.has_value()) << r.error().error.detail;
-    const auto* c = std::get_if<ws_command>(&*r);
+    const auto* c = std::get_if<command_message>(&*r);
     ASSERT_NE(c, nullptr);
     EXPECT_EQ(c->lease, "l-9");
     auto plain = parse_client_message(R"({"op":"command","id":"c2","controller":"sim1","operation":"halt"})");
     ASSERT_TRUE(plain.has_value());
-    EXPECT_FALSE(std::get<ws_command>(*plain).lease);
+    EXPECT_FALSE(std::get<command_message>(*plain).lease);
 }
 
 struct refused_job_case {
@@ -111,7 +111,7 @@ INSTANTIATE_TEST_SUITE_P(
                          "lease", 1}),
     [](const auto& info) { return std::string(info.param.name); });
 
-TEST(ws_job, replayed_result_message) {
+TEST(job_message, replayed_result_message) {
     auto plain = json::parse(ws_result_message("s1", {{"id", "j-1"}}));
     EXPECT_FALSE(plain.contains("replayed"));
     auto replayed = json::parse(ws_result_message("s1", {{"id", "j-1"}}, true));

@@ -183,7 +183,7 @@ TEST(websocket_protocol, command_keeps_args_for_operation_requests) {
     auto r = parse_client_message(R"({"op":"command","id":"c7","controller":"sim1","operation":"move",
         "args":{"axes":{"X":1000,"Q":1},"mode":"sideways"}})");
     ASSERT_TRUE(r.has_value());
-    const auto& c = std::get<ws_command>(*r);
+    const auto& c = std::get<command_message>(*r);
     EXPECT_EQ(c.id, "c7");
     EXPECT_EQ(c.controller, "sim1");
     EXPECT_EQ(c.operation, "move");
@@ -196,7 +196,7 @@ TEST(websocket_protocol, command_without_args_gets_an_empty_object) {
                       R"({"op":"command","id":3,"controller":"sim2","operation":"halt","args":null})"}) {
         auto r = parse_client_message(text);
         ASSERT_TRUE(r.has_value()) << text;
-        EXPECT_EQ(std::get<ws_command>(*r).args, json::object()) << text;
+        EXPECT_EQ(std::get<command_message>(*r).args, json::object()) << text;
     }
 }
 
@@ -205,7 +205,7 @@ TEST(websocket_protocol, every_rest_operation_is_a_command) {
         json msg = {{"op", "command"}, {"id", 1}, {"controller", "sim1"}, {"operation", name}};
         auto r = parse_client_message(msg.dump());
         ASSERT_TRUE(r.has_value()) << name;
-        EXPECT_EQ(std::get<ws_command>(*r).operation, name);
+        EXPECT_EQ(std::get<command_message>(*r).operation, name);
     }
 }
 

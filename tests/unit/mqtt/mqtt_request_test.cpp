@@ -30,7 +30,7 @@ TEST(mqtt_request, controller_command) {
     EXPECT_EQ(r->token, "tok");
     EXPECT_EQ(r->reply_to, "clients/me");
     EXPECT_EQ(r->id, "c1");
-    auto* c = std::get_if<ws_command>(&r->message);
+    auto* c = std::get_if<command_message>(&r->message);
     ASSERT_TRUE(c);
     EXPECT_EQ(c->controller, "sim1");
     EXPECT_EQ(c->operation, "move");
@@ -55,14 +55,14 @@ TEST(mqtt_request, jobs) {
                    R"({"id":"s","args":{"controller":"sim1","type":"array","spec":{}},"idempotency_key":"k",
                               "dry_run":true,"token":"t"})");
     ASSERT_TRUE(s) << s.error().error.detail;
-    auto* j = std::get_if<ws_job>(&s->message);
+    auto* j = std::get_if<job_message>(&s->message);
     ASSERT_TRUE(j);
     EXPECT_EQ(j->action, "submit");
     EXPECT_TRUE(j->dry_run);
     EXPECT_EQ(j->idempotency_key, "k");
     auto c = parse(cancel, R"({"job":"j-01ABC","token":"t"})");
     ASSERT_TRUE(c) << c.error().error.detail;
-    auto* k = std::get_if<ws_job>(&c->message);
+    auto* k = std::get_if<job_message>(&c->message);
     ASSERT_TRUE(k);
     EXPECT_EQ(k->action, "cancel");
     EXPECT_EQ(k->job, "j-01ABC");
