@@ -6,6 +6,7 @@
 #include <boost/asio/post.hpp>
 
 #include "api/auth.hpp"
+#include "api/lease_requests.hpp"
 #include "api/operation_requests.hpp"
 
 namespace gw::api {
@@ -22,7 +23,10 @@ void deliver(api_context& ctx, api_handler done, api_outcome out) {
 
 gw::role role_for(const call& c) {
     if (const auto* op = std::get_if<operation_call>(&c)) return required_role(op->operation);
-    if (std::holds_alternative<job_get_call>(c)) return gw::role::viewer;
+    if (std::holds_alternative<job_get_call>(c) || std::holds_alternative<lease_get_call>(c))
+        return gw::role::viewer;
+    if (const auto* release = std::get_if<lease_release_call>(&c); release && release->force)
+        return gw::role::admin;
     return gw::role::operator_;
 }
 
@@ -60,8 +64,18 @@ void dispatch_call(api_context& ctx, const caller& who, call c, api_handler done
         a.request_id = who.request_id;
         return control_job(ctx, action->command, std::move(a), std::move(done));
     }
-    const auto& get = std::get<job_get_call>(c);
-    deliver(ctx, std::move(done), get_job(ctx, get.job_id, who.request_id));
+    if (const auto* get = std::get_if<job_get_call>(&c))
+        return deliver(ctx, std::move(done), get_job(ctx, get->job_id, who.request_id));
+    if (auto* take = std::get_if<lease_take_call>(&c))
+        return acquire_lease(ctx, take->controller, take->body, who.name, who.request_id, std::move(done));
+    if (const auto* renew = std::get_if<lease_renew_call>(&c))
+        return deliver(ctx, std::move(done),
+                       renew_lease(ctx, renew->controller, who.lease_id, renew->body, who.request_id));
+    if (const auto* release = std::get_if<lease_release_call>(&c))
+        return deliver(ctx, std::move(done),
+                       release_lease(ctx, release->controller, who.lease_id, release->force, who.request_id));
+    const auto& get = std::get<lease_get_call>(c);
+    deliver(ctx, std::move(done), get_lease(ctx, get.controller, who.request_id));
 }
 
 }  // namespace gw::api

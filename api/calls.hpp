@@ -46,10 +46,28 @@ struct job_get_call {
     std::string job_id;
 };
 
-using call = std::variant<operation_call, job_submit_call, job_action_call, job_get_call>;
+// Leases on a controller: the caller's lease_id is the lease renewed or released.
+struct lease_get_call {
+    std::string controller;
+};
+struct lease_take_call {
+    std::string controller;
+    nlohmann::json body;  // {"ttl_s", "holder"} (null: {})
+};
+struct lease_renew_call {
+    std::string controller;
+    nlohmann::json body;  // {"ttl_s"} (null: {})
+};
+struct lease_release_call {
+    std::string controller;
+    bool force = false;  // without the lease id: admin only
+};
 
-// The role a call needs: operator for operations (admin for "command"), job submissions and actions;
-// viewer to read a job.
+using call = std::variant<operation_call, job_submit_call, job_action_call, job_get_call, lease_get_call,
+                          lease_take_call, lease_renew_call, lease_release_call>;
+
+// The role a call needs: viewer to read a job or a lease; admin for the "command" operation and a
+// forced lease release; operator for everything else.
 gw::role role_for(const call& c);
 
 // Runs `c` for `who` and calls `done` once, on its associated executor (default ctx.executor), never

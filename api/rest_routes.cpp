@@ -101,23 +101,25 @@ void list_all_leases(request_context& c) {
 
 void get_controller_lease(request_context& c) {
     if (!c.query_with({})) return;
-    c.reply_outcome(get_lease(*c.ctx, c.params[0], c.request_id));
+    dispatch_call(*c.ctx, caller{c.who->name, c.who->role, c.request_id, {}}, lease_get_call{c.params[0]},
+                  c.async_reply());
 }
 
 void take_lease(request_context& c) {
     if (!c.query_with({})) return;
     auto body = c.json_body();
     if (!body) return;
-    acquire_lease(*c.ctx, c.params[0], *body, c.who->name, c.request_id, c.async_reply());
+    dispatch_call(*c.ctx, caller{c.who->name, c.who->role, c.request_id, {}},
+                  lease_take_call{c.params[0], std::move(*body)}, c.async_reply());
 }
 
 void renew_controller_lease(request_context& c) {
     if (!c.query_with({})) return;
-    std::optional<std::string> lease_id;
-    if (!c.key_header("Lease-Id", lease_id)) return;
+    caller who{c.who->name, c.who->role, c.request_id, {}};
+    if (!c.key_header("Lease-Id", who.lease_id)) return;
     auto body = c.json_body();
     if (!body) return;
-    c.reply_outcome(renew_lease(*c.ctx, c.params[0], lease_id, *body, c.request_id));
+    dispatch_call(*c.ctx, who, lease_renew_call{c.params[0], std::move(*body)}, c.async_reply());
 }
 
 void release_controller_lease(request_context& c) {
@@ -125,11 +127,9 @@ void release_controller_lease(request_context& c) {
     if (!q) return;
     auto force = query_flag(*q, "force", false);
     if (!force) return c.fail(force.error());
-    if (*force && !has_role(*c.who, gw::role::admin))
-        return c.fail(forbidden_problem(*c.who, gw::role::admin));
-    std::optional<std::string> lease_id;
-    if (!c.key_header("Lease-Id", lease_id)) return;
-    c.reply_outcome(release_lease(*c.ctx, c.params[0], lease_id, *force, c.request_id));
+    caller who{c.who->name, c.who->role, c.request_id, {}};
+    if (!c.key_header("Lease-Id", who.lease_id)) return;
+    dispatch_call(*c.ctx, who, lease_release_call{c.params[0], *force}, c.async_reply());
 }
 
 // ---- serial ports ----

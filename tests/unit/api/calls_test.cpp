@@ -40,13 +40,20 @@ TEST_F(calls_test, each_call_needs_its_role) {
     EXPECT_EQ(role_for(job_submit_call{}), gw::role::operator_);
     EXPECT_EQ(role_for(job_action_call{"j-1", job_command::pause}), gw::role::operator_);
     EXPECT_EQ(role_for(job_get_call{"j-1"}), gw::role::viewer);
+    EXPECT_EQ(role_for(lease_get_call{"s1"}), gw::role::viewer);
+    EXPECT_EQ(role_for(lease_take_call{"s1", {}}), gw::role::operator_);
+    EXPECT_EQ(role_for(lease_renew_call{"s1", {}}), gw::role::operator_);
+    EXPECT_EQ(role_for(lease_release_call{"s1", false}), gw::role::operator_);
+    EXPECT_EQ(role_for(lease_release_call{"s1", true}), gw::role::admin);
 }
 
 TEST_F(calls_test, a_role_too_low_is_403_whatever_the_transport) {
     for (auto [role, c] : {std::pair<gw::role, call>{gw::role::viewer, operation_call{"s1", "move", {}}},
                            {gw::role::operator_, operation_call{"s1", "command", {{"command", "V"}}}},
                            {gw::role::viewer, job_submit_call{}},
-                           {gw::role::viewer, job_action_call{"j-1", job_command::cancel}}}) {
+                           {gw::role::viewer, job_action_call{"j-1", job_command::cancel}},
+                           {gw::role::viewer, lease_take_call{"s1", {}}},
+                           {gw::role::operator_, lease_release_call{"s1", true}}}) {
         auto out = dispatch(role, c);
         ASSERT_TRUE(out.error);
         EXPECT_EQ(out.error->status, 403);
