@@ -370,17 +370,17 @@ void http_session::do_linger() {
     stream_.socket().shutdown(net::ip::tcp::socket::shutdown_send, ignored);
     stream_.expires_after(std::chrono::seconds(2));
     buffer_.clear();
-    stream_.async_read_some(buffer_.prepare(16 * 1024),
+    stream_.async_read_some(buffer_.prepare(std::size_t{16} * 1024),
                             beast::bind_front_handler(&http_session::on_linger, shared_from_this()));
 }
 
 void http_session::on_linger(beast::error_code ec, std::size_t bytes) {
     lingered_ += bytes;
-    if (ec || lingered_ > 4 * 1024 * 1024) {
+    if (ec || lingered_ > std::size_t{4} * 1024 * 1024) {
         stream_.close();
         return;
     }
-    stream_.async_read_some(buffer_.prepare(16 * 1024),
+    stream_.async_read_some(buffer_.prepare(std::size_t{16} * 1024),
                             beast::bind_front_handler(&http_session::on_linger, shared_from_this()));
 }
 

@@ -230,7 +230,7 @@ operation_result<any_request> parse_ttl(const json& body) {
     if (!r.error() && !t.in0_mode && !t.out0_mode && !t.output_high)
         r.fail("", "give at least one of in0_mode, out0_mode, output_high");
     if (r.error()) return *r.error();
-    return any_request(std::move(t));
+    return any_request(t);
 }
 
 operation_result<any_request> parse_dac(const json& body) {
@@ -366,11 +366,11 @@ void run_operation(api_context& ctx, std::string_view controller_id, std::string
     auto& reg = ctx.registry;
 
     std::visit(
-        [&](auto&& r) {
+        [&](auto& r) {
             using R = std::decay_t<decltype(r)>;
             if constexpr (std::is_same_v<R, move_request>) {
                 reg.async_move(id, std::move(r), request_id,
-                               net::bind_executor(ex, [complete](operation_result<move_result> res) {
+                               net::bind_executor(ex, [complete](const operation_result<move_result>& res) {
                                    complete(res, [](const move_result& m, json& j) {
                                        j["waited"] = m.waited;
                                        json pos = json::array();
@@ -384,14 +384,15 @@ void run_operation(api_context& ctx, std::string_view controller_id, std::string
                 auto command = r.command;
                 reg.async_raw_command(
                     id, std::move(r), request_id,
-                    net::bind_executor(ex, [complete, command](operation_result<raw_command_result> res) {
-                        complete(res, [&](const raw_command_result& c, json& j) {
-                            j["command"] = command;
-                            j["raw_reply"] = c.raw_reply;
-                            j["reply"] = reply_json(c.reply);
-                            j["latency_us"] = c.latency.count();
-                        });
-                    }));
+                    net::bind_executor(ex,
+                                       [complete, command](const operation_result<raw_command_result>& res) {
+                                           complete(res, [&](const raw_command_result& c, json& j) {
+                                               j["command"] = command;
+                                               j["raw_reply"] = c.raw_reply;
+                                               j["reply"] = reply_json(c.reply);
+                                               j["latency_us"] = c.latency.count();
+                                           });
+                                       }));
             } else {
                 auto h = net::bind_executor(ex, [complete, done_json](operation_result<operation_done> res) {
                     complete(res, done_json);
@@ -414,7 +415,7 @@ void run_operation(api_context& ctx, std::string_view controller_id, std::string
                     reg.async_led(id, std::move(r), request_id, std::move(h));
             }
         },
-        std::move(*parsed));
+        *parsed);  // each alternative is moved into its registry call above
 }
 
 }  // namespace gw::api

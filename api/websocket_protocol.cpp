@@ -69,7 +69,7 @@ boost::system::result<std::vector<std::string>, ws_protocol_error> read_topics(c
     return {boost::system::in_place_value, std::move(topics)};
 }
 
-boost::system::result<ws_client_message, ws_protocol_error> parse_subscribe(const json& msg, json id) {
+boost::system::result<ws_client_message, ws_protocol_error> parse_subscribe(const json& msg, const json& id) {
     if (auto unknown = find_unknown_field(msg, {"op", "id", "topics", "resume", "max_rate_hz"}))
         return invalid(id, unknown->field, unknown->message);
     auto topics = read_topics(msg, id);
@@ -122,7 +122,7 @@ boost::system::result<std::optional<std::string>, ws_protocol_error> read_key(co
     return std::optional<std::string>(it->get<std::string>());
 }
 
-boost::system::result<ws_client_message, ws_protocol_error> parse_job(const json& msg, json id) {
+boost::system::result<ws_client_message, ws_protocol_error> parse_job(const json& msg, const json& id) {
     if (auto unknown = find_unknown_field(
             msg, {"op", "id", "action", "job", "args", "lease", "idempotency_key", "dry_run"}))
         return invalid(id, unknown->field, unknown->message);
@@ -236,10 +236,10 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_client_json(co
     if (op == msg.end() || !op->is_string())
         return invalid(id, "op", "\"op\" must be one of: subscribe, unsubscribe, command, job, ping");
     const auto& name = op->get_ref<const std::string&>();
-    if (name == "subscribe") return parse_subscribe(msg, std::move(id));
+    if (name == "subscribe") return parse_subscribe(msg, id);
     if (name == "unsubscribe") return parse_unsubscribe(msg, std::move(id));
     if (name == "command") return parse_command(msg, std::move(id));
-    if (name == "job") return parse_job(msg, std::move(id));
+    if (name == "job") return parse_job(msg, id);
     if (name == "ping") {
         if (auto unknown = find_unknown_field(msg, {"op", "id"}))
             return invalid(id, unknown->field, unknown->message);

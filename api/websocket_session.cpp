@@ -103,9 +103,8 @@ void websocket_session::stop(std::string reason) {
 }
 
 void websocket_session::deliver(std::vector<std::shared_ptr<const event>> batch) {
-    net::post(ws_.get_executor(), [self = shared_from_this(), batch = std::move(batch)]() mutable {
-        self->on_deliver(std::move(batch));
-    });
+    net::post(ws_.get_executor(),
+              [self = shared_from_this(), batch = std::move(batch)]() mutable { self->on_deliver(batch); });
 }
 
 void websocket_session::close(std::string reason) {
@@ -269,7 +268,7 @@ void websocket_session::answer(std::string text) {
     if (!writing_) do_write();
 }
 
-void websocket_session::on_deliver(std::vector<std::shared_ptr<const event>> batch) {
+void websocket_session::on_deliver(const std::vector<std::shared_ptr<const event>>& batch) {
     // Not open any more: the hub keeps the rest until remove_subscriber (we never ask for more).
     if (phase_ != phase::open || batch.empty()) return;
     std::uint64_t gaps = 0;
@@ -373,7 +372,8 @@ void websocket_session::on_watchdog(beast::error_code ec) {
                 " ms to be written");
         // The close frame would queue behind the stuck write: cut the connection now.
         return finish(end_reason_);
-    } else if (phase_ == phase::closing && now >= close_deadline_) {
+    }
+    if (phase_ == phase::closing && now >= close_deadline_) {
         // The peer takes neither our data nor the close frame: cut the connection.
         return finish(end_reason_);
     }

@@ -48,13 +48,13 @@ void start_websocket_session(beast::tcp_stream&& stream, http::request<http::str
                              std::shared_ptr<connection_permit> permit = nullptr);
 
 struct websocket_limits {
-    std::size_t max_message_bytes = 64 * 1024;        // client messages (http.limits)
-    std::chrono::milliseconds idle_timeout{30'000};   // ping after half of it, close after it
-    std::chrono::milliseconds write_timeout{30'000};  // one frame stuck longer: "too slow"
-    std::chrono::milliseconds close_timeout{5'000};   // close handshake; then the socket is closed
-    std::size_t answer_queue_limit = 32;              // queued answers before reading pauses
-    std::size_t max_commands_in_flight = 16;          // running commands before reading pauses
-    std::size_t max_subscriptions = 64;               // filters per connection
+    std::size_t max_message_bytes = std::size_t{64} * 1024;  // client messages (http.limits)
+    std::chrono::milliseconds idle_timeout{30'000};          // ping after half of it, close after it
+    std::chrono::milliseconds write_timeout{30'000};         // one frame stuck longer: "too slow"
+    std::chrono::milliseconds close_timeout{5'000};          // close handshake; then the socket is closed
+    std::size_t answer_queue_limit = 32;                     // queued answers before reading pauses
+    std::size_t max_commands_in_flight = 16;                 // running commands before reading pauses
+    std::size_t max_subscriptions = 64;                      // filters per connection
 };
 
 // From http.limits: max_websocket_message_bytes; read_timeout is the write timeout, twice it the
@@ -96,7 +96,7 @@ class websocket_session final : public gw::event_sink,
     // A command or job message: dispatched as a call (api/calls.hpp), answered with its outcome.
     void run_call(const nlohmann::json& id, std::optional<std::string> lease, call c);
     void on_call_done(const nlohmann::json& id, api_outcome outcome);
-    void on_deliver(std::vector<std::shared_ptr<const event>> batch);
+    void on_deliver(const std::vector<std::shared_ptr<const event>>& batch);
     void do_write();
     void on_write(beast::error_code ec, std::size_t bytes);
     void begin_close(websocket::close_code code, std::string reason);
