@@ -2,7 +2,6 @@
 
 #include <string>
 
-#include <boost/asio/bind_executor.hpp>
 #include <nlohmann/json.hpp>
 
 #include "api/calls.hpp"
@@ -12,7 +11,6 @@
 #include "gateway/controller_registry.hpp"
 #include "gateway/event_hub.hpp"
 #include "gateway/event_json.hpp"
-#include "gateway/json_text.hpp"
 #include "gateway/metrics.hpp"
 #include "gateway/version.hpp"
 

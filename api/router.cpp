@@ -45,7 +45,7 @@ string_response outcome_response(api_outcome o, unsigned version, bool keep_aliv
     if (o.replayed) res.set("Idempotency-Replayed", "true");
     if (o.status != 204) {
         res.set(http::field::content_type, "application/json");
-        res.body() = o.body.dump(-1, ' ', false, json::error_handler_t::replace);
+        res.body() = to_json_text(o.body);
     }
     res.prepare_payload();
     return res;
