@@ -29,6 +29,8 @@ library only; run with Debian's /usr/bin/python3:
 
 The scratch directory is on --tmp-dir (default: the system's temporary directory); on a tmpfs an
 fsync costs nothing and the benchmark shows nothing, so the filesystem is printed with the results.
+A fast disk hides the effect too; --fsync-delay-ms N makes every fsync of the gateways N ms longer (a
+slow or busy disk, reproducibly: bench/slow_fsync.c, preloaded).
 """
 
 import argparse
@@ -283,6 +285,15 @@ def table(rows):
     return "\n".join(lines)
 
 
+def slow_disk(delay_ms):
+    """Builds bench/slow_fsync.c and preloads it into the gateways started from now on."""
+    out = os.path.join(tempfile.mkdtemp(prefix="gw-slow-fsync-"), "slow_fsync.so")
+    subprocess.run(["cc", "-shared", "-fPIC", "-O2", "-o", out, os.path.join(ROOT, "bench", "slow_fsync.c"),
+                    "-ldl"], check=True)
+    os.environ["LD_PRELOAD"] = out
+    os.environ["GW_BENCH_FSYNC_DELAY_US"] = str(int(delay_ms * 1000))
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--gateway", action="append", default=[],
@@ -294,6 +305,9 @@ def main():
     p.add_argument("--time-scale", type=float, default=50, help="simulator speed-up (short steps, frequent commits)")
     p.add_argument("--poll-ms", type=int, default=50, help="the gateway's position polling interval")
     p.add_argument("--job-poll-s", type=float, default=0.2, help="how often a job worker reads its job's state")
+    p.add_argument("--fsync-delay-ms", type=float, default=0,
+                   help="a slow disk: every fsync/fdatasync of the gateways takes this much longer "
+                        "(bench/slow_fsync.c, preloaded; needs cc)")
     p.add_argument("--tmp-dir", default=None, help="where the scratch storage directories go (default: $TMPDIR or /tmp)")
     p.add_argument("--results", default="", help="append the table to this file (e.g. bench/RESULTS.md) as a "
                                                  "new section")
@@ -310,6 +324,8 @@ def main():
         if not os.path.exists(path):
             sys.exit(f"no gateway at {path}: run scripts/build first")
         gateways.append((label, os.path.abspath(path)))
+    if args.fsync_delay_ms > 0:
+        slow_disk(args.fsync_delay_ms)
     started = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M")
     load_start = load_average()
     rows = []
@@ -351,7 +367,9 @@ def main():
              f"{args.seconds:g} s. Jobs: 20 x 20 array jobs of 10 um steps, no dwell, on sim1-sim3, resubmitted "
              f"as each ends; \"step events/s\" is the steps the jobs completed (each one a store commit) per "
              f"second of the window (about: it counts the jobs' steps from 1 s before the window to their "
-             f"cancellation after it).", "",
+             f"cancellation after it)." +
+             (f" Every fsync/fdatasync of the gateways took {args.fsync_delay_ms:g} ms longer (a slow disk: "
+              f"bench/slow_fsync.c preloaded)." if args.fsync_delay_ms > 0 else ""), "",
              "Command: `/usr/bin/python3 " + shlex.join(sys.argv) + "`", "",
              f"Machine: {cpu_model()}, {os.cpu_count()} cores (nproc), shared with other work: load average "
              f"{load_start} at the start, {load_end} at the end (1, 5, 15 min); Debian "
@@ -364,8 +382,10 @@ def main():
     text = "\n".join(lines)
     print("\n" + text)
     if args.results:
-        with open(args.results) as f:
-            old = f.read()
+        old = ""
+        if os.path.exists(args.results):
+            with open(args.results) as f:
+                old = f.read()
         with open(args.results, "w") as f:
             f.write(old.rstrip("\n") + "\n\n" + text)
         print(f"appended the section to {args.results}")

@@ -45,6 +45,9 @@ application::application(launch_settings launch) : launch_(std::move(launch)), l
 
 application::~application() {
     if (watchdog_.joinable()) watchdog_.join();
+    // The job manager has stopped (or never started): what is left there is not run.
+    jobs_ioc_.stop();
+    if (jobs_thread_.joinable()) jobs_thread_.join();
 }
 
 int application::run() {
@@ -92,7 +95,10 @@ bool application::start() {
     // Jobs: leases and the job manager over the durable store (an unusable storage path is fatal).
     leases_ = std::make_shared<lease_manager>();
     const auto job_settings = jobs::make_job_manager_settings(config);
-    auto jobs = jobs::job_manager::create(ioc_.get_executor(), *registry_, hub_, leases_, job_settings);
+    jobs_work_.emplace(boost::asio::make_work_guard(jobs_ioc_));
+    jobs_thread_ = std::thread([this] { run_logging_exceptions(jobs_ioc_); });
+    auto jobs = jobs::job_manager::create(ioc_.get_executor(), jobs_ioc_.get_executor(), *registry_, hub_,
+                                          leases_, job_settings);
     if (!jobs) {
         log_->error("cannot open the job store in \"{}\": {}", job_settings.storage_path,
                     jobs.error().message);
@@ -143,7 +149,12 @@ bool application::start() {
 void application::shutdown() {
     http_->stop();
     run_in_order(std::make_shared<std::vector<step>>(std::vector<step>{
-        [this](auto next) { jobs_->async_shutdown(std::move(next)); },
+        [this](auto next) {
+            jobs_->async_shutdown([this, next = std::move(next)] {
+                jobs_work_.reset();  // the jobs thread ends once its last handler has run
+                next();
+            });
+        },
         [this](auto next) { registry_->async_shutdown(std::move(next)); },
         [this](auto next) {
             if (mqtt_)
@@ -162,11 +173,15 @@ void application::shutdown() {
     }));
 }
 
-// One handler that throws must not take every controller, job and client down: log and go on.
 void application::serve() {
+    run_logging_exceptions(ioc_);
+}
+
+// One handler that throws must not take every controller, job and client down: log and go on.
+void application::run_logging_exceptions(boost::asio::io_context& io) {
     for (;;) {
         try {
-            ioc_.run();
+            io.run();
             return;
         } catch (const std::exception& e) {
             log_->critical("unhandled exception in an I/O handler, continuing: {}", e.what());

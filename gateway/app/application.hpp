@@ -2,6 +2,8 @@
 // The composition root: the one object that sees every layer. It owns the services (controller
 // registry, event hub, leases, job manager, HTTP/WebSocket server, MQTT bridge) on one io_context,
 // starts them in dependency order, runs until SIGINT/SIGTERM, and stops them in one readable order.
+// The job manager works on a second thread of its own: its store commits wait for the disk (fsync),
+// which must not stall the I/O thread.
 //
 //   gw::application app(std::move(launch));
 //   return app.run();  // 0 after a clean stop, 1 when a service could not start
@@ -12,6 +14,7 @@
 #include <optional>
 #include <thread>
 
+#include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/signal_set.hpp>
 
@@ -49,10 +52,16 @@ class application {
     bool start();
     void shutdown();
     void serve();
+    // Runs `io` until it is stopped or out of work; a handler that throws is logged, not fatal.
+    void run_logging_exceptions(boost::asio::io_context& io);
 
     launch_settings launch_;
     std::shared_ptr<spdlog::logger> log_;
     std::optional<storage_lock> storage_;  // held until every handler holding the store is gone
+    // Declared before ioc_: a handler left there may hold the job manager, whose timers run here.
+    boost::asio::io_context jobs_ioc_;
+    std::optional<boost::asio::executor_work_guard<boost::asio::io_context::executor_type>> jobs_work_;
+    std::thread jobs_thread_;
     boost::asio::io_context ioc_;
     std::unique_ptr<controller_registry> registry_;
     std::shared_ptr<metrics> metrics_;

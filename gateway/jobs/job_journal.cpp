@@ -5,16 +5,13 @@
 
 #include <spdlog/spdlog.h>
 
-#include "gateway/jobs/job_store.hpp"
+#include "gateway/jobs/job_store_handle.hpp"
 
 namespace gw::jobs {
 
-job_journal::job_journal(std::mutex& store_mutex, std::unique_ptr<job_store>& store,
-                         std::size_t max_writes_per_job, std::shared_ptr<spdlog::logger> log)
-    : store_mutex_(store_mutex),
-      store_(store),
-      max_writes_per_job_(max_writes_per_job),
-      log_(std::move(log)) {}
+job_journal::job_journal(const job_store_handle& store, std::size_t max_writes_per_job,
+                         std::shared_ptr<spdlog::logger> log)
+    : store_(store), max_writes_per_job_(max_writes_per_job), log_(std::move(log)) {}
 
 operation_result<void> job_journal::append(const std::string& id, write w) {
     auto& queued = pending_[id];
@@ -38,13 +35,9 @@ operation_result<void> job_journal::write_pending(const std::string& id, bool* e
     std::optional<job_record> last_record;
     while (!writes.empty()) {
         const auto& w = writes.front();
-        operation_result<void> ok;
-        {
-            std::lock_guard lock(store_mutex_);
-            if (!store_)
-                return make_error(operation_error_kind::storage_unavailable, "the job store is closed");
-            ok = w.record ? store_->save(*w.record, w.event) : store_->append_event(id, w.event);
-        }
+        auto store = store_.get();
+        if (!store) return make_error(operation_error_kind::storage_unavailable, "the job store is closed");
+        auto ok = w.record ? store->save(*w.record, w.event) : store->append_event(id, w.event);
         if (!ok && ok.error().kind == operation_error_kind::storage_unavailable)
             return ok.error();  // kept: tried again
         // Any other error (the job is not stored at all) would come back every time.

@@ -5,14 +5,13 @@
 // job_manager decides when to try again and what a refusal means for the job. Memory is bounded: beyond
 // max_writes_per_job queued writes, the oldest is given up (logged).
 //
-// Threads: the job_manager's strand only. The store is shared with the manager's readers: every call
-// on it is made under store_mutex.
+// Threads: the job_manager's strand only. The store is shared with the manager's readers through the
+// handle.
 
 #include <cstddef>
 #include <deque>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -28,7 +27,7 @@ class logger;
 
 namespace gw::jobs {
 
-class job_store;
+class job_store_handle;
 
 class job_journal {
   public:
@@ -39,7 +38,7 @@ class job_journal {
     };
 
     // `store` may be reset (closed) by its owner; writes are then refused as storage_unavailable.
-    job_journal(std::mutex& store_mutex, std::unique_ptr<job_store>& store, std::size_t max_writes_per_job,
+    job_journal(const job_store_handle& store, std::size_t max_writes_per_job,
                 std::shared_ptr<spdlog::logger> log);
 
     // Queues `w` behind the job's unstored writes, then writes them (write_pending).
@@ -65,8 +64,7 @@ class job_journal {
         std::size_t given_up = 0;
     };
 
-    std::mutex& store_mutex_;
-    std::unique_ptr<job_store>& store_;
+    const job_store_handle& store_;
     std::size_t max_writes_per_job_;
     std::shared_ptr<spdlog::logger> log_;
     std::map<std::string, pending_writes> pending_;

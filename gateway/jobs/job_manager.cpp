@@ -28,6 +28,7 @@
 #include "gateway/jobs/job_json.hpp"
 #include "gateway/jobs/job_kinds.hpp"
 #include "gateway/jobs/job_store.hpp"
+#include "gateway/jobs/job_store_handle.hpp"
 #include "gateway/jobs/motion_probe.hpp"
 #include "gateway/jobs/safe_outputs.hpp"
 #include "gateway/lease_manager.hpp"
@@ -110,11 +111,12 @@ operation_result<submit_result> replay(job_record first, const submit_request& r
 // observer, so it outlives the job_manager object while they finish.
 class manager_core final : public execution_host, public std::enable_shared_from_this<manager_core> {
   public:
-    manager_core(net::any_io_executor executor, controller_registry& registry, std::shared_ptr<event_hub> hub,
+    manager_core(net::any_io_executor executor, net::any_io_executor work_executor,
+                 controller_registry& registry, std::shared_ptr<event_hub> hub,
                  std::shared_ptr<lease_manager> leases, job_manager_settings settings,
                  std::unique_ptr<job_store> store)
-        : executor_(executor),
-          strand_(net::make_strand(executor)),
+        : executor_(std::move(executor)),
+          strand_(net::make_strand(std::move(work_executor))),
           registry_(registry),
           hub_(std::move(hub)),
           leases_(std::move(leases)),
@@ -254,17 +256,16 @@ class manager_core final : public execution_host, public std::enable_shared_from
         return s && s->state == devices::connection_state::connected && s->identity;
     }
 
-    net::any_io_executor executor_;
-    net::strand<net::any_io_executor> strand_;
+    net::any_io_executor executor_;             // where completion handlers without their own executor run
+    net::strand<net::any_io_executor> strand_;  // everything else, store writes included
     controller_registry& registry_;
     std::shared_ptr<event_hub> hub_;
     std::shared_ptr<lease_manager> leases_;
     job_manager_settings settings_;
     std::shared_ptr<spdlog::logger> log_;
 
-    // The store is used from the strand and from get/list/events on any thread.
-    mutable std::mutex store_mutex_;
-    std::unique_ptr<job_store> store_;
+    // The store: written from the strand, read from get/list/events on any thread.
+    job_store_handle store_;
 
     // Strand only, except live_records_ (under records_mutex_) which get() reads.
     std::map<std::string, std::shared_ptr<live_job>> jobs_;  // not terminal
@@ -282,7 +283,7 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // Each job's writes the store refused (disk full, read-only file), retried in order (strand only).
     // Kept after the job has ended: its final state must reach the store too. A running job pauses at its
     // next checkpoint, so usually only the steps until then wait there.
-    job_journal journal_{store_mutex_, store_, settings_.max_unstored_writes_per_job, log_};
+    job_journal journal_{store_, settings_.max_unstored_writes_per_job, log_};
     net::steady_timer store_retry_{strand_};
     bool store_retry_armed_ = false;
 
@@ -410,9 +411,9 @@ void manager_core::retry_unstored_later() {
 }
 
 void manager_core::store_restore_commands(const std::string& id, const std::vector<std::string>& commands) {
-    std::lock_guard lock(store_mutex_);
-    if (!store_) return;
-    if (auto ok = store_->set_restore_commands(id, commands); !ok)
+    auto store = store_.get();
+    if (!store) return;
+    if (auto ok = store->set_restore_commands(id, commands); !ok)
         log_->error("job {}: cannot store its restore commands: {}", id, ok.error().message);
 }
 
@@ -479,21 +480,18 @@ operation_result<job_record> manager_core::get(const std::string& id) const {
         std::lock_guard lock(records_mutex_);
         if (auto it = live_records_.find(id); it != live_records_.end()) return it->second;
     }
-    std::lock_guard lock(store_mutex_);
-    if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
-    auto found = store_->find(id);
+    auto store = store_.get();
+    if (!store) return make_error(kind::storage_unavailable, "the job store is closed");
+    auto found = store->find(id);
     if (!found) return found.error();
     if (!*found) return make_error(kind::unknown_job, "no job with id \"" + id + "\"", "id");
     return std::move(**found);
 }
 
 operation_result<job_page> manager_core::list(const job_filter& f) const {
-    operation_result<job_page> page = job_page{};
-    {
-        std::lock_guard lock(store_mutex_);
-        if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
-        page = store_->list(f);
-    }
+    auto store = store_.get();
+    if (!store) return make_error(kind::storage_unavailable, "the job store is closed");
+    auto page = store->list(f);
     if (!page) return page;
     // Active jobs as get() shows them: with what they wait for and their eta (which the store does not
     // keep), and their latest progress.
@@ -504,12 +502,12 @@ operation_result<job_page> manager_core::list(const job_filter& f) const {
 }
 
 operation_result<std::vector<json>> manager_core::events(const std::string& id, std::size_t limit) const {
-    std::lock_guard lock(store_mutex_);
-    if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
-    auto found = store_->find(id);
+    auto store = store_.get();
+    if (!store) return make_error(kind::storage_unavailable, "the job store is closed");
+    auto found = store->find(id);
     if (!found) return found.error();
     if (!*found) return make_error(kind::unknown_job, "no job with id \"" + id + "\"", "id");
-    return store_->events(id, limit);
+    return store->events(id, limit);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -519,14 +517,10 @@ void manager_core::start() {
     net::post(strand_, [self = shared_from_this()] {
         if (self->started_ || self->abandoned_) return;
         self->started_ = true;
-        operation_result<std::vector<job_record>> active = std::vector<job_record>{};
-        operation_result<std::vector<job_record>> queued = std::vector<job_record>{};
-        {
-            std::lock_guard lock(self->store_mutex_);
-            if (!self->store_) return;
-            active = self->store_->in_states({job_state::running, job_state::paused});
-            queued = self->store_->in_states({job_state::queued});
-        }
+        auto store = self->store_.get();
+        if (!store) return;
+        auto active = store->in_states({job_state::running, job_state::paused});
+        auto queued = store->in_states({job_state::queued});
         if (!active)
             self->log_->error("restart recovery: cannot read the job store: {}", active.error().message);
         if (!queued)
@@ -546,11 +540,7 @@ void manager_core::start() {
             // A laser must never stay on: the crashed gateway could not switch the output off.
             rec.ttl_low = may_leave_ttl_output_high(job->record.type, job->record.spec);
             // Nor may the settings the run changed stay changed (an IN0 mode that still steps the stage).
-            operation_result<std::vector<std::string>> stored = std::vector<std::string>{};
-            {
-                std::lock_guard lock(self->store_mutex_);
-                if (self->store_) stored = self->store_->restore_commands(job->record.id);
-            }
+            auto stored = store->restore_commands(job->record.id);
             if (stored)
                 rec.restore = std::move(*stored);
             else
@@ -625,13 +615,9 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
                 "shutdown: job {}: {} write(s) of its history are lost (after a restart it shows its last "
                 "stored state): {}",
                 id, journal_.pending_count(id), stored.error().message);
-    {
-        std::lock_guard lock(store_mutex_);
-        if (store_) {
-            if (auto ok = store_->flush(); !ok)
-                log_->error("shutdown: flushing the job store: {}", ok.error().message);
-            store_.reset();
-        }
+    if (auto store = store_.close()) {
+        if (auto ok = store->flush(); !ok)
+            log_->error("shutdown: flushing the job store: {}", ok.error().message);
     }
     abandoned_ = true;  // nothing is written or published any more
     for (auto& [id, job] : jobs_)
@@ -642,8 +628,7 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
 void manager_core::abandon() {
     abandoned_ = true;
     {
-        std::lock_guard lock(store_mutex_);
-        store_.reset();  // like a crash: what was committed stays, nothing more is written
+        store_.close();  // like a crash: what was committed stays, nothing more is written
     }
     net::post(strand_, [self = shared_from_this()] {
         self->store_retry_.cancel();
@@ -671,10 +656,10 @@ void manager_core::submit(submit_request r, job_manager::handler<submit_result> 
             if (!lease) return self->deliver<submit_result>(std::move(h), lease.error());
         }
         if (r.idempotency_key && !r.dry_run) {
-            std::lock_guard lock(self->store_mutex_);
-            auto found = self->store_ ? self->store_->find_by_idempotency_key(*r.idempotency_key)
-                                      : operation_result<std::optional<job_record>>(
-                                            make_error(kind::storage_unavailable, "the job store is closed"));
+            auto store = self->store_.get();
+            auto found = store ? store->find_by_idempotency_key(*r.idempotency_key)
+                               : operation_result<std::optional<job_record>>(
+                                     make_error(kind::storage_unavailable, "the job store is closed"));
             if (!found) return self->deliver<submit_result>(std::move(h), found.error());
             if (*found) return self->deliver<submit_result>(std::move(h), replay(std::move(**found), r));
         }
@@ -748,15 +733,15 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
     // job, rather than letting it run unrecorded.
     const auto queued_event = state_event(rec, now);
     {
-        std::lock_guard lock(store_mutex_);
+        auto store = store_.get();
         // Idempotency again: another submission with the key may have been stored while this one planned.
-        if (store_ && r.idempotency_key) {
-            auto found = store_->find_by_idempotency_key(*r.idempotency_key);
+        if (store && r.idempotency_key) {
+            auto found = store->find_by_idempotency_key(*r.idempotency_key);
             if (found && *found) return deliver<submit_result>(std::move(h), replay(std::move(**found), r));
         }
         auto inserted =
-            store_ ? store_->insert(rec, queued_event)
-                   : operation_result<void>(make_error(kind::storage_unavailable, "the job store is closed"));
+            store ? store->insert(rec, queued_event)
+                  : operation_result<void>(make_error(kind::storage_unavailable, "the job store is closed"));
         if (!inserted) {
             auto e = inserted.error();
             if (e.kind != kind::storage_unavailable) e.kind = kind::storage_unavailable;
@@ -1033,9 +1018,9 @@ operation_result<std::shared_ptr<live_job>> manager_core::find_live(const std::s
     }
     std::optional<job_record> found;
     {
-        std::lock_guard lock(store_mutex_);
-        if (!store_) return make_error(kind::storage_unavailable, "the job store is closed");
-        auto r = store_->find(id);
+        auto store = store_.get();
+        if (!store) return make_error(kind::storage_unavailable, "the job store is closed");
+        auto r = store->find(id);
         if (!r) return r.error();
         found = std::move(*r);
     }
@@ -1258,11 +1243,9 @@ void manager_core::add_recovery(const std::string& controller, recovery rec, boo
 }
 
 void manager_core::recover_undelivered_restores(const std::vector<job_record>& active) {
-    operation_result<std::vector<std::string>> ids = std::vector<std::string>{};
-    {
-        std::lock_guard lock(store_mutex_);
-        if (store_) ids = store_->jobs_with_restore_commands();
-    }
+    auto store = store_.get();
+    if (!store) return;
+    auto ids = store->jobs_with_restore_commands();
     if (!ids) {
         log_->error("restart recovery: cannot list the stored restore commands: {}", ids.error().message);
         return;
@@ -1271,14 +1254,8 @@ void manager_core::recover_undelivered_restores(const std::vector<job_record>& a
         const bool was_active =
             std::any_of(active.begin(), active.end(), [&](const job_record& r) { return r.id == id; });
         if (was_active) continue;  // start() recovers those with their TTL output
-        operation_result<std::optional<job_record>> found = std::optional<job_record>{};
-        operation_result<std::vector<std::string>> commands = std::vector<std::string>{};
-        {
-            std::lock_guard lock(store_mutex_);
-            if (!store_) return;
-            found = store_->find(id);
-            commands = store_->restore_commands(id);
-        }
+        auto found = store->find(id);
+        auto commands = store->restore_commands(id);
         if (!found || !*found || !commands || commands->empty()) continue;
         recovery rec;
         rec.job_id = id;
@@ -1477,9 +1454,9 @@ void manager_core::on_emit(live_job& job, json event) {
 
 std::vector<json> manager_core::step_events(const live_job& job) const {
     constexpr std::size_t all = 1'000'000;
-    std::lock_guard lock(store_mutex_);
-    if (!store_) return {};
-    auto stored = store_->events(job.record.id, all);
+    auto store = store_.get();
+    if (!store) return {};
+    auto stored = store->events(job.record.id, all);
     if (!stored) return {};
     // Then those the store has not taken yet, which follow them.
     for (auto& e : journal_.pending_events(job.record.id))
@@ -1516,21 +1493,31 @@ operation_result<std::shared_ptr<job_manager>> job_manager::create(net::any_io_e
                                                                    std::shared_ptr<event_hub> hub,
                                                                    std::shared_ptr<lease_manager> leases,
                                                                    job_manager_settings settings) {
+    auto work_executor = executor;
+    return create(std::move(executor), std::move(work_executor), registry, std::move(hub), std::move(leases),
+                  std::move(settings));
+}
+
+operation_result<std::shared_ptr<job_manager>> job_manager::create(
+    net::any_io_executor executor, net::any_io_executor work_executor, controller_registry& registry,
+    std::shared_ptr<event_hub> hub, std::shared_ptr<lease_manager> leases, job_manager_settings settings) {
     job_store_options options;
     options.max_size_mb = settings.storage_max_size_mb;
     auto store = job_store::open(settings.storage_path, options);
     if (!store) return store.error();
-    return std::shared_ptr<job_manager>(new job_manager(std::move(executor), registry, std::move(hub),
-                                                        std::move(leases), std::move(settings),
-                                                        std::move(*store)));
+    return std::shared_ptr<job_manager>(new job_manager(std::move(executor), std::move(work_executor),
+                                                        registry, std::move(hub), std::move(leases),
+                                                        std::move(settings), std::move(*store)));
 }
 
-job_manager::job_manager(net::any_io_executor executor, controller_registry& registry,
-                         std::shared_ptr<event_hub> hub, std::shared_ptr<lease_manager> leases,
-                         job_manager_settings settings, std::unique_ptr<job_store> store)
+job_manager::job_manager(net::any_io_executor executor, net::any_io_executor work_executor,
+                         controller_registry& registry, std::shared_ptr<event_hub> hub,
+                         std::shared_ptr<lease_manager> leases, job_manager_settings settings,
+                         std::unique_ptr<job_store> store)
     : impl_(std::make_unique<impl>()) {
-    impl_->core = std::make_shared<manager_core>(std::move(executor), registry, std::move(hub),
-                                                 std::move(leases), std::move(settings), std::move(store));
+    impl_->core = std::make_shared<manager_core>(std::move(executor), std::move(work_executor), registry,
+                                                 std::move(hub), std::move(leases), std::move(settings),
+                                                 std::move(store));
     impl_->core->attach();
 }
 

@@ -20,7 +20,8 @@
 // is refused (storage_unavailable) until they are stored.
 //
 // Threads: public methods may be called from any thread. Completion handlers run on their associated
-// executor (or the manager's), never inline.
+// executor (or the manager's), never inline. get/list/events read the store through its own connection:
+// they never wait for a write in progress.
 
 #include <chrono>
 #include <cstddef>
@@ -95,6 +96,17 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
     using handler = boost::asio::any_completion_handler<void(operation_result<T>)>;
 
     // Opens (creates) the store. Failure to open is returned, not thrown: main reports it and exits 1.
+    // The manager works (and writes the store, which waits for the disk) on a strand of
+    // `work_executor`; the gateway gives it a thread of its own, so that a slow disk never stalls the
+    // I/O thread's HTTP, WebSocket, MQTT and serial work. Handlers without an executor of their own run
+    // on `executor`.
+    static operation_result<std::shared_ptr<job_manager>> create(boost::asio::any_io_executor executor,
+                                                                 boost::asio::any_io_executor work_executor,
+                                                                 controller_registry& registry,
+                                                                 std::shared_ptr<event_hub> hub,
+                                                                 std::shared_ptr<lease_manager> leases,
+                                                                 job_manager_settings settings);
+    // All on `executor` (tests).
     static operation_result<std::shared_ptr<job_manager>> create(boost::asio::any_io_executor executor,
                                                                  controller_registry& registry,
                                                                  std::shared_ptr<event_hub> hub,
@@ -135,9 +147,10 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
                              handler<lease> h);
 
   private:
-    job_manager(boost::asio::any_io_executor executor, controller_registry& registry,
-                std::shared_ptr<event_hub> hub, std::shared_ptr<lease_manager> leases,
-                job_manager_settings settings, std::unique_ptr<job_store> store);
+    job_manager(boost::asio::any_io_executor executor, boost::asio::any_io_executor work_executor,
+                controller_registry& registry, std::shared_ptr<event_hub> hub,
+                std::shared_ptr<lease_manager> leases, job_manager_settings settings,
+                std::unique_ptr<job_store> store);
 
     struct impl;
     std::unique_ptr<impl> impl_;

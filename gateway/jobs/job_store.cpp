@@ -289,11 +289,15 @@ operation_result<std::string> pragma_text(const connection& c, const char* sql, 
     return s->text(0);
 }
 
+void set_busy_timeout(sqlite3* db, std::chrono::milliseconds busy_timeout) {
+    auto timeout = busy_timeout.count();
+    sqlite3_busy_timeout(db, timeout > std::numeric_limits<int>::max() ? std::numeric_limits<int>::max()
+                                                                       : static_cast<int>(timeout));
+}
+
 operation_result<void> configure(const connection& c, const job_store_options& options) {
     sqlite3_extended_result_codes(c.db, 1);
-    auto timeout = options.busy_timeout.count();
-    sqlite3_busy_timeout(c.db, timeout > std::numeric_limits<int>::max() ? std::numeric_limits<int>::max()
-                                                                         : static_cast<int>(timeout));
+    set_busy_timeout(c.db, options.busy_timeout);
 
     // The first read also proves the file is a SQLite database ("file is not a database").
     auto version = pragma_integer(c, "PRAGMA user_version", "read schema version");
@@ -341,6 +345,26 @@ operation_result<void> configure(const connection& c, const job_store_options& o
     return {};
 }
 
+// The second connection, for reads: in WAL mode a reader sees every committed transaction and never
+// waits for the writer's commit (its fsync), so a read from an I/O thread is not held up by a write
+// in progress on the job manager's thread.
+operation_result<sqlite3*> open_reader(const std::string& path, const job_store_options& options) {
+    sqlite3* reader = nullptr;
+    if (sqlite3_open_v2(path.c_str(), &reader, SQLITE_OPEN_READWRITE | SQLITE_OPEN_FULLMUTEX, nullptr) !=
+        SQLITE_OK) {
+        auto e = storage_error(reader, path, "open for reading");
+        sqlite3_close_v2(reader);
+        return e;
+    }
+    sqlite3_extended_result_codes(reader, 1);
+    set_busy_timeout(reader, options.busy_timeout);
+    if (auto r = connection{reader, path}.exec("PRAGMA query_only = ON", "make the reader read-only"); !r) {
+        sqlite3_close_v2(reader);
+        return r.error();
+    }
+    return reader;
+}
+
 bool is_constraint(sqlite3* db, int extended) {
     return sqlite3_extended_errcode(db) == extended;
 }
@@ -363,9 +387,11 @@ operation_result<void> insert_event(const connection& c, const std::string& job_
 
 }  // namespace
 
-job_store::job_store(sqlite3* db, std::string path) : db_(db), path_(std::move(path)) {}
+job_store::job_store(sqlite3* db, sqlite3* reader, std::string path)
+    : db_(db), reader_(reader), path_(std::move(path)) {}
 
 job_store::~job_store() {
+    sqlite3_close_v2(reader_);
     sqlite3_close_v2(db_);
 }
 
@@ -394,7 +420,12 @@ operation_result<std::unique_ptr<job_store>> job_store::open(const std::string& 
         sqlite3_close_v2(db);
         return r.error();
     }
-    return std::unique_ptr<job_store>(new job_store(db, std::move(path)));
+    auto reader = open_reader(path, options);
+    if (!reader) {
+        sqlite3_close_v2(db);
+        return reader.error();
+    }
+    return std::unique_ptr<job_store>(new job_store(db, *reader, std::move(path)));
 }
 
 operation_result<void> job_store::insert(const job_record& job, const nlohmann::json& first_event) {
@@ -511,21 +542,21 @@ operation_result<void> job_store::append_event(const std::string& job_id, const 
 }
 
 operation_result<std::optional<job_record>> job_store::find(const std::string& id) const {
-    std::lock_guard lock(mutex_);
-    return find_one(connection{db_, path_}, "id", id);
+    std::lock_guard lock(read_mutex_);
+    return find_one(connection{reader_, path_}, "id", id);
 }
 
 operation_result<std::optional<job_record>> job_store::find_by_idempotency_key(const std::string& key) const {
-    std::lock_guard lock(mutex_);
-    return find_one(connection{db_, path_}, "idempotency_key", key);
+    std::lock_guard lock(read_mutex_);
+    return find_one(connection{reader_, path_}, "idempotency_key", key);
 }
 
 operation_result<job_page> job_store::list(const job_filter& filter) const {
     if (filter.limit < 1 || filter.limit > max_list_limit)
         return make_error(operation_error_kind::invalid_value,
                           fmt::format("limit must be 1..{} (got {})", max_list_limit, filter.limit), "limit");
-    std::lock_guard lock(mutex_);
-    connection c{db_, path_};
+    std::lock_guard lock(read_mutex_);
+    connection c{reader_, path_};
     transaction tx(c);
     if (auto r = tx.begin(false); !r) return r.error();
 
@@ -566,8 +597,8 @@ operation_result<job_page> job_store::list(const job_filter& filter) const {
 
 operation_result<std::vector<nlohmann::json>> job_store::events(const std::string& job_id,
                                                                 std::size_t limit) const {
-    std::lock_guard lock(mutex_);
-    connection c{db_, path_};
+    std::lock_guard lock(read_mutex_);
+    connection c{reader_, path_};
     transaction tx(c);
     if (auto r = tx.begin(false); !r) return r.error();
     auto s = c.prepare("SELECT event FROM job_events WHERE job_id = ?1 ORDER BY seq LIMIT ?2");
@@ -587,8 +618,8 @@ operation_result<std::vector<nlohmann::json>> job_store::events(const std::strin
 }
 
 operation_result<std::vector<nlohmann::json>> job_store::transitions(const std::string& job_id) const {
-    std::lock_guard lock(mutex_);
-    connection c{db_, path_};
+    std::lock_guard lock(read_mutex_);
+    connection c{reader_, path_};
     transaction tx(c);
     if (auto r = tx.begin(false); !r) return r.error();
     auto s = c.prepare(
@@ -616,8 +647,8 @@ operation_result<std::vector<job_record>> job_store::in_states(const std::vector
     auto names = nlohmann::json::array();
     for (auto st : states)
         names.push_back(std::string(to_string(st)));
-    std::lock_guard lock(mutex_);
-    connection c{db_, path_};
+    std::lock_guard lock(read_mutex_);
+    connection c{reader_, path_};
     transaction tx(c);
     if (auto r = tx.begin(false); !r) return r.error();
     auto s = c.prepare(fmt::format(
@@ -657,8 +688,8 @@ operation_result<void> job_store::set_restore_commands(const std::string& job_id
 }
 
 operation_result<std::vector<std::string>> job_store::jobs_with_restore_commands() const {
-    std::lock_guard lock(mutex_);
-    connection c{db_, path_};
+    std::lock_guard lock(read_mutex_);
+    connection c{reader_, path_};
     transaction tx(c);
     if (auto r = tx.begin(false); !r) return r.error();
     auto s = c.prepare("SELECT job_id FROM job_restore_commands ORDER BY updated_ms, job_id");
@@ -673,8 +704,8 @@ operation_result<std::vector<std::string>> job_store::jobs_with_restore_commands
 }
 
 operation_result<std::vector<std::string>> job_store::restore_commands(const std::string& job_id) const {
-    std::lock_guard lock(mutex_);
-    connection c{db_, path_};
+    std::lock_guard lock(read_mutex_);
+    connection c{reader_, path_};
     transaction tx(c);
     if (auto r = tx.begin(false); !r) return r.error();
     auto s = c.prepare("SELECT commands FROM job_restore_commands WHERE job_id = ?1");

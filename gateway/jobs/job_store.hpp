@@ -1,7 +1,11 @@
 #pragma once
 // Durable job history in SQLite (WAL journal, synchronous=FULL): the jobs,
 // every state transition, every job event. Survives kill -9: each call is one transaction, committed
-// before it returns. Blocking calls; the job_manager calls them from its own strand.
+// before it returns. Blocking calls; the job_manager writes from its own strand, on its own thread.
+//
+// Two connections: writes go through one, reads through the other, each used by one call at a time.
+// In WAL mode a read sees every committed write and never waits for a commit in progress (its fsync),
+// so a reader on an I/O thread is not held up by the writer.
 //
 //   auto store = job_store::open("/var/lib/asi-gateway");   // creates <dir>/jobs.sqlite3
 //   store->insert(record);
@@ -94,10 +98,12 @@ class job_store {
     const std::string& path() const { return path_; }
 
   private:
-    job_store(sqlite3* db, std::string path);
-    sqlite3* db_;
+    job_store(sqlite3* db, sqlite3* reader, std::string path);
+    sqlite3* db_;      // writes (and the schema)
+    sqlite3* reader_;  // reads (PRAGMA query_only)
     std::string path_;
-    mutable std::mutex mutex_;  // one transaction at a time on the connection
+    mutable std::mutex mutex_;       // one transaction at a time on db_
+    mutable std::mutex read_mutex_;  // ... and on reader_
 };
 
 }  // namespace gw::jobs

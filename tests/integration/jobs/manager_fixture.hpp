@@ -150,7 +150,9 @@ class manager_fixture : public ::testing::Test {
     }
 
     void open_manager() {
-        auto m = job_manager::create(gw_io_.io.get_executor(), *registry_, hub_, leases_, settings());
+        // The manager works on a thread of its own, as in the gateway.
+        auto m = job_manager::create(gw_io_.io.get_executor(), jobs_io_.io.get_executor(), *registry_, hub_,
+                                     leases_, settings());
         ASSERT_TRUE(m) << m.error().message;
         manager_ = std::move(*m);
         manager_->start();
@@ -307,6 +309,7 @@ class manager_fixture : public ::testing::Test {
         if (registry_) registry_->stop();
         if (hub_) hub_->stop();
         gw_io_.join();
+        jobs_io_.join();
         manager_.reset();
         registry_.reset();
         retired_registries_.clear();
@@ -318,6 +321,7 @@ class manager_fixture : public ::testing::Test {
 
     io_thread sim_io_;
     io_thread gw_io_;
+    io_thread jobs_io_;  // the job manager's own thread
     std::string dir_ = "/tmp/gw-jobs-" +
                        std::string(testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
                        std::to_string(::getpid());

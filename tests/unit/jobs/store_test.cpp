@@ -704,6 +704,53 @@ TEST_F(store_test, a_read_only_database_is_a_clear_error_not_a_crash) {
     EXPECT_EQ(page->jobs.size(), 1u);
 }
 
+// The job manager writes on its own thread while I/O threads read: a read must not wait for a write
+// that waits for the disk or for a lock. Here another connection holds the write lock, so the store's
+// write waits (busy_timeout); a read meanwhile answers with what is committed.
+TEST_F(store_test, a_read_does_not_wait_for_a_write_in_progress) {
+    job_store_options options;
+    options.busy_timeout = 20s;
+    auto store = open_store(options);
+    ASSERT_TRUE(store);
+    auto job = make_job(make_job_id());
+    ASSERT_TRUE(store->insert(job));
+
+    sqlite3* other = nullptr;
+    ASSERT_EQ(sqlite3_open((dir_ / "jobs.sqlite3").c_str(), &other), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(other, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr), SQLITE_OK);
+
+    std::atomic<bool> write_returned{false};
+    std::thread writer([&] {
+        auto step = job;
+        step.progress.steps_done = 1;
+        EXPECT_TRUE(store->save(step, {{"type", "step"}}));
+        write_returned = true;
+    });
+    // Gives the writer time to reach the lock; the assertions hold however far it got.
+    std::this_thread::sleep_for(300ms);
+    auto found = store->find(job.id);
+    auto page = store->list(job_filter{});
+    auto events = store->events(job.id, 10);
+    EXPECT_FALSE(write_returned) << "the write did not wait for the other connection's lock";
+    ASSERT_TRUE(found && *found) << (found ? "not found" : found.error().message);
+    EXPECT_EQ((*found)->progress.steps_done, 0u);
+    ASSERT_TRUE(page);
+    EXPECT_EQ(page->jobs.size(), 1u);
+    ASSERT_TRUE(events);
+    EXPECT_TRUE(events->empty());
+
+    ASSERT_EQ(sqlite3_exec(other, "ROLLBACK", nullptr, nullptr, nullptr), SQLITE_OK);
+    writer.join();
+    sqlite3_close(other);
+    // The reader sees the write once it is committed.
+    auto after = store->find(job.id);
+    ASSERT_TRUE(after && *after);
+    EXPECT_EQ((*after)->progress.steps_done, 1u);
+    auto events_after = store->events(job.id, 10);
+    ASSERT_TRUE(events_after);
+    EXPECT_EQ(events_after->size(), 1u);
+}
+
 TEST_F(store_test, concurrent_callers_are_serialised) {
     auto store = open_store();
     ASSERT_TRUE(store);
