@@ -14,7 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "api/problem.hpp"
-#include "gateway/config.hpp"
+#include "gateway/config/config.hpp"
 
 namespace gw::api {
 

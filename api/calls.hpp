@@ -15,7 +15,7 @@
 
 #include "api/api_context.hpp"
 #include "api/job_requests.hpp"
-#include "gateway/config.hpp"
+#include "gateway/config/config.hpp"
 
 namespace gw::api {
 

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "devices/serial/controller_observer.hpp"
-#include "gateway/metrics.hpp"
+#include "gateway/common/metrics.hpp"
 
 namespace gw::api {
 

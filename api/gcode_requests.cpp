@@ -17,7 +17,7 @@
 #include "gateway/gcode/gcode_plan_json.hpp"
 #include "gateway/gcode/gcode_plan_summary_json.hpp"
 #include "gateway/gcode/gcode_planner.hpp"
-#include "gateway/gcode_files.hpp"
+#include "gateway/storage/gcode_files.hpp"
 
 namespace gw::api {
 

@@ -1,6 +1,6 @@
 #pragma once
 // The /api/v1/gcode routes: planning and previewing programs without a controller, and the store of
-// uploaded programs (gateway/gcode_files.hpp). Planning, previews and uploads run on the gcode_worker
+// uploaded programs (gateway/storage/gcode_files.hpp). Planning, previews and uploads run on the gcode_worker
 // thread, never on an I/O thread.
 //
 //   POST   /api/v1/gcode/plan[?moves=false&<option>=<value>...]   viewer    body: the program (text)
@@ -34,9 +34,9 @@
 #include "api/net.hpp"
 #include "api/route_table.hpp"
 #include "api/router.hpp"
+#include "gateway/common/operation_error.hpp"
 #include "gateway/gcode/gcode_options.hpp"
 #include "gateway/gcode/gcode_preview_svg.hpp"
-#include "gateway/operation_error.hpp"
 
 namespace gw::api {
 

@@ -7,7 +7,7 @@
 #include "api/gcode_worker.hpp"
 #include "api/request_id.hpp"
 #include "api/websocket_session.hpp"
-#include "gateway/metrics.hpp"
+#include "gateway/common/metrics.hpp"
 
 namespace gw::api {
 

@@ -25,9 +25,9 @@
 
 #include "api/api_context.hpp"
 #include "api/problem.hpp"
+#include "gateway/common/operation_error.hpp"
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_manager.hpp"
-#include "gateway/operation_error.hpp"
 
 namespace gw::api {
 

@@ -9,9 +9,9 @@
 
 #include "api/json_object.hpp"
 #include "api/printable_text.hpp"
-#include "gateway/controller_registry.hpp"
+#include "gateway/common/timestamp.hpp"
+#include "gateway/controllers/controller_registry.hpp"
 #include "gateway/jobs/job_manager.hpp"
-#include "gateway/timestamp.hpp"
 
 namespace gw::api {
 

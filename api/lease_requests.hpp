@@ -1,5 +1,5 @@
 #pragma once
-// The lease routes without the transport (gateway/lease_manager.hpp holds the leases):
+// The lease routes without the transport (gateway/leases/lease_manager.hpp holds the leases):
 //
 //   POST   /api/v1/controllers/{id}/lease         operator  {"ttl_s":60,"holder":"notebook-3"} (both
 //          optional) -> 201 {"lease_id","controller","holder","acquired","expires"}; 409 leased;
@@ -19,7 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "api/job_requests.hpp"
-#include "gateway/lease_manager.hpp"
+#include "gateway/leases/lease_manager.hpp"
 
 namespace gw::api {
 

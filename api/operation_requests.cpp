@@ -12,10 +12,10 @@
 
 #include "api/json_object.hpp"
 #include "devices/ms2000/error.hpp"
-#include "gateway/controller_registry.hpp"
-#include "gateway/event_json.hpp"
-#include "gateway/lease_manager.hpp"
-#include "gateway/operations.hpp"
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/controllers/operations.hpp"
+#include "gateway/events/event_json.hpp"
+#include "gateway/leases/lease_manager.hpp"
 
 namespace gw::api {
 

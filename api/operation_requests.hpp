@@ -29,7 +29,7 @@
 
 #include "api/api_context.hpp"
 #include "api/problem.hpp"
-#include "gateway/config.hpp"
+#include "gateway/config/config.hpp"
 
 namespace gw::api {
 

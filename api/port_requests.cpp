@@ -9,8 +9,8 @@
 #include "api/port_scan_worker.hpp"
 #include "devices/serial/port_candidates.hpp"
 #include "devices/serial/port_scan.hpp"
-#include "gateway/controller_registry.hpp"
-#include "gateway/port_report_json.hpp"
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/controllers/port_report_json.hpp"
 
 namespace gw::api {
 

@@ -1,6 +1,6 @@
 #pragma once
-// GET /api/v1/ports (admin): the scan of `asi-gateway ports` (gateway/ports_cli.hpp), answered as
-// its JSON (gateway/port_report_json.hpp). The ports of this gateway's controllers are reported
+// GET /api/v1/ports (admin): the scan of `asi-gateway ports` (gateway/app/ports_cli.hpp), answered as
+// its JSON (gateway/controllers/port_report_json.hpp). The ports of this gateway's controllers are reported
 // in_use and not opened. Query parameters:
 //   path=P[,P...]   also probe these ports (each must be a character device, or not exist: a 400
 //                   invalid-value otherwise, so the route never writes into a file)

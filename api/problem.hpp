@@ -1,6 +1,6 @@
 #pragma once
 // RFC 9457 problem details: the ONE mapping from an error kind to an HTTP status, a stable type URI
-// and a title. Operation errors (gateway/operation_error.hpp) and HTTP-level errors both go through
+// and a title. Operation errors (gateway/common/operation_error.hpp) and HTTP-level errors both go through
 // it. Type URIs are problem_type_base + the kind with dashes ("missing_module" ->
 // "https://asi-gateway.dev/problems/missing-module"); openapi/openapi.yaml lists every one.
 //
@@ -14,7 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "gateway/operation_error.hpp"
+#include "gateway/common/operation_error.hpp"
 
 namespace gw::api {
 

@@ -2,7 +2,7 @@
 
 #include <boost/asio/bind_executor.hpp>
 
-#include "gateway/json_text.hpp"
+#include "gateway/common/json_text.hpp"
 
 namespace gw::api {
 

@@ -8,10 +8,10 @@
 #include "api/lease_requests.hpp"
 #include "api/operation_requests.hpp"
 #include "api/port_requests.hpp"
-#include "gateway/controller_registry.hpp"
-#include "gateway/event_hub.hpp"
-#include "gateway/event_json.hpp"
-#include "gateway/metrics.hpp"
+#include "gateway/common/metrics.hpp"
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/events/event_hub.hpp"
+#include "gateway/events/event_json.hpp"
 #include "gateway/version.hpp"
 
 namespace gw::api {

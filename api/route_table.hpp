@@ -20,7 +20,7 @@
 
 #include "api/net.hpp"
 #include "api/request_context.hpp"
-#include "gateway/config.hpp"
+#include "gateway/config/config.hpp"
 
 namespace gw::api {
 

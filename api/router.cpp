@@ -10,7 +10,7 @@
 #include "api/rest_routes.hpp"
 #include "api/route_table.hpp"
 #include "api/static_assets.hpp"
-#include "gateway/json_text.hpp"
+#include "gateway/common/json_text.hpp"
 
 namespace gw::api {
 

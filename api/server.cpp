@@ -9,10 +9,10 @@
 #include "api/gcode_worker.hpp"
 #include "api/listener.hpp"
 #include "api/port_scan_worker.hpp"
-#include "gateway/controller_registry.hpp"
-#include "gateway/gcode_files.hpp"
-#include "gateway/logging.hpp"
-#include "gateway/metrics.hpp"
+#include "gateway/common/metrics.hpp"
+#include "gateway/config/logging.hpp"
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/storage/gcode_files.hpp"
 
 namespace gw::api {
 

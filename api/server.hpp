@@ -12,7 +12,7 @@
 
 #include "api/api_context.hpp"
 #include "api/net.hpp"
-#include "gateway/config.hpp"
+#include "gateway/config/config.hpp"
 
 namespace gw::api {
 

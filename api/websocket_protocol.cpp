@@ -9,8 +9,8 @@
 #include "api/json_object.hpp"
 #include "api/operation_requests.hpp"
 #include "api/printable_text.hpp"
-#include "gateway/operation_error.hpp"
-#include "gateway/topic.hpp"
+#include "gateway/common/operation_error.hpp"
+#include "gateway/events/topic.hpp"
 
 namespace gw::api {
 
@@ -290,13 +290,13 @@ std::string ws_unsubscribed_message(const ws_unsubscribe& request) {
     return text(json{{"type", "unsubscribed"}, {"id", request.id}, {"topics", request.topics}});
 }
 
-std::string ws_result_message(const json& id, const json& result, bool replayed) {
+std::string call_result_message(const json& id, const json& result, bool replayed) {
     json m{{"type", "result"}, {"id", id}, {"result", result}};
     if (replayed) m["replayed"] = true;
     return text(m);
 }
 
-std::string ws_error_message(const json& id, const problem& error) {
+std::string call_error_message(const json& id, const problem& error) {
     return text(json{{"type", "error"}, {"id", id}, {"problem", error.to_json()}});
 }
 

@@ -1,7 +1,7 @@
 #pragma once
 // The JSON messages of /api/v1/ws: parsing and validating what a client sends, building what the
 // server answers. Events themselves are not built here: the hub serialises each one once
-// (gateway/event.hpp) and every session sends that text as is. Pure: no I/O, no clock, no logging.
+// (gateway/events/event.hpp) and every session sends that text as is. Pure: no I/O, no clock, no logging.
 //
 // Client -> server (one JSON object per text frame; "id" is optional except for commands: a string
 // of 1..128 printable characters or an integer, echoed in the answer):
@@ -26,10 +26,11 @@
 //   {"type":"result","id":"s1","result":{...the first job...},"replayed":true}   (Idempotency replay)
 //   {"type":"error","id":"c7"|null,"problem":{...the application/problem+json body...}}
 //   {"type":"pong","id":3}
-//   {"type":"event",...}, {"type":"gap",...} and {"type":"retired",...} exactly as in gateway/event.hpp.
-//   "retired": the topic left the hub (an ended job's topic, events.ended_job_topic_ttl_s after the
-//   job's last event): nothing more comes on it; sent to its subscribers then, and at once to a
-//   subscription that names it or resumes it later. A job's history: GET /api/v1/jobs/{id}/events.
+//   {"type":"event",...}, {"type":"gap",...} and {"type":"retired",...} exactly as in
+//   gateway/events/event.hpp. "retired": the topic left the hub (an ended job's topic,
+//   events.ended_job_topic_ttl_s after the job's last event): nothing more comes on it; sent to its
+//   subscribers then, and at once to a subscription that names it or resumes it later. A job's history: GET
+//   /api/v1/jobs/{id}/events.
 // A message that cannot be used (malformed JSON, unknown op or field, wrong type, bad topic filter)
 // is answered with an error message; the connection stays open.
 
@@ -121,8 +122,11 @@ std::string ws_unsubscribed_message(const ws_unsubscribe& request);
 call to_call(command_message m);
 call to_call(job_message m);
 
-std::string ws_result_message(const nlohmann::json& id, const nlohmann::json& result, bool replayed = false);
-std::string ws_error_message(const nlohmann::json& id, const problem& error);
+// The answer to a call, the same on WebSocket and MQTT: {"type":"result","id":..,"result":..} (with
+// "replayed": true for an Idempotency-Key seen before) or {"type":"error","id":..,"problem":<problem>}.
+std::string call_result_message(const nlohmann::json& id, const nlohmann::json& result,
+                                bool replayed = false);
+std::string call_error_message(const nlohmann::json& id, const problem& error);
 std::string ws_pong_message(const nlohmann::json& id);
 
 }  // namespace gw::api

@@ -10,8 +10,8 @@
 
 #include "api/job_requests.hpp"
 #include "api/websocket_protocol.hpp"
-#include "gateway/event_hub.hpp"
-#include "gateway/metrics.hpp"
+#include "gateway/common/metrics.hpp"
+#include "gateway/events/event_hub.hpp"
 
 namespace gw::api {
 
@@ -252,13 +252,13 @@ void websocket_session::on_call_done(const json& id, api_outcome outcome) {
     if (outcome.error)
         answer_error(id, std::move(*outcome.error));
     else
-        answer(ws_result_message(id, outcome.body, outcome.replayed));
+        answer(call_result_message(id, outcome.body, outcome.replayed));
     maybe_resume_reading();
 }
 
 void websocket_session::answer_error(const json& id, problem p) {
     p.instance = std::string(websocket_path);
-    answer(ws_error_message(id, p));
+    answer(call_error_message(id, p));
 }
 
 void websocket_session::answer(std::string text) {

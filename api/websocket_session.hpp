@@ -32,8 +32,8 @@
 #include "api/connection_permit.hpp"
 #include "api/net.hpp"
 #include "api/operation_requests.hpp"
-#include "gateway/event.hpp"
-#include "gateway/event_sink.hpp"
+#include "gateway/events/event.hpp"
+#include "gateway/events/event_sink.hpp"
 
 namespace gw::api {
 

@@ -13,7 +13,7 @@
 #include <boost/asio/strand.hpp>
 
 #include "api/mqtt/connect_failure.hpp"
-#include "gateway/config.hpp"
+#include "gateway/config/config.hpp"
 
 namespace gw::api {
 

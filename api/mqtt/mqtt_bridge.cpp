@@ -8,10 +8,10 @@
 #include <spdlog/logger.h>
 
 #include "api/mqtt/mqtt_commands.hpp"
-#include "gateway/controller_registry.hpp"
-#include "gateway/event_hub.hpp"
-#include "gateway/event_json.hpp"
-#include "gateway/metrics.hpp"
+#include "gateway/common/metrics.hpp"
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/events/event_hub.hpp"
+#include "gateway/events/event_json.hpp"
 
 namespace gw::api {
 

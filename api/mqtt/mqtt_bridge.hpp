@@ -42,8 +42,8 @@
 #include "api/mqtt/mqtt_client.hpp"
 #include "api/mqtt/mqtt_payloads.hpp"
 #include "api/mqtt/mqtt_topics.hpp"
-#include "gateway/config.hpp"
-#include "gateway/event_sink.hpp"
+#include "gateway/config/config.hpp"
+#include "gateway/events/event_sink.hpp"
 
 namespace spdlog {
 class logger;

@@ -24,7 +24,7 @@
 #include <spdlog/common.h>
 
 #include "api/mqtt/reconnect_backoff.hpp"
-#include "gateway/config.hpp"
+#include "gateway/config/config.hpp"
 
 namespace spdlog {
 class logger;

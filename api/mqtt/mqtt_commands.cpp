@@ -9,7 +9,7 @@
 #include "api/job_requests.hpp"
 #include "api/mqtt/mqtt_request.hpp"
 #include "api/websocket_protocol.hpp"
-#include "gateway/metrics.hpp"
+#include "gateway/common/metrics.hpp"
 
 namespace gw::api {
 
@@ -54,7 +54,7 @@ void mqtt_commands::answer(const reply_target& to, std::string payload, std::str
 void mqtt_commands::answer_error(const reply_target& to, const json& id, problem p, std::string_view topic) {
     if (p.instance.empty()) p.instance = std::string(topic);
     if (ctx_->log) ctx_->log->debug("mqtt {}: refused: {}", topic, p.detail);
-    answer(to, ws_error_message(id, p), p.status >= 500 ? "failed" : "refused");
+    answer(to, call_error_message(id, p), p.status >= 500 ? "failed" : "refused");
 }
 
 void mqtt_commands::handle(const mqtt_message_in& in) {
@@ -117,7 +117,7 @@ void mqtt_commands::run(mqtt_request& request, const auth_identity& who, const r
                   net::bind_executor(strand_, [self = shared_from_this(), to, id, topic](api_outcome out) {
                       --self->in_flight_;
                       if (out.error) return self->answer_error(to, id, std::move(*out.error), topic);
-                      self->answer(to, ws_result_message(id, out.body, out.replayed), "ok");
+                      self->answer(to, call_result_message(id, out.body, out.replayed), "ok");
                   }));
 }
 

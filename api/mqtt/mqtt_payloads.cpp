@@ -2,7 +2,7 @@
 
 #include <utility>
 
-#include "gateway/timestamp.hpp"
+#include "gateway/common/timestamp.hpp"
 
 namespace gw::api {
 

@@ -10,7 +10,7 @@
 //             "time":"2026-11-30T08:00:00.000Z"}
 //   offline: {"state":"offline","gateway":"lab3","reason":"shutdown"|"connection lost","time":...|null}
 //            (the Last Will has no time: the broker sends it when the gateway is already gone)
-// controllers/<id>/state, position, ttl: the event hub's message as is (gateway/event.hpp):
+// controllers/<id>/state, position, ttl: the event hub's message as is (gateway/events/event.hpp):
 //   {"type":"event","topic":"controllers/sim1/state","seq":12,"time":...,"time_ms":...,"data":{...}}
 // controllers/<id>/reports, one message per batch of encoder frames:
 //   {"type":"reports","controller":"sim1","frames":[{...report data...}],"from":101,"to":140,
@@ -28,7 +28,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "gateway/event.hpp"
+#include "gateway/events/event.hpp"
 
 namespace gw::api {
 
@@ -47,7 +47,7 @@ std::string birth_payload(const mqtt_birth& b);
 std::string offline_payload(std::string_view gateway, std::string_view reason,
                             std::optional<std::chrono::system_clock::time_point> time);
 
-// One entry of the birth's "controllers" from a controller state (gateway/event_json.hpp state_json).
+// One entry of the birth's "controllers" from a controller state (gateway/events/event_json.hpp state_json).
 nlohmann::json birth_controller(const nlohmann::json& state);
 
 // Encoder report frames of one controller, collected between two publications.

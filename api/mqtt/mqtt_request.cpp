@@ -2,7 +2,7 @@
 
 #include <utility>
 
-#include "gateway/operation_error.hpp"
+#include "gateway/common/operation_error.hpp"
 
 namespace gw::api {
 

@@ -3,7 +3,7 @@
 #include <array>
 #include <utility>
 
-#include "gateway/topic.hpp"
+#include "gateway/events/topic.hpp"
 
 namespace gw::api {
 

@@ -1,5 +1,5 @@
 #pragma once
-// Settings of one controller (one serial port). A plain value; gateway/config.cpp fills it.
+// Settings of one controller (one serial port). A plain value; gateway/config/config.cpp fills it.
 
 #include <chrono>
 #include <cstddef>

@@ -11,14 +11,14 @@
 
 #include "api/mqtt/mqtt_bridge.hpp"
 #include "api/server.hpp"
-#include "gateway/controller_events_bridge.hpp"
-#include "gateway/event_hub.hpp"
+#include "gateway/app/startup_summary.hpp"
+#include "gateway/common/metrics.hpp"
+#include "gateway/config/logging.hpp"
+#include "gateway/controllers/log_observer.hpp"
+#include "gateway/events/controller_events_bridge.hpp"
+#include "gateway/events/event_hub.hpp"
 #include "gateway/jobs/job_manager.hpp"
-#include "gateway/lease_manager.hpp"
-#include "gateway/log_observer.hpp"
-#include "gateway/logging.hpp"
-#include "gateway/metrics.hpp"
-#include "gateway/startup_summary.hpp"
+#include "gateway/leases/lease_manager.hpp"
 #include "gateway/version.hpp"
 
 namespace gw {
@@ -119,8 +119,7 @@ bool application::start() {
         http_->start();
     } catch (const std::exception& e) {
         log_->error("{}", e.what());
-        registry_->stop();
-        hub_->stop();
+        stop_after_failed_start();
         return false;
     }
     // MQTT (mqtt.enabled): the fleet interface over the same API context as REST and WebSocket.
@@ -134,6 +133,7 @@ bool application::start() {
             mqtt_->start();
         } catch (const std::exception& e) {
             log_->error("{}", e.what());
+            stop_after_failed_start();
             return false;
         }
     }
@@ -141,6 +141,15 @@ bool application::start() {
                startup_summary(http_->local_endpoint(), config.storage.path, registry_->list(),
                                config.mqtt.enabled ? config.mqtt.brokers : std::vector<std::string>{}));
     return true;
+}
+
+// A late start step (HTTP, MQTT) failed: what started stops before run() returns 1. The I/O thread has
+// not run yet, so nothing has moved: the ports close without HALT, and the job manager, which has only
+// read the store, is abandoned by its destructor like a crash (what it stored stays as it was).
+void application::stop_after_failed_start() {
+    http_->stop();
+    registry_->stop();
+    hub_->stop();
 }
 
 // The order in which the gateway stops: no new requests; running jobs HALTed, TTL low, interrupted and

@@ -19,7 +19,7 @@
 #include <boost/asio/signal_set.hpp>
 
 #include "gateway/app/command_line.hpp"
-#include "gateway/storage_lock.hpp"
+#include "gateway/storage/storage_lock.hpp"
 
 namespace spdlog {
 class logger;
@@ -50,6 +50,7 @@ class application {
 
   private:
     bool start();
+    void stop_after_failed_start();
     void shutdown();
     void serve();
     // Runs `io` until it is stopped or out of work; a handler that throws is logged, not fatal.

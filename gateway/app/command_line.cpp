@@ -9,10 +9,10 @@
 
 #include <CLI/CLI.hpp>
 
-#include "gateway/gcode_cli.hpp"
-#include "gateway/ports_cli.hpp"
-#include "gateway/serial_spec.hpp"
-#include "gateway/storage_path.hpp"
+#include "gateway/app/gcode_cli.hpp"
+#include "gateway/app/ports_cli.hpp"
+#include "gateway/config/serial_spec.hpp"
+#include "gateway/storage/storage_path.hpp"
 #include "gateway/version.hpp"
 
 namespace gw {

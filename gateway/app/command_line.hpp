@@ -9,8 +9,8 @@
 #include <iosfwd>
 #include <variant>
 
-#include "gateway/config.hpp"
-#include "gateway/controller_registry.hpp"
+#include "gateway/config/config.hpp"
+#include "gateway/controllers/controller_registry.hpp"
 
 namespace gw {
 

@@ -10,7 +10,7 @@
 
 #include "gateway/app/application.hpp"
 #include "gateway/app/command_line.hpp"
-#include "gateway/logging.hpp"
+#include "gateway/config/logging.hpp"
 
 int main(int argc, char** argv) {
     auto parsed = gw::parse_command_line(argc, argv, std::cout, std::cerr);

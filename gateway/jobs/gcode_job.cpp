@@ -30,11 +30,11 @@
 #include <sstream>
 
 #include "gateway/gcode/gcode_planner.hpp"
-#include "gateway/gcode_files.hpp"
 #include "gateway/jobs/gcode_spec.hpp"
 #include "gateway/jobs/gcode_trace.hpp"
 #include "gateway/jobs/job_commands.hpp"
 #include "gateway/jobs/job_kinds.hpp"
+#include "gateway/storage/gcode_files.hpp"
 
 // g++ 12 reports a false -Wmismatched-new-delete at the end of some asio coroutines (the awaitable
 // frame's own operator new/delete pair); clang and g++ 13 do not.

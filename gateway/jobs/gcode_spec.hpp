@@ -19,8 +19,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "gateway/common/operation_error.hpp"
 #include "gateway/gcode/gcode_options.hpp"
-#include "gateway/operation_error.hpp"
 
 namespace gw::jobs {
 

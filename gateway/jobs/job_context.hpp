@@ -23,10 +23,10 @@
 
 #include "devices/ms2000/reply.hpp"
 #include "devices/serial/controller_snapshot.hpp"
+#include "gateway/common/operation_error.hpp"
+#include "gateway/controllers/operations.hpp"
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_plan.hpp"
-#include "gateway/operation_error.hpp"
-#include "gateway/operations.hpp"
 
 namespace gw::jobs {
 

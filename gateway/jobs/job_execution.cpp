@@ -8,7 +8,7 @@
 
 #include "devices/ms2000/error.hpp"
 #include "devices/ms2000/host_step_timing.hpp"
-#include "gateway/controller_registry.hpp"
+#include "gateway/controllers/controller_registry.hpp"
 #include "gateway/jobs/job_commands.hpp"
 
 namespace gw::jobs {

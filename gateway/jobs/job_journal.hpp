@@ -18,8 +18,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "gateway/common/operation_error.hpp"
 #include "gateway/jobs/job.hpp"
-#include "gateway/operation_error.hpp"
 
 namespace spdlog {
 class logger;

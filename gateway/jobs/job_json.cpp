@@ -4,7 +4,7 @@
 #include <chrono>
 #include <cmath>
 
-#include "gateway/timestamp.hpp"
+#include "gateway/common/timestamp.hpp"
 
 namespace gw::jobs {
 

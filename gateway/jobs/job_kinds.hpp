@@ -8,9 +8,9 @@
 #include <boost/asio/awaitable.hpp>
 #include <nlohmann/json.hpp>
 
+#include "gateway/common/operation_error.hpp"
 #include "gateway/jobs/job_context.hpp"
 #include "gateway/jobs/job_plan.hpp"
-#include "gateway/operation_error.hpp"
 
 namespace gw::jobs {
 

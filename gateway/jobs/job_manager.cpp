@@ -3,11 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <deque>
 #include <fmt/format.h>
 #include <map>
 #include <mutex>
-#include <set>
 
 #include <boost/asio/append.hpp>
 #include <boost/asio/co_spawn.hpp>
@@ -20,19 +18,21 @@
 #include <spdlog/spdlog.h>
 
 #include "devices/serial/controller_observer.hpp"
-#include "gateway/controller_registry.hpp"
-#include "gateway/event_hub.hpp"
+#include "gateway/common/job_id.hpp"
+#include "gateway/config/logging.hpp"
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/events/event_hub.hpp"
 #include "gateway/jobs/job_execution.hpp"
-#include "gateway/jobs/job_id.hpp"
 #include "gateway/jobs/job_journal.hpp"
 #include "gateway/jobs/job_json.hpp"
 #include "gateway/jobs/job_kinds.hpp"
+#include "gateway/jobs/job_lanes.hpp"
 #include "gateway/jobs/job_store.hpp"
 #include "gateway/jobs/job_store_handle.hpp"
 #include "gateway/jobs/motion_probe.hpp"
+#include "gateway/jobs/restore_ledger.hpp"
 #include "gateway/jobs/safe_outputs.hpp"
-#include "gateway/lease_manager.hpp"
-#include "gateway/logging.hpp"
+#include "gateway/leases/lease_manager.hpp"
 
 // g++ 12 reports a false -Wmismatched-new-delete at the end of some asio coroutines (the awaitable
 // frame's own operator new/delete pair); clang and g++ 13 do not.
@@ -160,19 +160,6 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void on_restore_commands_changed(live_job& job) override;
 
   private:
-    // What start() found a crashed run left on a controller, sent once the controller is connected.
-    struct recovery {
-        std::string job_id;
-        bool ttl_low = false;              // "TTL Y=0" (safe_outputs.hpp)
-        std::vector<std::string> restore;  // the run's stored restore commands, registration order
-    };
-
-    struct lane {
-        std::deque<std::string> queue;  // FIFO of queued job ids
-        std::string holder;             // the job that has the controller: running, or paused
-        bool dispatching = false;       // planning a recovered job before it runs
-    };
-
     template <typename T>
     void deliver(job_manager::handler<T> h, operation_result<T> r) {
         net::post(executor_, net::append(std::move(h), std::move(r)));
@@ -234,13 +221,13 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void send_recovery(const std::string& controller);
     // Sends "TTL Y=0" when owed.ttl_low, then owed.restore newest first, under `request_id`. Returns
     // what did not reach the controller (a refusal did: it would be refused again), with its error.
-    net::awaitable<std::pair<recovery, std::optional<operation_error>>> deliver(std::string controller,
-                                                                                std::string request_id,
-                                                                                recovery owed);
+    net::awaitable<std::pair<owed_restore, std::optional<operation_error>>> deliver(std::string controller,
+                                                                                    std::string request_id,
+                                                                                    owed_restore owed);
     // Keeps `rec` to send once the controller is connected. A recovery already pending there is kept
     // too, the older list first: sent newest first, a setting both runs changed ends at the older run's
     // value, the one from before either. Stored under the newer job.
-    void add_recovery(const std::string& controller, recovery rec, bool rec_is_older = false);
+    void add_recovery(const std::string& controller, owed_restore rec, bool rec_is_older = false);
     // start(): the stored restore commands of jobs that were not active (ended or interrupted before),
     // which an earlier run of the gateway could not deliver.
     void recover_undelivered_restores(const std::vector<job_record>& active);
@@ -269,17 +256,16 @@ class manager_core final : public execution_host, public std::enable_shared_from
 
     // Strand only, except live_records_ (under records_mutex_) which get() reads.
     std::map<std::string, std::shared_ptr<live_job>> jobs_;  // not terminal
-    std::map<std::string, lane> lanes_;
+    job_lanes lanes_;
     std::size_t running_ = 0;  // run() coroutines alive
     bool started_ = false;
     bool shutting_down_ = false;
     std::atomic<bool> abandoned_{false};
     mutable std::mutex records_mutex_;
     std::map<std::string, job_record> live_records_;
-    // Controller -> what an interrupted job left on it that must still be undone (strand only).
-    std::map<std::string, recovery> recovery_pending_;
-    // Controllers a recovery is being sent to (send_recovery); a run there waits for it.
-    std::set<std::string> recovering_;
+    // What interrupted jobs left on each controller that must still be undone (strand only); a run on
+    // a controller a debt is being sent to (send_recovery) waits for it.
+    restore_ledger restores_;
     // Each job's writes the store refused (disk full, read-only file), retried in order (strand only).
     // Kept after the job has ended: its final state must reach the store too. A running job pauses at its
     // next checkpoint, so usually only the steps until then wait there.
@@ -465,10 +451,7 @@ void manager_core::set_waiting(live_job& job, std::optional<job_wait> what) {
 }
 
 std::optional<job_wait> manager_core::queue_wait(const std::string& controller) const {
-    auto it = lanes_.find(controller);
-    if (it == lanes_.end()) return std::nullopt;
-    const auto& l = it->second;
-    if (l.holder.empty() && l.queue.empty() && !l.dispatching) return std::nullopt;
+    if (!lanes_.busy(controller)) return std::nullopt;
     return job_wait::controller;
 }
 
@@ -535,7 +518,7 @@ void manager_core::start() {
             job->record = std::move(r);
             self->jobs_[job->record.id] = job;
             self->set_state(*job, job_state::interrupted, "gateway restarted");
-            recovery rec;
+            owed_restore rec;
             rec.job_id = job->record.id;
             // A laser must never stay on: the crashed gateway could not switch the output off.
             rec.ttl_low = may_leave_ttl_output_high(job->record.type, job->record.spec);
@@ -550,7 +533,7 @@ void manager_core::start() {
                 self->add_recovery(job->record.controller, std::move(rec));
         }
         std::vector<std::string> reachable;
-        for (const auto& [controller, pending] : self->recovery_pending_)
+        for (const auto& controller : self->restores_.controllers_owed())
             if (self->controller_connected(controller)) reachable.push_back(controller);
         for (const auto& controller : reachable)
             self->send_recovery(controller);
@@ -568,9 +551,9 @@ void manager_core::start() {
             }
             if (!self->settings_.restart_queued) continue;  // kept; `resume` queues it again
             job->queued_in_lane = true;
-            self->lanes_[controller].queue.push_back(id);
+            self->lanes_.enqueue(controller, id);
         }
-        for (auto& [controller, l] : self->lanes_)
+        for (const auto& controller : self->lanes_.controllers())
             self->dispatch(controller);
     });
 }
@@ -583,9 +566,8 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
     auto self = shared_from_this();
     shutting_down_ = true;
     std::vector<std::shared_ptr<live_job>> to_stop;
-    for (auto& [controller, l] : lanes_) {
-        if (l.holder.empty()) continue;
-        auto it = jobs_.find(l.holder);
+    for (const auto& controller : lanes_.controllers()) {
+        auto it = jobs_.find(lanes_.holder(controller));
         if (it == jobs_.end()) continue;
         auto job = it->second;
         const auto st = job->record.state;
@@ -722,11 +704,10 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
                                     r.lease_id ? std::optional<std::string_view>(*r.lease_id) : std::nullopt);
         if (!lease) return deliver<submit_result>(std::move(h), lease.error());
     }
-    auto& l = lanes_[r.controller];
-    if (l.queue.size() >= settings_.max_queued_per_controller)
+    if (const auto queued = lanes_.queued(r.controller); queued >= settings_.max_queued_per_controller)
         return deliver<submit_result>(
-            std::move(h), make_error(kind::queue_full, fmt::format("{} already has {} queued jobs",
-                                                                   r.controller, l.queue.size())));
+            std::move(h),
+            make_error(kind::queue_full, fmt::format("{} already has {} queued jobs", r.controller, queued)));
     rec.id = make_job_id();
     rec.progress.waiting_for = queue_wait(r.controller);
     // Stored with the job, in one transaction: a store that cannot take the job's history refuses the
@@ -761,7 +742,7 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
     if (hub_) hub_->publish(job_topic(rec.id), queued_event);  // stored by insert()
     log_->info("job {} ({} on {}) queued: {} steps, {:.1f} s estimated", rec.id, to_string(rec.type),
                rec.controller, rec.progress.steps_total, rec.estimated_s);
-    l.queue.push_back(rec.id);
+    lanes_.enqueue(r.controller, rec.id);
     out.plan = std::move(*plan);
     deliver<submit_result>(std::move(h), std::move(out));
     dispatch(r.controller);
@@ -799,36 +780,31 @@ void manager_core::plan_again(std::shared_ptr<live_job> job,
 
 void manager_core::dispatch(const std::string& controller) {
     if (shutting_down_ || abandoned_) return;
-    auto& l = lanes_[controller];
-    if (!l.holder.empty() || l.dispatching) return;
-    while (!l.queue.empty()) {
-        const auto id = l.queue.front();
-        l.queue.pop_front();
+    const auto next = lanes_.take_next(controller, [this](const std::string& id) {
         auto it = jobs_.find(id);
-        if (it == jobs_.end()) continue;
-        auto job = it->second;
-        job->queued_in_lane = false;
-        if (job->record.state != job_state::queued) continue;
-        l.holder = id;
-        if (job->plan) return launch(job);
-        l.dispatching = true;
-        plan_again(job, [self = shared_from_this(), job, controller](operation_result<void> planned) {
-            auto& lane = self->lanes_[controller];
-            lane.dispatching = false;
-            if (job->record.state != job_state::queued || self->shutting_down_ || self->abandoned_) {
-                self->release(controller, job->record.id);
-                return;
-            }
-            if (!planned) {
-                self->set_state(*job, job_state::failed,
-                                "cannot plan the job again: " + describe(planned.error()));
-                self->release(controller, job->record.id);
-                return;
-            }
-            self->launch(job);
-        });
-        return;
-    }
+        if (it == jobs_.end()) return false;
+        it->second->queued_in_lane = false;
+        return it->second->record.state == job_state::queued;
+    });
+    if (!next) return;
+    auto job = jobs_.at(*next);
+    if (job->plan) return launch(job);
+    // Recovered after a restart: plans are not stored, so it is planned again first.
+    lanes_.set_planning(controller, true);
+    plan_again(job, [self = shared_from_this(), job, controller](operation_result<void> planned) {
+        self->lanes_.set_planning(controller, false);
+        if (job->record.state != job_state::queued || self->shutting_down_ || self->abandoned_) {
+            self->release(controller, job->record.id);
+            return;
+        }
+        if (!planned) {
+            self->set_state(*job, job_state::failed,
+                            "cannot plan the job again: " + describe(planned.error()));
+            self->release(controller, job->record.id);
+            return;
+        }
+        self->launch(job);
+    });
 }
 
 void manager_core::launch(std::shared_ptr<live_job> job) {
@@ -908,8 +884,7 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
 }
 
 void manager_core::release(const std::string& controller, const std::string& id) {
-    auto& l = lanes_[controller];
-    if (l.holder == id) l.holder.clear();
+    lanes_.release(controller, id);
     net::post(strand_, [self = shared_from_this(), controller] { self->dispatch(controller); });
 }
 
@@ -957,7 +932,7 @@ net::awaitable<void> manager_core::restore_settings(std::shared_ptr<live_job> jo
     // controller is connected again, or before the next run on it.
     store_restore_commands(job->record.id, undelivered);
     if (undelivered.empty() || shutting_down_) co_return;
-    recovery rec;
+    owed_restore rec;
     rec.job_id = job->record.id;
     rec.restore = std::move(undelivered);
     add_recovery(controller, std::move(rec));
@@ -987,15 +962,13 @@ void manager_core::acquire_lease(std::string controller, std::string holder, std
 }
 
 std::string manager_core::jobs_in_lane(const std::string& controller) const {
-    auto it = lanes_.find(controller);
-    if (it == lanes_.end()) return {};
     std::vector<std::string> parts;
     // A job that has ended (jobs_ keeps only the others) may hold the controller a little longer, until
     // its stop has been sent: it moves nothing more.
-    if (auto job = jobs_.find(it->second.holder);
-        job != jobs_.end() && !is_terminal(job->second->record.state))
-        parts.push_back(fmt::format("{} {}", it->second.holder, to_string(job->second->record.state)));
-    for (const auto& id : it->second.queue)
+    const auto holder = lanes_.holder(controller);
+    if (auto job = jobs_.find(holder); job != jobs_.end() && !is_terminal(job->second->record.state))
+        parts.push_back(fmt::format("{} {}", holder, to_string(job->second->record.state)));
+    for (const auto& id : lanes_.queue(controller))
         if (auto job = jobs_.find(id); job != jobs_.end() && job->second->record.state == job_state::queued)
             parts.push_back(id + " queued");
     std::string out;
@@ -1057,9 +1030,8 @@ void manager_core::cancel(job_action a, job_manager::handler<job_record> h) {
                     std::move(h),
                     make_error(kind::invalid_state,
                                fmt::format("job {} has ended ({})", a.job_id, to_string(st)), "state"));
-            auto& l = self->lanes_[controller];
             if (st == job_state::queued || st == job_state::interrupted) {
-                std::erase(l.queue, a.job_id);
+                self->lanes_.remove(controller, a.job_id);
                 job->queued_in_lane = false;
                 self->set_state(*job, job_state::cancelled, "cancelled");
                 co_return self->deliver<job_record>(std::move(h), job->record);
@@ -1119,15 +1091,15 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
                                        a.job_id, stored.error().message)));
         job->storage_failure.clear();
         const auto st = job->record.state;
-        auto& l = self->lanes_[controller];
+        const bool holds_controller = self->lanes_.holder(controller) == a.job_id;
         if (st == job_state::running && job->exec && job->exec->pause_requested()) {
             job->exec->resume();  // asked to pause, not paused yet: carry on
             return self->deliver<job_record>(std::move(h), job->record);
         }
-        if (st == job_state::queued && !job->queued_in_lane && l.holder != a.job_id) {
+        if (st == job_state::queued && !job->queued_in_lane && !holds_controller) {
             // Kept from before a restart (restart_queued off): queue it now.
             job->queued_in_lane = true;
-            l.queue.push_back(a.job_id);
+            self->lanes_.enqueue(controller, a.job_id);
             self->dispatch(controller);
             return self->deliver<job_record>(std::move(h), job->record);
         }
@@ -1149,17 +1121,12 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
             job->exec->resume();
             return self->deliver<job_record>(std::move(h), job->record);
         }
-        const bool goes_first = l.holder == a.job_id;
+        // A job that kept the controller while paused (a disconnect) goes first.
         self->set_state(*job, job_state::queued, "",
-                        goes_first ? std::nullopt : self->queue_wait(controller));
+                        holds_controller ? std::nullopt : self->queue_wait(controller));
         job->queued_in_lane = true;
-        if (goes_first) {
-            // It kept the controller while paused (a disconnect): it goes first.
-            l.holder.clear();
-            l.queue.push_front(a.job_id);
-        } else {
-            l.queue.push_back(a.job_id);
-        }
+        if (holds_controller) self->lanes_.release(controller, a.job_id);
+        self->lanes_.enqueue(controller, a.job_id, holds_controller);
         auto record = job->record;
         self->dispatch(controller);
         self->deliver<job_record>(std::move(h), std::move(record));
@@ -1191,9 +1158,7 @@ void manager_core::next(job_action a, job_manager::handler<job_record> h) {
 
 void manager_core::controller_snapshot_changed(const devices::controller_snapshot& s) {
     net::post(strand_, [self = shared_from_this(), id = s.id, state = s.state] {
-        auto it = self->lanes_.find(id);
-        if (it == self->lanes_.end() || it->second.holder.empty()) return;
-        auto job = self->jobs_.find(it->second.holder);
+        auto job = self->jobs_.find(self->lanes_.holder(id));
         if (job == self->jobs_.end() || !job->second->exec) return;
         if (job->second->exec->waiting_paused()) return;  // paused by a client: resume finds out
         job->second->exec->fail(
@@ -1203,9 +1168,7 @@ void manager_core::controller_snapshot_changed(const devices::controller_snapsho
 
 void manager_core::controller_reconnected(const std::string& controller) {
     net::post(strand_, [self = shared_from_this(), controller] {
-        auto it = self->lanes_.find(controller);
-        if (it == self->lanes_.end() || it->second.holder.empty()) return;
-        auto job = self->jobs_.find(it->second.holder);
+        auto job = self->jobs_.find(self->lanes_.holder(controller));
         if (job == self->jobs_.end()) return;
         // Paused by the disconnect: it waits for a client's resume now, which is possible again.
         if (job->second->record.progress.waiting_for == job_wait::controller)
@@ -1217,29 +1180,19 @@ void manager_core::controller_reconnected(const std::string& controller) {
 
 void manager_core::controller_came_up(const std::string& controller) {
     net::post(strand_, [self = shared_from_this(), controller] {
-        if (self->recovery_pending_.contains(controller)) self->send_recovery(controller);
+        if (self->restores_.owes(controller)) self->send_recovery(controller);
     });
 }
 
-void manager_core::add_recovery(const std::string& controller, recovery rec, bool rec_is_older) {
-    auto [it, added] = recovery_pending_.try_emplace(controller, rec);
-    if (added) return;
-    const recovery& older = rec_is_older ? rec : it->second;
-    const recovery& newer = rec_is_older ? it->second : rec;
-    recovery both;
-    both.job_id = newer.job_id;
-    both.ttl_low = older.ttl_low || newer.ttl_low;
-    both.restore = older.restore;
-    for (const auto& c : newer.restore)
-        if (std::find(both.restore.begin(), both.restore.end(), c) == both.restore.end())
-            both.restore.push_back(c);
-    store_restore_commands(both.job_id, both.restore);
-    if (older.job_id != newer.job_id) {
+void manager_core::add_recovery(const std::string& controller, owed_restore rec, bool rec_is_older) {
+    auto added = restores_.add(controller, std::move(rec), rec_is_older);
+    if (!added.merged) return;
+    store_restore_commands(added.now.job_id, added.now.restore);
+    if (added.superseded_job) {
         log_->info("{}: the restore commands of job {} are kept with those of job {}", controller,
-                   older.job_id, newer.job_id);
-        store_restore_commands(older.job_id, {});
+                   *added.superseded_job, added.now.job_id);
+        store_restore_commands(*added.superseded_job, {});
     }
-    it->second = std::move(both);
 }
 
 void manager_core::recover_undelivered_restores(const std::vector<job_record>& active) {
@@ -1257,7 +1210,7 @@ void manager_core::recover_undelivered_restores(const std::vector<job_record>& a
         auto found = store->find(id);
         auto commands = store->restore_commands(id);
         if (!found || !*found || !commands || commands->empty()) continue;
-        recovery rec;
+        owed_restore rec;
         rec.job_id = id;
         rec.restore = std::move(*commands);
         add_recovery((*found)->controller, std::move(rec));
@@ -1268,17 +1221,13 @@ net::awaitable<void> manager_core::put_back_before_run(std::shared_ptr<live_job>
     const std::string controller = job->record.controller;
     const std::string id = job->record.id;
     net::steady_timer wait(strand_);
-    while (recovering_.contains(controller) && !abandoned_) {
+    while (restores_.sending(controller) && !abandoned_) {
         wait.expires_after(std::chrono::milliseconds(10));
         boost::system::error_code ec;
         co_await wait.async_wait(net::redirect_error(net::use_awaitable, ec));
     }
     if (abandoned_) co_return;
-    recovery owed;
-    if (auto it = recovery_pending_.find(controller); it != recovery_pending_.end()) {
-        owed = std::move(it->second);
-        recovery_pending_.erase(it);
-    }
+    owed_restore owed = restores_.take(controller);
     const std::string earlier_job = owed.job_id;
     owed.job_id = id;
     for (const auto& c : job->restore_commands)
@@ -1311,11 +1260,9 @@ net::awaitable<void> manager_core::put_back_before_run(std::shared_ptr<live_job>
 }
 
 void manager_core::send_recovery(const std::string& controller) {
-    auto it = recovery_pending_.find(controller);
-    if (it == recovery_pending_.end() || abandoned_ || recovering_.contains(controller)) return;
-    recovery pending = std::move(it->second);
-    recovery_pending_.erase(it);
-    recovering_.insert(controller);
+    if (!restores_.owes(controller) || abandoned_ || restores_.sending(controller)) return;
+    owed_restore pending = restores_.take(controller);
+    restores_.start_sending(controller);
     net::co_spawn(
         strand_,
         [self = shared_from_this(), controller, pending = std::move(pending)]() -> net::awaitable<void> {
@@ -1331,10 +1278,10 @@ void manager_core::send_recovery(const std::string& controller) {
                     "[{}] {}: job {} was interrupted by a restart; {} of its {} restore "
                     "command(s) sent",
                     request_id, controller, job_id, restore.size() - left.restore.size(), restore.size());
-            self->recovering_.erase(controller);
+            self->restores_.done_sending(controller);
             if (!restore.empty()) self->store_restore_commands(job_id, left.restore);
             // Added while this one was being sent (a job that failed meanwhile): sent next.
-            const bool more = self->recovery_pending_.contains(controller);
+            const bool more = self->restores_.owes(controller);
             // What did not reach the controller waits for its next connect, or for the next run on it.
             if (left.ttl_low || !left.restore.empty()) self->add_recovery(controller, std::move(left), true);
             if (more && self->controller_connected(controller)) self->send_recovery(controller);
@@ -1342,9 +1289,9 @@ void manager_core::send_recovery(const std::string& controller) {
         net::detached);
 }
 
-net::awaitable<std::pair<manager_core::recovery, std::optional<operation_error>>> manager_core::deliver(
-    std::string controller, std::string request_id, recovery owed) {
-    recovery left;
+net::awaitable<std::pair<owed_restore, std::optional<operation_error>>> manager_core::deliver(
+    std::string controller, std::string request_id, owed_restore owed) {
+    owed_restore left;
     left.job_id = owed.job_id;
     std::optional<operation_error> error;
     if (owed.ttl_low) {
@@ -1413,9 +1360,7 @@ void manager_core::ttl_low_after_disconnect(std::shared_ptr<live_job> job) {
 
 void manager_core::controller_ttl_edge(const std::string& controller) {
     net::post(strand_, [self = shared_from_this(), controller] {
-        auto it = self->lanes_.find(controller);
-        if (it == self->lanes_.end() || it->second.holder.empty()) return;
-        auto job = self->jobs_.find(it->second.holder);
+        auto job = self->jobs_.find(self->lanes_.holder(controller));
         if (job != self->jobs_.end() && job->second->exec) job->second->exec->ttl_edge();
     });
 }

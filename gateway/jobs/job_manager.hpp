@@ -35,11 +35,11 @@
 #include <boost/asio/any_io_executor.hpp>
 #include <nlohmann/json.hpp>
 
+#include "gateway/common/operation_error.hpp"
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_plan.hpp"
 #include "gateway/jobs/job_query.hpp"
-#include "gateway/lease_manager.hpp"
-#include "gateway/operation_error.hpp"
+#include "gateway/leases/lease_manager.hpp"
 
 namespace gw {
 class controller_registry;

@@ -1,5 +1,5 @@
 // Wiring from the config file to the job manager; kept apart so job_manager.cpp needs no config.
-#include "gateway/config.hpp"
+#include "gateway/config/config.hpp"
 #include "gateway/jobs/job_manager.hpp"
 
 namespace gw::jobs {

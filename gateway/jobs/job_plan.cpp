@@ -4,7 +4,7 @@
 #include <cmath>
 #include <fmt/format.h>
 
-#include "gateway/operations.hpp"
+#include "gateway/controllers/operations.hpp"
 
 namespace gw::jobs {
 

@@ -14,9 +14,9 @@
 #include <nlohmann/json.hpp>
 
 #include "devices/serial/controller_snapshot.hpp"
+#include "gateway/common/operation_error.hpp"
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/motion_model.hpp"
-#include "gateway/operation_error.hpp"
 
 namespace gw::jobs {
 

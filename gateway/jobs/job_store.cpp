@@ -9,7 +9,7 @@
 #include <system_error>
 #include <utility>
 
-#include "gateway/timestamp.hpp"
+#include "gateway/common/timestamp.hpp"
 
 namespace gw::jobs {
 

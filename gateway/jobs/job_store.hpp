@@ -25,9 +25,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "gateway/common/operation_error.hpp"
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_query.hpp"
-#include "gateway/operation_error.hpp"
 
 struct sqlite3;
 

@@ -12,8 +12,8 @@
 #include <spdlog/logger.h>
 
 #include "devices/ms2000/reply.hpp"
-#include "gateway/controller_registry.hpp"
-#include "gateway/logging.hpp"
+#include "gateway/config/logging.hpp"
+#include "gateway/controllers/controller_registry.hpp"
 
 namespace gw::jobs {
 

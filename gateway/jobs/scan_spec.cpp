@@ -5,8 +5,8 @@
 #include <fmt/format.h>
 #include <set>
 
+#include "gateway/controllers/operations.hpp"
 #include "gateway/jobs/spec_fields.hpp"
-#include "gateway/operations.hpp"
 
 namespace gw::jobs {
 

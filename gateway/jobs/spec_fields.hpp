@@ -7,7 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "gateway/operation_error.hpp"
+#include "gateway/common/operation_error.hpp"
 
 namespace gw::jobs {
 

@@ -17,7 +17,7 @@
 #include "devices/serial/controller_events.hpp"
 #include "devices/serial/escape.hpp"
 #include "devices/serial/snapshot_update.hpp"
-#include "gateway/event_json.hpp"
+#include "gateway/events/event_json.hpp"
 
 namespace ms2000 = gw::devices::ms2000;
 namespace devices = gw::devices;

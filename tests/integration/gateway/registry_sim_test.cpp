@@ -17,7 +17,7 @@
 
 #include "devices/sim/sim_config.hpp"
 #include "devices/sim/simulator.hpp"
-#include "gateway/controller_registry.hpp"
+#include "gateway/controllers/controller_registry.hpp"
 #include "tests/support/drv_recording_observer.hpp"
 
 namespace gw {

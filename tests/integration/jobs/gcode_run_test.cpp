@@ -18,8 +18,8 @@
 #include <vector>
 
 #include "gateway/gcode/gcode_planner.hpp"
-#include "gateway/gcode_files.hpp"
 #include "gateway/jobs/safe_outputs.hpp"
+#include "gateway/storage/gcode_files.hpp"
 #include "tests/integration/jobs/manager_fixture.hpp"
 
 namespace gw::jobs::test {

@@ -30,11 +30,11 @@
 
 #include "devices/sim/sim_config.hpp"
 #include "devices/sim/simulator.hpp"
-#include "gateway/controller_registry.hpp"
-#include "gateway/event_hub.hpp"
-#include "gateway/event_sink.hpp"
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/events/event_hub.hpp"
+#include "gateway/events/event_sink.hpp"
 #include "gateway/jobs/job_manager.hpp"
-#include "gateway/lease_manager.hpp"
+#include "gateway/leases/lease_manager.hpp"
 #include "tests/support/drv_recording_observer.hpp"
 
 namespace gw::jobs::test {

@@ -24,7 +24,7 @@
 
 #include "devices/sim/sim_config.hpp"
 #include "devices/sim/simulator.hpp"
-#include "gateway/controller_registry.hpp"
+#include "gateway/controllers/controller_registry.hpp"
 
 namespace gw::jobs {
 namespace {

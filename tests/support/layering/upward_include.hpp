@@ -4,4 +4,4 @@
 
 #include "api/problem.hpp"
 #include "gateway/app/application.hpp"
-#include "gateway/timestamp.hpp"
+#include "gateway/common/timestamp.hpp"

@@ -112,9 +112,9 @@ INSTANTIATE_TEST_SUITE_P(
     [](const auto& info) { return std::string(info.param.name); });
 
 TEST(job_message, replayed_result_message) {
-    auto plain = json::parse(ws_result_message("s1", {{"id", "j-1"}}));
+    auto plain = json::parse(call_result_message("s1", {{"id", "j-1"}}));
     EXPECT_FALSE(plain.contains("replayed"));
-    auto replayed = json::parse(ws_result_message("s1", {{"id", "j-1"}}, true));
+    auto replayed = json::parse(call_result_message("s1", {{"id", "j-1"}}, true));
     EXPECT_EQ(replayed["replayed"], true);
     EXPECT_EQ(replayed["result"]["id"], "j-1");
     EXPECT_EQ(replayed["type"], "result");

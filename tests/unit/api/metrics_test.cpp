@@ -1,4 +1,4 @@
-#include "gateway/metrics.hpp"
+#include "gateway/common/metrics.hpp"
 
 #include <gtest/gtest.h>
 

@@ -5,7 +5,7 @@
 #include <boost/asio/io_context.hpp>
 #include <gtest/gtest.h>
 
-#include "gateway/controller_registry.hpp"
+#include "gateway/controllers/controller_registry.hpp"
 
 namespace gw::api {
 namespace {

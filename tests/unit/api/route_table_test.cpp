@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "api/path_segments.hpp"
-#include "gateway/controller_registry.hpp"
+#include "gateway/controllers/controller_registry.hpp"
 
 namespace gw::api {
 namespace {

@@ -36,7 +36,7 @@ TEST_P(refused, is_answered_with_a_problem) {
     EXPECT_FALSE(e.error.detail.empty());
     EXPECT_EQ(e.id, c.id) << c.text;
     // The answer is one valid JSON text frame.
-    auto answer = json::parse(ws_error_message(e.id, e.error));
+    auto answer = json::parse(call_error_message(e.id, e.error));
     EXPECT_EQ(answer["type"], "error");
     EXPECT_EQ(answer["id"], c.id);
     EXPECT_EQ(answer["problem"]["status"], c.status);
@@ -241,7 +241,7 @@ TEST(websocket_protocol, hello) {
 
 TEST(websocket_protocol, result_wraps_the_rest_body) {
     json result = {{"id", "sim1"}, {"operation", "halt"}, {"request_id", "ws-1.9"}, {"latency_us", 812}};
-    EXPECT_EQ(json::parse(ws_result_message(9, result)),
+    EXPECT_EQ(json::parse(call_result_message(9, result)),
               (json{{"type", "result"}, {"id", 9}, {"result", result}}));
 }
 
@@ -249,7 +249,7 @@ TEST(websocket_protocol, error_carries_the_problem_body) {
     auto p =
         make_problem(make_error(operation_error_kind::missing_module, "sim2 has no DAC OUT module", "volts"));
     p.request_id = "ws-1.d";
-    auto msg = json::parse(ws_error_message("d", p));
+    auto msg = json::parse(call_error_message("d", p));
     EXPECT_EQ(msg["type"], "error");
     EXPECT_EQ(msg["id"], "d");
     EXPECT_EQ(msg["problem"], p.to_json());
@@ -260,7 +260,7 @@ TEST(websocket_protocol, error_carries_the_problem_body) {
 TEST(websocket_protocol, invalid_utf8_never_throws_when_building_answers) {
     problem p = make_problem(http_error::malformed_json, "bad \xff byte");
     EXPECT_NO_THROW({
-        auto text = ws_error_message(nullptr, p);
+        auto text = call_error_message(nullptr, p);
         EXPECT_TRUE(json::accept(text));
     });
 }

@@ -1,4 +1,4 @@
-#include "gateway/controller_events_bridge.hpp"
+#include "gateway/events/controller_events_bridge.hpp"
 
 #include <chrono>
 #include <memory>
@@ -10,8 +10,8 @@
 #include <nlohmann/json.hpp>
 
 #include "devices/ms2000/build_info.hpp"
-#include "gateway/event_hub.hpp"
-#include "gateway/event_json.hpp"
+#include "gateway/events/event_hub.hpp"
+#include "gateway/events/event_json.hpp"
 
 namespace {
 

@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "gateway/event_hub.hpp"
+#include "gateway/events/event_hub.hpp"
 
 namespace gw::hub_test {
 

@@ -12,7 +12,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "gateway/event_hub.hpp"
+#include "gateway/events/event_hub.hpp"
 #include "tests/unit/gateway/event_hub_fixture.hpp"
 
 namespace {

@@ -1,4 +1,4 @@
-#include "gateway/event_hub.hpp"
+#include "gateway/events/event_hub.hpp"
 
 #include <chrono>
 #include <memory>

@@ -1,11 +1,11 @@
-#include "gateway/event.hpp"
+#include "gateway/events/event.hpp"
 
 #include <chrono>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "gateway/timestamp.hpp"
+#include "gateway/common/timestamp.hpp"
 
 namespace {
 

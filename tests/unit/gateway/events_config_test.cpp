@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "gateway/config.hpp"
+#include "gateway/config/config.hpp"
 #include "gateway/jobs/job_manager.hpp"
 
 namespace gw {

@@ -1,6 +1,6 @@
 // gcode_file_store on real files in a temporary directory: save/list/get/remove, the size cap, unknown
 // ids (path tricks included), and a directory the process may not write.
-#include "gateway/gcode_files.hpp"
+#include "gateway/storage/gcode_files.hpp"
 
 #include <filesystem>
 #include <fstream>

@@ -1,4 +1,4 @@
-#include "gateway/logging.hpp"
+#include "gateway/config/logging.hpp"
 
 #include <sstream>
 #include <string>

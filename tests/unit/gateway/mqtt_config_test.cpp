@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "gateway/config.hpp"
+#include "gateway/config/config.hpp"
 
 namespace gw {
 namespace {

@@ -1,4 +1,4 @@
-#include "gateway/operation_error.hpp"
+#include "gateway/common/operation_error.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // Validation of every typed operation against a controller snapshot, before anything is sent.
-#include "gateway/operations.hpp"
+#include "gateway/controllers/operations.hpp"
 
 #include <limits>
 #include <string>

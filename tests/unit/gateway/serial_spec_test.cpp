@@ -1,4 +1,4 @@
-#include "gateway/serial_spec.hpp"
+#include "gateway/config/serial_spec.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "gateway/startup_summary.hpp"
+#include "gateway/app/startup_summary.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // storage_lock on real files: one holder at a time, released when the holder goes away.
-#include "gateway/storage_lock.hpp"
+#include "gateway/storage/storage_lock.hpp"
 
 #include <filesystem>
 #include <string>

@@ -1,4 +1,4 @@
-#include "gateway/storage_path.hpp"
+#include "gateway/storage/storage_path.hpp"
 
 #include <map>
 

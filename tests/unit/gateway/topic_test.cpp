@@ -1,4 +1,4 @@
-#include "gateway/topic.hpp"
+#include "gateway/events/topic.hpp"
 
 #include <string>
 

@@ -1,4 +1,4 @@
-#include "gateway/jobs/job_id.hpp"
+#include "gateway/common/job_id.hpp"
 
 #include <algorithm>
 #include <chrono>

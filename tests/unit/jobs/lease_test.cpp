@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "gateway/lease_manager.hpp"
+#include "gateway/leases/lease_manager.hpp"
 
 namespace gw {
 namespace {

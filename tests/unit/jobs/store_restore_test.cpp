@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "gateway/jobs/job_id.hpp"
+#include "gateway/common/job_id.hpp"
 #include "gateway/jobs/job_store.hpp"
 
 namespace gw::jobs {

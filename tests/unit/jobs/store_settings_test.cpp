@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "gateway/config.hpp"
+#include "gateway/config/config.hpp"
 #include "gateway/jobs/job_manager.hpp"
 
 namespace gw::jobs {
@@ -20,7 +20,7 @@ TEST(store_settings, job_manager_settings_come_from_storage_and_jobs) {
 TEST(store_settings, defaults_match_the_manager_defaults) {
     auto s = make_job_manager_settings(default_config());
     job_manager_settings d;
-    EXPECT_EQ(s.storage_path, "");  // resolved by main (gateway/storage_path.hpp)
+    EXPECT_EQ(s.storage_path, "");  // resolved by main (gateway/storage/storage_path.hpp)
     EXPECT_EQ(s.storage_max_size_mb, d.storage_max_size_mb);
     EXPECT_EQ(s.restart_queued, d.restart_queued);
     EXPECT_EQ(s.max_queued_per_controller, d.max_queued_per_controller);

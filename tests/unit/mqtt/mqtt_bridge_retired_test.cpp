@@ -13,9 +13,9 @@
 
 #include "api/api_context.hpp"
 #include "api/mqtt/mqtt_bridge.hpp"
-#include "gateway/controller_registry.hpp"
-#include "gateway/event_hub.hpp"
-#include "gateway/metrics.hpp"
+#include "gateway/common/metrics.hpp"
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/events/event_hub.hpp"
 
 namespace gw::api {
 namespace {

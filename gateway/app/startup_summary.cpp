@@ -1,0 +1,28 @@
+#include "gateway/app/startup_summary.hpp"
+
+namespace gw {
+
+std::string http_url(const boost::asio::ip::tcp::endpoint& http) {
+    const auto address = http.address();
+    const auto host = address.is_v6() ? "[" + address.to_string() + "]" : address.to_string();
+    return "http://" + host + ":" + std::to_string(http.port()) + "/";
+}
+
+std::string startup_summary(const boost::asio::ip::tcp::endpoint& http, const std::string& storage,
+                            const std::vector<devices::controller_snapshot>& controllers,
+                            const std::vector<std::string>& brokers) {
+    std::string line = "serving " + http_url(http) + " (storage " + storage + "; controllers: ";
+    if (controllers.empty()) line += "none";
+    for (std::size_t i = 0; i < controllers.size(); ++i) {
+        if (i > 0) line += ", ";
+        line += controllers[i].id + " on " + controllers[i].port;
+    }
+    if (!brokers.empty()) {
+        line += "; MQTT to ";
+        for (std::size_t i = 0; i < brokers.size(); ++i)
+            line += (i > 0 ? ", " : "") + brokers[i];
+    }
+    return line + ")";
+}
+
+}  // namespace gw

@@ -1,0 +1,539 @@
+#include "gateway/config/config.hpp"
+
+#include <algorithm>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <ostream>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include <boost/asio/ip/address.hpp>
+#include <nlohmann/json.hpp>
+
+#include "gateway/config/config_files_check.hpp"
+
+namespace gw {
+
+namespace {
+
+using json = nlohmann::json;
+
+// Thrown inside this file only; parse_config turns it into its error string.
+struct config_error {
+    std::string message;
+};
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+    throw config_error{path + ": " + what};
+}
+
+std::string join_path(const std::string& parent, std::string_view key) {
+    return parent.empty() ? std::string(key) : parent + "." + std::string(key);
+}
+
+// One JSON object: refuses unknown keys at once, then hands out the known ones.
+class object_reader {
+  public:
+    object_reader(const json& j, std::string path, std::initializer_list<std::string_view> keys)
+        : j_(j), path_(std::move(path)) {
+        if (!j.is_object()) fail(path_.empty() ? "(top level)" : path_, "must be an object");
+        for (const auto& item : j.items()) {
+            if (std::find(keys.begin(), keys.end(), item.key()) == keys.end())
+                fail(join_path(path_, item.key()), "unknown key");
+        }
+    }
+
+    const json* get(std::string_view key) const {
+        auto it = j_.find(key);
+        return it == j_.end() ? nullptr : &*it;
+    }
+    std::string path(std::string_view key) const { return join_path(path_, key); }
+
+  private:
+    const json& j_;
+    std::string path_;
+};
+
+std::uint64_t read_uint(const json& j, const std::string& path, std::uint64_t min, std::uint64_t max) {
+    const auto range = "must be an integer from " + std::to_string(min) + " to " + std::to_string(max);
+    if (j.is_number_unsigned()) {
+        const auto v = j.get<std::uint64_t>();
+        if (v < min || v > max) fail(path, range);
+        return v;
+    }
+    fail(path, range);  // negative, fractional, or not a number
+}
+
+double read_double(const json& j, const std::string& path, double min, double max) {
+    std::ostringstream range;
+    range << "must be a number from " << min << " to " << max;
+    if (!j.is_number()) fail(path, range.str());
+    const auto v = j.get<double>();
+    if (!(v >= min && v <= max)) fail(path, range.str());
+    return v;
+}
+
+std::string read_string(const json& j, const std::string& path, bool allow_empty = false) {
+    if (!j.is_string()) fail(path, "must be a string");
+    auto s = j.get<std::string>();
+    if (s.empty() && !allow_empty) fail(path, "must not be empty");
+    for (const unsigned char c : s) {
+        if (c < 0x20 || c == 0x7f) fail(path, "must not contain control characters");
+    }
+    return s;
+}
+
+bool read_bool(const json& j, const std::string& path) {
+    if (!j.is_boolean()) fail(path, "must be true or false");
+    return j.get<bool>();
+}
+
+template <typename E>
+E read_enum(const json& j, const std::string& path,
+            std::initializer_list<std::pair<std::string_view, E>> table) {
+    std::string names;
+    for (const auto& [name, value] : table)
+        names += (names.empty() ? "" : ", ") + std::string(name);
+    if (!j.is_string()) fail(path, "must be one of " + names);
+    const auto s = j.get<std::string>();
+    for (const auto& [name, value] : table)
+        if (name == s) return value;
+    fail(path, "must be one of " + names);
+}
+
+const std::initializer_list<std::pair<std::string_view, log_level>> level_table = {
+    {"trace", log_level::trace}, {"debug", log_level::debug}, {"info", log_level::info},
+    {"warn", log_level::warn},   {"error", log_level::error}, {"critical", log_level::critical},
+    {"off", log_level::off}};
+
+bool valid_id(std::string_view id) {
+    if (id.empty() || id.size() > 64) return false;
+    return std::all_of(id.begin(), id.end(), [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
+               c == '_';
+    });
+}
+
+bool valid_logger_name(std::string_view name) {
+    if (name == "gateway" || name == "api" || name == "jobs" || name == "mqtt" || name == "ms2000")
+        return true;
+    constexpr std::string_view prefix = "ms2000.";
+    return name.starts_with(prefix) && valid_id(name.substr(prefix.size()));
+}
+
+void read_http(const json& j, http_config& out) {
+    object_reader r(j, "http", {"listen_address", "port", "limits"});
+    if (auto* v = r.get("listen_address")) {
+        out.listen_address = read_string(*v, r.path("listen_address"));
+        boost::system::error_code ec;
+        boost::asio::ip::make_address(out.listen_address, ec);
+        if (ec) fail(r.path("listen_address"), "must be an IPv4 or IPv6 address");
+    }
+    if (auto* v = r.get("port"))
+        out.port = static_cast<std::uint16_t>(read_uint(*v, r.path("port"), 0, 65535));
+    if (auto* lj = r.get("limits")) {
+        object_reader l(*lj, "http.limits",
+                        {"max_header_bytes", "max_body_bytes", "header_timeout_ms", "read_timeout_ms",
+                         "max_websocket_message_bytes", "max_connections", "max_connections_per_address",
+                         "max_buffered_body_mb"});
+        auto& lim = out.limits;
+        if (auto* v = l.get("max_header_bytes"))
+            lim.max_header_bytes = read_uint(*v, l.path("max_header_bytes"), 1024, 1024 * 1024);
+        if (auto* v = l.get("max_body_bytes"))
+            lim.max_body_bytes = read_uint(*v, l.path("max_body_bytes"), 1, 64 * 1024 * 1024);
+        if (auto* v = l.get("header_timeout_ms"))
+            lim.header_timeout =
+                std::chrono::milliseconds(read_uint(*v, l.path("header_timeout_ms"), 100, 600000));
+        if (auto* v = l.get("read_timeout_ms"))
+            lim.read_timeout =
+                std::chrono::milliseconds(read_uint(*v, l.path("read_timeout_ms"), 100, 600000));
+        if (auto* v = l.get("max_websocket_message_bytes"))
+            lim.max_websocket_message_bytes =
+                read_uint(*v, l.path("max_websocket_message_bytes"), 128, 16 * 1024 * 1024);
+        if (auto* v = l.get("max_connections"))
+            lim.max_connections = read_uint(*v, l.path("max_connections"), 1, 10000);
+        if (auto* v = l.get("max_connections_per_address"))
+            lim.max_connections_per_address = read_uint(*v, l.path("max_connections_per_address"), 1, 10000);
+        if (auto* v = l.get("max_buffered_body_mb"))
+            lim.max_buffered_body_bytes =
+                read_uint(*v, l.path("max_buffered_body_mb"), 1, 4096) * std::size_t{1024} * 1024;
+        if (lim.max_buffered_body_bytes < lim.max_body_bytes)
+            fail(l.path(l.get("max_buffered_body_mb") ? "max_buffered_body_mb" : "max_body_bytes"),
+                 "max_buffered_body_mb must hold at least one body of max_body_bytes");
+    }
+}
+
+devices::controller_settings read_controller(const json& j, const std::string& path) {
+    object_reader r(j, path, {"id", "port", "baud", "report_port", "poll_ms", "command_timeout_ms"});
+    devices::controller_settings s;
+    auto* id = r.get("id");
+    if (!id) fail(r.path("id"), "required");
+    s.id = read_string(*id, r.path("id"));
+    if (!valid_id(s.id)) fail(r.path("id"), "must be 1-64 characters of letters, digits, '-' or '_'");
+    auto* port = r.get("port");
+    if (!port) fail(r.path("port"), "required");
+    s.port = read_string(*port, r.path("port"));
+    if (auto* v = r.get("baud")) {
+        const bool integral = v->is_number_unsigned();
+        const auto baud = integral ? v->get<std::uint64_t>() : 0;
+        if (std::find(std::begin(supported_bauds), std::end(supported_bauds), baud) ==
+            std::end(supported_bauds))
+            fail(r.path("baud"), "must be one of 9600, 19200, 28800, 38400, 57600, 115200");
+        s.baud = static_cast<unsigned>(baud);
+    }
+    if (auto* v = r.get("report_port")) s.report_port = read_string(*v, r.path("report_port"), true);
+    if (auto* v = r.get("poll_ms"))
+        s.poll_interval = std::chrono::milliseconds(read_uint(*v, r.path("poll_ms"), 0, 60000));
+    if (auto* v = r.get("command_timeout_ms"))
+        s.command_timeout = std::chrono::milliseconds(read_uint(*v, r.path("command_timeout_ms"), 10, 60000));
+    return s;
+}
+
+void read_simulate(const json& j, simulate_config& out) {
+    object_reader r(j, "simulate", {"count", "time_scale", "directory"});
+    if (auto* v = r.get("count")) out.count = read_uint(*v, r.path("count"), 0, max_simulated_controllers);
+    if (auto* v = r.get("time_scale")) out.time_scale = read_double(*v, r.path("time_scale"), 0.01, 1000);
+    if (auto* v = r.get("directory")) out.directory = read_string(*v, r.path("directory"));
+}
+
+void read_auth(const json& j, auth_config& out) {
+    object_reader r(j, "auth", {"tokens"});
+    auto* tokens = r.get("tokens");
+    if (!tokens) return;
+    if (!tokens->is_array()) fail("auth.tokens", "must be an array");
+    for (std::size_t i = 0; i < tokens->size(); ++i) {
+        const auto path = "auth.tokens[" + std::to_string(i) + "]";
+        object_reader t((*tokens)[i], path, {"name", "token", "role"});
+        auth_token tok;
+        auto* name = t.get("name");
+        if (!name) fail(t.path("name"), "required");
+        tok.name = read_string(*name, t.path("name"));
+        auto* secret = t.get("token");
+        if (!secret) fail(t.path("token"), "required");
+        tok.token = read_string(*secret, t.path("token"));
+        if (tok.token.size() < 16) fail(t.path("token"), "must be at least 16 characters");
+        if (std::any_of(tok.token.begin(), tok.token.end(),
+                        [](unsigned char c) { return c <= 0x20 || c >= 0x7f; }))
+            fail(t.path("token"), "must be printable ASCII without spaces");
+        if (auto* v = t.get("role"))
+            tok.role = read_enum<role>(
+                *v, t.path("role"),
+                {{"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}});
+        for (const auto& other : out.tokens) {
+            if (other.name == tok.name) fail(t.path("name"), "duplicate name \"" + tok.name + "\"");
+            if (other.token == tok.token) fail(t.path("token"), "the same token is given twice");
+        }
+        out.tokens.push_back(std::move(tok));
+    }
+}
+
+void read_logging(const json& j, logging_config& out) {
+    object_reader r(j, "logging", {"level", "format", "levels"});
+    if (auto* v = r.get("level")) out.level = read_enum<log_level>(*v, r.path("level"), level_table);
+    if (auto* v = r.get("format"))
+        out.format = read_enum<log_format>(*v, r.path("format"),
+                                           {{"text", log_format::text}, {"json", log_format::json}});
+    if (auto* levels = r.get("levels")) {
+        if (!levels->is_object()) fail("logging.levels", "must be an object");
+        for (const auto& item : levels->items()) {
+            const auto path = "logging.levels." + item.key();
+            if (!valid_logger_name(item.key()))
+                fail(path, "unknown logger (gateway, api, jobs, mqtt, ms2000 or ms2000.<id>)");
+            out.levels[item.key()] = read_enum<log_level>(item.value(), path, level_table);
+        }
+    }
+}
+
+int read_qos(const json& j, const std::string& path) {
+    return static_cast<int>(read_uint(j, path, 0, 2));
+}
+
+// "mqtt://host[:port]" and the like: a known scheme, a host, an optional port.
+void check_broker_uri(const std::string& uri, const std::string& path) {
+    const auto sep = uri.find("://");
+    const auto scheme = sep == std::string::npos ? std::string() : uri.substr(0, sep);
+    if (scheme != "mqtt" && scheme != "tcp" && scheme != "mqtts" && scheme != "ssl")
+        fail(path, "must start with mqtt://, tcp://, mqtts:// or ssl://");
+    auto rest = std::string_view(uri).substr(sep + 3);
+    if (rest.empty() || rest.find_first_of("/ ?#@") != std::string_view::npos)
+        fail(path, "must be <scheme>://host[:port]");
+    const auto colon = rest.rfind(':');
+    if (colon != std::string_view::npos && rest.back() != ']') {
+        const auto port = rest.substr(colon + 1);
+        if (colon == 0 || port.empty() || port.size() > 5 ||
+            !std::all_of(port.begin(), port.end(), [](char c) { return c >= '0' && c <= '9'; }) ||
+            std::stoul(std::string(port)) == 0 || std::stoul(std::string(port)) > 65535)
+            fail(path, "the port must be 1..65535");
+    }
+}
+
+void read_mqtt(const json& j, mqtt_config& out) {
+    object_reader r(
+        j, "mqtt",
+        {"enabled", "brokers", "client_id", "username", "password", "tls", "keepalive_s", "topic_prefix",
+         "gateway_id", "protocol", "qos", "telemetry", "reconnect", "jobs", "commands"});
+    if (auto* v = r.get("enabled")) out.enabled = read_bool(*v, r.path("enabled"));
+    if (auto* v = r.get("brokers")) {
+        if (!v->is_array() || v->empty() || v->size() > 16)
+            fail(r.path("brokers"), "must be an array of 1..16 broker URIs");
+        out.brokers.clear();
+        for (std::size_t i = 0; i < v->size(); ++i) {
+            const auto path = r.path("brokers") + "[" + std::to_string(i) + "]";
+            auto uri = read_string((*v)[i], path);
+            check_broker_uri(uri, path);
+            out.brokers.push_back(std::move(uri));
+        }
+    }
+    if (auto* v = r.get("client_id")) {
+        out.client_id = read_string(*v, r.path("client_id"));
+        if (out.client_id.size() > 128) fail(r.path("client_id"), "must be at most 128 characters");
+    }
+    if (auto* v = r.get("username")) out.username = read_string(*v, r.path("username"));
+    if (auto* v = r.get("password")) out.password = read_string(*v, r.path("password"));
+    if (auto* tj = r.get("tls")) {
+        object_reader t(*tj, "mqtt.tls", {"ca_file", "cert_file", "key_file", "verify"});
+        if (auto* v = t.get("ca_file")) out.tls.ca_file = read_string(*v, t.path("ca_file"));
+        if (auto* v = t.get("cert_file")) out.tls.cert_file = read_string(*v, t.path("cert_file"));
+        if (auto* v = t.get("key_file")) out.tls.key_file = read_string(*v, t.path("key_file"));
+        if (auto* v = t.get("verify")) out.tls.verify = read_bool(*v, t.path("verify"));
+        if (out.tls.cert_file.empty() != out.tls.key_file.empty())
+            fail(t.path(out.tls.cert_file.empty() ? "cert_file" : "key_file"),
+                 "cert_file and key_file go together");
+    }
+    if (auto* v = r.get("keepalive_s"))
+        out.keepalive = std::chrono::seconds(read_uint(*v, r.path("keepalive_s"), 5, 3600));
+    if (auto* v = r.get("topic_prefix")) {
+        out.topic_prefix = read_string(*v, r.path("topic_prefix"));
+        if (!is_valid_mqtt_prefix(out.topic_prefix))
+            fail(r.path("topic_prefix"),
+                 "must be levels of 1-64 characters of letters, digits, '_', '.' or '-' separated by '/'");
+    }
+    if (auto* v = r.get("gateway_id")) {
+        out.gateway_id = read_string(*v, r.path("gateway_id"));
+        if (!is_valid_mqtt_level(out.gateway_id))
+            fail(r.path("gateway_id"), "must be 1-64 characters of letters, digits, '_', '.' or '-'");
+    }
+    if (auto* v = r.get("protocol"))
+        out.protocol = read_enum<mqtt_protocol>(*v, r.path("protocol"),
+                                                {{"5", mqtt_protocol::v5}, {"3.1.1", mqtt_protocol::v3_1_1}});
+    if (auto* qj = r.get("qos")) {
+        object_reader q(*qj, "mqtt.qos", {"status", "state", "telemetry", "jobs", "responses"});
+        if (auto* v = q.get("status")) out.qos.status = read_qos(*v, q.path("status"));
+        if (auto* v = q.get("state")) out.qos.state = read_qos(*v, q.path("state"));
+        if (auto* v = q.get("telemetry")) out.qos.telemetry = read_qos(*v, q.path("telemetry"));
+        if (auto* v = q.get("jobs")) out.qos.jobs = read_qos(*v, q.path("jobs"));
+        if (auto* v = q.get("responses")) out.qos.responses = read_qos(*v, q.path("responses"));
+    }
+    if (auto* tj = r.get("telemetry")) {
+        object_reader t(*tj, "mqtt.telemetry", {"position_max_hz"});
+        if (auto* v = t.get("position_max_hz"))
+            out.position_max_hz = read_double(*v, t.path("position_max_hz"), 0, 1000);
+    }
+    if (auto* rj = r.get("reconnect")) {
+        object_reader t(*rj, "mqtt.reconnect", {"min_ms", "max_ms"});
+        if (auto* v = t.get("min_ms"))
+            out.reconnect_min = std::chrono::milliseconds(read_uint(*v, t.path("min_ms"), 10, 60000));
+        if (auto* v = t.get("max_ms"))
+            out.reconnect_max = std::chrono::milliseconds(read_uint(*v, t.path("max_ms"), 10, 600000));
+        if (out.reconnect_max < out.reconnect_min) fail(t.path("max_ms"), "must be at least min_ms");
+    }
+    if (auto* jj = r.get("jobs")) {
+        object_reader t(*jj, "mqtt.jobs", {"queue_limit", "retain_finished_s"});
+        if (auto* v = t.get("queue_limit"))
+            out.job_queue_limit = read_uint(*v, t.path("queue_limit"), 1, 100000);
+        if (auto* v = t.get("retain_finished_s"))
+            out.retain_finished_jobs =
+                std::chrono::seconds(read_uint(*v, t.path("retain_finished_s"), 0, 604800));
+    }
+    if (auto* cj = r.get("commands")) {
+        object_reader t(*cj, "mqtt.commands", {"enabled"});
+        if (auto* v = t.get("enabled")) out.commands_enabled = read_bool(*v, t.path("enabled"));
+    }
+}
+
+void read_events(const json& j, events_config& out) {
+    object_reader r(j, "events", {"ended_job_topic_ttl_s"});
+    if (auto* v = r.get("ended_job_topic_ttl_s"))
+        out.ended_job_topic_ttl = std::chrono::seconds(
+            read_uint(*v, r.path("ended_job_topic_ttl_s"), 0, max_ended_job_topic_ttl_s));
+}
+
+// mqtt.jobs.retain_finished_s given in the file.
+bool retain_finished_given(const json& j) {
+    const auto mqtt = j.find("mqtt");
+    if (mqtt == j.end() || !mqtt->is_object()) return false;
+    const auto jobs = mqtt->find("jobs");
+    return jobs != mqtt->end() && jobs->is_object() && jobs->contains("retain_finished_s");
+}
+
+gateway_config read_config(const json& j) {
+    gateway_config c;
+    object_reader r(j, "",
+                    {"http", "controllers", "simulate", "storage", "jobs", "gcode", "auth", "logging",
+                     "shutdown", "events", "mqtt"});
+    if (auto* v = r.get("http")) read_http(*v, c.http);
+    if (auto* v = r.get("controllers")) {
+        if (!v->is_array()) fail("controllers", "must be an array");
+        for (std::size_t i = 0; i < v->size(); ++i)
+            c.controllers.push_back(read_controller((*v)[i], "controllers[" + std::to_string(i) + "]"));
+    }
+    if (auto* v = r.get("simulate")) read_simulate(*v, c.simulate);
+    if (auto* v = r.get("storage")) {
+        object_reader s(*v, "storage", {"path", "max_size_mb"});
+        if (auto* p = s.get("path")) c.storage.path = read_string(*p, s.path("path"));
+        if (auto* m = s.get("max_size_mb"))
+            c.storage.max_size_mb = read_uint(*m, s.path("max_size_mb"), 1, max_storage_size_mb);
+    }
+    if (auto* v = r.get("jobs")) {
+        object_reader s(*v, "jobs", {"restart_queued", "max_queued_per_controller"});
+        if (auto* b = s.get("restart_queued"))
+            c.jobs.restart_queued = read_bool(*b, s.path("restart_queued"));
+        if (auto* m = s.get("max_queued_per_controller"))
+            c.jobs.max_queued_per_controller =
+                read_uint(*m, s.path("max_queued_per_controller"), 1, max_queued_jobs_per_controller);
+    }
+    if (auto* v = r.get("gcode")) {
+        object_reader s(*v, "gcode", {"max_file_mb"});
+        if (auto* m = s.get("max_file_mb"))
+            c.gcode.max_file_mb = read_uint(*m, s.path("max_file_mb"), 1, max_gcode_file_mb);
+    }
+    if (auto* v = r.get("auth")) read_auth(*v, c.auth);
+    if (auto* v = r.get("logging")) read_logging(*v, c.logging);
+    if (auto* v = r.get("shutdown")) {
+        object_reader s(*v, "shutdown", {"halt_on_exit"});
+        if (auto* h = s.get("halt_on_exit")) c.shutdown.halt_on_exit = read_bool(*h, s.path("halt_on_exit"));
+    }
+    if (auto* v = r.get("events")) read_events(*v, c.events);
+    if (auto* v = r.get("mqtt")) read_mqtt(*v, c.mqtt);
+    // A job's retained MQTT state goes when its hub topic does, unless the file says otherwise.
+    if (!retain_finished_given(j)) c.mqtt.retain_finished_jobs = c.events.ended_job_topic_ttl;
+    return c;
+}
+
+}  // namespace
+
+std::string_view to_string(role r) {
+    switch (r) {
+        case role::viewer:
+            return "viewer";
+        case role::operator_:
+            return "operator";
+        case role::admin:
+            return "admin";
+    }
+    return "viewer";
+}
+
+std::string_view to_string(log_level l) {
+    for (const auto& [name, value] : level_table)
+        if (value == l) return name;
+    return "info";
+}
+
+gateway_config default_config() {
+    gateway_config c;
+    c.simulate.count = 3;
+    return c;
+}
+
+bool is_valid_mqtt_level(std::string_view level) {
+    if (level.empty() || level.size() > 64 || level.front() == '$') return false;
+    return std::all_of(level.begin(), level.end(), [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
+               c == '_' || c == '.';
+    });
+}
+
+bool is_valid_mqtt_prefix(std::string_view prefix) {
+    if (prefix.empty() || prefix.size() > 128) return false;
+    while (true) {
+        const auto slash = prefix.find('/');
+        if (!is_valid_mqtt_level(prefix.substr(0, slash))) return false;
+        if (slash == std::string_view::npos) return true;
+        prefix.remove_prefix(slash + 1);
+    }
+}
+
+bool is_loopback_address(std::string_view address) {
+    boost::system::error_code ec;
+    const auto a = boost::asio::ip::make_address(std::string(address), ec);
+    return !ec && a.is_loopback();
+}
+
+std::string validate_config(const gateway_config& config) {
+    std::set<std::string> simulated;
+    for (std::size_t i = 0; i < config.simulate.count; ++i)
+        simulated.insert("sim" + std::to_string(i + 1));
+    std::set<std::string> ids;
+    for (std::size_t i = 0; i < config.controllers.size(); ++i) {
+        const auto& id = config.controllers[i].id;
+        const auto where = "controllers[" + std::to_string(i) + "].id: duplicate id \"" + id + "\"";
+        if (simulated.contains(id)) return where + " (simulated controllers are named sim1..simN)";
+        if (!ids.insert(id).second) return where;
+    }
+    boost::system::error_code ec;
+    boost::asio::ip::make_address(config.http.listen_address, ec);
+    if (ec)  // the file's value is checked when read; this catches --listen
+        return "http.listen_address (--listen): \"" + config.http.listen_address +
+               "\" is not an IPv4 or IPv6 address";
+    if (config.auth.tokens.empty() && !is_loopback_address(config.http.listen_address))
+        return "http.listen_address (--listen): " + config.http.listen_address +
+               " is not a loopback address, which needs auth.tokens (no tokens: loopback only)";
+    // Every MQTT command carries a token: without tokens anyone on the broker would be admin.
+    if (config.mqtt.enabled && config.mqtt.commands_enabled && config.auth.tokens.empty())
+        return "mqtt.commands.enabled: needs auth.tokens (every MQTT command carries a token)";
+    return {};
+}
+
+boost::system::result<gateway_config, std::string> parse_config(std::string_view json_text) {
+    json j;
+    try {
+        j = json::parse(json_text);
+    } catch (const json::parse_error& e) {
+        std::string what = e.what();
+        if (auto pos = what.find("] "); pos != std::string::npos) what = what.substr(pos + 2);
+        return "not valid JSON: " + what;
+    }
+    gateway_config c;
+    try {
+        c = read_config(j);
+    } catch (const config_error& e) {
+        return e.message;
+    }
+    if (auto problem = validate_config(c); !problem.empty()) return problem;
+    return c;
+}
+
+boost::system::result<gateway_config, std::string> load_config_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return path + ": cannot be read";
+    std::ostringstream text;
+    text << in.rdbuf();
+    auto parsed = parse_config(text.str());
+    if (!parsed) return path + ": " + parsed.error();
+    return parsed;
+}
+
+// Also checks the files the config names (gateway/config/config_files_check.hpp): an unusable TLS file is
+// an error (2), a serial port that does not exist now a warning on `err` (still 0).
+int check_config_file(const std::string& path, std::ostream& out, std::ostream& err) {
+    auto parsed = load_config_file(path);
+    if (!parsed) {
+        err << parsed.error() << '\n';
+        return 2;
+    }
+    // The files it names: a TLS file that cannot be used is an error, a serial port not there now a
+    // warning (it may be plugged in later).
+    bool failed = false;
+    for (const auto& f : check_config_files(*parsed)) {
+        err << path << ": " << (f.error ? "" : "warning: ") << f.message << '\n';
+        failed = failed || f.error;
+    }
+    if (failed) return 2;
+    out << "ok\n";
+    return 0;
+}
+
+}  // namespace gw

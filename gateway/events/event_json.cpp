@@ -1,0 +1,159 @@
+#include "gateway/events/event_json.hpp"
+
+#include <cmath>
+#include <optional>
+#include <string>
+
+#include "devices/ms2000/build_info.hpp"
+#include "devices/ms2000/error.hpp"
+#include "gateway/common/timestamp.hpp"
+
+namespace gw {
+
+namespace {
+
+// Nanometre resolution: enough for any stage, and "1234.5" stays "1234.5" in the output.
+double round_um(double um) {
+    return std::round(um * 1000.0) / 1000.0;
+}
+
+nlohmann::json um_or_null(const std::optional<double>& um) {
+    return um ? nlohmann::json(round_um(*um)) : nlohmann::json(nullptr);
+}
+
+nlohmann::json mm_to_um_or_null(const std::optional<double>& mm) {
+    return mm ? nlohmann::json(round_um(*mm * 1000.0)) : nlohmann::json(nullptr);
+}
+
+template <typename T>
+nlohmann::json or_null(const std::optional<T>& v) {
+    return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+}
+
+nlohmann::json time_or_null(const std::optional<std::chrono::system_clock::time_point>& t) {
+    return t ? nlohmann::json(format_timestamp(*t)) : nlohmann::json(nullptr);
+}
+
+std::string axis_name(char letter) {
+    return std::string(1, letter);
+}
+
+nlohmann::json identity_json(const devices::controller_identity& id) {
+    namespace ms2000 = devices::ms2000;
+    auto modules = nlohmann::json::array();
+    for (std::size_t i = 0; i < static_cast<std::size_t>(ms2000::module::count_); ++i) {
+        auto m = static_cast<ms2000::module>(i);
+        if (id.build.has(m)) modules.push_back(std::string(ms2000::module_id(m)));
+    }
+    return {{"version", id.version},
+            {"version_raw", id.version_raw},
+            {"build", id.build.name},
+            {"motor_axes", id.build.motor_axes},
+            {"modules", std::move(modules)},
+            {"module_lines", id.build.module_lines},
+            {"ring_buffer_size", id.build.ring_buffer_size}};
+}
+
+std::string_view kind_name(devices::ms2000::reply::kind k) {
+    using kind = devices::ms2000::reply::kind;
+    switch (k) {
+        case kind::ack:
+            return "ack";
+        case kind::error:
+            return "error";
+        case kind::status:
+            return "status";
+        case kind::text:
+            return "text";
+    }
+    return "text";
+}
+
+}  // namespace
+
+nlohmann::json state_json(const devices::controller_snapshot& s) {
+    auto axes = nlohmann::json::array();
+    for (const auto& a : s.axes) {
+        axes.push_back({{"axis", axis_name(a.axis)},
+                        {"position_um", um_or_null(a.position_um)},
+                        {"busy", a.busy},
+                        {"counts_per_mm", or_null(a.counts_per_mm)},
+                        {"soft_limits_um",
+                         {{"lower", mm_to_um_or_null(a.lower_limit_mm)},
+                          {"upper", mm_to_um_or_null(a.upper_limit_mm)}}}});
+    }
+    nlohmann::json last_error = nullptr;
+    if (s.last_error) {
+        last_error = {{"code", s.last_error->code},
+                      {"name", s.last_error->name},
+                      {"text", s.last_error->text},
+                      {"hint", s.last_error->hint.empty() ? nlohmann::json(nullptr)
+                                                          : nlohmann::json(s.last_error->hint)},
+                      {"time", format_timestamp(s.last_error->when)}};
+    }
+    return {{"id", s.id},
+            {"state", std::string(devices::to_string(s.state))},
+            {"port", s.port},
+            {"busy", s.busy},
+            {"identity", s.identity ? identity_json(*s.identity) : nlohmann::json(nullptr)},
+            {"axes", std::move(axes)},
+            {"ttl", {{"in0_mode", or_null(s.ttl_in0_mode)}, {"out0_mode", or_null(s.ttl_out0_mode)}}},
+            {"last_error", std::move(last_error)},
+            {"report_port", std::string(devices::to_string(s.report))},
+            {"last_attempt", time_or_null(s.last_attempt)},
+            {"next_retry", time_or_null(s.next_retry)},
+            {"updated", format_timestamp(s.updated)}};
+}
+
+nlohmann::json position_json(const devices::controller_snapshot& s) {
+    auto axes = nlohmann::json::array();
+    for (const auto& a : s.axes)
+        axes.push_back(
+            {{"axis", axis_name(a.axis)}, {"position_um", um_or_null(a.position_um)}, {"busy", a.busy}});
+    return {{"id", s.id}, {"busy", s.busy}, {"axes", std::move(axes)}};
+}
+
+nlohmann::json report_json(const devices::report_event& e) {
+    auto axes = nlohmann::json::array();
+    for (const auto& a : e.axes)
+        axes.push_back({{"axis", axis_name(a.letter)},
+                        {"counts", a.counts},
+                        {"position_um", um_or_null(a.position_um)}});
+    return {{"id", e.controller_id},
+            {"controller_seq", e.sequence},
+            {"time", format_timestamp(e.system_time)},
+            {"bytes_skipped", e.bytes_skipped},
+            {"axes", std::move(axes)}};
+}
+
+nlohmann::json ttl_json(const devices::ttl_event& e) {
+    auto axes = nlohmann::json::array();
+    for (const auto& a : e.axes)
+        axes.push_back({{"axis", axis_name(a.letter)}, {"position_um", round_um(a.position_um)}});
+    return {{"id", e.controller_id},
+            {"controller_seq", e.sequence},
+            {"time", format_timestamp(e.system_time)},
+            {"controller_ms", e.controller_ms},
+            {"axes", std::move(axes)}};
+}
+
+nlohmann::json reply_json(const devices::ms2000::reply& r) {
+    nlohmann::json j = {{"kind", kind_name(r.what)}};
+    if (r.what == devices::ms2000::reply::kind::error) {
+        j["error_code"] = r.error_code;
+        j["error_name"] = devices::ms2000::controller_error_name(r.error_code);
+    }
+    if (r.what == devices::ms2000::reply::kind::status) j["busy"] = r.busy;
+    j["values"] = r.values;
+    nlohmann::json axes = nlohmann::json::array();
+    for (const auto& a : r.axes) {
+        nlohmann::json aj = {{"axis", std::string(1, a.axis)}, {"text", a.text}};
+        aj["number"] = a.number ? nlohmann::json(*a.number) : nlohmann::json(nullptr);
+        axes.push_back(std::move(aj));
+    }
+    j["axes"] = std::move(axes);
+    j["lines"] = r.lines;
+    return j;
+}
+
+}  // namespace gw
