@@ -3,7 +3,7 @@
 #include <spdlog/logger.h>
 
 #include "api/http_session.hpp"
-#include "gateway/metrics.hpp"
+#include "gateway/common/metrics.hpp"
 
 namespace gw::api {
 
@@ -92,6 +92,10 @@ void listener::start(net::ip::tcp::socket socket) {
             {{"reason", a.refused == connection_table::refusal::address_limit ? "address" : "limit"}});
         return refuse(std::move(socket), std::move(a.detail));
     }
+    // Every answer and event is written whole: Nagle's algorithm would only hold a small write back
+    // behind an unacknowledged one (up to the client's delayed ACK, about 40 ms).
+    beast::error_code nodelay_ec;
+    socket.set_option(net::ip::tcp::no_delay(true), nodelay_ec);
     auto session = std::make_shared<http_session>(std::move(socket), ctx_, a.permit, bodies_);
     a.permit->track(session);
     session->run();
