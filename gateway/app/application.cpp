@@ -48,6 +48,9 @@ application::~application() {
     // The job manager has stopped (or never started): what is left there is not run.
     jobs_ioc_.stop();
     if (jobs_thread_.joinable()) jobs_thread_.join();
+    // What is still queued on either context is dropped while both still exist (application_io_context).
+    jobs_ioc_.shutdown();
+    ioc_.shutdown();
 }
 
 int application::run() {

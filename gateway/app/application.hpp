@@ -38,6 +38,16 @@ class server;
 class mqtt_bridge;
 }  // namespace api
 
+// An io_context that can drop what is still queued on it (shutdown()) before it is destroyed. The
+// application has two whose leftovers hold each other's I/O objects (a handler on the jobs thread holds
+// the job manager, which holds the event hub and its timers on the I/O thread's context; a reply
+// pending on the I/O thread holds a job's coroutine and its timers on the jobs thread's context), so
+// both are shut down before either is destroyed.
+class application_io_context : public boost::asio::io_context {
+  public:
+    using boost::asio::execution_context::shutdown;
+};
+
 class application {
   public:
     explicit application(launch_settings launch);
@@ -59,11 +69,10 @@ class application {
     launch_settings launch_;
     std::shared_ptr<spdlog::logger> log_;
     std::optional<storage_lock> storage_;  // held until every handler holding the store is gone
-    // Declared before ioc_: a handler left there may hold the job manager, whose timers run here.
-    boost::asio::io_context jobs_ioc_;
+    application_io_context jobs_ioc_;      // the job manager's thread
     std::optional<boost::asio::executor_work_guard<boost::asio::io_context::executor_type>> jobs_work_;
     std::thread jobs_thread_;
-    boost::asio::io_context ioc_;
+    application_io_context ioc_;  // the I/O thread
     std::unique_ptr<controller_registry> registry_;
     std::shared_ptr<metrics> metrics_;
     std::shared_ptr<event_hub> hub_;
