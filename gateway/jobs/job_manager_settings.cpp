@@ -1,4 +1,4 @@
-// Wiring from the config file to the job manager; kept apart so job_manager.cpp needs no config.
+// Wiring from the config file to the job manager; kept apart so the manager needs no config.
 #include "gateway/config/config.hpp"
 #include "gateway/jobs/job_manager.hpp"
 

@@ -1,0 +1,269 @@
+#pragma once
+// Inside the job manager (gateway/jobs/job_manager.hpp is its public face): manager_core, the object
+// that does the manager's work on one strand, and the helpers its parts share. Only the job_manager_*.cpp
+// files include this. Its methods are defined by concern:
+//
+//   job_manager.cpp             the public job_manager, which forwards to the core; the registry observer
+//   job_manager_history.cpp     states, events and their way into the store and onto the hub; reads;
+//                               what a run reports (execution_host)
+//   job_manager_lifecycle.cpp   start (restart recovery), shutdown, abandon
+//   job_manager_submission.cpp  validate, plan, store and queue a submission
+//   job_manager_runs.cpp        the lanes' dispatch, a run's start and end, safe stop, controller events
+//   job_manager_control.cpp     cancel, pause, resume, next, leases
+//   job_manager_recovery.cpp    what stopped or crashed runs owe a controller, and its delivery
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <fmt/format.h>
+#include <map>
+#include <mutex>
+
+#include <boost/asio/append.hpp>
+#include <boost/asio/co_spawn.hpp>
+#include <boost/asio/detached.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/redirect_error.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/asio/use_awaitable.hpp>
+#include <spdlog/spdlog.h>
+
+#include "devices/serial/controller_observer.hpp"
+#include "gateway/common/job_id.hpp"
+#include "gateway/config/logging.hpp"
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/events/event_hub.hpp"
+#include "gateway/jobs/job_execution.hpp"
+#include "gateway/jobs/job_journal.hpp"
+#include "gateway/jobs/job_json.hpp"
+#include "gateway/jobs/job_kinds.hpp"
+#include "gateway/jobs/job_lanes.hpp"
+#include "gateway/jobs/job_manager.hpp"
+#include "gateway/jobs/job_store.hpp"
+#include "gateway/jobs/job_store_handle.hpp"
+#include "gateway/jobs/motion_probe.hpp"
+#include "gateway/jobs/restore_ledger.hpp"
+#include "gateway/jobs/safe_outputs.hpp"
+#include "gateway/leases/lease_manager.hpp"
+
+// g++ 12 reports a false -Wmismatched-new-delete at the end of some asio coroutines (the awaitable
+// frame's own operator new/delete pair); clang and g++ 13 do not.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
+
+namespace gw::jobs {
+
+namespace net = boost::asio;
+using json = nlohmann::json;
+using kind = operation_error_kind;
+
+// How long shutdown waits for running jobs to stop after their HALT before closing the store anyway.
+inline constexpr std::chrono::milliseconds shutdown_grace{5000};
+
+// How often writes that the job store refused are tried again.
+inline constexpr std::chrono::milliseconds store_retry_interval{1000};
+
+// Seconds the steps from `first` on still need: their motion, settle and dwell estimates. A step that
+// waits for a trigger counts without its wait, which no one can predict (waiting_for shows it).
+inline double remaining_from(const job_plan& plan, std::size_t first) {
+    double s = 0;
+    for (std::size_t i = first; i < plan.steps.size(); ++i)
+        s += plan.steps[i].estimated_s;
+    return s;
+}
+
+// progress.eta from remaining_s as of `now`: only a running job that waits for nothing unbounded has an
+// end to expect.
+inline void estimate_end(job_record& r, job_clock::time_point now) {
+    auto& p = r.progress;
+    const bool predictable =
+        r.state == job_state::running && p.remaining_s && !(p.waiting_for && is_unbounded(*p.waiting_for));
+    p.eta.reset();
+    if (predictable)
+        p.eta = now + std::chrono::duration_cast<job_clock::duration>(
+                          std::chrono::duration<double>(std::max(0.0, *p.remaining_s)));
+}
+
+// gcode_file_store's directory (api/server.cpp makes the API's store on the same one).
+inline std::filesystem::path gcode_files_directory(const job_manager_settings& s) {
+    return s.storage_path.empty() ? std::filesystem::path{} : std::filesystem::path(s.storage_path) / "gcode";
+}
+
+inline std::string describe(const operation_error& e) {
+    return e.message.empty() ? std::string(to_string(e.kind)) : e.message;
+}
+
+// Everything the manager does, on one strand. Shared with the run() coroutines and the registry
+// observer, so it outlives the job_manager object while they finish.
+class manager_core final : public execution_host, public std::enable_shared_from_this<manager_core> {
+  public:
+    manager_core(net::any_io_executor executor, net::any_io_executor work_executor,
+                 controller_registry& registry, std::shared_ptr<event_hub> hub,
+                 std::shared_ptr<lease_manager> leases, job_manager_settings settings,
+                 std::unique_ptr<job_store> store)
+        : executor_(std::move(executor)),
+          strand_(net::make_strand(std::move(work_executor))),
+          registry_(registry),
+          hub_(std::move(hub)),
+          leases_(std::move(leases)),
+          settings_(std::move(settings)),
+          log_(get_logger("jobs")),
+          store_(std::move(store)) {}
+
+    void attach();
+    void start();
+    void shutdown(std::function<void()> done);
+    void abandon();
+
+    void submit(submit_request r, job_manager::handler<submit_result> h);
+    void cancel(job_action a, job_manager::handler<job_record> h);
+    void pause(job_action a, job_manager::handler<job_record> h);
+    void resume(job_action a, job_manager::handler<job_record> h);
+    void next(job_action a, job_manager::handler<job_record> h);
+    void acquire_lease(std::string controller, std::string holder, std::chrono::seconds ttl,
+                       job_manager::handler<lease> h);
+
+    operation_result<job_record> get(const std::string& id) const;
+    operation_result<job_page> list(const job_filter& f) const;
+    operation_result<std::vector<json>> events(const std::string& id, std::size_t limit) const;
+
+    // Registry observer events (controller strands): posted here.
+    void controller_snapshot_changed(const devices::controller_snapshot& s);
+    // The controller is connected (and identified) again after it was not.
+    void controller_reconnected(const std::string& controller);
+    // Connected and identified (the first time or again): sends what start() left pending for it.
+    void controller_came_up(const std::string& controller);
+    void controller_ttl_edge(const std::string& controller);
+
+    // execution_host
+    void on_step_started(live_job& job, std::size_t index) override;
+    void on_step_done(live_job& job, std::size_t index, json detail) override;
+    void on_emit(live_job& job, json event) override;
+    void on_paused(live_job& job) override;
+    void on_waiting(live_job& job, std::optional<job_wait> what) override;
+    std::vector<json> step_events(const live_job& job) const override;
+    std::filesystem::path gcode_files() const override { return gcode_files_directory(settings_); }
+    void on_restore_commands_changed(live_job& job) override;
+
+  private:
+    template <typename T>
+    void deliver(job_manager::handler<T> h, operation_result<T> r) {
+        net::post(executor_, net::append(std::move(h), std::move(r)));
+    }
+
+    operation_result<std::shared_ptr<live_job>> find_live(const std::string& id);
+    operation_result<void> check_lease(const std::string& controller, const job_action& a) const;
+    // "j-1 running, j-2 queued": the jobs that hold the controller or wait for it; empty when none.
+    std::string jobs_in_lane(const std::string& controller) const;
+
+    void submit_planned(submit_request r, job_manager::handler<submit_result> h, motion_model model);
+    void plan_again(std::shared_ptr<live_job> job, std::function<void(operation_result<void>)> done);
+
+    // Changes the state, persists it (transition) and publishes {"type":"state",...}. `waiting`: what
+    // the job waits for in its new state (a run sets its own waits: on_waiting).
+    void set_state(live_job& job, job_state s, std::string reason,
+                   std::optional<job_wait> waiting = std::nullopt);
+    // Changes progress.waiting_for (and eta: unknown from the start of an unbounded wait, estimated again
+    // at its end) and publishes it as a state event; nothing when it is the same.
+    void set_waiting(live_job& job, std::optional<job_wait> what);
+    // A job queued on `controller` now waits for it when another job holds it or is queued before it.
+    std::optional<job_wait> queue_wait(const std::string& controller) const;
+    // Stores the job's record (state, progress, a transition) and/or one of its events, in one
+    // transaction, behind the job's writes that the store refused before (store_write). `progress`: the
+    // write records what the job did (a step, a transition), so a refusal pauses it (store_refused); a
+    // change of what it waits for does not (its step's write, queued behind it, will).
+    void save(const std::string& id, std::optional<job_record> record, const json& event,
+              bool progress = true);
+    // Writes go through the job's queue of unstored writes, so that they reach the store in order:
+    // appends `w`, then writes what is queued. A refusal keeps the rest queued (store_refused).
+    void store_write(const std::string& id, job_journal::write w, bool progress = true);
+    // journal_.write_pending; an ended job whose history is all stored is read from the store after it.
+    operation_result<void> write_unstored(const std::string& id);
+    // The store refused a write of the job: the writes are retried every store_retry_interval, and, for
+    // a write of its progress, a running job pauses at its next checkpoint (nothing may run unrecorded).
+    void store_refused(const std::string& id, const operation_error& e, bool progress);
+    void retry_unstored_later();
+    // Persists the job's restore commands (empty: removes them); a storage error is logged.
+    void store_restore_commands(const std::string& id, const std::vector<std::string>& commands);
+    // On the hub, for the job's topic (after save: a client never sees what is not stored first); the
+    // topic of an ended job is retired settings_.ended_job_topic_ttl later.
+    void publish(const job_record& job, const json& event);
+
+    void dispatch(const std::string& controller);
+    void launch(std::shared_ptr<live_job> job);
+    void run_finished(std::shared_ptr<job_execution> exec, std::exception_ptr e);
+    void release(const std::string& controller, const std::string& id);
+    // HALT, "TTL Y=0", then the job's restore_if_stopped commands.
+    net::awaitable<void> safe_stop(std::shared_ptr<live_job> job);
+    // The job's restore_if_stopped commands, newest first; failures are logged.
+    net::awaitable<void> restore_settings(std::shared_ptr<live_job> job);
+    // "TTL Y=0" for a job paused by a disconnect (a laser must not stay on): once connected again.
+    void ttl_low_after_disconnect(std::shared_ptr<live_job> job);
+    // Sends "TTL Y=0"; the error message when it failed, empty when it went through.
+    net::awaitable<std::string> ttl_output_low(std::string controller, std::string request_id);
+    // For a job that a crash interrupted: "TTL Y=0" (safe_outputs.hpp), then its stored restore
+    // commands newest first (as safe_stop does), once; what fails to reach the controller waits for the
+    // next connect or the next run. Sent with safe_output_request_id(), not as the job's.
+    void send_recovery(const std::string& controller);
+    // Sends "TTL Y=0" when owed.ttl_low, then owed.restore newest first, under `request_id`. Returns
+    // what did not reach the controller (a refusal did: it would be refused again), with its error.
+    net::awaitable<std::pair<owed_restore, std::optional<operation_error>>> deliver(std::string controller,
+                                                                                    std::string request_id,
+                                                                                    owed_restore owed);
+    // Keeps `rec` to send once the controller is connected. A recovery already pending there is kept
+    // too, the older list first: sent newest first, a setting both runs changed ends at the older run's
+    // value, the one from before either. Stored under the newer job.
+    void add_recovery(const std::string& controller, owed_restore rec, bool rec_is_older = false);
+    // start(): the stored restore commands of jobs that were not active (ended or interrupted before),
+    // which an earlier run of the gateway could not deliver.
+    void recover_undelivered_restores(const std::vector<job_record>& active);
+    // Before a run starts: waits for a recovery being sent to the controller, then puts back what
+    // earlier runs left changed there (a pending recovery, the job's own run that a disconnect ended),
+    // so that the run reads the settings from before any job changed them. What does not reach the
+    // controller stays in the job's restore commands, and the run does not start (job_failure).
+    net::awaitable<void> put_back_before_run(std::shared_ptr<live_job> job);
+    net::awaitable<void> shutdown_coro(std::function<void()> done);
+
+    bool controller_connected(const std::string& id) const {
+        auto s = registry_.get(id);
+        return s && s->state == devices::connection_state::connected && s->identity;
+    }
+
+    net::any_io_executor executor_;             // where completion handlers without their own executor run
+    net::strand<net::any_io_executor> strand_;  // everything else, store writes included
+    controller_registry& registry_;
+    std::shared_ptr<event_hub> hub_;
+    std::shared_ptr<lease_manager> leases_;
+    job_manager_settings settings_;
+    std::shared_ptr<spdlog::logger> log_;
+
+    // The store: written from the strand, read from get/list/events on any thread.
+    job_store_handle store_;
+
+    // Strand only, except live_records_ (under records_mutex_) which get() reads.
+    std::map<std::string, std::shared_ptr<live_job>> jobs_;  // not terminal
+    job_lanes lanes_;
+    std::size_t running_ = 0;  // run() coroutines alive
+    bool started_ = false;
+    bool shutting_down_ = false;
+    std::atomic<bool> abandoned_{false};
+    mutable std::mutex records_mutex_;
+    std::map<std::string, job_record> live_records_;
+    // What interrupted jobs left on each controller that must still be undone (strand only); a run on
+    // a controller a debt is being sent to (send_recovery) waits for it.
+    restore_ledger restores_;
+    // Each job's writes the store refused (disk full, read-only file), retried in order (strand only).
+    // Kept after the job has ended: its final state must reach the store too. A running job pauses at its
+    // next checkpoint, so usually only the steps until then wait there.
+    job_journal journal_{store_, settings_.max_unstored_writes_per_job, log_};
+    net::steady_timer store_retry_{strand_};
+    bool store_retry_armed_ = false;
+
+    std::shared_ptr<devices::controller_observer> observer_;
+
+    friend class job_manager;
+};
+
+}  // namespace gw::jobs

@@ -1,0 +1,201 @@
+#include "gateway/jobs/job_manager_core.hpp"
+
+namespace gw::jobs {
+
+// ---------------------------------------------------------------------------------------------
+// Running.
+
+void manager_core::dispatch(const std::string& controller) {
+    if (shutting_down_ || abandoned_) return;
+    const auto next = lanes_.take_next(controller, [this](const std::string& id) {
+        auto it = jobs_.find(id);
+        if (it == jobs_.end()) return false;
+        it->second->queued_in_lane = false;
+        return it->second->record.state == job_state::queued;
+    });
+    if (!next) return;
+    auto job = jobs_.at(*next);
+    if (job->plan) return launch(job);
+    // Recovered after a restart: plans are not stored, so it is planned again first.
+    lanes_.set_planning(controller, true);
+    plan_again(job, [self = shared_from_this(), job, controller](operation_result<void> planned) {
+        self->lanes_.set_planning(controller, false);
+        if (job->record.state != job_state::queued || self->shutting_down_ || self->abandoned_) {
+            self->release(controller, job->record.id);
+            return;
+        }
+        if (!planned) {
+            self->set_state(*job, job_state::failed,
+                            "cannot plan the job again: " + describe(planned.error()));
+            self->release(controller, job->record.id);
+            return;
+        }
+        self->launch(job);
+    });
+}
+
+void manager_core::launch(std::shared_ptr<live_job> job) {
+    const auto first = std::min(job->record.progress.steps_done, job->plan->steps.size());
+    job->ttl_low_on_reconnect = false;  // the run owns the output again
+    auto exec = std::make_shared<job_execution>(strand_, registry_, weak_from_this(), job, first);
+    job->exec = exec;
+    job->record.progress.remaining_s = remaining_from(*job->plan, first);
+    ++running_;
+    set_state(*job, job_state::running, "");
+    net::co_spawn(
+        strand_,
+        [self = shared_from_this(), job, exec]() -> net::awaitable<void> {
+            co_await self->put_back_before_run(job);
+            co_await run_job(*exec);
+        },
+        [self = shared_from_this(), exec](std::exception_ptr e) { self->run_finished(exec, e); });
+}
+
+void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::exception_ptr e) {
+    --running_;
+    auto job = exec->live();
+    if (job->exec == exec) job->exec.reset();
+    if (abandoned_ || exec->abandoned() || job->stopping) return;  // a cancel in progress finishes it
+    const auto controller = job->record.controller;
+    const auto id = job->record.id;
+    const auto st = job->record.state;
+    if (st != job_state::running && st != job_state::paused) {
+        // Cancelled or interrupted already (the manager set the state before the coroutine ended).
+        release(controller, id);
+        return;
+    }
+    std::string failure;
+    bool disconnected = false;
+    bool cancelled = false;
+    try {
+        if (e) std::rethrow_exception(e);
+    } catch (const job_cancelled&) {
+        cancelled = true;
+    } catch (const job_failure& f) {
+        failure = describe(f.error);
+        // The registry's observer may have seen the disconnect first (exec->failure()), or the command
+        // failed first and the snapshot says so.
+        disconnected = f.error.kind == kind::not_connected || exec->failure().has_value() ||
+                       !controller_connected(controller);
+    } catch (const std::exception& x) {
+        failure = std::string("internal error: ") + x.what();
+    }
+    if (!e) {
+        set_state(*job, job_state::succeeded, "");
+        store_restore_commands(id, {});  // the run put its settings back itself
+        release(controller, id);
+    } else if (cancelled) {
+        set_state(*job, job_state::cancelled, "cancelled");
+        release(controller, id);
+    } else if (disconnected) {
+        // The job keeps the controller: resume continues from the last completed step, once it is back.
+        set_state(*job, job_state::paused, "controller disconnected: " + failure,
+                  controller_connected(controller) ? std::nullopt : std::optional(job_wait::controller));
+        const auto& r = job->restore_commands;
+        if (std::find(r.begin(), r.end(), "TTL Y=0") != r.end()) {
+            job->ttl_low_on_reconnect = true;
+            if (controller_connected(controller)) ttl_low_after_disconnect(job);  // back already
+        }
+    } else {
+        set_state(*job, job_state::failed, failure);
+        // Put back what the job changed before the next job gets the controller.
+        net::co_spawn(
+            strand_,
+            [self = shared_from_this(), job]() -> net::awaitable<void> {
+                co_await self->restore_settings(job);
+            },
+            [self = shared_from_this(), controller, id](std::exception_ptr) {
+                self->release(controller, id);
+            });
+    }
+}
+
+void manager_core::release(const std::string& controller, const std::string& id) {
+    lanes_.release(controller, id);
+    net::post(strand_, [self = shared_from_this(), controller] { self->dispatch(controller); });
+}
+
+net::awaitable<void> manager_core::safe_stop(std::shared_ptr<live_job> job) {
+    // Named arguments only: g++ 12 mishandles temporaries that live across a co_await.
+    const std::string controller = job->record.controller;
+    const std::string request_id = "job-" + job->record.id;
+    std::string halt_controller = controller;
+    std::string halt_request_id = request_id;
+    auto halted = co_await registry_.async_halt(std::move(halt_controller), std::move(halt_request_id),
+                                                net::use_awaitable);
+    if (!halted) log_->warn("[{}] {}: HALT failed: {}", request_id, controller, halted.error().message);
+    const std::string ttl_failed = co_await ttl_output_low(controller, request_id);
+    if (!ttl_failed.empty()) {
+        log_->warn("[{}] {}: TTL Y=0 failed: {}", request_id, controller, ttl_failed);
+        // Not delivered: it waits with the restore commands for the controller to be back.
+        auto& r = job->restore_commands;
+        if (may_leave_ttl_output_high(job->record.type, job->record.spec) &&
+            std::find(r.begin(), r.end(), "TTL Y=0") == r.end())
+            r.emplace_back("TTL Y=0");
+    }
+    co_await restore_settings(std::move(job));
+}
+
+net::awaitable<void> manager_core::restore_settings(std::shared_ptr<live_job> job) {
+    const std::string controller = job->record.controller;
+    const std::string request_id = "job-" + job->record.id;
+    const auto restore = job->restore_commands;
+    std::vector<std::string> undelivered;  // registration order, as stored
+    for (auto it = restore.rbegin(); it != restore.rend(); ++it) {
+        std::string restore_controller = controller;
+        std::string restore_request_id = request_id;
+        raw_command_request request{*it};
+        auto r = co_await registry_.async_raw_command(std::move(restore_controller), std::move(request),
+                                                      std::move(restore_request_id), net::use_awaitable);
+        if (!r) {
+            log_->warn("[{}] {}: restoring with \"{}\" failed: {}", request_id, controller, *it,
+                       r.error().message);
+            // It did not reach the controller (an answer, even a refusal, is not an error here).
+            undelivered.insert(undelivered.begin(), *it);
+        }
+    }
+    if (restore.empty()) co_return;
+    // Kept in the store for the next start when the gateway is shutting down; otherwise sent once the
+    // controller is connected again, or before the next run on it.
+    store_restore_commands(job->record.id, undelivered);
+    if (undelivered.empty() || shutting_down_) co_return;
+    owed_restore rec;
+    rec.job_id = job->record.id;
+    rec.restore = std::move(undelivered);
+    add_recovery(controller, std::move(rec));
+    if (controller_connected(controller)) send_recovery(controller);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Controller events.
+
+void manager_core::controller_snapshot_changed(const devices::controller_snapshot& s) {
+    net::post(strand_, [self = shared_from_this(), id = s.id, state = s.state] {
+        auto job = self->jobs_.find(self->lanes_.holder(id));
+        if (job == self->jobs_.end() || !job->second->exec) return;
+        if (job->second->exec->waiting_paused()) return;  // paused by a client: resume finds out
+        job->second->exec->fail(
+            make_error(kind::not_connected, fmt::format("{} is {}", id, devices::to_string(state))));
+    });
+}
+
+void manager_core::controller_reconnected(const std::string& controller) {
+    net::post(strand_, [self = shared_from_this(), controller] {
+        auto job = self->jobs_.find(self->lanes_.holder(controller));
+        if (job == self->jobs_.end()) return;
+        // Paused by the disconnect: it waits for a client's resume now, which is possible again.
+        if (job->second->record.progress.waiting_for == job_wait::controller)
+            self->set_waiting(*job->second, std::nullopt);
+        if (!job->second->ttl_low_on_reconnect) return;
+        self->ttl_low_after_disconnect(job->second);
+    });
+}
+
+void manager_core::controller_ttl_edge(const std::string& controller) {
+    net::post(strand_, [self = shared_from_this(), controller] {
+        auto job = self->jobs_.find(self->lanes_.holder(controller));
+        if (job != self->jobs_.end() && job->second->exec) job->second->exec->ttl_edge();
+    });
+}
+
+}  // namespace gw::jobs
