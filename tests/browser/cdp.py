@@ -128,17 +128,30 @@ class Browser:
                 " const hit = document.elementFromPoint(x, y);"
                 " const still = a.x === b.x && a.y === b.y && a.width === b.width && a.height === b.height;"
                 " return [x, y, still && !!hit && e.contains(hit)]; })()")
+        # Which element the click reached: the page may still move between finding the element and the
+        # mouse events (separate calls), and a click that reached another element is not retried blindly.
+        watch = ("(() => { window.__cdpClick = null; addEventListener('click', (ev) =>"
+                 " { window.__cdpClick = ev.target; }, {capture: true, once: true}); })()")
+        landed = (f"(() => {{ const e = document.querySelector({json.dumps(selector)}); const t = window.__cdpClick;"
+                  " return t === null ? 'none' : (e && e.contains(t)) ? 'element' : 'other'; })()")
         deadline = time.monotonic() + timeout
         while True:
             box = await self.evaluate(find)
             if not box:
                 raise AssertionError(f"no element {selector}")
             if box[2]:
-                break
+                await self.evaluate(watch)
+                for kind in ("mousePressed", "mouseReleased"):
+                    await self.call("Input.dispatchMouseEvent", type=kind, x=box[0], y=box[1], button="left",
+                                    clickCount=1)
+                where = await self.evaluate(landed)
+                if where == "element":
+                    return
+                if where == "other":
+                    raise AssertionError(f"the click meant for {selector} reached another element (the page moved)")
+                # 'none': the press fell between elements as the page moved; nothing was clicked, try again
             if time.monotonic() > deadline:
                 raise AssertionError(f"{selector} did not hold still under the mouse within {timeout} s")
-        for kind in ("mousePressed", "mouseReleased"):
-            await self.call("Input.dispatchMouseEvent", type=kind, x=box[0], y=box[1], button="left", clickCount=1)
 
     async def screenshot(self, path):
         r = await self.call("Page.captureScreenshot", format="png", captureBeyondViewport=False)
