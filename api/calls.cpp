@@ -6,6 +6,7 @@
 #include <boost/asio/post.hpp>
 
 #include "api/auth.hpp"
+#include "api/gcode_requests.hpp"
 #include "api/lease_requests.hpp"
 #include "api/operation_requests.hpp"
 
@@ -23,7 +24,8 @@ void deliver(api_context& ctx, api_handler done, api_outcome out) {
 
 gw::role role_for(const call& c) {
     if (const auto* op = std::get_if<operation_call>(&c)) return required_role(op->operation);
-    if (std::holds_alternative<job_get_call>(c) || std::holds_alternative<lease_get_call>(c))
+    if (std::holds_alternative<job_get_call>(c) || std::holds_alternative<lease_get_call>(c) ||
+        std::holds_alternative<gcode_check_call>(c))
         return gw::role::viewer;
     if (const auto* release = std::get_if<lease_release_call>(&c); release && release->force)
         return gw::role::admin;
@@ -71,6 +73,8 @@ void dispatch_call(api_context& ctx, const caller& who, call c, api_handler done
     if (const auto* renew = std::get_if<lease_renew_call>(&c))
         return deliver(ctx, std::move(done),
                        renew_lease(ctx, renew->controller, who.lease_id, renew->body, who.request_id));
+    if (const auto* check = std::get_if<gcode_check_call>(&c))
+        return check_stored_program(ctx, check->file, check->options, who.request_id, std::move(done));
     if (const auto* release = std::get_if<lease_release_call>(&c))
         return deliver(ctx, std::move(done),
                        release_lease(ctx, release->controller, who.lease_id, release->force, who.request_id));

@@ -63,11 +63,20 @@ struct lease_release_call {
     bool force = false;  // without the lease id: admin only
 };
 
-using call = std::variant<operation_call, job_submit_call, job_action_call, job_get_call, lease_get_call,
-                          lease_take_call, lease_renew_call, lease_release_call>;
+// A stored G-code program checked and planned without a controller: the plan's summary. `options`: an
+// object of G-code option names to values (null: none), as the query of POST
+// /api/v1/gcode/files/{id}/plan. Plans with every move, and previews, are documents the size of the
+// program: HTTP only (api/README.md).
+struct gcode_check_call {
+    std::string file;
+    nlohmann::json options;
+};
 
-// The role a call needs: viewer to read a job or a lease; admin for the "command" operation and a
-// forced lease release; operator for everything else.
+using call = std::variant<operation_call, job_submit_call, job_action_call, job_get_call, lease_get_call,
+                          lease_take_call, lease_renew_call, lease_release_call, gcode_check_call>;
+
+// The role a call needs: viewer to read a job or a lease and to check a G-code program; admin for the
+// "command" operation and a forced lease release; operator for everything else.
 gw::role role_for(const call& c);
 
 // Runs `c` for `who` and calls `done` once, on its associated executor (default ctx.executor), never

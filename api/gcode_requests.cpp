@@ -8,10 +8,13 @@
 #include <streambuf>
 #include <variant>
 
+#include <boost/asio/append.hpp>
+#include <boost/asio/post.hpp>
 #include <nlohmann/json.hpp>
 
 #include "api/auth.hpp"
 #include "api/gcode_worker.hpp"
+#include "api/json_object.hpp"
 #include "api/printable_text.hpp"
 #include "api/response_headers.hpp"
 #include "gateway/gcode/gcode_plan_json.hpp"
@@ -89,7 +92,7 @@ string_response error_of(const operation_error& e, const response_meta& m) {
 }
 
 // 422 invalid-gcode: the problem plus the program error's line, column and message.
-string_response gcode_error_response(const gcode::gcode_error& e, const response_meta& m) {
+problem invalid_gcode_problem(const gcode::gcode_error& e) {
     problem p;
     p.status = 422;
     p.kind = "invalid_gcode";
@@ -97,14 +100,17 @@ string_response gcode_error_response(const gcode::gcode_error& e, const response
     p.detail = e.line > 0 ? "line " + std::to_string(e.line) + ", column " + std::to_string(e.column) + ": " +
                                 e.message
                           : e.message;
+    p.program = problem::program_error{e.line, e.column, e.message};
+    return p;
+}
+
+string_response gcode_error_response(const gcode::gcode_error& e, const response_meta& m) {
+    auto p = invalid_gcode_problem(e);
     p.instance = std::string(target_path(m.target));
     p.request_id = m.request_id;
-    json j = p.to_json();
-    j["line"] = e.line;
-    j["column"] = e.column;
-    j["message"] = e.message;
     return body_response(http::status::unprocessable_entity,
-                         j.dump(-1, ' ', false, json::error_handler_t::replace), problem_content_type, m);
+                         p.to_json().dump(-1, ' ', false, json::error_handler_t::replace),
+                         problem_content_type, m);
 }
 
 string_response plan_response(std::istream& in, const gcode_query& q, const response_meta& m) {
@@ -345,6 +351,84 @@ operation_result<gcode_query> parse_gcode_query(const query_params& q, gcode_out
         return make_error(operation_error_kind::invalid_value, *why, field);
     }
     return r;
+}
+
+operation_result<query_params> options_as_query(const json& options) {
+    query_params q;
+    if (options.is_null()) return q;
+    if (!options.is_object())
+        return make_error(
+            operation_error_kind::invalid_value,
+            "\"options\" must be an object of G-code options, not " + std::string(json_type_name(options)),
+            "options");
+    for (const auto& [name, value] : options.items()) {
+        const auto field = "options." + shown_in_message(name);
+        if (name == "moves")
+            return make_error(operation_error_kind::invalid_value,
+                              "a check answers with the plan's summary; the moves come from POST "
+                              "/api/v1/gcode/files/{id}/plan",
+                              field);
+        if (value.is_string())
+            q.emplace_back(name, value.get<std::string>());
+        else if (value.is_boolean())
+            q.emplace_back(name, value.get<bool>() ? "true" : "false");
+        else if (value.is_number())
+            q.emplace_back(name, value.dump());
+        else
+            return make_error(operation_error_kind::invalid_value,
+                              "a G-code option is a string, a number or a boolean, not " +
+                                  std::string(json_type_name(value)),
+                              field);
+    }
+    return q;
+}
+
+void check_stored_program(api_context& ctx, const std::string& file, const json& options,
+                          const std::string& request_id, api_handler done) {
+    const auto executor = ctx.executor;
+    auto answer = [executor, request_id](api_handler h, api_outcome out) {
+        if (out.error) out.error->request_id = request_id;
+        net::post(executor, net::append(std::move(h), std::move(out)));
+    };
+    if (!ctx.gcode_files)
+        return answer(std::move(done), failed(make_error(operation_error_kind::storage_unavailable,
+                                                         "this gateway has no G-code file store"),
+                                              request_id));
+    auto query = options_as_query(options);
+    if (!query) return answer(std::move(done), failed(query.error(), request_id));
+    auto parsed = parse_gcode_query(*query, gcode_output::plan);
+    if (!parsed) {
+        auto e = parsed.error();
+        if (!e.field.empty()) e.field = "options." + e.field;
+        return answer(std::move(done), failed(e, request_id));
+    }
+    if (!ctx.gcode_thread)
+        return answer(std::move(done),
+                      failed(make_error(operation_error_kind::internal, "no G-code thread"), request_id));
+    // The handler waits in a shared slot: it is answered here when the planner refuses the task.
+    auto waiting = std::make_shared<std::optional<api_handler>>(std::move(done));
+    const bool posted = ctx.gcode_thread->try_post([store = ctx.gcode_files, file, options = parsed->options,
+                                                    waiting, answer, request_id]() {
+        api_outcome out;
+        auto path = store->path_of(file);
+        std::ifstream in;
+        if (path) in.open(*path, std::ios::binary);
+        if (!path)
+            out = failed(path.error(), request_id);
+        else if (!in)  // deleted in between
+            out = failed(make_error(operation_error_kind::unknown_file, "no G-code file \"" + file + "\""),
+                         request_id);
+        else if (auto checked = gcode::check_program(in, options);
+                 auto* e = std::get_if<gcode::gcode_error>(&checked))
+            out = failed(invalid_gcode_problem(*e), request_id);
+        else {
+            std::ostringstream summary;
+            gcode::write_plan_summary_json(summary, std::get<gcode::plan_summary>(checked));
+            out.body = json::parse(summary.str(), nullptr, false);
+        }
+        answer(std::move(**waiting), std::move(out));
+    });
+    if (!posted) answer(std::move(**waiting), failed(planner_busy(*ctx.gcode_thread), request_id));
 }
 
 bool is_gcode_path(std::string_view path) {

@@ -53,6 +53,14 @@ enum class gcode_output : std::uint8_t { plan, preview };
 // Pure: the query's options, or invalid_value naming the parameter.
 operation_result<gcode_query> parse_gcode_query(const query_params& q, gcode_output output);
 
+// gcode_check_call (api/calls.hpp): the summary of a stored program's plan, as POST
+// /api/v1/gcode/files/{id}/plan?moves=false answers it, on the G-code thread. `options`: an object of
+// G-code option names to strings, numbers or booleans (null: none); a bad one is invalid_value naming
+// "options.<name>". `done` gets the outcome on its associated executor (default ctx.executor), never
+// inline: unknown_file, invalid_gcode (with the line, column and message), planner_busy (503).
+void check_stored_program(api_context& ctx, const std::string& file, const nlohmann::json& options,
+                          const std::string& request_id, api_handler done);
+
 // True for the paths under /api/v1/gcode/ (gcode_routes() serves them).
 bool is_gcode_path(std::string_view path);
 // The body limit for a request whose header says `method` and `target`: the G-code POSTs may carry a

@@ -122,6 +122,11 @@ nlohmann::json problem::to_json() const {
         j["controller_code"] = controller_code;
         j["controller_code_name"] = controller_code_name;
     }
+    if (program) {
+        j["line"] = program->line;
+        j["column"] = program->column;
+        j["message"] = program->message;
+    }
     return j;
 }
 

@@ -9,6 +9,7 @@
 //    "request_id":"4f1c...","field":"volts"}
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -49,6 +50,14 @@ struct problem {
     int controller_code = 0;           // controller_error: ":N-<code>" (signed)
     std::string controller_code_name;  // controller_error: "parameter_out_of_range"
     unsigned retry_after_s = 0;        // > 0: sent as Retry-After (a 503 that passes soon)
+    // invalid_gcode: where the program is wrong (1-based line and column; 0 when not tied to a place)
+    // and the translator's message, sent as "line", "column" and "message".
+    struct program_error {
+        int line = 0;
+        int column = 0;
+        std::string message;
+    };
+    std::optional<program_error> program;
 
     std::string type() const;  // problem_type_base + kind with dashes
     nlohmann::json to_json() const;

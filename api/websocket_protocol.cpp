@@ -11,6 +11,7 @@
 #include "api/printable_text.hpp"
 #include "gateway/common/operation_error.hpp"
 #include "gateway/events/topic.hpp"
+#include "gateway/storage/gcode_files.hpp"
 
 namespace gw::api {
 
@@ -167,6 +168,29 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_job(const json
     return j;
 }
 
+boost::system::result<ws_client_message, ws_protocol_error> parse_gcode(const json& msg, json id) {
+    if (auto unknown = find_unknown_field(msg, {"op", "id", "action", "file", "options"}))
+        return invalid(id, unknown->field, unknown->message);
+    if (id.is_null()) return invalid(id, "id", "a gcode message needs an \"id\" (echoed in its answer)");
+    auto action = msg.find("action");
+    if (action == msg.end() || !action->is_string() || action->get_ref<const std::string&>() != "check")
+        return invalid(id, "action", "\"action\" must be \"check\"");
+    auto file = msg.find("file");
+    if (file == msg.end() || !file->is_string() || !is_gcode_file_id(file->get_ref<const std::string&>()))
+        return invalid(id, "file", "\"file\" must be a stored G-code file id (\"g-...\")");
+    json options;
+    if (auto it = msg.find("options"); it != msg.end() && !it->is_null()) {
+        if (!it->is_object())
+            return invalid(id, "options",
+                           "\"options\" must be an object, not " + std::string(json_type_name(*it)));
+        options = *it;
+    }
+    return gcode_message{.id = std::move(id),
+                         .action = "check",
+                         .file = file->get<std::string>(),
+                         .options = std::move(options)};
+}
+
 boost::system::result<ws_client_message, ws_protocol_error> parse_command(const json& msg, json id) {
     if (auto unknown = find_unknown_field(msg, {"op", "id", "controller", "operation", "args", "lease"}))
         return invalid(id, unknown->field, unknown->message);
@@ -234,12 +258,13 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_client_json(co
     }
     auto op = msg.find("op");
     if (op == msg.end() || !op->is_string())
-        return invalid(id, "op", "\"op\" must be one of: subscribe, unsubscribe, command, job, ping");
+        return invalid(id, "op", "\"op\" must be one of: subscribe, unsubscribe, command, job, gcode, ping");
     const auto& name = op->get_ref<const std::string&>();
     if (name == "subscribe") return parse_subscribe(msg, id);
     if (name == "unsubscribe") return parse_unsubscribe(msg, std::move(id));
     if (name == "command") return parse_command(msg, std::move(id));
     if (name == "job") return parse_job(msg, id);
+    if (name == "gcode") return parse_gcode(msg, std::move(id));
     if (name == "ping") {
         if (auto unknown = find_unknown_field(msg, {"op", "id"}))
             return invalid(id, unknown->field, unknown->message);
@@ -247,7 +272,7 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_client_json(co
     }
     return invalid(id, "op",
                    "unknown op \"" + (is_printable_label(name) ? name : std::string("...")) +
-                       "\" (one of: subscribe, unsubscribe, command, job, ping)");
+                       "\" (one of: subscribe, unsubscribe, command, job, gcode, ping)");
 }
 
 ws_protocol_error binary_frame_error() {
@@ -314,6 +339,10 @@ call to_call(job_message m) {
     if (m.action == "get") return job_get_call{std::move(m.job)};
     // parse_job_command: the message parser accepted only known actions.
     return job_action_call{std::move(m.job), parse_job_command(m.action).value_or(job_command::cancel)};
+}
+
+call to_call(gcode_message m) {
+    return gcode_check_call{std::move(m.file), std::move(m.options)};
 }
 
 }  // namespace gw::api

@@ -13,10 +13,13 @@
 //   {"op":"job","id":"s1","action":"submit","args":{"controller":"sim1","type":"array","spec":{...}},
 //    "lease":"l-...","idempotency_key":"plate-7","dry_run":false}
 //   {"op":"job","id":"s2","action":"cancel"|"pause"|"resume"|"next"|"get","job":"j-...","lease":"l-..."}
+//   {"op":"gcode","id":"g1","action":"check","file":"g-...","options":{"xyz_scale":0.5}}
 //   {"op":"ping","id":3}
 // "lease" (also on "command"): the lease id, like the REST header Lease-Id; while a controller is
 // leased, commands (but halt), job submissions and job actions without its lease get 409 leased.
 // Job args are the REST body of POST /api/v1/jobs; roles as REST (get: viewer, others: operator).
+// A G-code check plans a stored program (viewer): the result is the plan's summary, as POST
+// /api/v1/gcode/files/{id}/plan?moves=false answers; "options" are that route's query parameters.
 // Server -> client:
 //   {"type":"hello","connection":"ws-5","user":"anonymous","role":"admin","client":null,"auth":"none",
 //    "max_message_bytes":65536}      (role, client, auth: as GET /api/v1/whoami answers)
@@ -89,11 +92,19 @@ struct job_message {
     bool dry_run = false;                        // submit only
 };
 
+struct gcode_message {
+    nlohmann::json id;       // never null
+    std::string action;      // "check"
+    std::string file;        // "g-..."
+    nlohmann::json options;  // an object, or null (validated when dispatched)
+};
+
 struct ws_ping {
     nlohmann::json id;
 };
 
-using ws_client_message = std::variant<ws_subscribe, ws_unsubscribe, command_message, job_message, ws_ping>;
+using ws_client_message =
+    std::variant<ws_subscribe, ws_unsubscribe, command_message, job_message, gcode_message, ws_ping>;
 
 // Why a client message was refused; `id` is the message's id when it had a valid one, else null.
 struct ws_protocol_error {
@@ -121,6 +132,7 @@ std::string ws_unsubscribed_message(const ws_unsubscribe& request);
 // The call a command or job message asks for (api/calls.hpp); the lease is the caller's.
 call to_call(command_message m);
 call to_call(job_message m);
+call to_call(gcode_message m);
 
 // The answer to a call, the same on WebSocket and MQTT: {"type":"result","id":..,"result":..} (with
 // "replayed": true for an Idempotency-Key seen before) or {"type":"error","id":..,"problem":<problem>}.

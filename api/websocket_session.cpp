@@ -231,6 +231,10 @@ void websocket_session::handle_message(std::string_view text) {
                 json id = m.id;
                 auto lease = m.lease;
                 run_call(id, std::move(lease), to_call(std::move(m)));
+            } else if constexpr (std::is_same_v<T, gcode_message>) {
+                count("gcode");
+                json id = m.id;
+                run_call(id, std::nullopt, to_call(std::move(m)));
             }
         },
         *parsed);

@@ -94,9 +94,7 @@ void mqtt_commands::handle(const mqtt_message_in& in) {
 
 void mqtt_commands::run(mqtt_request& request, const auth_identity& who, const reply_target& to) {
     const auto request_id = mqtt_request_id(request.id);
-    const std::string topic = request.target.kind == mqtt_command_kind::controller
-                                  ? topics_.controller(request.target.controller, "cmd")
-                                  : topics_.job_command(request.target.kind);
+    const std::string topic = topics_.command(request.target);
     // The same dispatch as REST and WebSocket: role, lease, validation, request id.
     std::optional<call> c;
     json id;
@@ -109,8 +107,11 @@ void mqtt_commands::run(mqtt_request& request, const auth_identity& who, const r
         id = job->id;
         lease = job->lease;
         c = to_call(std::move(*job));
+    } else if (auto* gcode = std::get_if<gcode_message>(&request.message)) {
+        id = gcode->id;
+        c = to_call(std::move(*gcode));
     } else {
-        return;  // parse_mqtt_request only builds commands and jobs
+        return;  // parse_mqtt_request only builds commands, jobs and G-code checks
     }
     ++in_flight_;
     dispatch_call(*ctx_, caller{who.name, who.role, request_id, std::move(lease)}, std::move(*c),

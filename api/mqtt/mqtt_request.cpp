@@ -68,7 +68,7 @@ boost::system::result<mqtt_request, mqtt_request_error> parse_mqtt_request(const
         msg["op"] = "command";
         msg["controller"] = target.controller;
     } else {
-        msg["op"] = "job";
+        msg["op"] = target.kind == mqtt_command_kind::gcode_check ? "gcode" : "job";
         msg["action"] = std::string(to_string(target.kind));
     }
     auto parsed = parse_client_json(msg);

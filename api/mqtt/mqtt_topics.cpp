@@ -39,7 +39,7 @@ bool is_id_level(std::string_view s) {
 std::string_view to_string(mqtt_command_kind k) {
     for (const auto& [kind, name] : job_commands)
         if (kind == k) return name;
-    return "command";
+    return k == mqtt_command_kind::gcode_check ? "check" : "command";
 }
 
 mqtt_topics::mqtt_topics(std::string prefix, std::string gateway_id)
@@ -70,10 +70,26 @@ std::string mqtt_topics::job_command(mqtt_command_kind kind) const {
     return base_ + "/jobs/" + std::string(to_string(kind));
 }
 
+std::string mqtt_topics::gcode_check() const {
+    return base_ + "/gcode/check";
+}
+
+std::string mqtt_topics::command(const mqtt_command_target& target) const {
+    switch (target.kind) {
+        case mqtt_command_kind::controller:
+            return controller(target.controller, "cmd");
+        case mqtt_command_kind::gcode_check:
+            return gcode_check();
+        default:
+            return job_command(target.kind);
+    }
+}
+
 std::vector<std::string> mqtt_topics::command_filters() const {
     std::vector<std::string> out{base_ + "/controllers/+/cmd"};
     for (const auto& [kind, name] : job_commands)
         out.push_back(job_command(kind));
+    out.push_back(gcode_check());
     return out;
 }
 
@@ -86,6 +102,8 @@ std::optional<mqtt_command_target> mqtt_topics::parse_command_topic(std::string_
     if (rest.size() == 2 && rest[0] == "jobs")
         for (const auto& [kind, name] : job_commands)
             if (rest[1] == name) return mqtt_command_target{kind, {}};
+    if (rest.size() == 2 && rest[0] == "gcode" && rest[1] == "check")
+        return mqtt_command_target{mqtt_command_kind::gcode_check, {}};
     return std::nullopt;
 }
 

@@ -10,6 +10,7 @@
 // Commands (subscribed only when mqtt.commands.enabled):
 //   <prefix>/<gateway>/controllers/<id>/cmd
 //   <prefix>/<gateway>/jobs/submit | cancel | pause | resume | next
+//   <prefix>/<gateway>/gcode/check
 
 #include <optional>
 #include <string>
@@ -18,9 +19,17 @@
 
 namespace gw::api {
 
-enum class mqtt_command_kind { controller, job_submit, job_cancel, job_pause, job_resume, job_next };
+enum class mqtt_command_kind {
+    controller,
+    job_submit,
+    job_cancel,
+    job_pause,
+    job_resume,
+    job_next,
+    gcode_check
+};
 
-// "submit", "cancel", ... (the job action; "command" for controller).
+// "submit", "cancel", ... (the job action; "check" for gcode_check; "command" for controller).
 std::string_view to_string(mqtt_command_kind k);
 
 struct mqtt_command_target {
@@ -42,6 +51,9 @@ class mqtt_topics {
     std::string controller(std::string_view id, std::string_view leaf) const;
     std::string job_state(std::string_view job_id) const;
     std::string job_command(mqtt_command_kind kind) const;  // "<base>/jobs/submit"...
+    std::string gcode_check() const;                        // "<base>/gcode/check"
+    // The topic a command for `target` comes on (one of the above, or controller(id, "cmd")).
+    std::string command(const mqtt_command_target& target) const;
 
     // What the gateway subscribes to when commands are enabled.
     std::vector<std::string> command_filters() const;

@@ -28,6 +28,7 @@ sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from gateway_fixture import TOKENS, Fixture, auth_tokens, check, free_port  # noqa: E402
 from http_api_test import Client, Contract  # noqa: E402
+from ws_api_test import WsClient  # noqa: E402
 
 OP = TOKENS["operator"]
 VIEW = TOKENS["viewer"]
@@ -169,6 +170,29 @@ def test_files(c):
     c.problem("GET", "/api/v1/gcode/files?name=x", 422, "invalid-value", token=VIEW)
     c.problem("PUT", "/api/v1/gcode/files", 405, "method-not-allowed", token=OP)
     c.problem("POST", "/api/v1/gcode/files?name=a%0Ab", 422, "invalid-value", token=OP, raw_body=b"G00 X1\n")
+
+
+def test_websocket_check(c, port):
+    """An uploaded program checked over the WebSocket: the REST summary, the REST errors."""
+    f = post_program(c, "/api/v1/gcode/files?name=square.ngc", PROGRAM, token=OP, status=201).json()
+    bad = post_program(c, "/api/v1/gcode/files?name=bad.ngc", BAD_PROGRAM, token=OP, status=201).json()
+    ws = WsClient(port, VIEW, "gcode")
+    try:
+        rest = c.request("POST", f"/api/v1/gcode/files/{f['id']}/plan?moves=false&xyz_scale=0.5", token=VIEW)
+        ans = ws.request({"op": "gcode", "id": "g1", "action": "check", "file": f["id"],
+                          "options": {"xyz_scale": 0.5}})
+        check(ans["type"] == "result" and ans["result"] == rest.json(), f"check {ans} against REST {rest.body}")
+        err = ws.request({"op": "gcode", "id": "g2", "action": "check", "file": bad["id"]})
+        p = err.get("problem", {})
+        check(err["type"] == "error" and p.get("type", "").endswith("/invalid-gcode") and p.get("line") == 3
+              and p.get("column") == 1 and "G28" in p.get("message", ""), f"bad program: {err}")
+        err = ws.request({"op": "gcode", "id": "g3", "action": "check", "file": f["id"],
+                          "options": {"moves": True}})
+        check(err["type"] == "error" and err["problem"]["field"] == "options.moves", f"moves option: {err}")
+        err = ws.request({"op": "gcode", "id": "g4", "action": "check", "file": "g-00000000000000000000000000"})
+        check(err["type"] == "error" and err["problem"]["status"] == 404, f"unknown file: {err}")
+    finally:
+        ws.close()
 
 
 def big_program(lines):
@@ -327,6 +351,7 @@ def main():
         fx.run("program error", test_program_error, c)
         fx.run("preview", test_preview, c)
         fx.run("uploaded files", test_files, c)
+        fx.run("check over the WebSocket", test_websocket_check, c, port)
         fx.run("body limits", test_body_limits, c)
         fx.run("cli", test_cli, args.gateway, c, fx.tmp)
         fx.run("cli bounded memory", test_cli_bounded_memory, args.gateway, fx.tmp)

@@ -20,6 +20,7 @@ Run by ctest (mqtt_api); by hand:
 """
 
 import argparse
+import http.client
 import json
 import os
 import signal
@@ -52,37 +53,59 @@ class Broker:
     def __init__(self, fx, name, tls=None, extra=(), persistent=False):
         self.fx = fx
         self.name = name
-        self.port = free_port()
-        self.tls_port = free_port() if tls else None
         self.tls = tls
+        self.extra = list(extra)
+        self.persistent = persistent
         self.proc = None
+        self.started = False
         self.conf = os.path.join(fx.tmp, name + ".conf")
         self.log = os.path.join(fx.tmp, name + ".log")
+        self.choose_ports()
+
+    def choose_ports(self):
+        self.port = free_port()
+        self.tls_port = None
+        while self.tls and self.tls_port in (None, self.port):
+            self.tls_port = free_port()
         # persistent: sessions survive a restart (saved on exit), and QoS 0 messages are queued for a
         # persistent client while it is away, so a watcher misses nothing across a broker restart.
-        persistence = ["persistence true", f"persistence_location {fx.tmp}/", f"persistence_file {name}.db",
-                       "queue_qos0_messages true"] if persistent else ["persistence false"]
-        lines = ["per_listener_settings false", "allow_anonymous true", *persistence,
+        persistence = ["persistence true", f"persistence_location {self.fx.tmp}/",
+                       f"persistence_file {self.name}.db", "queue_qos0_messages true"] \
+            if self.persistent else ["persistence false"]
+        anonymous = [] if "allow_anonymous false" in self.extra else ["allow_anonymous true"]
+        lines = ["per_listener_settings false", *anonymous, *persistence,
                  # as root, mosquitto would become user "mosquitto", who cannot read the 0700 scratch dir
                  *(["user root"] if os.geteuid() == 0 else []),
                  f"log_dest file {self.log}", "log_type error", "log_type warning", "log_type notice",
                  f"listener {self.port} 127.0.0.1"]
-        lines += list(extra)
-        if tls:
-            lines += [f"listener {self.tls_port} 127.0.0.1", f"cafile {tls['ca']}",
-                      f"certfile {tls['cert']}", f"keyfile {tls['key']}", "require_certificate true"]
+        lines += self.extra
+        if self.tls:
+            lines += [f"listener {self.tls_port} 127.0.0.1", f"cafile {self.tls['ca']}",
+                      f"certfile {self.tls['cert']}", f"keyfile {self.tls['key']}", "require_certificate true"]
         with open(self.conf, "w") as f:
             f.write("\n".join(lines) + "\n")
 
     def start(self):
-        self.proc = subprocess.Popen([MOSQUITTO, "-c", self.conf], stdout=subprocess.DEVNULL,
-                                     stderr=subprocess.STDOUT)
-        self.fx.procs.append(self.proc)
+        # A port that free_port() found free may be taken (by a client's ephemeral port, or another
+        # test) before mosquitto binds it: at the first start the broker takes new ports then. A
+        # restart keeps its ports (the clients know them).
+        for attempt in range(3):
+            self.proc = subprocess.Popen([MOSQUITTO, "-c", self.conf], stdout=subprocess.DEVNULL,
+                                         stderr=subprocess.STDOUT)
+            self.fx.procs.append(self.proc)
 
-        def accepting():
-            with socket.create_connection(("127.0.0.1", self.port), timeout=1):
-                return True
-        wait_until(f"mosquitto {self.name} on {self.port}", accepting)
+            def accepting():
+                if self.proc.poll() is not None:
+                    return "exited"
+                with socket.create_connection(("127.0.0.1", self.port), timeout=1):
+                    return "accepting"
+            if wait_until(f"mosquitto {self.name} on {self.port}", accepting) == "accepting":
+                self.started = True
+                return
+            log = open(self.log).read() if os.path.exists(self.log) else ""
+            if self.started or "Address already in use" not in log or attempt == 2:
+                raise Failure(f"mosquitto {self.name} exited at start: {log[-2000:]}")
+            self.choose_ports()
 
     def stop(self):
         self.proc.terminate()
@@ -264,7 +287,7 @@ class Contract:
                        "{prefix}/{gateway}/jobs/{job}/state", "{prefix}/{gateway}/controllers/{controller}/cmd",
                        "{prefix}/{gateway}/jobs/submit", "{prefix}/{gateway}/jobs/cancel",
                        "{prefix}/{gateway}/jobs/pause", "{prefix}/{gateway}/jobs/resume",
-                       "{prefix}/{gateway}/jobs/next", "{reply_topic}"]:
+                       "{prefix}/{gateway}/jobs/next", "{prefix}/{gateway}/gcode/check", "{reply_topic}"]:
             check(needed in addresses, f"asyncapi.yaml has no channel {needed}")
 
 
@@ -413,6 +436,46 @@ def test_commands_v5(gw, c, contract):
     ans = command(c, gw.topic("controllers", "sim1", "cmd"), {"operation": "halt", "token": TOKENS["operator"]},
                   reply)
     check(ans["type"] == "result" and str(ans["id"]).startswith("mqtt-"), f"generated id: {ans}")
+
+
+def upload_program(gw, text, name):
+    """Stores a G-code program over REST; its id."""
+    conn = http.client.HTTPConnection("127.0.0.1", gw.port, timeout=WAIT)
+    conn.request("POST", f"/api/v1/gcode/files?name={name}", body=text.encode(),
+                 headers={"Authorization": f"Bearer {TOKENS['operator']}", "Content-Type": "text/plain"})
+    r = conn.getresponse()
+    body = r.read().decode()
+    conn.close()
+    check(r.status == 201, f"upload: {r.status} {body}")
+    return json.loads(body)["id"]
+
+
+def test_gcode_check(gw, c, contract):
+    reply = "clients/gcode/replies"
+    c.subscribe(reply)
+    good = upload_program(gw, "G21 G90\nG1 X10. Y0 F600\nG1 X10. Y5.\n", "square.ngc")
+    ans = command(c, gw.topic("gcode", "check"), {"id": "g1", "file": good, "token": TOKENS["viewer"]}, reply)
+    contract.validate(reply, json.dumps(ans))
+    check(ans["type"] == "result" and ans["id"] == "g1", f"answer: {ans}")
+    check(ans["result"]["move_count"] == 2 and ans["result"]["bounds"]["max"][:2] == [10, 5], f"summary: {ans}")
+    # The same as REST's summary, option for option.
+    status, text = http_request(gw.port, "POST", f"/api/v1/gcode/files/{good}/plan?moves=false&xyz_scale=2")
+    check(status == 200, f"REST plan: {status} {text}")
+    scaled = command(c, gw.topic("gcode", "check"),
+                     {"id": "g2", "file": good, "options": {"xyz_scale": 2}, "token": TOKENS["viewer"]}, reply)
+    check(scaled.get("result") == json.loads(text), f"MQTT {scaled} against REST {text}")
+    bad = upload_program(gw, "G21\nG1 X1. Q7\n", "bad.ngc")
+    err = command(c, gw.topic("gcode", "check"), {"id": "g3", "file": bad, "token": TOKENS["viewer"]}, reply)
+    contract.validate(reply, json.dumps(err))
+    p = err.get("problem", {})
+    check(err["type"] == "error" and p.get("type", "").endswith("/invalid-gcode") and p.get("line") == 2,
+          f"invalid program: {err}")
+    check(p.get("instance") == gw.topic("gcode", "check"), f"instance: {p}")
+    unknown = command(c, gw.topic("gcode", "check"),
+                      {"id": "g4", "file": "g-00000000000000000000000000", "token": TOKENS["viewer"]}, reply)
+    check(unknown["type"] == "error" and unknown["problem"]["status"] == 404, f"unknown file: {unknown}")
+    no_token = command(c, gw.topic("gcode", "check"), {"id": "g5", "file": good}, reply)
+    check(no_token["type"] == "error" and no_token["problem"]["status"] == 401, f"no token: {no_token}")
 
 
 def test_position_rate(gw, c):
@@ -1056,6 +1119,7 @@ user gw-lab3
 topic write asi/lab3/#
 topic read asi/lab3/controllers/+/cmd
 topic read asi/lab3/jobs/+
+topic read asi/lab3/gcode/+
 topic write clients/#
 # dashboards read everything and command nothing
 user dashboard
@@ -1065,6 +1129,7 @@ user scheduler
 topic read asi/#
 topic write asi/+/controllers/+/cmd
 topic write asi/+/jobs/+
+topic write asi/+/gcode/+
 topic read clients/scheduler/#
 """
 
@@ -1082,11 +1147,6 @@ def test_acl(fx, binary, readme_path):
         subprocess.run(["mosquitto_passwd", "-b", *(["-c"] if i == 0 else []), pw, user, user + "-password"],
                        check=True)
     broker = Broker(fx, "acl-broker", extra=["allow_anonymous false", f"password_file {pw}", f"acl_file {acl}"])
-    # allow_anonymous false must win over the default line
-    with open(broker.conf) as f:
-        conf = f.read().replace("allow_anonymous true\n", "")
-    with open(broker.conf, "w") as f:
-        f.write(conf)
     broker.start()
     gw = Gateway(fx, binary, "lab3", [f"mqtt://127.0.0.1:{broker.port}"], sims=1,
                  mqtt_extra={"username": "gw-lab3", "password": "gw-lab3-password"})
@@ -1100,6 +1160,10 @@ def test_acl(fx, binary, readme_path):
         ans = command(sched, gw.topic("controllers", "sim1", "cmd"), {"operation": "halt", "token": TOKENS["operator"]},
                       "clients/scheduler/replies")
         check(ans["type"] == "result", f"the scheduler commands: {ans}")
+        # The gateway reads its G-code check topic through the ACL too (an unknown file: 404 answered).
+        ans = command(sched, gw.topic("gcode", "check"),
+                      {"file": "g-00000000000000000000000000", "token": TOKENS["viewer"]}, "clients/scheduler/replies")
+        check(ans["type"] == "error" and ans["problem"]["status"] == 404, f"the scheduler checks G-code: {ans}")
         # The answer would go where the scheduler listens: had the broker let the command through,
         # the scheduler would see it.
         mark = sched.mark()
@@ -1149,6 +1213,7 @@ def main():
         run("retained controller state", test_retained_state, gw, broker, contract)
         run("commands over MQTT 5 (response topic, correlation data)", test_commands_v5, gw, c, contract)
         run("position rate limit", test_position_rate, gw, c)
+        run("G-code check", test_gcode_check, gw, c, contract)
         run("commands over MQTT 3.1.1 (reply_to)", test_commands_v311, gw, broker, contract)
         run("bad payloads", test_bad_payloads, gw, c, contract)
         run("jobs", test_jobs, gw, c, broker, contract)

@@ -50,6 +50,23 @@ TEST(mqtt_request, id_is_optional_and_generated) {
     EXPECT_EQ(n->id, 42);
 }
 
+TEST(mqtt_request, gcode_check) {
+    const mqtt_command_target check{mqtt_command_kind::gcode_check, {}};
+    auto r = parse(check, R"({"id":"g","file":"g-01JD0000000000000000000000","options":{"xyz_scale":2}})");
+    ASSERT_TRUE(r) << r.error().error.detail;
+    auto* g = std::get_if<gcode_message>(&r->message);
+    ASSERT_TRUE(g);
+    EXPECT_EQ(g->file, "g-01JD0000000000000000000000");
+    EXPECT_EQ(g->options["xyz_scale"], 2);
+    // The action comes from the topic.
+    auto twice = parse(check, R"({"id":"g","action":"check","file":"g-01JD0000000000000000000000"})");
+    ASSERT_FALSE(twice);
+    EXPECT_EQ(twice.error().error.field, "action");
+    auto bad = parse(check, R"({"id":"g","file":"j-01JD0000000000000000000000"})");
+    ASSERT_FALSE(bad);
+    EXPECT_EQ(bad.error().error.field, "file");
+}
+
 TEST(mqtt_request, jobs) {
     auto s = parse(submit,
                    R"({"id":"s","args":{"controller":"sim1","type":"array","spec":{}},"idempotency_key":"k",

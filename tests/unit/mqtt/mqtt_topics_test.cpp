@@ -21,7 +21,11 @@ TEST(mqtt_topics, builders) {
     EXPECT_EQ(t.command_filters(),
               (std::vector<std::string>{"lab/asi/pc-3/controllers/+/cmd", "lab/asi/pc-3/jobs/submit",
                                         "lab/asi/pc-3/jobs/cancel", "lab/asi/pc-3/jobs/pause",
-                                        "lab/asi/pc-3/jobs/resume", "lab/asi/pc-3/jobs/next"}));
+                                        "lab/asi/pc-3/jobs/resume", "lab/asi/pc-3/jobs/next",
+                                        "lab/asi/pc-3/gcode/check"}));
+    EXPECT_EQ(t.command({mqtt_command_kind::gcode_check, {}}), "lab/asi/pc-3/gcode/check");
+    EXPECT_EQ(t.command({mqtt_command_kind::job_pause, {}}), "lab/asi/pc-3/jobs/pause");
+    EXPECT_EQ(t.command({mqtt_command_kind::controller, "sim2"}), "lab/asi/pc-3/controllers/sim2/cmd");
 }
 
 TEST(mqtt_topics, hub_topics_map_to_the_tree) {
@@ -55,6 +59,7 @@ TEST(mqtt_topics, command_topics_parse) {
         {"asi/gw/jobs/pause", mqtt_command_kind::job_pause},
         {"asi/gw/jobs/resume", mqtt_command_kind::job_resume},
         {"asi/gw/jobs/next", mqtt_command_kind::job_next},
+        {"asi/gw/gcode/check", mqtt_command_kind::gcode_check},
     };
     for (const auto& [topic, kind] : jobs) {
         auto j = t.parse_command_topic(topic);
@@ -64,7 +69,7 @@ TEST(mqtt_topics, command_topics_parse) {
     for (const char* not_ours :
          {"asi/gw2/controllers/sim2/cmd", "asi/g/controllers/sim2/cmd", "asi/gw/controllers/sim2/state",
           "asi/gw/controllers//cmd", "asi/gw/controllers/+/cmd", "asi/gw/jobs/get", "asi/gw/jobs/j-1/state",
-          "asi/gw", "asi/gwx/jobs/submit", "other/gw/jobs/submit", ""})
+          "asi/gw", "asi/gwx/jobs/submit", "other/gw/jobs/submit", "asi/gw/gcode/plan", "asi/gw/gcode", ""})
         EXPECT_FALSE(t.parse_command_topic(not_ours)) << not_ours;
 }
 
