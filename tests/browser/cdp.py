@@ -129,11 +129,16 @@ class Browser:
                 " const still = a.x === b.x && a.y === b.y && a.width === b.width && a.height === b.height;"
                 " return [x, y, still && !!hit && e.contains(hit)]; })()")
         # Which element the click reached: the page may still move between finding the element and the
-        # mouse events (separate calls), and a click that reached another element is not retried blindly.
+        # mouse events (separate calls). A click that did nothing is sent again; one that reached another
+        # control fails the test (it may have done something).
         watch = ("(() => { window.__cdpClick = null; addEventListener('click', (ev) =>"
                  " { window.__cdpClick = ev.target; }, {capture: true, once: true}); })()")
+        # 'inert': the click reached text or a panel, which does nothing on a click.
         landed = (f"(() => {{ const e = document.querySelector({json.dumps(selector)}); const t = window.__cdpClick;"
-                  " return t === null ? 'none' : (e && e.contains(t)) ? 'element' : 'other'; })()")
+                  " if (t === null) return 'none'; if (e && e.contains(t)) return 'element';"
+                  " const c = t.closest('a, button, input, select, textarea, summary, label, [role=button],"
+                  " [role=link], [role=checkbox], [role=radio], [role=tab], [role=menuitem]');"
+                  " return c ? 'control: ' + c.outerHTML.slice(0, 120) : 'inert'; })()")
         deadline = time.monotonic() + timeout
         while True:
             box = await self.evaluate(find)
@@ -147,9 +152,11 @@ class Browser:
                 where = await self.evaluate(landed)
                 if where == "element":
                     return
-                if where == "other":
-                    raise AssertionError(f"the click meant for {selector} reached another element (the page moved)")
-                # 'none': the press fell between elements as the page moved; nothing was clicked, try again
+                if where.startswith("control"):
+                    raise AssertionError(f"the click meant for {selector} reached another control as the page "
+                                         f"moved: {where[9:]}")
+                # 'none' (the press and the release fell on different elements) or 'inert': the page moved
+                # under the mouse and nothing happened; the click is sent again where the element is now.
             if time.monotonic() > deadline:
                 raise AssertionError(f"{selector} did not hold still under the mouse within {timeout} s")
 
