@@ -131,11 +131,17 @@ class Browser:
         # Which element the click reached: the page may still move between finding the element and the
         # mouse events (separate calls). A click that did nothing is sent again; one that reached another
         # control fails the test (it may have done something).
-        watch = ("(() => { window.__cdpClick = null; addEventListener('click', (ev) =>"
-                 " { window.__cdpClick = ev.target; }, {capture: true, once: true}); })()")
+        # The element is kept as it was when the click went out: a click may remove it (a link to
+        # another view), or the page may put a new copy in its place.
+        watch = ("(() => { window.__cdpClick = null;"
+                 f" window.__cdpMeant = document.querySelector({json.dumps(selector)});"
+                 " addEventListener('click', (ev) => { window.__cdpClick = ev.target; },"
+                 " {capture: true, once: true}); })()")
         # 'inert': the click reached text or a panel, which does nothing on a click.
         landed = (f"(() => {{ const e = document.querySelector({json.dumps(selector)}); const t = window.__cdpClick;"
-                  " if (t === null) return 'none'; if (e && e.contains(t)) return 'element';"
+                  " const meant = window.__cdpMeant;"
+                  " if (t === null) return 'none';"
+                  " if ((meant && meant.contains(t)) || (e && e.contains(t))) return 'element';"
                   " const c = t.closest('a, button, input, select, textarea, summary, label, [role=button],"
                   " [role=link], [role=checkbox], [role=radio], [role=tab], [role=menuitem]');"
                   " return c ? 'control: ' + c.outerHTML.slice(0, 120) : 'inert'; })()")
