@@ -6,8 +6,8 @@
 // Lists /dev/serial/by-id/*, then ttyUSB*/ttyACM*/ttyS* (devices/serial/port_candidates.hpp) and the
 // --path ports, probes them all at once with V and BU X (devices/serial/port_probe.hpp; never a
 // motion command, a port another program holds is reported busy and left alone), prints one line
-// per port (or the scan's JSON with --json, gateway/controllers/port_report_json.hpp) and a "controllers" entry
-// to paste into the config file. Exit status: 0 at least one MS-2000 found, 1 none, 2 a bad option.
+// per port (or the scan's JSON with --json, gateway/controllers/port_report_json.hpp) and a "controllers"
+// entry to paste into the config file. Exit status: 0 at least one MS-2000 found, 1 none, 2 a bad option.
 //
 //   gw::ports_cli ports(app);          // before CLI11_PARSE
 //   CLI11_PARSE(app, argc, argv);

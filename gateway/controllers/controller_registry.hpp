@@ -38,9 +38,9 @@
 #include "devices/serial/controller_observer.hpp"
 #include "devices/serial/controller_settings.hpp"
 #include "devices/serial/controller_snapshot.hpp"
+#include "gateway/common/operation_error.hpp"
 #include "gateway/config/config.hpp"
 #include "gateway/config/logging.hpp"
-#include "gateway/common/operation_error.hpp"
 #include "gateway/controllers/operations.hpp"
 #include "gateway/controllers/simulated_fleet.hpp"
 

@@ -5,8 +5,8 @@
 #include <spdlog/spdlog.h>
 
 #include "devices/ms2000/build_info.hpp"
-#include "gateway/config/logging.hpp"
 #include "gateway/common/timestamp.hpp"
+#include "gateway/config/logging.hpp"
 
 namespace gw {
 
