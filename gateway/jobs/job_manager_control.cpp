@@ -77,16 +77,21 @@ operation_result<void> manager_core::check_lease(const std::string& controller, 
                           a.lease_id ? std::optional<std::string_view>(*a.lease_id) : std::nullopt);
 }
 
+operation_result<std::shared_ptr<live_job>> manager_core::find_for_action(const job_action& a) {
+    auto found = find_live(a.job_id);
+    if (!found) return found;
+    if (auto lease = check_lease((*found)->record.controller, a); !lease) return lease.error();
+    return found;
+}
+
 void manager_core::cancel(job_action a, job_manager::handler<job_record> h) {
     net::co_spawn(
         strand_,
         [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable -> net::awaitable<void> {
-            auto found = self->find_live(a.job_id);
+            auto found = self->find_for_action(a);
             if (!found) co_return self->deliver<job_record>(std::move(h), found.error());
             auto job = *found;
             const auto controller = job->record.controller;
-            if (auto lease = self->check_lease(controller, a); !lease)
-                co_return self->deliver<job_record>(std::move(h), lease.error());
             const auto st = job->record.state;
             if (is_terminal(st))
                 co_return self->deliver<job_record>(
@@ -115,11 +120,9 @@ void manager_core::cancel(job_action a, job_manager::handler<job_record> h) {
 
 void manager_core::pause(job_action a, job_manager::handler<job_record> h) {
     net::post(strand_, [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable {
-        auto found = self->find_live(a.job_id);
+        auto found = self->find_for_action(a);
         if (!found) return self->deliver<job_record>(std::move(h), found.error());
         auto job = *found;
-        if (auto lease = self->check_lease(job->record.controller, a); !lease)
-            return self->deliver<job_record>(std::move(h), lease.error());
         if (job->record.state == job_state::paused)
             return self->deliver<job_record>(std::move(h), job->record);
         if (job->record.state != job_state::running || !job->exec)
@@ -138,12 +141,10 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
         if (self->shutting_down_ || self->abandoned_)
             return self->deliver<job_record>(std::move(h),
                                              make_error(kind::not_connected, "the gateway is shutting down"));
-        auto found = self->find_live(a.job_id);
+        auto found = self->find_for_action(a);
         if (!found) return self->deliver<job_record>(std::move(h), found.error());
         auto job = *found;
         const auto controller = job->record.controller;
-        if (auto lease = self->check_lease(controller, a); !lease)
-            return self->deliver<job_record>(std::move(h), lease.error());
         // Its history must be stored up to date before it runs on: its pause, and every step before it.
         if (auto stored = self->write_unstored(a.job_id); !stored)
             return self->deliver<job_record>(
@@ -198,11 +199,9 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
 
 void manager_core::next(job_action a, job_manager::handler<job_record> h) {
     net::post(strand_, [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable {
-        auto found = self->find_live(a.job_id);
+        auto found = self->find_for_action(a);
         if (!found) return self->deliver<job_record>(std::move(h), found.error());
         auto job = *found;
-        if (auto lease = self->check_lease(job->record.controller, a); !lease)
-            return self->deliver<job_record>(std::move(h), lease.error());
         if (job->record.state != job_state::running || !job->exec)
             return self->deliver<job_record>(
                 std::move(h), make_error(kind::invalid_state,

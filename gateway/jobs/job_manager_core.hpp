@@ -155,6 +155,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
 
     operation_result<std::shared_ptr<live_job>> find_live(const std::string& id);
     operation_result<void> check_lease(const std::string& controller, const job_action& a) const;
+    // The live job a control action names, once its caller may act on it (find_live, then check_lease).
+    operation_result<std::shared_ptr<live_job>> find_for_action(const job_action& a);
     // "j-1 running, j-2 queued": the jobs that hold the controller or wait for it; empty when none.
     std::string jobs_in_lane(const std::string& controller) const;
 
