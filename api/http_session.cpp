@@ -6,6 +6,7 @@
 #include "api/gcode_requests.hpp"
 #include "api/gcode_worker.hpp"
 #include "api/request_id.hpp"
+#include "api/websocket_protocol.hpp"
 #include "api/websocket_session.hpp"
 #include "gateway/common/metrics.hpp"
 
@@ -13,7 +14,6 @@ namespace gw::api {
 
 namespace {
 
-constexpr std::string_view websocket_path = "/api/v1/ws";
 // A streamed G-code body passes through this much memory at a time.
 constexpr std::size_t upload_chunk_bytes = std::size_t{64} * 1024;
 
@@ -242,6 +242,12 @@ void http_session::on_read(beast::error_code ec, std::size_t) {
                                  req, request_id_),
                 "unmatched", !req.keep_alive());
         }
+        auto options = parse_websocket_options(req.target());
+        if (!options) {
+            auto p = make_problem(options.error());
+            p.instance = std::string(websocket_path);
+            return do_write(problem_response(std::move(p), req, request_id_), "/api/v1/ws", true);
+        }
         problem p;
         std::optional<auth_identity> who;
         auto query_token = access_token_parameter(req.target());
@@ -257,7 +263,7 @@ void http_session::on_read(beast::error_code ec, std::size_t) {
                                  {{"route", "/api/v1/ws"}, {"method", method_}, {"status", "101"}});
         body_memory_.reset();
         return start_websocket_session(std::move(stream_), parser_->release(), ctx_, std::move(*who),
-                                       std::move(permit_));
+                                       std::move(permit_), options->batch_window);
     }
 
     handle_request(ctx_, parser_->release(), request_id_, stream_.get_executor(),

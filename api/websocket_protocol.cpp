@@ -1,5 +1,6 @@
 #include "api/websocket_protocol.hpp"
 
+#include <charconv>
 #include <cmath>
 #include <initializer_list>
 #include <optional>
@@ -290,14 +291,52 @@ std::string ws_request_id(std::string_view connection, const json& client_id) {
 }
 
 std::string ws_hello_message(std::string_view connection, std::string_view user, const json& whoami,
-                             std::size_t max_message_bytes) {
+                             std::size_t max_message_bytes,
+                             std::optional<std::chrono::milliseconds> batch_window) {
     return text(json{{"type", "hello"},
                      {"connection", connection},
                      {"user", user},
                      {"role", whoami.value("role", "viewer")},
                      {"client", whoami.value("client", json(nullptr))},
                      {"auth", whoami.value("auth", "none")},
-                     {"max_message_bytes", max_message_bytes}});
+                     {"max_message_bytes", max_message_bytes},
+                     {"batch_ms", batch_window ? json(batch_window->count()) : json(nullptr)}});
+}
+
+operation_result<websocket_options> parse_websocket_options(std::string_view target) {
+    auto q = parse_query(target);
+    if (!q) return q.error();
+    websocket_options options;
+    if (auto v = query_value(*q, "batch_ms")) {
+        unsigned long long n = 0;
+        const auto* end = v->data() + v->size();
+        auto [ptr, ec] = std::from_chars(v->data(), end, n);
+        if (v->empty() || ec != std::errc() || ptr != end ||
+            n > static_cast<unsigned long long>(max_batch_window.count()))
+            return make_error(operation_error_kind::invalid_value,
+                              "batch_ms must be an integer 0.." + std::to_string(max_batch_window.count()) +
+                                  " (milliseconds between event batches)",
+                              "batch_ms");
+        options.batch_window = std::chrono::milliseconds(n);
+    }
+    return options;
+}
+
+std::string ws_batch_message(const std::vector<std::shared_ptr<const event>>& events) {
+    constexpr std::string_view head = R"({"type":"batch","events":[)";
+    constexpr std::string_view tail = "]}";
+    std::size_t size = head.size() + tail.size();
+    for (const auto& e : events)
+        size += e->message->size() + 1;
+    std::string out;
+    out.reserve(size);
+    out += head;
+    for (std::size_t i = 0; i < events.size(); ++i) {
+        if (i != 0) out += ',';
+        out += *events[i]->message;
+    }
+    out += tail;
+    return out;
 }
 
 std::string ws_subscribed_message(const ws_subscribe& request) {

@@ -53,23 +53,27 @@ websocket_limits websocket_limits_from(const http_limits& limits) {
 
 void start_websocket_session(beast::tcp_stream&& stream, http::request<http::string_body>&& request,
                              std::shared_ptr<api_context> context, auth_identity who,
-                             std::shared_ptr<connection_permit> permit) {
+                             std::shared_ptr<connection_permit> permit,
+                             std::optional<std::chrono::milliseconds> batch_window) {
     auto limits = websocket_limits_from(context->limits);
     auto session = std::make_shared<websocket_session>(std::move(stream), std::move(context), std::move(who),
-                                                       limits, std::move(permit));
+                                                       limits, std::move(permit), batch_window);
     session->run(std::move(request));
 }
 
 websocket_session::websocket_session(beast::tcp_stream&& stream, std::shared_ptr<api_context> context,
                                      auth_identity who, websocket_limits limits,
-                                     std::shared_ptr<connection_permit> permit)
+                                     std::shared_ptr<connection_permit> permit,
+                                     std::optional<std::chrono::milliseconds> batch_window)
     : ws_(std::move(stream)),
       ctx_(std::move(context)),
       who_(std::move(who)),
       limits_(limits),
       connection_("ws-" + std::to_string(next_connection.fetch_add(1))),
       watchdog_(ws_.get_executor()),
-      permit_(std::move(permit)) {}
+      permit_(std::move(permit)),
+      batch_window_(batch_window),
+      batch_timer_(ws_.get_executor()) {}
 
 websocket_session::~websocket_session() {
     // Normally finish() ran already; this covers an io_context torn down mid-session.
@@ -133,9 +137,18 @@ void websocket_session::on_accept(beast::error_code ec) {
     }
     if (ctx_->log)
         ctx_->log->info("{}: WebSocket open ({}, {})", connection_, who_.name, gw::to_string(who_.role));
-    subscriber_ = ctx_->hub->add_subscriber(weak_from_this());
-    answer(
-        ws_hello_message(connection_, who_.name, whoami_json(ctx_->auth, who_), limits_.max_message_bytes));
+    if (batch_window_) {
+        // Events wait in the hub between batches: room for a window's worth of busy report streams
+        // (32 controllers at 500 frames/s fill 1,600 in 100 ms), and bigger batches under load.
+        subscriber_settings batched;
+        batched.queue_limit = 8192;
+        batched.max_batch_events = 2048;
+        subscriber_ = ctx_->hub->add_subscriber(weak_from_this(), batched);
+    } else {
+        subscriber_ = ctx_->hub->add_subscriber(weak_from_this());
+    }
+    answer(ws_hello_message(connection_, who_.name, whoami_json(ctx_->auth, who_), limits_.max_message_bytes,
+                            batch_window_));
     schedule_watchdog();
     do_read();
 }
@@ -283,7 +296,11 @@ void websocket_session::on_deliver(const std::vector<std::shared_ptr<const event
             missed += e->missed();
         }
         // The hub's serialised message, shared with every other subscriber: sent as is.
-        out_.push_back({e->message, false, false});
+        if (!batch_window_) out_.push_back({e->message, false, false});
+    }
+    if (batch_window_) {
+        batch_arrived_ = std::chrono::steady_clock::now();
+        out_.push_back({std::make_shared<const std::string>(ws_batch_message(batch)), false, false});
     }
     out_.back().ends_batch = true;
     if (ctx_->metrics && gaps != 0) {
@@ -314,11 +331,21 @@ void websocket_session::on_write(beast::error_code ec, std::size_t) {
         const auto done = out_.front();
         out_.pop_front();
         if (done.answer) --answers_queued_;
-        if (done.ends_batch && phase_ == phase::open) ctx_->hub->request_more(subscriber_);
+        if (done.ends_batch && phase_ == phase::open) request_next_batch();
     }
     if (phase_ == phase::closing) return do_close();
     do_write();
     maybe_resume_reading();
+}
+
+void websocket_session::request_next_batch() {
+    if (!batch_window_ || batch_window_->count() == 0) return ctx_->hub->request_more(subscriber_);
+    const auto due = batch_arrived_ + *batch_window_;
+    if (std::chrono::steady_clock::now() >= due) return ctx_->hub->request_more(subscriber_);
+    batch_timer_.expires_at(due);
+    batch_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
+        if (!ec && self->phase_ == phase::open) self->ctx_->hub->request_more(self->subscriber_);
+    });
 }
 
 void websocket_session::begin_close(websocket::close_code code, std::string reason) {
@@ -388,6 +415,7 @@ void websocket_session::finish(std::string_view why) {
     if (phase_ == phase::closed) return;
     phase_ = phase::closed;
     watchdog_.cancel();
+    batch_timer_.cancel();
     if (subscriber_ != 0 && !hub_closed_) ctx_->hub->remove_subscriber(subscriber_);
     subscriber_ = 0;
     out_.clear();

@@ -13,12 +13,16 @@
 // (queue overflow, stall) or by the session (one frame not written within write_timeout). The hub's
 // stop() closes every session with 1001 (going away). Messages over max_message_bytes close the
 // connection with 1009 (Beast); idle connections are pinged and closed after idle_timeout.
+// Batched (?batch_ms=N, api/websocket_protocol.hpp): each hub batch is one "batch" message, and the
+// session asks for the next no sooner than N ms after the previous one arrived; meanwhile events wait
+// in the hub, whose queue for a batched session is larger.
 
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <string_view>
@@ -42,10 +46,11 @@ struct api_outcome;
 
 // Takes over the connection: accepts the upgrade `request` (already read, already authenticated as
 // `who`) and runs the session until it closes. The session keeps the connection's `permit` (its slot
-// in http.limits.max_connections) until it ends.
+// in http.limits.max_connections) until it ends. `batch_window`: the client's batch_ms.
 void start_websocket_session(beast::tcp_stream&& stream, http::request<http::string_body>&& request,
                              std::shared_ptr<api_context> context, auth_identity who,
-                             std::shared_ptr<connection_permit> permit = nullptr);
+                             std::shared_ptr<connection_permit> permit = nullptr,
+                             std::optional<std::chrono::milliseconds> batch_window = std::nullopt);
 
 struct websocket_limits {
     std::size_t max_message_bytes = std::size_t{64} * 1024;  // client messages (http.limits)
@@ -65,7 +70,8 @@ class websocket_session final : public gw::event_sink,
                                 public std::enable_shared_from_this<websocket_session> {
   public:
     websocket_session(beast::tcp_stream&& stream, std::shared_ptr<api_context> context, auth_identity who,
-                      websocket_limits limits, std::shared_ptr<connection_permit> permit = nullptr);
+                      websocket_limits limits, std::shared_ptr<connection_permit> permit = nullptr,
+                      std::optional<std::chrono::milliseconds> batch_window = std::nullopt);
     ~websocket_session() override;
 
     // Accepts the upgrade and starts reading. Call once.
@@ -99,6 +105,8 @@ class websocket_session final : public gw::event_sink,
     void on_deliver(const std::vector<std::shared_ptr<const event>>& batch);
     void do_write();
     void on_write(beast::error_code ec, std::size_t bytes);
+    // A hub batch is written: ask for the next one now, or when the batch window allows.
+    void request_next_batch();
     void begin_close(websocket::close_code code, std::string reason);
     void do_close();
     void on_close(beast::error_code ec);
@@ -133,7 +141,10 @@ class websocket_session final : public gw::event_sink,
     std::chrono::steady_clock::time_point write_started_;
     std::chrono::steady_clock::time_point close_deadline_;
     net::steady_timer watchdog_;
-    std::shared_ptr<connection_permit> permit_;  // released with the session
+    std::shared_ptr<connection_permit> permit_;              // released with the session
+    std::optional<std::chrono::milliseconds> batch_window_;  // batched connection (batch_ms)
+    std::chrono::steady_clock::time_point batch_arrived_;    // when the last hub batch came
+    net::steady_timer batch_timer_;
 };
 
 }  // namespace gw::api

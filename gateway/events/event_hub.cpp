@@ -360,12 +360,14 @@ void event_hub::push_stream(subscriber& s, const std::shared_ptr<const event>& e
         return;
     }
     // Overflow: the event is not queued; the subscriber hears about it through a gap event.
-    if (s.gaps.empty()) note_overflow(s);
+    if (s.gaps.empty()) note_overflow(s, true);
     s.gaps.emplace(e->topic, gap_range{e->sequence, e->sequence});
 }
 
-void event_hub::note_overflow(subscriber& s) {
+void event_hub::note_overflow(subscriber& s, bool only_if_not_acknowledging) {
     auto now = clock_.steady();
+    // It takes its batches: the overflow is the gateway's backlog, not this subscriber's.
+    if (only_if_not_acknowledging && (!s.in_flight || now - s.delivered_at < s.settings.slow_ack)) return;
     if (s.last_overflow && now - *s.last_overflow < s.settings.overflow_window)
         s.evict_reason = "too slow: send queue overflowed twice within " + millis(s.settings.overflow_window);
     s.last_overflow = now;
@@ -402,7 +404,7 @@ void event_hub::fill_catch_up(subscriber& s) {
             auto oldest = topic.oldest();
             if (next < oldest) {  // already gone from the replay buffer
                 // Gone before it was asked for: a plain gap. Gone while it read: it is too slow.
-                if (reading) note_overflow(s);
+                if (reading) note_overflow(s, false);
                 push_gap(s, it->first, next, oldest - 1);
                 next = oldest;
                 reading = true;
@@ -460,6 +462,7 @@ void event_hub::pump(subscriber& s) {
     fill_catch_up(s);
     if (batch.empty()) return;
     s.in_flight = true;
+    s.delivered_at = clock_.steady();
     add(counters_->delivered, batch.size());
     sink->deliver(std::move(batch));
 }

@@ -25,8 +25,11 @@
 //  * stream topics (reports, ttl, jobs): a FIFO of at most queue_limit events. When it is full, new
 //    events are not queued and the subscriber later gets one gap event per topic
 //    {"type":"gap","missed":n,"from":a,"to":b} before that topic's next event. A subscriber that
-//    overflows again within overflow_window, or stays full/gapped longer than max_stall, is evicted:
-//    event_sink::close("too slow: ..."). Nothing else is ever dropped silently. A resuming subscriber
+//    overflows again within overflow_window while it is not acknowledging (its batch waited slow_ack
+//    or longer), or stays full/gapped longer than max_stall without acknowledging, is evicted:
+//    event_sink::close("too slow: ..."). A subscriber that keeps acknowledging is never evicted: when
+//    the gateway itself falls behind, every subscriber gets gaps, none is closed. Nothing else is
+//    ever dropped silently. A resuming subscriber
 //    that falls behind its topic's replay buffer while reading it gets a gap event and counts as
 //    having overflowed.
 // A subscriber that resumes reads the replay buffer lazily (into at most half of its queue), so a large
@@ -162,7 +165,8 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
         std::map<std::string, std::uint64_t> cursor;     // topic -> highest sequence taken (no duplicates)
         // Retired events that found the queue full, sent once there is room (after the topic's gap).
         std::map<std::string, std::shared_ptr<const event>> retired;
-        bool in_flight = false;  // a batch was delivered, not yet acknowledged
+        bool in_flight = false;                              // a batch was delivered, not yet acknowledged
+        std::chrono::steady_clock::time_point delivered_at;  // when that batch was delivered
         std::optional<std::chrono::steady_clock::time_point> stalled_since;  // full or gapped, no ack
         std::optional<std::chrono::steady_clock::time_point> last_overflow;
         std::optional<std::string> evict_reason;
@@ -195,7 +199,9 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     void offer(subscriber& s, const std::shared_ptr<const event>& e, const topic_state& t,
                const subscription& sub);
     void push_stream(subscriber& s, const std::shared_ptr<const event>& e);
-    void note_overflow(subscriber& s);  // marks it for eviction when it overflows twice within the window
+    // Marks it for eviction when it overflows twice within the window. A live overflow counts only
+    // while the subscriber is not acknowledging (slow_ack); falling behind its replay always counts.
+    void note_overflow(subscriber& s, bool only_if_not_acknowledging);
     void push_gap(subscriber& s, const std::string& topic, std::uint64_t from, std::uint64_t to);
     void fill_catch_up(subscriber& s);
     void flush_gaps(subscriber& s);

@@ -23,6 +23,10 @@ struct subscriber_settings {
     std::chrono::milliseconds overflow_window{10'000};
     // ... or when its queue stays full (or it has undelivered gaps) for longer than this.
     std::chrono::milliseconds max_stall{5'000};
+    // An overflow counts against the subscriber only when its last batch has waited this long for its
+    // acknowledgement. One that keeps taking its batches while its queue fills is not slow: the
+    // gateway is behind (overloaded), and it gets gap events with exact counts, not a close.
+    std::chrono::milliseconds slow_ack{1'000};
 };
 
 struct subscription_options {

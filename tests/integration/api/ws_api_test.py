@@ -460,6 +460,45 @@ def test_reports_stream(port, control2):
     b.close()
 
 
+def test_batched_reports(port, control2):
+    # ?batch_ms=N: events come in "batch" messages, at most one per N ms, each event exactly as a
+    # plain connection gets it (compared with one), none lost, in order.
+    for bad in ("abc", "1001", "-1", ""):
+        status, body = upgrade(port, TOKENS["viewer"], query=f"?batch_ms={bad}")
+        check(status == 422, f"batch_ms={bad!r}: {status} {body!r}")
+        p = json.loads(body)
+        check(p.get("type", "").endswith("/invalid-value") and p.get("field") == "batch_ms", f"problem {p}")
+    topic = "controllers/ext2/reports"
+    plain = WsClient(port, TOKENS["viewer"], "plain")
+    check(plain.hello.get("batch_ms") is None, f"plain hello {plain.hello}")
+    batched = WsClient(port, TOKENS["operator"], "batched", query="?batch_ms=1000")
+    check(batched.hello.get("batch_ms") == 1000, f"batched hello {batched.hello}")
+    for c in (plain, batched):
+        c.request({"op": "subscribe", "id": 1, "topics": [topic]})
+    r = batched.request({"op": "command", "id": 2, "controller": "ext2", "operation": "ttl", "args": {"in0_mode": 1}})
+    check(r["type"] == "result", f"ttl in0_mode 1: {r}")
+    n = 100
+    started = time.monotonic()
+    check(control2(f"pulse {n} 500") == "ok", "pulse")
+    expected = [plain.wait_for(lambda m: m.get("topic") == topic, f"plain report {i + 1}") for i in range(n)]
+    check(all(m["type"] == "event" for m in expected), "a reading plain client has no gaps")
+    got, batches = [], 0
+    while len(got) < n:
+        m = batched.wait_for(lambda m: m.get("type") == "batch", f"a batch (have {len(got)} of {n} reports)")
+        check(isinstance(m.get("events"), list) and m["events"], f"a batch holds events: {m}")
+        batches += 1
+        got += [e for e in m["events"] if e.get("topic") == topic]
+    span = time.monotonic() - started
+    check(got == expected, f"the batched events equal the plain ones: {got[:2]} vs {expected[:2]}")
+    # At most one batch per second after the first (which goes at once): bounded by the time taken.
+    check(batches <= 2 + int(span), f"{batches} batches for {n} reports in {span:.1f} s")
+    # Answers are not batched.
+    pong = batched.request({"op": "ping", "id": 3})
+    check(pong.get("type") == "pong", f"ping answered alone: {pong}")
+    plain.close()
+    batched.close()
+
+
 def test_stalled_client(port):
     # The stalled client: upgrades, subscribes to everything, then asks for many large answers
     # (acks echo their topics) and never reads, so the gateway's write to it cannot complete.
@@ -620,6 +659,7 @@ def main():
         run("commands over the WebSocket", test_commands, port)
         run("resume: replay and gap", test_resume, port)
         run("reports: every frame in order; resume replays the rest", test_reports_stream, port, control2)
+        run("batched connection: batch messages, same events, none lost", test_batched_reports, port, control2)
         run("stalled client: healthy one unaffected, stalled one disconnected", test_stalled_client, port)
         run("controller unplugged while watched", test_unplug, port, control)
         run("metrics", test_metrics, port)

@@ -1,8 +1,12 @@
 #include "api/websocket_protocol.hpp"
 
+#include <chrono>
+#include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <variant>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -232,11 +236,64 @@ TEST(websocket_protocol, hello) {
     const json open = {{"client", nullptr}, {"role", "admin"}, {"auth", "none"}};
     EXPECT_EQ(json::parse(ws_hello_message("ws-1", "anonymous", open, 65536)),
               json::parse(R"({"type":"hello","connection":"ws-1","user":"anonymous","role":"admin",
-                              "client":null,"auth":"none","max_message_bytes":65536})"));
+                              "client":null,"auth":"none","max_message_bytes":65536,
+                              "batch_ms":null})"));
     const json token = {{"client", "viewer1"}, {"role", "viewer"}, {"auth", "token"}};
     EXPECT_EQ(json::parse(ws_hello_message("ws-2", "viewer1", token, 65536)),
               json::parse(R"({"type":"hello","connection":"ws-2","user":"viewer1","role":"viewer",
-                              "client":"viewer1","auth":"token","max_message_bytes":65536})"));
+                              "client":"viewer1","auth":"token","max_message_bytes":65536,
+                              "batch_ms":null})"));
+    EXPECT_EQ(json::parse(ws_hello_message("ws-3", "anonymous", open, 65536, std::chrono::milliseconds(20)))
+                  .at("batch_ms"),
+              20);
+}
+
+TEST(websocket_protocol, batch_window_from_the_upgrade_query) {
+    struct row {
+        std::string_view target;
+        std::optional<long> window_ms;  // nullopt: no batching
+        bool valid;
+    };
+    const row rows[] = {
+        {"/api/v1/ws", std::nullopt, true},
+        {"/api/v1/ws?access_token=abc", std::nullopt, true},
+        {"/api/v1/ws?batch_ms=0", 0, true},
+        {"/api/v1/ws?access_token=abc&batch_ms=20", 20, true},
+        {"/api/v1/ws?batch_ms=1000", 1000, true},
+        {"/api/v1/ws?batch_ms=1001", std::nullopt, false},
+        {"/api/v1/ws?batch_ms=", std::nullopt, false},
+        {"/api/v1/ws?batch_ms=-5", std::nullopt, false},
+        {"/api/v1/ws?batch_ms=5ms", std::nullopt, false},
+        {"/api/v1/ws?batch_ms=99999999999999999999999", std::nullopt, false},
+        {"/api/v1/ws?batch_ms=1&batch_ms=2", std::nullopt, false},
+    };
+    for (const auto& r : rows) {
+        auto options = parse_websocket_options(r.target);
+        ASSERT_EQ(options.has_value(), r.valid) << r.target;
+        if (!options) {
+            EXPECT_EQ(options.error().kind, gw::operation_error_kind::invalid_value) << r.target;
+            EXPECT_EQ(options.error().field, "batch_ms") << r.target;
+            continue;
+        }
+        ASSERT_EQ(options->batch_window.has_value(), r.window_ms.has_value()) << r.target;
+        if (r.window_ms) EXPECT_EQ(options->batch_window->count(), *r.window_ms) << r.target;
+    }
+}
+
+TEST(websocket_protocol, a_batch_joins_the_events_own_messages_in_order) {
+    auto t = std::chrono::system_clock::time_point(std::chrono::milliseconds(1'795'322'740'123));
+    std::vector<std::shared_ptr<const gw::event>> events{
+        gw::make_data_event("controllers/s/reports", 7, t, std::make_shared<const std::string>(R"({"n":1})")),
+        gw::make_gap_event("controllers/s/reports", 8, 9, t),
+        gw::make_data_event("controllers/s/reports", 10, t, std::make_shared<const std::string>("[1,2]")),
+    };
+    auto batch = json::parse(ws_batch_message(events));
+    ASSERT_EQ(batch.at("type"), "batch");
+    ASSERT_EQ(batch.at("events").size(), 3u);
+    for (std::size_t i = 0; i < events.size(); ++i)
+        EXPECT_EQ(batch["events"][i], json::parse(*events[i]->message)) << i;
+    EXPECT_EQ(batch["events"][1]["missed"], 2);
+    EXPECT_EQ(json::parse(ws_batch_message({events[0]}))["events"].size(), 1u);
 }
 
 TEST(websocket_protocol, result_wraps_the_rest_body) {

@@ -187,7 +187,7 @@ TEST_F(event_hub_test, long_replay_goes_through_a_small_queue_interleaved_with_l
 TEST_F(event_hub_test, falling_behind_the_replay_buffer_while_resuming_counts_as_overflow) {
     make_hub({.stream_replay = 6});
     publish(reports, 6);
-    auto sink = add_sink(gw::subscriber_settings{.queue_limit = 4, .max_batch_events = 2});
+    auto sink = add_sink(gw::subscriber_settings{.queue_limit = 4, .max_batch_events = 2, .slow_ack = 0ms});
     sink->auto_ack = false;
     ASSERT_FALSE(hub_->subscribe(sink->id, reports, {.resume = {{reports, 0}}}));
     run();                 // 1, 2 delivered; 3, 4 queued
@@ -280,7 +280,9 @@ TEST_F(event_hub_test, overflow_gap_counts_exactly) {
 
 TEST_F(event_hub_test, a_second_overflow_within_the_window_evicts) {
     make_hub();
-    gw::subscriber_settings settings{.queue_limit = 2, .max_batch_events = 2, .overflow_window = 10s};
+    // Every overflow while a batch is unacknowledged counts (see the next test for slow_ack).
+    gw::subscriber_settings settings{
+        .queue_limit = 2, .max_batch_events = 2, .overflow_window = 10s, .slow_ack = 0ms};
     auto sink = add_sink(settings);
     sink->auto_ack = false;
     ASSERT_FALSE(hub_->subscribe(sink->id, reports));
@@ -312,6 +314,44 @@ TEST_F(event_hub_test, a_second_overflow_within_the_window_evicts) {
     sink->ack();
     publish(reports, 3);
     EXPECT_EQ(sink->events.size(), delivered);
+}
+
+TEST_F(event_hub_test, overflows_of_a_subscriber_that_keeps_acknowledging_give_gaps_not_a_close) {
+    // The gateway is behind (bursts bigger than the queue), the subscriber is not: every batch is
+    // acknowledged within slow_ack. It is told exactly what it missed, burst after burst, and stays.
+    make_hub();
+    gw::subscriber_settings settings{
+        .queue_limit = 4, .max_batch_events = 4, .overflow_window = 10s, .slow_ack = 1s};
+    auto sink = add_sink(settings);
+    sink->auto_ack = false;
+    ASSERT_FALSE(hub_->subscribe(sink->id, reports));
+    run();
+    std::uint64_t published = 0;
+    for (int burst = 0; burst < 5; ++burst) {
+        publish(reports, 10);  // 1 delivered, 4 queued, 5 overflow
+        published += 10;
+        clock_->advance(900ms);  // acknowledged late, but within slow_ack
+        for (int i = 0; i < 10 && sink->pending_ack; ++i) {
+            sink->ack();
+            run();
+        }
+    }
+    EXPECT_FALSE(sink->closed);
+    EXPECT_EQ(hub_->counters().evicted, 0u);
+    std::uint64_t missed = 0;
+    for (const auto& g : sink->gaps())
+        missed += g->missed();
+    EXPECT_EQ(sink->gaps().size(), 5u);
+    EXPECT_EQ(missed, 25u);
+    EXPECT_EQ(sink->seqs(reports).size() + missed, published);
+
+    // The same burst, and then no acknowledgement: a subscriber that stopped reading is closed.
+    publish(reports, 10);
+    clock_->advance(6s);
+    hub_->tick();
+    run();
+    ASSERT_TRUE(sink->closed);
+    EXPECT_NE(sink->closed->find("too slow"), std::string::npos) << *sink->closed;
 }
 
 TEST_F(event_hub_test, a_subscriber_full_for_too_long_is_evicted) {
