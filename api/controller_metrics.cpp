@@ -76,7 +76,9 @@ void controller_metrics::describe(gw::metrics& m) {
     m.describe("gw_events_evicted_subscribers_total", counter, "Subscribers disconnected for being too slow");
     m.describe("gw_event_subscribers", gauge, "Current event hub subscribers (WebSocket, MQTT)");
     m.describe("gw_events_topics", gauge, "Topics the event hub holds a replay buffer for");
-    m.describe("gw_events_replay_bytes", gauge, "Event text held in the event hub's replay buffers");
+    m.describe("gw_events_replay_bytes", gauge,
+               "Memory held by the event hub's replay buffers (event text and bookkeeping; "
+               "events.replay_memory_mb bounds it)");
     m.describe("gw_events_retired_topics_total", counter,
                "Topics that left the event hub (ended jobs' topics, or the least recent beyond its bound)");
 }

@@ -91,7 +91,9 @@ bool application::start() {
     registry_ = std::make_unique<controller_registry>(ioc_.get_executor(), std::move(launch_.registry));
     registry_->add_observer(std::shared_ptr<devices::controller_observer>(std::make_shared<log_observer>()));
     metrics_ = std::make_shared<metrics>();
-    hub_ = event_hub::create(ioc_.get_executor());
+    event_hub_settings hub_settings;
+    hub_settings.max_replay_bytes = config.events.replay_memory_mb * 1024 * 1024;
+    hub_ = event_hub::create(ioc_.get_executor(), hub_settings);
     registry_->add_observer(
         std::shared_ptr<devices::controller_observer>(std::make_shared<controller_events_bridge>(hub_)));
 

@@ -354,10 +354,12 @@ void read_mqtt(const json& j, mqtt_config& out) {
 }
 
 void read_events(const json& j, events_config& out) {
-    object_reader r(j, "events", {"ended_job_topic_ttl_s"});
+    object_reader r(j, "events", {"ended_job_topic_ttl_s", "replay_memory_mb"});
     if (auto* v = r.get("ended_job_topic_ttl_s"))
         out.ended_job_topic_ttl = std::chrono::seconds(
             read_uint(*v, r.path("ended_job_topic_ttl_s"), 0, max_ended_job_topic_ttl_s));
+    if (auto* v = r.get("replay_memory_mb"))
+        out.replay_memory_mb = read_uint(*v, r.path("replay_memory_mb"), 1, 4096);
 }
 
 // mqtt.jobs.retain_finished_s given in the file.

@@ -70,6 +70,9 @@ struct events_config {
     // An ended job's topic (jobs/<id>) leaves the hub this long after the job ended; its history stays
     // in the job store (GET /api/v1/jobs/{id}/events). Also the default of mqtt.jobs.retain_finished_s.
     std::chrono::seconds ended_job_topic_ttl{600};
+    // Memory for every topic's replay buffer together (MiB): clients that resume get what is still
+    // in it, the rest as counted gaps (gateway/events/event_hub_settings.hpp max_replay_bytes).
+    std::size_t replay_memory_mb = 16;
 };
 
 struct gcode_config {

@@ -39,9 +39,11 @@ std::string millis(std::chrono::milliseconds ms) {
     return std::to_string(ms.count()) + " ms";
 }
 
-// What an event in a replay buffer holds in text (the struct itself is small next to it).
-std::uint64_t text_bytes(const event& e) {
-    return e.topic.size() + (e.data ? e.data->size() : 0) + (e.message ? e.message->size() : 0);
+// What an event in a replay buffer costs: its text, the event itself, and the heap blocks of the
+// event, its two strings and their shared_ptr control blocks (an estimate of allocator overhead).
+std::uint64_t replay_cost(const event& e) {
+    constexpr std::uint64_t bookkeeping = sizeof(event) + 5 * 32;
+    return bookkeeping + e.topic.size() + (e.data ? e.data->size() : 0) + (e.message ? e.message->size() : 0);
 }
 
 }  // namespace
@@ -163,6 +165,7 @@ void event_hub::stop() {
         self->retired_.clear();
         self->retired_order_.clear();
         self->counters_->topics.store(0);
+        self->replay_bytes_ = 0;
         self->counters_->replay_bytes.store(0);
     });
 }
@@ -220,8 +223,8 @@ void event_hub::retire(std::map<std::string, topic_state>::iterator topic) {
     const std::string name = topic->first;
     const auto last_seq = topic->second.last_seq;
     if (topic->second.retirement) retirements_.erase(*topic->second.retirement);
-    for (const auto& e : topic->second.replay)
-        note_replay_bytes(*e, false);
+    replay_bytes_ -= topic->second.replay_bytes;
+    counters_->replay_bytes.store(replay_bytes_, std::memory_order_relaxed);
     topics_.erase(topic);
     counters_->topics.store(topics_.size());
     add(counters_->retired);
@@ -284,11 +287,38 @@ void event_hub::flush_retired(subscriber& s) {
     }
 }
 
-void event_hub::note_replay_bytes(const event& e, bool added) {
-    if (added)
-        add(counters_->replay_bytes, text_bytes(e));
-    else
-        counters_->replay_bytes.fetch_sub(text_bytes(e), std::memory_order_relaxed);
+void event_hub::add_to_replay(topic_state& t, std::shared_ptr<const event> e) {
+    const auto cost = replay_cost(*e);
+    t.replay.push_back(std::move(e));
+    t.replay_bytes += cost;
+    replay_bytes_ += cost;
+    while (t.replay.size() > t.capacity)
+        drop_oldest_replayed(t);
+    trim_replay(t);
+    counters_->replay_bytes.store(replay_bytes_, std::memory_order_relaxed);
+}
+
+void event_hub::drop_oldest_replayed(topic_state& t) {
+    const auto cost = replay_cost(*t.replay.front());
+    t.replay.pop_front();
+    t.replay_bytes -= cost;
+    replay_bytes_ -= cost;
+}
+
+void event_hub::trim_replay(topic_state& published) {
+    const std::uint64_t bound = settings_.max_replay_bytes;
+    if (replay_bytes_ <= bound) return;
+    const std::uint64_t fair_share = bound / std::max<std::size_t>(topics_.size(), 1);
+    while (replay_bytes_ > bound && published.replay_bytes > fair_share && published.replay.size() > 1)
+        drop_oldest_replayed(published);
+    // Still over: other buffers hold more than their share (they grew when there were fewer topics).
+    while (replay_bytes_ > bound) {
+        topic_state* largest = nullptr;
+        for (auto& [name, t] : topics_)
+            if (t.replay.size() > 1 && (!largest || t.replay_bytes > largest->replay_bytes)) largest = &t;
+        if (!largest) return;  // every buffer is down to its newest event
+        drop_oldest_replayed(*largest);
+    }
 }
 
 const event_hub::subscription* event_hub::matching(const subscriber& s, const std::string& topic) const {
@@ -302,12 +332,7 @@ void event_hub::on_publish(std::string topic, std::shared_ptr<const std::string>
     if (stopped_) return;
     auto& t = topic_for(topic);
     auto e = make_data_event(topic, ++t.last_seq, time, std::move(data));
-    t.replay.push_back(e);
-    note_replay_bytes(*e, true);
-    while (t.replay.size() > t.capacity) {
-        note_replay_bytes(*t.replay.front(), false);
-        t.replay.pop_front();
-    }
+    add_to_replay(t, e);
     t.last_publish = ++publish_order_;
     add(counters_->published);
 

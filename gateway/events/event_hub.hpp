@@ -74,7 +74,7 @@ struct event_hub_counters {
     std::uint64_t evicted = 0;       // subscribers closed for being too slow
     std::uint64_t subscribers = 0;   // current
     std::uint64_t topics = 0;        // current: topics with a replay buffer
-    std::uint64_t replay_bytes = 0;  // current: text (payload, message, topic) held by replay buffers
+    std::uint64_t replay_bytes = 0;  // current: replay_cost of every event held by replay buffers
     std::uint64_t retired = 0;       // topics retired (retire_topic, or forgotten beyond max_topics)
 };
 
@@ -130,6 +130,7 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
         std::uint64_t last_seq = 0;
         std::size_t capacity = 0;
         std::deque<std::shared_ptr<const event>> replay;  // consecutive sequence numbers, newest last
+        std::uint64_t replay_bytes = 0;                   // replay_cost of what `replay` holds
         std::uint64_t last_publish = 0;                   // publish_order_ when last published
         std::optional<std::multimap<std::chrono::steady_clock::time_point, std::string>::iterator>
             retirement;  // its entry in retirements_, once retire_topic() was called
@@ -194,7 +195,10 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     void remember_retired(const std::string& name, std::uint64_t last_seq);
     void push_retired(subscriber& s, const std::shared_ptr<const event>& e);
     void flush_retired(subscriber& s);
-    void note_replay_bytes(const event& e, bool added);
+    void add_to_replay(topic_state& t, std::shared_ptr<const event> e);
+    void drop_oldest_replayed(topic_state& t);
+    // Keeps the replay buffers within max_replay_bytes after `published` grew (see the settings).
+    void trim_replay(topic_state& published);
     const subscription* matching(const subscriber& s, const std::string& topic) const;
     void offer(subscriber& s, const std::shared_ptr<const event>& e, const topic_state& t,
                const subscription& sub);
@@ -232,6 +236,7 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     std::uint64_t retirements_done_ = 0;
     std::map<subscriber_id, std::unique_ptr<subscriber>> subscribers_;
     std::uint64_t publish_order_ = 0;
+    std::uint64_t replay_bytes_ = 0;  // every topic's replay_bytes
     std::atomic<subscriber_id> next_id_{1};
 
     struct atomic_counters;

@@ -55,6 +55,11 @@ struct event_clock {
 struct event_hub_settings {
     std::size_t stream_replay = 1000;  // replay buffer per stream topic (reports, ttl, jobs/<id>)
     std::size_t latest_replay = 8;     // replay buffer per latest-value topic (state, position)
+    // Every replay buffer together holds at most this much (an event's text plus its bookkeeping:
+    // replay_cost). Over it, the topic being published gives up its oldest events down to its fair
+    // share (this bound over the number of topics), then the largest buffers theirs; each keeps at
+    // least its newest event. So memory follows this bound, not the number of busy report streams.
+    std::size_t max_replay_bytes = std::size_t{16} * 1024 * 1024;
     // Distinct topics remembered; beyond it the topic published least recently is forgotten (its
     // replay buffer and sequence counter; a later publish starts again at 1), as if it was retired.
     std::size_t max_topics = 4096;

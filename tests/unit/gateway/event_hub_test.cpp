@@ -597,3 +597,58 @@ TEST_F(event_hub_test, stop_closes_every_subscriber) {
 }
 
 }  // namespace
+
+namespace {
+
+// What a new subscriber resuming `topic` from 0 gets: the replayed sequence numbers and the gap.
+struct resumed {
+    std::vector<std::uint64_t> seqs;
+    std::uint64_t missed = 0;
+};
+
+}  // namespace
+
+TEST_F(event_hub_test, replay_buffers_share_a_byte_bound) {
+    constexpr std::size_t bound = 64 * 1024;
+    make_hub({.max_replay_bytes = bound});
+    auto resume = [&](const std::string& topic) {
+        auto sink = add_sink(gw::subscriber_settings{.queue_limit = 4096, .max_batch_events = 4096});
+        EXPECT_FALSE(hub_->subscribe(sink->id, topic, {.resume = {{topic, 0}}}));
+        run();
+        resumed r{sink->seqs(topic), 0};
+        for (const auto& g : sink->gaps())
+            r.missed += g->missed();
+        hub_->remove_subscriber(sink->id);
+        run();
+        return r;
+    };
+
+    publish(reports, 2000);  // more than the bound holds, fewer than stream_replay (1000) would
+    EXPECT_LE(hub_->counters().replay_bytes, bound);
+    EXPECT_GT(hub_->counters().replay_bytes, bound / 2);
+    auto alone = resume(reports);
+    ASSERT_FALSE(alone.seqs.empty());
+    EXPECT_LT(alone.seqs.size(), 1000u) << "the byte bound, not the event count, limits the buffer";
+    EXPECT_EQ(alone.seqs.back(), 2000u);
+    EXPECT_EQ(alone.missed + alone.seqs.size(), 2000u) << "the rest is an exact gap";
+
+    // A second busy stream: the first gives up room down to about half (each keeps a fair share).
+    publish(ttl, 2000);
+    EXPECT_LE(hub_->counters().replay_bytes, bound);
+    auto first = resume(reports);
+    auto second = resume(ttl);
+    EXPECT_EQ(first.seqs.back(), 2000u);
+    EXPECT_EQ(second.seqs.back(), 2000u);
+    EXPECT_LT(first.seqs.size(), alone.seqs.size());
+    EXPECT_GE(first.seqs.size(), alone.seqs.size() / 2 - 2);
+    EXPECT_GE(second.seqs.size(), alone.seqs.size() / 2 - 2);
+    EXPECT_EQ(second.missed + second.seqs.size(), 2000u);
+
+    // Latest-value topics keep at least their newest event, whatever the bound.
+    ASSERT_FALSE(hub_->publish(state, nlohmann::json{{"s", std::string(bound, 'x')}}));
+    run();
+    auto s = add_sink();
+    ASSERT_FALSE(hub_->subscribe(s->id, state));
+    run();
+    EXPECT_EQ(s->seqs(state), range(1, 1));
+}

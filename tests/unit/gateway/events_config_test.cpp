@@ -18,6 +18,13 @@ TEST(events_config, an_ended_jobs_topic_stays_ten_minutes_by_default) {
     EXPECT_EQ(c->events.ended_job_topic_ttl, 600s);
     EXPECT_EQ(c->mqtt.retain_finished_jobs, 600s);
     EXPECT_EQ(jobs::make_job_manager_settings(*c).ended_job_topic_ttl, 600s);
+    EXPECT_EQ(c->events.replay_memory_mb, 16u);
+}
+
+TEST(events_config, replay_memory_is_read) {
+    auto c = parse_config(R"({"events":{"replay_memory_mb":4}})");
+    ASSERT_TRUE(c) << c.error();
+    EXPECT_EQ(c->events.replay_memory_mb, 4u);
 }
 
 TEST(events_config, the_topic_ttl_is_read_and_the_retained_mqtt_state_follows_it) {
@@ -47,6 +54,10 @@ TEST(events_config, errors_name_the_key) {
          "events.ended_job_topic_ttl_s: must be an integer from 0 to 604800"},
         {R"({"events":{"ended_job_topic_ttl_s":"10"}})", "events.ended_job_topic_ttl_s: must be an integer"},
         {R"({"events":{"ttl":1}})", "events.ttl: unknown key"},
+        {R"({"events":{"replay_memory_mb":0}})",
+         "events.replay_memory_mb: must be an integer from 1 to 4096"},
+        {R"({"events":{"replay_memory_mb":4097}})",
+         "events.replay_memory_mb: must be an integer from 1 to 4096"},
         {R"({"events":[]})", "events: must be an object"},
     };
     for (const auto& [text, expected] : cases) {
