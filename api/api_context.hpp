@@ -16,6 +16,7 @@ class logger;
 
 namespace gw {
 class controller_registry;
+class controller_state_texts;
 class event_hub;
 class gcode_file_store;
 class lease_manager;
@@ -44,6 +45,8 @@ struct api_context {
     std::shared_ptr<gcode_file_store> gcode_files;  // null: the /api/v1/gcode/files routes answer 503
     std::shared_ptr<gcode_worker> gcode_thread;     // plans and uploads run here; null: inline
     std::shared_ptr<port_scan_worker> port_scans;  // GET /api/v1/ports runs here; null: the route answers 503
+    // Each controller's state JSON text, built once per snapshot; null: built per request.
+    std::shared_ptr<const controller_state_texts> state_texts;
 };
 
 }  // namespace gw::api

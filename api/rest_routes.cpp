@@ -10,6 +10,7 @@
 #include "api/port_requests.hpp"
 #include "gateway/common/metrics.hpp"
 #include "gateway/controllers/controller_registry.hpp"
+#include "gateway/events/controller_state_texts.hpp"
 #include "gateway/events/event_hub.hpp"
 #include "gateway/events/event_json.hpp"
 #include "gateway/version.hpp"
@@ -75,6 +76,10 @@ void list_controllers(request_context& c) {
 }
 
 void get_controller(request_context& c) {
+    // The text the events bridge built with the last snapshot: nothing to build per request.
+    if (c.ctx->state_texts)
+        if (auto text = c.ctx->state_texts->get(c.params[0]))
+            return c.reply_body(http::status::ok, *text, "application/json");
     auto s = c.ctx->registry.get(c.params[0]);
     if (!s) return c.fail(unknown_controller(c.params[0]));
     c.reply_json(http::status::ok, state_json(*s));

@@ -28,12 +28,14 @@ std::shared_ptr<gcode_file_store> make_gcode_store(const gateway_config& config)
 
 server::server(net::any_io_executor executor, const gateway_config& config, controller_registry& registry,
                std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
-               std::shared_ptr<jobs::job_manager> jobs, std::shared_ptr<lease_manager> leases)
+               std::shared_ptr<jobs::job_manager> jobs, std::shared_ptr<lease_manager> leases,
+               std::shared_ptr<const controller_state_texts> state_texts)
     : http_(config.http),
       ctx_(std::make_shared<api_context>(
           api_context{executor, registry, std::move(hub), std::move(metrics), config.http.limits, config.auth,
                       get_logger("api"), std::move(jobs), std::move(leases), make_gcode_store(config),
-                      std::make_shared<api::gcode_worker>(), std::make_shared<api::port_scan_worker>()})) {
+                      std::make_shared<api::gcode_worker>(), std::make_shared<api::port_scan_worker>(),
+                      std::move(state_texts)})) {
     // main holds the storage lock by now: no other gateway uploads into this store.
     if (auto stale = ctx_->gcode_files->remove_stale_temporaries())
         ctx_->log->info("removed {} unfinished G-code uploads from {}", stale,

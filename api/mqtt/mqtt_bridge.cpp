@@ -107,11 +107,7 @@ void mqtt_bridge::start() {
 }
 
 void mqtt_bridge::subscribe_hub() {
-    subscriber_settings s;
-    s.queue_limit = 4096;
-    s.max_batch_events = 256;
-    s.max_stall = std::chrono::seconds(30);
-    subscriber_ = ctx_->hub->add_subscriber(weak_from_this(), s);
+    subscriber_ = ctx_->hub->add_subscriber(weak_from_this(), settings_.hub_subscriber);
     ctx_->hub->subscribe(subscriber_, "controllers/+/state");  // the current states come at once
     ctx_->hub->subscribe(subscriber_, "controllers/+/position",
                          {.max_rate_hz = settings_.config.position_max_hz});

@@ -43,6 +43,7 @@
 #include "api/mqtt/mqtt_payloads.hpp"
 #include "api/mqtt/mqtt_topics.hpp"
 #include "gateway/config/config.hpp"
+#include "gateway/events/event_hub_settings.hpp"
 #include "gateway/events/event_sink.hpp"
 
 namespace spdlog {
@@ -58,6 +59,9 @@ struct mqtt_bridge_settings {
     std::string gateway_id;  // resolved (resolve_gateway_id)
     std::string version;     // in the birth message; empty: the project version
     std::size_t max_in_flight = 256;
+    // Its subscription to the event hub: room for bursts, and patience with a slow broker.
+    subscriber_settings hub_subscriber{
+        .queue_limit = 4096, .max_batch_events = 256, .max_stall = std::chrono::seconds(30)};
     std::size_t max_tracked_jobs = 10000;  // jobs whose state is kept retained; the oldest ended go first
     std::shared_ptr<spdlog::logger> log;   // "mqtt"; null: the API's logger
 };

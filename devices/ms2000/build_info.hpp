@@ -55,6 +55,7 @@ struct build_info {
     int ring_buffer_size = 0;  // "RING BUFFER 250" -> 250; plain "RING BUFFER" -> 50; 0 if absent
 
     bool has(module m) const { return modules.test(static_cast<std::size_t>(m)); }
+    bool operator==(const build_info&) const = default;
 };
 
 // error::unrecognized_reply when the text has no build name line.

@@ -35,6 +35,8 @@ struct controller_identity {
     std::string version;      // "9.52" (parse_version), or the raw reply text if it has another form
     std::string version_raw;  // ":A Version: USB-9.52 "
     ms2000::build_info build;
+
+    bool operator==(const controller_identity&) const = default;
 };
 
 struct axis_state {

@@ -16,6 +16,7 @@
 #include "gateway/config/logging.hpp"
 #include "gateway/controllers/log_observer.hpp"
 #include "gateway/events/controller_events_bridge.hpp"
+#include "gateway/events/controller_state_texts.hpp"
 #include "gateway/events/event_hub.hpp"
 #include "gateway/jobs/job_manager.hpp"
 #include "gateway/leases/lease_manager.hpp"
@@ -94,8 +95,9 @@ bool application::start() {
     event_hub_settings hub_settings;
     hub_settings.max_replay_bytes = config.events.replay_memory_mb * 1024 * 1024;
     hub_ = event_hub::create(ioc_.get_executor(), hub_settings);
-    registry_->add_observer(
-        std::shared_ptr<devices::controller_observer>(std::make_shared<controller_events_bridge>(hub_)));
+    state_texts_ = std::make_shared<controller_state_texts>();
+    registry_->add_observer(std::shared_ptr<devices::controller_observer>(
+        std::make_shared<controller_events_bridge>(hub_, state_texts_)));
 
     // Jobs: leases and the job manager over the durable store (an unusable storage path is fatal).
     leases_ = std::make_shared<lease_manager>();
@@ -111,7 +113,7 @@ bool application::start() {
     }
     jobs_ = std::move(*jobs);
     http_ = std::make_unique<api::server>(ioc_.get_executor(), config, *registry_, hub_, metrics_, jobs_,
-                                          leases_);
+                                          leases_, state_texts_);
 
     try {
         registry_->start();

@@ -27,6 +27,7 @@ class logger;
 
 namespace gw {
 
+class controller_state_texts;
 class event_hub;
 class lease_manager;
 class metrics;
@@ -76,6 +77,7 @@ class application {
     std::unique_ptr<controller_registry> registry_;
     std::shared_ptr<metrics> metrics_;
     std::shared_ptr<event_hub> hub_;
+    std::shared_ptr<controller_state_texts> state_texts_;  // filled by the events bridge, read by HTTP
     std::shared_ptr<lease_manager> leases_;
     std::shared_ptr<jobs::job_manager> jobs_;
     std::unique_ptr<api::server> http_;

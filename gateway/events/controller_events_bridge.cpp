@@ -2,6 +2,8 @@
 
 #include <optional>
 
+#include "gateway/common/json_text.hpp"
+#include "gateway/events/controller_state_texts.hpp"
 #include "gateway/events/event_hub.hpp"
 #include "gateway/events/event_json.hpp"
 
@@ -24,7 +26,19 @@ std::string controller_topic(std::string_view id, std::string_view leaf) {
     return topic;
 }
 
-controller_events_bridge::controller_events_bridge(std::shared_ptr<event_hub> hub) : hub_(std::move(hub)) {}
+controller_events_bridge::controller_events_bridge(std::shared_ptr<event_hub> hub,
+                                                   std::shared_ptr<controller_state_texts> state_texts)
+    : hub_(std::move(hub)), state_texts_(std::move(state_texts)) {}
+
+nlohmann::json controller_events_bridge::identity_of(const devices::controller_snapshot& s) {
+    if (!s.identity) return nullptr;
+    std::lock_guard lock(mutex_);
+    auto it = identities_.find(s.id);
+    if (it == identities_.end() || it->second.identity != *s.identity)
+        it =
+            identities_.insert_or_assign(s.id, known_identity{*s.identity, identity_json(*s.identity)}).first;
+    return it->second.json;
+}
 
 void controller_events_bridge::on_snapshot(const devices::controller_snapshot& s) {
     auto time = known(s.updated);
@@ -38,7 +52,9 @@ void controller_events_bridge::on_snapshot(const devices::controller_snapshot& s
             moved = true;
         }
     }
-    hub_->publish(controller_topic(s.id, "state"), state_json(s), time);
+    auto state = std::make_shared<const std::string>(to_json_text(state_json(s, identity_of(s))));
+    if (state_texts_) state_texts_->set(s.id, state);
+    hub_->publish(controller_topic(s.id, "state"), std::move(state), time);
     // A position event is stamped with when its positions were read: one published because only the
     // busy flags changed must not look newer than a step event published before it (the G-code trace
     // keeps positions by this time).
@@ -57,6 +73,8 @@ void controller_events_bridge::on_ttl(const devices::ttl_event& e) {
 void controller_events_bridge::forget(const std::string& id) {
     std::lock_guard lock(mutex_);
     last_position_.erase(id);
+    identities_.erase(id);
+    if (state_texts_) state_texts_->forget(id);
 }
 
 }  // namespace gw

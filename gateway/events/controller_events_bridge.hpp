@@ -9,6 +9,8 @@
 // bytes), so a client can line encoder frames and TTL reports up on one clock.
 // Called on each controller's strand (several at once); serialises to JSON there and posts to the
 // hub. One bridge serves every controller; the registry owns it and holds it by shared_ptr.
+// Each state text is also kept in controller_state_texts (for GET /api/v1/controllers/{id}), and
+// each controller's identity JSON is built once per identification, not per snapshot.
 
 #include <memory>
 #include <mutex>
@@ -22,6 +24,7 @@
 
 namespace gw {
 
+class controller_state_texts;
 class event_hub;
 
 // "controllers/<id>/<leaf>"
@@ -29,7 +32,8 @@ std::string controller_topic(std::string_view id, std::string_view leaf);
 
 class controller_events_bridge final : public devices::controller_observer {
   public:
-    explicit controller_events_bridge(std::shared_ptr<event_hub> hub);
+    explicit controller_events_bridge(std::shared_ptr<event_hub> hub,
+                                      std::shared_ptr<controller_state_texts> state_texts = nullptr);
 
     void on_snapshot(const devices::controller_snapshot& snapshot) override;
     void on_report(const devices::report_event& event) override;
@@ -39,9 +43,19 @@ class controller_events_bridge final : public devices::controller_observer {
     void forget(const std::string& id);
 
   private:
+    struct known_identity {
+        devices::controller_identity identity;
+        nlohmann::json json;
+    };
+    // The identity's JSON, rebuilt only when the controller was identified differently.
+    nlohmann::json identity_of(const devices::controller_snapshot& s);
+
     std::shared_ptr<event_hub> hub_;
-    std::mutex mutex_;  // guards last_position_ (several controller strands call in); held to compare only
+    std::shared_ptr<controller_state_texts> state_texts_;
+    // Guards the maps (several controller strands call in); held to compare and copy only.
+    std::mutex mutex_;
     std::unordered_map<std::string, nlohmann::json> last_position_;
+    std::unordered_map<std::string, known_identity> identities_;
 };
 
 }  // namespace gw

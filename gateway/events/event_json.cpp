@@ -38,22 +38,6 @@ std::string axis_name(char letter) {
     return std::string(1, letter);
 }
 
-nlohmann::json identity_json(const devices::controller_identity& id) {
-    namespace ms2000 = devices::ms2000;
-    auto modules = nlohmann::json::array();
-    for (std::size_t i = 0; i < static_cast<std::size_t>(ms2000::module::count_); ++i) {
-        auto m = static_cast<ms2000::module>(i);
-        if (id.build.has(m)) modules.push_back(std::string(ms2000::module_id(m)));
-    }
-    return {{"version", id.version},
-            {"version_raw", id.version_raw},
-            {"build", id.build.name},
-            {"motor_axes", id.build.motor_axes},
-            {"modules", std::move(modules)},
-            {"module_lines", id.build.module_lines},
-            {"ring_buffer_size", id.build.ring_buffer_size}};
-}
-
 std::string_view kind_name(devices::ms2000::reply::kind k) {
     using kind = devices::ms2000::reply::kind;
     switch (k) {
@@ -71,7 +55,27 @@ std::string_view kind_name(devices::ms2000::reply::kind k) {
 
 }  // namespace
 
+nlohmann::json identity_json(const devices::controller_identity& id) {
+    namespace ms2000 = devices::ms2000;
+    auto modules = nlohmann::json::array();
+    for (std::size_t i = 0; i < static_cast<std::size_t>(ms2000::module::count_); ++i) {
+        auto m = static_cast<ms2000::module>(i);
+        if (id.build.has(m)) modules.push_back(std::string(ms2000::module_id(m)));
+    }
+    return {{"version", id.version},
+            {"version_raw", id.version_raw},
+            {"build", id.build.name},
+            {"motor_axes", id.build.motor_axes},
+            {"modules", std::move(modules)},
+            {"module_lines", id.build.module_lines},
+            {"ring_buffer_size", id.build.ring_buffer_size}};
+}
+
 nlohmann::json state_json(const devices::controller_snapshot& s) {
+    return state_json(s, s.identity ? identity_json(*s.identity) : nlohmann::json(nullptr));
+}
+
+nlohmann::json state_json(const devices::controller_snapshot& s, nlohmann::json identity) {
     auto axes = nlohmann::json::array();
     for (const auto& a : s.axes) {
         axes.push_back({{"axis", axis_name(a.axis)},
@@ -95,7 +99,7 @@ nlohmann::json state_json(const devices::controller_snapshot& s) {
             {"state", std::string(devices::to_string(s.state))},
             {"port", s.port},
             {"busy", s.busy},
-            {"identity", s.identity ? identity_json(*s.identity) : nlohmann::json(nullptr)},
+            {"identity", std::move(identity)},
             {"axes", std::move(axes)},
             {"ttl", {{"in0_mode", or_null(s.ttl_in0_mode)}, {"out0_mode", or_null(s.ttl_out0_mode)}}},
             {"last_error", std::move(last_error)},

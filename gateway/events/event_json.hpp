@@ -30,6 +30,10 @@
 namespace gw {
 
 nlohmann::json state_json(const devices::controller_snapshot& snapshot);
+// The same with the "identity" member given (identity_json of the snapshot's identity, or null):
+// the identity changes once per identification, so a caller may keep it instead of rebuilding it.
+nlohmann::json state_json(const devices::controller_snapshot& snapshot, nlohmann::json identity);
+nlohmann::json identity_json(const devices::controller_identity& identity);
 nlohmann::json position_json(const devices::controller_snapshot& snapshot);
 nlohmann::json report_json(const devices::report_event& event);
 nlohmann::json ttl_json(const devices::ttl_event& event);

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "devices/ms2000/build_info.hpp"
+#include "gateway/events/controller_state_texts.hpp"
 #include "gateway/events/event_hub.hpp"
 #include "gateway/events/event_json.hpp"
 
@@ -84,8 +85,37 @@ class bridge_test : public ::testing::Test {
     boost::asio::io_context ioc_;
     std::shared_ptr<gw::event_hub> hub_ = gw::event_hub::create(ioc_.get_executor());
     std::shared_ptr<collecting_sink> sink_ = std::make_shared<collecting_sink>();
-    gw::controller_events_bridge bridge_{hub_};
+    std::shared_ptr<gw::controller_state_texts> texts_ = std::make_shared<gw::controller_state_texts>();
+    gw::controller_events_bridge bridge_{hub_, texts_};
 };
+
+TEST_F(bridge_test, the_state_text_is_kept_for_requests_and_is_the_events_text) {
+    EXPECT_EQ(texts_->get("stage1"), nullptr);
+    auto snapshot = connected_snapshot();
+    bridge_.on_snapshot(snapshot);
+    run();
+    auto text = texts_->get("stage1");
+    ASSERT_NE(text, nullptr);
+    EXPECT_EQ(json::parse(*text), gw::state_json(snapshot));
+    auto state = sink_->on("controllers/stage1/state");
+    ASSERT_EQ(state.size(), 1u);
+    EXPECT_EQ(state[0]->data, text) << "one text, shared by the event and the requests";
+
+    // A newer snapshot replaces it; a new identification shows in it (the identity JSON is kept
+    // only while the identity is the same).
+    snapshot.updated += seconds(1);
+    snapshot.identity->version = "9.60";
+    bridge_.on_snapshot(snapshot);
+    auto newer = json::parse(*texts_->get("stage1"));
+    EXPECT_EQ(newer, gw::state_json(snapshot));
+    EXPECT_EQ(newer["identity"]["version"], "9.60");
+    snapshot.identity.reset();
+    bridge_.on_snapshot(snapshot);
+    EXPECT_EQ(json::parse(*texts_->get("stage1"))["identity"], nullptr);
+
+    bridge_.forget("stage1");
+    EXPECT_EQ(texts_->get("stage1"), nullptr);
+}
 
 TEST_F(bridge_test, snapshot_becomes_state_and_position) {
     bridge_.on_snapshot(connected_snapshot());

@@ -55,6 +55,9 @@ class mqtt_bridge_eviction : public ::testing::Test {
         s.config.reconnect_min = std::chrono::seconds(30);  // one refused attempt is enough
         s.config.reconnect_max = std::chrono::seconds(30);
         s.gateway_id = "gw";
+        // Every overflow counts against it, even while it acknowledges (the hub's default forgives
+        // those: they mean the gateway is behind), so that two bursts evict it.
+        s.hub_subscriber.slow_ack = std::chrono::milliseconds(0);
         bridge_ = mqtt_bridge::create(ctx_, s);
         bridge_->start();
         settle();
