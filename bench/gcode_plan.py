@@ -17,13 +17,16 @@ peer for speed, not for results (tests/integration/gcode/ compares the results w
 import argparse
 import datetime
 import os
-import platform
 import random
 import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
+
+sys.dont_write_bytecode = True
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_machine import machine_line  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -77,16 +80,7 @@ def measure(cmd, tmp):
 
 
 def machine():
-    model = "unknown CPU"
-    try:
-        for line in subprocess.run(["lscpu"], capture_output=True, text=True).stdout.splitlines():
-            if line.startswith("Model name:"):
-                model = line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    debian = open("/etc/debian_version").read().strip() if os.path.exists("/etc/debian_version") else "?"
-    load = os.getloadavg()
-    return f"{model}, {os.cpu_count()} cores, Debian {debian}, {platform.machine()}, load average {load[0]:.1f} at start"
+    return f"{machine_line()}, load average {os.getloadavg()[0]:.1f} at start"
 
 
 def main():

@@ -78,6 +78,19 @@ std::string letters_if_all(const std::vector<std::string>& words, char suffix) {
     return letters;
 }
 
+}  // namespace
+
+bool only_reads(const command& cmd) {
+    if (is_one_of(cmd.verb, {"W", "WHERE", "/", "STATUS", "RS", "RDSTAT", "V", "VERSION", "WHO"})) return true;
+    auto args = std::string_view(cmd.wire).substr(std::min(cmd.verb.size(), cmd.wire.size()));
+    if (args.ends_with('\r')) args.remove_suffix(1);
+    const auto words = upper_words(args);
+    if (is_one_of(cmd.verb, {"BU", "BUILD", "INFO"})) return words.size() <= 1;
+    return !words.empty() && !letters_if_all(words, '?').empty();
+}
+
+namespace {
+
 // Reply contents known from the protocol reference (../shared/docs/ms2000-protocol.md, sections 2.5
 // to 2.7): WHERE, VERSION, BUILD X, the motion commands and the parameter queries of section 2.6.
 // Everything else keeps kind::any, because a firmware may answer it in a shape not listed there.

@@ -79,6 +79,11 @@ boost::system::result<command> make_command(std::string_view verb, std::span<con
 inline constexpr std::size_t max_raw_command_bytes = 256;
 boost::system::result<command> raw_command(std::string_view line);
 
+// True when the command only reads the controller (WHERE, STATUS, RS, VERSION, BUILD, WHO, INFO, or
+// parameter queries whose every argument is "L?"): it cannot start a move or change a setting. The
+// driver polls less often while the stage is idle and nothing but such commands ran.
+bool only_reads(const command& cmd);
+
 // Formats a number the way the controller reads it: fixed notation, at most `decimals` decimals,
 // trailing zeros and a trailing dot dropped, "-0" printed as "0". Empty result for NaN or infinity.
 std::string format_number(double value, int decimals);

@@ -400,6 +400,8 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
     // Whoever asked "/" (a waited move, a job), its answer is the newest word on motion: the snapshot
     // must not go on saying "moving" after a move's waiter was told it stopped.
     if (!ec && !done.job.poll && reply && reply->what == ms2000::reply::kind::status) note_busy(reply->busy);
+    // It may have started a move or changed a setting: the next poll tick starts a round.
+    if (!done.job.poll && !done.job.internal && !ms2000::only_reads(done.job.cmd)) changed_since_poll_ = true;
 
     if (ec && !done.job.internal) {
         if (ec == ms2000::error::controller_rejected && reply) {
@@ -806,10 +808,15 @@ void controller::arm_poll_timer() {
     poll_timer_.async_wait([self = shared_from_this(), generation = generation_](error_code ec) {
         if (ec || generation != self->generation_) return;
         // At most one poll round: a round still running absorbs this tick.
-        if (self->poll_step_ == poll_step::idle) self->poll_due_ = true;
+        if (self->poll_step_ == poll_step::idle && self->poll_round_wanted()) self->poll_due_ = true;
         self->pump();
         self->arm_poll_timer();
     });
+}
+
+bool controller::poll_round_wanted() const {
+    return snapshot_.busy || changed_since_poll_ ||
+           steady_clock::now() - last_poll_round_ >= settings_.idle_poll_interval;
 }
 
 std::optional<controller::pending> controller::next_poll_command() {
@@ -818,6 +825,8 @@ std::optional<controller::pending> controller::next_poll_command() {
         if (!poll_due_) return std::nullopt;
         poll_due_ = false;
         poll_step_ = poll_step::where;
+        last_poll_round_ = steady_clock::now();
+        changed_since_poll_ = false;
     }
     const auto axes = motor_axes();
     const auto step = poll_step_;

@@ -162,6 +162,7 @@ class controller : public std::enable_shared_from_this<controller> {
     void on_identified();
     void refresh_ttl_modes();
     void arm_poll_timer();
+    bool poll_round_wanted() const;  // see controller_settings::idle_poll_interval
     std::optional<pending> next_poll_command();
     void on_poll_reply(poll_step step, std::size_t axis_index, boost::system::error_code ec,
                        const ms2000::reply& reply);
@@ -237,6 +238,10 @@ class controller : public std::enable_shared_from_this<controller> {
     std::deque<pending> user_queue_;
     poll_step poll_step_ = poll_step::idle;
     bool poll_due_ = false;
+    // For the idle poll interval: when the last round started, and whether a command that may move
+    // the stage (or change what a poll reads) ran since.
+    std::chrono::steady_clock::time_point last_poll_round_;
+    bool changed_since_poll_ = true;
     std::size_t poll_axis_ = 0;
 
     serial_port report_port_;

@@ -15,6 +15,10 @@ struct controller_settings {
 
     // Positions and busy state are polled at this interval; zero disables polling.
     std::chrono::milliseconds poll_interval{100};
+    // While the stage is idle and the only commands since the last poll round only read (WHERE,
+    // STATUS, queries), a round starts only this long after the previous one: a client's commands
+    // then rarely wait behind a poll. Anything that may move the stage brings back poll_interval.
+    std::chrono::milliseconds idle_poll_interval{500};
     std::chrono::milliseconds command_timeout{1000};
     std::chrono::milliseconds long_reply_timeout{5000};  // SS Z, BU X, INFO
     // Resynchronisation after a timeout, a reply that does not fit or unexpected bytes: the line must

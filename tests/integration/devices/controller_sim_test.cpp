@@ -103,6 +103,38 @@ TEST_F(controller_sim_test, a_move_shows_in_snapshots_until_arrival) {
     }
 }
 
+TEST_F(controller_sim_test, polls_rest_while_the_stage_is_idle_and_clients_only_read) {
+    // An idle interval longer than the test: only a command that may move the stage starts a round.
+    auto c = make("plain", 4, 20ms, [](controller_settings& s) { s.idle_poll_interval = std::chrono::hours(1); });
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+    ASSERT_TRUE(
+        c.observer->wait([&] { return c.observer->snapshots.back().axes.at(0).position_um.has_value(); }));
+    ASSERT_TRUE(c.observer->wait([&] { return !c.observer->snapshots.back().busy; }));
+    std::this_thread::sleep_for(100ms);  // a round that was running has ended
+    const auto idle_read = c.observer->latest().positions_read;
+
+    // Reads only: no poll round for as long as they go on.
+    for (int i = 0; i < 20; ++i) {
+        auto [ec, reply] = c.call(ms2000::where("X"));
+        ASSERT_FALSE(ec) << ec.message();
+        std::this_thread::sleep_for(20ms);
+    }
+    EXPECT_EQ(c.observer->latest().positions_read, idle_read) << "a poll round ran while idle";
+
+    // A move brings the rounds back: the snapshots follow it to the target.
+    const double start_um = *c.observer->latest().axes[0].position_um;
+    auto move = ms2000::move(std::vector<ms2000::axis_position>{{'X', start_um + 5000}}).value();
+    ASSERT_FALSE(c.call(move).first);
+    EXPECT_TRUE(c.observer->wait([&] { return c.observer->snapshots.back().busy; }));
+    ASSERT_TRUE(c.observer->wait(
+        [&] {
+            const auto& s = c.observer->snapshots.back();
+            return !s.busy && s.axes[0].position_um && std::abs(*s.axes[0].position_um - (start_um + 5000)) < 1.0;
+        },
+        60s));
+    EXPECT_GT(c.observer->latest().positions_read, idle_read);
+}
+
 TEST_F(controller_sim_test, unplug_fails_commands_then_replug_reconnects_and_reidentifies) {
     auto c = make("plain", 4);
     ASSERT_TRUE(c.observer->wait_state(connection_state::connected));

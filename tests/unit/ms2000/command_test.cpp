@@ -272,5 +272,29 @@ TEST(raw_command, accepts_the_longest_line) {
     EXPECT_EQ(c->wire.back(), '\r');
 }
 
+TEST(command, only_reads_tells_reads_from_commands_that_may_change_something) {
+    struct row {
+        std::string line;
+        bool reads;
+    };
+    const row rows[] = {
+        {"W X Y", true},    {"WHERE X", true},    {"/", true},         {"STATUS", true},   {"RS X", true},
+        {"RDSTAT X Y", true}, {"V", true},        {"BU X", true},      {"WHO", true},      {"INFO X", true},
+        {"CNTS X? Y?", true}, {"SL X?", true},    {"TTL X?", true},    {"M X=10", false},  {"R X=1", false},
+        {"! X", false},     {"HALT", false},      {"Z", false},        {"SL X=-5", false}, {"TTL X=1", false},
+        {"SS Z", false},    {"CNTS X? Y=2", false}, {"ARRAY", false},  {"SPIN X=1", false},
+    };
+    for (const auto& r : rows) {
+        auto cmd = raw_command(r.line);
+        ASSERT_TRUE(cmd) << r.line;
+        EXPECT_EQ(only_reads(*cmd), r.reads) << r.line;
+    }
+    EXPECT_TRUE(only_reads(where("XY")));
+    EXPECT_TRUE(only_reads(status()));
+    EXPECT_TRUE(only_reads(query("CNTS", "XYZ")));
+    EXPECT_FALSE(only_reads(halt()));
+    EXPECT_FALSE(only_reads(zero()));
+}
+
 }  // namespace
 }  // namespace gw::devices::ms2000
