@@ -81,7 +81,8 @@ std::string letters_if_all(const std::vector<std::string>& words, char suffix) {
 }  // namespace
 
 bool only_reads(const command& cmd) {
-    if (is_one_of(cmd.verb, {"W", "WHERE", "/", "STATUS", "RS", "RDSTAT", "V", "VERSION", "WHO"})) return true;
+    if (is_one_of(cmd.verb, {"W", "WHERE", "/", "STATUS", "RS", "RDSTAT", "V", "VERSION", "WHO"}))
+        return true;
     auto args = std::string_view(cmd.wire).substr(std::min(cmd.verb.size(), cmd.wire.size()));
     if (args.ends_with('\r')) args.remove_suffix(1);
     const auto words = upper_words(args);

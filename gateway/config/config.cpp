@@ -166,7 +166,8 @@ void read_http(const json& j, http_config& out) {
 }
 
 devices::controller_settings read_controller(const json& j, const std::string& path) {
-    object_reader r(j, path, {"id", "port", "baud", "report_port", "poll_ms", "idle_poll_ms", "command_timeout_ms"});
+    object_reader r(j, path,
+                    {"id", "port", "baud", "report_port", "poll_ms", "idle_poll_ms", "command_timeout_ms"});
     devices::controller_settings s;
     auto* id = r.get("id");
     if (!id) fail(r.path("id"), "required");

@@ -23,6 +23,7 @@ using controller_resync_test = test::drv_sim_fixture;
 void tight_timeouts(controller_settings& s) {
     s.command_timeout = 500ms;
     s.resync_delay = 50ms;
+    s.idle_poll_interval = 0ms;  // polls while idle too: they are what the faults hit
 }
 
 // Moves the stage to positions no two axes share and returns WHERE's answer for each axis.

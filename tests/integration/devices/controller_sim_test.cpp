@@ -105,7 +105,8 @@ TEST_F(controller_sim_test, a_move_shows_in_snapshots_until_arrival) {
 
 TEST_F(controller_sim_test, polls_rest_while_the_stage_is_idle_and_clients_only_read) {
     // An idle interval longer than the test: only a command that may move the stage starts a round.
-    auto c = make("plain", 4, 20ms, [](controller_settings& s) { s.idle_poll_interval = std::chrono::hours(1); });
+    auto c =
+        make("plain", 4, 20ms, [](controller_settings& s) { s.idle_poll_interval = std::chrono::hours(1); });
     ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
     ASSERT_TRUE(
         c.observer->wait([&] { return c.observer->snapshots.back().axes.at(0).position_um.has_value(); }));
@@ -129,7 +130,8 @@ TEST_F(controller_sim_test, polls_rest_while_the_stage_is_idle_and_clients_only_
     ASSERT_TRUE(c.observer->wait(
         [&] {
             const auto& s = c.observer->snapshots.back();
-            return !s.busy && s.axes[0].position_um && std::abs(*s.axes[0].position_um - (start_um + 5000)) < 1.0;
+            return !s.busy && s.axes[0].position_um &&
+                   std::abs(*s.axes[0].position_um - (start_um + 5000)) < 1.0;
         },
         60s));
     EXPECT_GT(c.observer->latest().positions_read, idle_read);

@@ -278,11 +278,12 @@ TEST(command, only_reads_tells_reads_from_commands_that_may_change_something) {
         bool reads;
     };
     const row rows[] = {
-        {"W X Y", true},    {"WHERE X", true},    {"/", true},         {"STATUS", true},   {"RS X", true},
-        {"RDSTAT X Y", true}, {"V", true},        {"BU X", true},      {"WHO", true},      {"INFO X", true},
-        {"CNTS X? Y?", true}, {"SL X?", true},    {"TTL X?", true},    {"M X=10", false},  {"R X=1", false},
-        {"! X", false},     {"HALT", false},      {"Z", false},        {"SL X=-5", false}, {"TTL X=1", false},
-        {"SS Z", false},    {"CNTS X? Y=2", false}, {"ARRAY", false},  {"SPIN X=1", false},
+        {"W X Y", true},  {"WHERE X", true},      {"/", true},          {"STATUS", true},
+        {"RS X", true},   {"RDSTAT X Y", true},   {"V", true},          {"BU X", true},
+        {"WHO", true},    {"INFO X", true},       {"CNTS X? Y?", true}, {"SL X?", true},
+        {"TTL X?", true}, {"M X=10", false},      {"R X=1", false},     {"! X", false},
+        {"HALT", false},  {"Z", false},           {"SL X=-5", false},   {"TTL X=1", false},
+        {"SS Z", false},  {"CNTS X? Y=2", false}, {"ARRAY", false},     {"SPIN X=1", false},
     };
     for (const auto& r : rows) {
         auto cmd = raw_command(r.line);
