@@ -23,10 +23,11 @@ def parse_time(text):
 
 class Gateway:
     def __init__(self, binary, workdir, config):
-        """Starts `binary` with `config` (http and logging are filled in) in `workdir`."""
+        """Starts `binary` with `config` (its http address and port, storage and logging are filled in) in
+        `workdir`."""
         self.port = free_port()
         config = dict(config)
-        config["http"] = {"listen_address": "127.0.0.1", "port": self.port}
+        config["http"] = {**config.get("http", {}), "listen_address": "127.0.0.1", "port": self.port}
         config.setdefault("storage", {"path": os.path.join(workdir, "data")})
         config.setdefault("logging", {"level": "warn"})
         cfg = os.path.join(workdir, "gateway.json")

@@ -58,12 +58,15 @@ class Nginx:
 
     def __init__(self, workdir, files):
         self.port = free_port()
+        # nginx started as root reads as its worker user: the scratch tree must be readable by all.
+        os.chmod(workdir, 0o755)
         root = os.path.join(workdir, "www")
         for path, (body, _) in files.items():
             target = os.path.join(root, path.lstrip("/"))
             os.makedirs(os.path.dirname(target), exist_ok=True)
             with open(target, "wb") as f:
                 f.write(body)
+            os.chmod(target, 0o644)
         # The gateway's own headers, the same for every path here.
         headers = next(iter(files.values()))[1]
         extra = "\n".join(f"    add_header {name} {headers[name]};" for name in ("Cache-Control", "X-Request-Id")
@@ -165,7 +168,9 @@ def main():
     tmp = tempfile.mkdtemp(prefix="gw-http-bench-")
     gw = nginx = None
     try:
-        gw = Gateway(args.gateway, tmp, {"simulate": {"count": 1, "directory": os.path.join(tmp, "sim")}})
+        # Every load comes from 127.0.0.1: the per-address connection limit (64) must not refuse wrk's.
+        gw = Gateway(args.gateway, tmp, {"simulate": {"count": 1, "directory": os.path.join(tmp, "sim")},
+                                         "http": {"limits": {"max_connections_per_address": 200}}})
         gw.wait_ready()
         files = {path: fetch(gw.port, path) for path in PATHS}
         nginx = Nginx(tmp, files)
