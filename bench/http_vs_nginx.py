@@ -18,7 +18,6 @@ Needs wrk and nginx-light (bench/setup installs them). Standard library only:
 """
 
 import argparse
-import datetime
 import http.client
 import os
 import re
@@ -32,7 +31,7 @@ import time
 sys.dont_write_bytecode = True
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_gateway import Gateway, free_port  # noqa: E402
-from bench_machine import machine_line  # noqa: E402
+from bench_machine import publish_section  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PATHS = ["/api/v1/controllers/sim1", "/api/v1/health"]
@@ -192,18 +191,9 @@ def main():
         shutil.rmtree(tmp, ignore_errors=True)
 
     text, met = table(results, args.rounds, args.seconds, args.threads, args.connections)
-    when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    section = (f"## HTTP against nginx (bench/http_vs_nginx.py, run of {when})\n\n"
-               f"{machine_line()}; load average {load_before[0]:.1f} before, {load_after[0]:.1f} after. "
-               f"Bodies: {len(files[PATHS[0]][0])} and {len(files[PATHS[1]][0])} bytes.\n\n{text}\n\n"
-               f"Goals {'met' if met else 'NOT met'}.\n")
-    print()
-    print(section)
-    if args.results:
-        with open(args.results, "a") as f:
-            f.write("\n" + section)
-        print(f"appended the section to {args.results}")
-    return 0 if met else 1
+    bodies = f"Bodies: {len(files[PATHS[0]][0])} and {len(files[PATHS[1]][0])} bytes."
+    return publish_section("HTTP against nginx", "bench/http_vs_nginx.py", bodies, load_before, load_after, text,
+                           met, args.results)
 
 
 if __name__ == "__main__":

@@ -21,7 +21,6 @@ ser2net's; with default polling the p99 at most 10 % over polling off.
 """
 
 import argparse
-import datetime
 import os
 import shutil
 import socket
@@ -34,7 +33,7 @@ import time
 sys.dont_write_bytecode = True
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_gateway import Gateway, free_port  # noqa: E402
-from bench_machine import machine_line  # noqa: E402
+from bench_machine import publish_section  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FIELDS = ["n", "p50", "p90", "p99", "max", "mean"]
@@ -196,18 +195,9 @@ def main():
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     text, met = table(results)
-    when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    section = (f"## Command round trip against ser2net (bench/roundtrip_vs_ser2net.py, run of {when})\n\n"
-               f"{machine_line()}; load average {load_before[0]:.1f} before, {load_after[0]:.1f} after. "
-               f"`W X`, {args.count} round trips per run, medians of {args.rounds} interleaved rounds.\n\n"
-               f"{text}\n\nGoals {'met' if met else 'NOT met'}.\n")
-    print()
-    print(section)
-    if args.results:
-        with open(args.results, "a") as f:
-            f.write("\n" + section)
-        print(f"appended the section to {args.results}")
-    return 0 if met else 1
+    details = f"`W X`, {args.count} round trips per run, medians of {args.rounds} interleaved rounds."
+    return publish_section("Command round trip against ser2net", "bench/roundtrip_vs_ser2net.py", details,
+                           load_before, load_after, text, met, args.results)
 
 
 if __name__ == "__main__":
