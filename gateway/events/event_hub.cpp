@@ -42,7 +42,7 @@ std::string millis(std::chrono::milliseconds ms) {
 // What an event in a replay buffer costs: its text, the event itself, and the heap blocks of the
 // event, its two strings and their shared_ptr control blocks (an estimate of allocator overhead).
 std::uint64_t replay_cost(const event& e) {
-    constexpr std::uint64_t bookkeeping = sizeof(event) + 5 * 32;
+    constexpr std::uint64_t bookkeeping = sizeof(event) + std::uint64_t{5} * 32;
     return bookkeeping + e.topic.size() + (e.data ? e.data->size() : 0) + (e.message ? e.message->size() : 0);
 }
 
@@ -51,12 +51,12 @@ std::uint64_t replay_cost(const event& e) {
 std::shared_ptr<event_hub> event_hub::create(net::any_io_executor executor, event_hub_settings settings,
                                              event_clock clock) {
     return std::shared_ptr<event_hub>(
-        new event_hub(std::move(executor), std::move(settings), std::move(clock)));
+        new event_hub(std::move(executor), settings, std::move(clock)));
 }
 
 event_hub::event_hub(net::any_io_executor executor, event_hub_settings settings, event_clock clock)
     : strand_(net::make_strand(executor)),
-      settings_(std::move(settings)),
+      settings_(settings),
       clock_(std::move(clock)),
       wake_timer_(strand_),
       counters_(std::make_unique<atomic_counters>()) {
