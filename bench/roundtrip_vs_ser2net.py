@@ -34,17 +34,10 @@ sys.dont_write_bytecode = True
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_gateway import Gateway, free_port  # noqa: E402
 from bench_machine import publish_section  # noqa: E402
+from bench_sim import Sim  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FIELDS = ["n", "p50", "p90", "p99", "max", "mean"]
-
-
-def wait_for_path(path, proc, what, timeout=10):
-    deadline = time.monotonic() + timeout
-    while not os.path.exists(path):
-        if proc.poll() is not None or time.monotonic() > deadline:
-            raise RuntimeError(f"{what} did not start")
-        time.sleep(0.05)
 
 
 def wait_for_port(port, proc, what, timeout=10):
@@ -57,18 +50,6 @@ def wait_for_port(port, proc, what, timeout=10):
             if proc.poll() is not None or time.monotonic() > deadline:
                 raise RuntimeError(f"{what} did not start")
             time.sleep(0.05)
-
-
-class Sim:
-    def __init__(self, binary, workdir, name, baud):
-        self.link = os.path.join(workdir, name, "port")
-        self.proc = subprocess.Popen([binary, "--preset", "plain", "--name", name, "--link", self.link,
-                                      "--baud", str(baud)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        wait_for_path(self.link, self.proc, f"ms2000-sim {name}")
-
-    def stop(self):
-        self.proc.terminate()
-        self.proc.wait(10)
 
 
 class Ser2net:

@@ -1,0 +1,205 @@
+#!/usr/bin/python3
+"""Benchmark: report fan-out from many controllers to many WebSocket clients (issue 16).
+
+The rig, built to cost little next to the gateway on a small machine:
+* bench/report_generator.c: --controllers ptys, one binary TTL_REPORT frame (16 bytes) to each every
+  1/--rate s; each pty is one controller's report port in the gateway's config;
+* one ms2000-sim per controller for its command port (plain, no report port of its own: the
+  generator's pty takes that place), polled by the gateway at its defaults;
+* bench/fanout_client.c: --clients WebSocket connections in one epoll loop, each subscribed to
+  controllers/+/reports (?batch_ms=--batch-ms, or plain messages with --batch-ms -1), counting every
+  event and gap and taking each event's latency from its time_ms (the gateway's clock when the bytes
+  arrived) to when the client read it.
+
+It measures --seconds of frames, then 2 s for the last ones to arrive, and prints: frames the generator
+wrote; events every client should have got and did (min and max over clients); what gap events told
+them they missed; connections the gateway closed; latency p50/p99/max; CPU seconds of the gateway,
+the generator, the simulators and the client, per second and (the gateway's) per delivered event;
+the gateway's RSS at the end. With --results the table is appended to bench/RESULTS.md.
+
+  scripts/build && /usr/bin/python3 bench/fanout.py [--controllers 32] [--rate 500] [--clients 100] \\
+      [--batch-ms 10] [--seconds 10]
+"""
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.dont_write_bytecode = True
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_gateway import Gateway  # noqa: E402
+from bench_machine import publish_section  # noqa: E402
+from bench_sim import Sim  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TICKS = os.sysconf("SC_CLK_TCK")
+
+
+def cpu_seconds(pid):
+    """User + system CPU time of a process (its threads included)."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / TICKS
+
+
+def rss_mib(pid):
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    return 0.0
+
+
+def metric_sum(gw, name):
+    """The sum of a metric's series in the gateway's /api/v1/metrics."""
+    status, text = gw.request("GET", "/api/v1/metrics")
+    if status != 200:
+        raise RuntimeError(f"/api/v1/metrics answered {status}")
+    return sum(float(line.rsplit(" ", 1)[1]) for line in text.splitlines()
+               if line.startswith(name + "{") or line.startswith(name + " "))
+
+
+def build(workdir, name):
+    out = os.path.join(workdir, name)
+    subprocess.run(["cc", "-O2", "-std=c11", "-o", out, os.path.join(ROOT, "bench", name + ".c")], check=True)
+    return out
+
+
+def read_line(proc, expected):
+    line = proc.stdout.readline()
+    if not line.startswith(expected):
+        raise RuntimeError(f"expected {expected!r}, got {line!r}")
+    return line
+
+
+def pairs(line):
+    words = line.split()
+    return {words[i]: float(words[i + 1]) for i in range(0, len(words) - 1, 2)}
+
+
+def run(args, tmp):
+    generator_bin, client_bin = build(tmp, "report_generator"), build(tmp, "fanout_client")
+    reports = os.path.join(tmp, "reports")
+    os.makedirs(reports)
+    generator = subprocess.Popen([generator_bin, reports, str(args.controllers), str(args.rate)],
+                                 stdout=subprocess.PIPE, text=True)
+    sims, gw, client = [], None, None
+    try:
+        read_line(generator, "ready")
+        sims = [Sim(args.sim, tmp, f"c{i}", 115200) for i in range(args.controllers)]
+        controllers = [{"id": f"c{i}", "port": s.link, "report_port": os.path.join(reports, f"r{i}"), "baud": 115200}
+                       for i, s in enumerate(sims)]
+        gw_dir = os.path.join(tmp, "gateway")
+        os.makedirs(gw_dir)
+        gw = Gateway(args.gateway, gw_dir, {"controllers": controllers,
+                                            "http": {"limits": {"max_connections": 2000,
+                                                                "max_connections_per_address": 1500}}})
+        gw.wait_ready()
+        deadline = time.monotonic() + 60
+        while True:
+            status, body = gw.request("GET", "/api/v1/controllers")
+            if status == 200 and all(c["report_port"] == "open" for c in body["controllers"]):
+                break
+            if time.monotonic() > deadline:
+                raise RuntimeError("the report ports did not open")
+            time.sleep(0.2)
+        client = subprocess.Popen([client_bin, str(gw.port), str(args.clients), str(args.batch_ms),
+                                   "controllers/+/reports"], stdout=subprocess.PIPE, text=True)
+        read_line(client, "subscribed")
+        time.sleep(1)
+
+        procs = {"gateway": gw.proc.pid, "generator": generator.pid, "client": client.pid}
+        before = {k: cpu_seconds(p) for k, p in procs.items()}
+        sims_before = sum(cpu_seconds(s.proc.pid) for s in sims)
+        generator.send_signal(__import__("signal").SIGUSR1)
+        start = time.monotonic()
+        time.sleep(args.seconds)
+        generator.terminate()
+        written = pairs(generator.stdout.readline())
+        time.sleep(2)  # the last frames on their way
+        elapsed = time.monotonic() - start
+        after = {k: cpu_seconds(p) for k, p in procs.items()}
+        sims_after = sum(cpu_seconds(s.proc.pid) for s in sims)
+        rss = rss_mib(gw.proc.pid)
+        decoded = metric_sum(gw, "gw_controller_report_frames_total")
+        skipped = metric_sum(gw, "gw_controller_report_bytes_skipped_total")
+        client.terminate()
+        got = pairs(client.stdout.readline())
+        cpu = {k: after[k] - before[k] for k in procs}
+        cpu["simulators"] = sims_after - sims_before
+        return {"written": written, "got": got, "cpu": cpu, "elapsed": elapsed, "rss": rss, "decoded": decoded,
+                "skipped": skipped}
+    finally:
+        for p in (client, generator):
+            if p and p.poll() is None:
+                p.kill()
+                p.wait()
+        if gw:
+            gw.stop()
+        for s in sims:
+            s.stop()
+
+
+def table(args, r):
+    w, g, cpu = r["written"], r["got"], r["cpu"]
+    frames = int(w["written"])
+    expected = frames * args.clients
+    delivered = int(g["events"])
+    mode = "plain messages" if args.batch_ms < 0 else f"batch_ms={args.batch_ms}"
+    per_event_us = cpu["gateway"] / delivered * 1e6 if delivered else float("nan")
+    lines = [
+        "| figure | value |", "|---|---:|",
+        f"| controllers x rate | {args.controllers} x {args.rate} frames/s |",
+        f"| WebSocket clients | {args.clients} ({mode}) |",
+        f"| frames written (refused by a full pty, late ticks) | {frames:,} ({int(w['refused']):,}, "
+        f"{int(w['late']):,}) |",
+        f"| frames the gateway decoded (bytes it skipped) | {int(r['decoded']):,} ({int(r['skipped']):,}) |",
+        f"| events due to the clients | {expected:,} |",
+        f"| events delivered (per client min / max) | {delivered:,} ({int(g['min_events']):,} / "
+        f"{int(g['max_events']):,}) |",
+        f"| told missed (gap events) | {int(g['missed']):,} |",
+        f"| unaccounted | {expected - delivered - int(g['missed']):,} |",
+        f"| clients closed by the gateway | {int(g['closed'])} |",
+        f"| latency p50 / p99 / max ms | {g['p50_ms']:.1f} / {g['p99_ms']:.1f} / {g['max_ms']:.1f} |",
+        f"| gateway CPU (cores) | {cpu['gateway'] / r['elapsed']:.2f} |",
+        f"| gateway CPU per delivered event | {per_event_us:.2f} us |",
+        f"| rig CPU (cores): generator / simulators / client | {cpu['generator'] / r['elapsed']:.2f} / "
+        f"{cpu['simulators'] / r['elapsed']:.2f} / {cpu['client'] / r['elapsed']:.2f} |",
+        f"| gateway RSS at the end | {r['rss']:.1f} MiB |",
+    ]
+    met = (delivered == expected and int(g["closed"]) == 0 and g["p99_ms"] < 20
+           and cpu["gateway"] / r["elapsed"] < 1.0)
+    return "\n".join(lines), met
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--gateway", default=os.path.join(ROOT, "build", "gateway", "asi-gateway"))
+    p.add_argument("--sim", default=os.path.join(ROOT, "build", "devices", "sim", "ms2000-sim"))
+    p.add_argument("--controllers", type=int, default=32)
+    p.add_argument("--rate", type=float, default=500)
+    p.add_argument("--clients", type=int, default=100)
+    p.add_argument("--batch-ms", type=int, default=10, help="the clients' batch_ms; -1: plain messages")
+    p.add_argument("--seconds", type=float, default=10)
+    p.add_argument("--results", default="", help="append the table to this file (e.g. bench/RESULTS.md)")
+    args = p.parse_args()
+    tmp = tempfile.mkdtemp(prefix="gw-fanout-")
+    try:
+        load_before = os.getloadavg()
+        r = run(args, tmp)
+        load_after = os.getloadavg()
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    text, met = table(args, r)
+    details = (f"{args.seconds:g} s of frames. Goal (issue 16): every event to every client, none closed, p99 "
+               "under 20 ms, the gateway under one core.")
+    return publish_section("Report fan-out", "bench/fanout.py", details, load_before, load_after, text, met,
+                           args.results)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,242 @@
+// Many WebSocket clients of one gateway in one process (epoll), light enough that a fan-out benchmark
+// measures the gateway, not the clients (bench/fanout.py).
+//
+//   fanout_client PORT CLIENTS BATCH_MS TOPIC
+//
+// Opens CLIENTS connections to ws://127.0.0.1:PORT/api/v1/ws (?batch_ms=BATCH_MS unless it is -1),
+// subscribes each to TOPIC, prints "subscribed", then reads until SIGTERM. Every event is counted
+// and its latency taken: the time it is read here minus its "time_ms" (the gateway's clock when the
+// frame's bytes arrived; one machine, one clock). Gap events add their "missed". At the end it prints
+// one line of "key value" pairs: clients, closed (connections the gateway ended), events (all
+// clients), min_events and max_events (per client), missed, p50_ms, p99_ms, max_ms.
+#define _GNU_SOURCE
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <signal.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+enum { max_clients = 1024, latency_buckets = 10000 };  // 0.1 ms buckets up to 1 s
+
+struct client {
+    int fd;
+    int closed;
+    char *buf;
+    size_t len, cap;
+    uint64_t events;
+};
+
+static volatile sig_atomic_t stopping;
+static uint64_t latency_hist[latency_buckets + 1];
+static uint64_t missed_total;
+
+static void on_stop(int sig) {
+    (void)sig;
+    stopping = 1;
+}
+
+static void die(const char *what) {
+    fprintf(stderr, "fanout_client: %s: %s\n", what, strerror(errno));
+    exit(1);
+}
+
+static double now_ms(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_REALTIME, &t);
+    return (double)t.tv_sec * 1e3 + (double)t.tv_nsec / 1e6;
+}
+
+static int fcntl_nonblock(int fd) {
+    int flags = fcntl(fd, F_GETFL);
+    return flags < 0 ? -1 : fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+}
+
+static void send_all(int fd, const void *p, size_t n) {
+    const char *c = p;
+    while (n > 0) {
+        ssize_t w = write(fd, c, n);
+        if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) continue;  // a pong on a full socket
+        if (w <= 0) die("write");
+        c += w;
+        n -= (size_t)w;
+    }
+}
+
+static void send_text(int fd, const char *text) {
+    size_t n = strlen(text);
+    uint8_t head[8] = {0x81, (uint8_t)(0x80 | n), 1, 2, 3, 4};
+    if (n >= 126) die("subscribe message too long");
+    uint8_t masked[126];
+    for (size_t i = 0; i < n; ++i)
+        masked[i] = (uint8_t)text[i] ^ head[2 + i % 4];
+    send_all(fd, head, 6);
+    send_all(fd, masked, n);
+}
+
+static int connect_ws(int port, int batch_ms) {
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (fd < 0 || connect(fd, (struct sockaddr *)&a, sizeof a) != 0) die("connect");
+    char req[512], query[32] = "";
+    if (batch_ms >= 0) snprintf(query, sizeof query, "?batch_ms=%d", batch_ms);
+    snprintf(req, sizeof req,
+             "GET /api/v1/ws%s HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+             "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n",
+             query);
+    send_all(fd, req, strlen(req));
+    // The 101 answer, byte by byte so that nothing after it is read here.
+    char head[2048];
+    size_t n = 0;
+    while (n < sizeof head - 1) {
+        if (read(fd, head + n, 1) != 1) die("upgrade");
+        ++n;
+        if (n >= 4 && memcmp(head + n - 4, "\r\n\r\n", 4) == 0) break;
+    }
+    head[n] = 0;
+    if (strncmp(head, "HTTP/1.1 101", 12) != 0) {
+        fprintf(stderr, "fanout_client: upgrade refused: %s\n", head);
+        exit(1);
+    }
+    return fd;
+}
+
+// Every event in one text message (an event, a gap, or a batch of them).
+static void on_message(struct client *c, const char *p, size_t n) {
+    const double t = now_ms();
+    const char *end = p + n;
+    for (const char *q = p; (q = memmem(q, (size_t)(end - q), "\"type\":\"", 8)) != NULL;) {
+        q += 8;
+        if ((size_t)(end - q) >= 6 && memcmp(q, "event\"", 6) == 0) {
+            ++c->events;
+            const char *tm = memmem(q, (size_t)(end - q), "\"time_ms\":", 10);
+            if (tm) {
+                double sent = strtod(tm + 10, NULL);
+                long bucket = (long)((t - sent) * 10);
+                if (bucket < 0) bucket = 0;
+                if (bucket > latency_buckets) bucket = latency_buckets;
+                ++latency_hist[bucket];
+            }
+        } else if ((size_t)(end - q) >= 4 && memcmp(q, "gap\"", 4) == 0) {
+            const char *m = memmem(q, (size_t)(end - q), "\"missed\":", 9);
+            if (m) missed_total += strtoull(m + 9, NULL, 10);
+        }
+    }
+}
+
+// Parses whole frames from the client's buffer; returns 0 when the server closed.
+static int on_readable(struct client *c) {
+    for (;;) {
+        if (c->cap - c->len < 65536) {
+            c->cap = c->cap ? c->cap * 2 : 1 << 20;
+            c->buf = realloc(c->buf, c->cap);
+            if (!c->buf) die("realloc");
+        }
+        ssize_t r = read(c->fd, c->buf + c->len, c->cap - c->len);
+        if (r < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+        if (r <= 0) return 0;
+        c->len += (size_t)r;
+    }
+    size_t at = 0;
+    while (c->len - at >= 2) {
+        const uint8_t *f = (const uint8_t *)c->buf + at;
+        uint64_t n = f[1] & 0x7f;
+        size_t off = 2;
+        if (n == 126) {
+            if (c->len - at < 4) break;
+            n = ((uint64_t)f[2] << 8) | f[3];
+            off = 4;
+        } else if (n == 127) {
+            if (c->len - at < 10) break;
+            n = 0;
+            for (int i = 0; i < 8; ++i)
+                n = (n << 8) | f[2 + i];
+            off = 10;
+        }
+        if (c->len - at < off + n) break;
+        const int opcode = f[0] & 0x0f;
+        if (opcode == 0x8) return 0;  // close
+        if (opcode == 0x9) {          // ping: answer with an empty masked pong
+            const uint8_t pong[6] = {0x8A, 0x80, 0, 0, 0, 0};
+            send_all(c->fd, pong, sizeof pong);
+        } else if (opcode == 0x1) {
+            on_message(c, (const char *)f + off, (size_t)n);
+        }
+        at += off + (size_t)n;
+    }
+    memmove(c->buf, c->buf + at, c->len - at);
+    c->len -= at;
+    return 1;
+}
+
+static double percentile(double p, uint64_t total) {
+    uint64_t want = (uint64_t)(p * (double)total), seen = 0;
+    for (int i = 0; i <= latency_buckets; ++i) {
+        seen += latency_hist[i];
+        if (seen > want) return i / 10.0;
+    }
+    return latency_buckets / 10.0;
+}
+
+int main(int argc, char **argv) {
+    if (argc != 5) {
+        fprintf(stderr, "usage: fanout_client PORT CLIENTS BATCH_MS TOPIC\n");
+        return 2;
+    }
+    const int port = atoi(argv[1]), count = atoi(argv[2]), batch_ms = atoi(argv[3]);
+    if (count <= 0 || count > max_clients) die("CLIENTS must be 1..1024");
+    signal(SIGTERM, on_stop);
+    signal(SIGINT, on_stop);
+    signal(SIGPIPE, SIG_IGN);
+    struct client *clients = calloc((size_t)count, sizeof *clients);
+    int ep = epoll_create1(0);
+    if (!clients || ep < 0) die("setup");
+    char subscribe[128];
+    snprintf(subscribe, sizeof subscribe, "{\"op\":\"subscribe\",\"topics\":[\"%s\"]}", argv[4]);
+    for (int i = 0; i < count; ++i) {
+        clients[i].fd = connect_ws(port, batch_ms);
+        send_text(clients[i].fd, subscribe);
+        int flags = 1;
+        setsockopt(clients[i].fd, IPPROTO_TCP, TCP_NODELAY, &flags, sizeof flags);
+        struct epoll_event e = {.events = EPOLLIN, .data.u32 = (uint32_t)i};
+        if (epoll_ctl(ep, EPOLL_CTL_ADD, clients[i].fd, &e) != 0) die("epoll_ctl");
+        if (fcntl_nonblock(clients[i].fd) != 0) die("nonblock");
+    }
+    printf("subscribed\n");
+    fflush(stdout);
+    struct epoll_event ready[64];
+    while (!stopping) {
+        int n = epoll_wait(ep, ready, 64, 200);
+        for (int k = 0; k < n; ++k) {
+            struct client *c = &clients[ready[k].data.u32];
+            if (!c->closed && !on_readable(c)) {
+                c->closed = 1;
+                epoll_ctl(ep, EPOLL_CTL_DEL, c->fd, NULL);
+            }
+        }
+    }
+    uint64_t total = 0, min = UINT64_MAX, max = 0, closed = 0, latencies = 0;
+    for (int i = 0; i < count; ++i) {
+        total += clients[i].events;
+        if (clients[i].events < min) min = clients[i].events;
+        if (clients[i].events > max) max = clients[i].events;
+        closed += (uint64_t)clients[i].closed;
+    }
+    for (int i = 0; i <= latency_buckets; ++i)
+        latencies += latency_hist[i];
+    printf("clients %d closed %llu events %llu min_events %llu max_events %llu missed %llu p50_ms %.1f p99_ms %.1f "
+           "max_ms %.1f\n",
+           count, (unsigned long long)closed, (unsigned long long)total, (unsigned long long)min,
+           (unsigned long long)max, (unsigned long long)missed_total, percentile(0.5, latencies),
+           percentile(0.99, latencies), percentile(1.0 - 1e-9, latencies));
+    return 0;
+}
