@@ -50,8 +50,7 @@ std::uint64_t replay_cost(const event& e) {
 
 std::shared_ptr<event_hub> event_hub::create(net::any_io_executor executor, event_hub_settings settings,
                                              event_clock clock) {
-    return std::shared_ptr<event_hub>(
-        new event_hub(std::move(executor), settings, std::move(clock)));
+    return std::shared_ptr<event_hub>(new event_hub(std::move(executor), settings, std::move(clock)));
 }
 
 event_hub::event_hub(net::any_io_executor executor, event_hub_settings settings, event_clock clock)
@@ -108,6 +107,7 @@ subscriber_id event_hub::add_subscriber(std::weak_ptr<event_sink> sink, subscrib
         s->sink = std::move(sink);
         s->settings = settings;
         self->subscribers_.emplace(id, std::move(s));
+        ++self->routing_version_;
         add(self->counters_->subscribers);
     });
     return id;
@@ -116,6 +116,7 @@ subscriber_id event_hub::add_subscriber(std::weak_ptr<event_sink> sink, subscrib
 void event_hub::remove_subscriber(subscriber_id id) {
     net::post(strand_, [self = shared_from_this(), id] {
         if (self->subscribers_.erase(id) != 0) self->counters_->subscribers.fetch_sub(1);
+        ++self->routing_version_;
     });
 }
 
@@ -157,6 +158,7 @@ void event_hub::stop() {
         self->wake_timer_.cancel();
         auto subscribers = std::move(self->subscribers_);
         self->subscribers_.clear();
+        ++self->routing_version_;
         self->counters_->subscribers.store(0);
         for (auto& [id, s] : subscribers)
             if (auto sink = s->sink.lock()) sink->close("event hub stopped");
@@ -336,17 +338,26 @@ void event_hub::on_publish(std::string topic, std::shared_ptr<const std::string>
     t.last_publish = ++publish_order_;
     add(counters_->published);
 
+    const auto& routes = routes_of(topic, t);
     std::vector<subscriber_id> ids;
-    ids.reserve(subscribers_.size());
-    for (auto& [id, s] : subscribers_) {
-        if (const auto* sub = matching(*s, topic)) {
-            offer(*s, e, t, *sub);
-            ids.push_back(id);
-        }
+    ids.reserve(routes.size());
+    for (const auto& r : routes) {
+        offer(*r.target, e, t, *r.via);
+        ids.push_back(r.target->id);
     }
+    // settle() may evict (and so change the routes): by id from here on.
     for (auto id : ids)
         settle(id);
     schedule_wake();
+}
+
+const std::vector<event_hub::route>& event_hub::routes_of(const std::string& name, topic_state& t) {
+    if (t.routes_version == routing_version_) return t.routes;
+    t.routes.clear();
+    for (auto& [id, s] : subscribers_)
+        if (const auto* sub = matching(*s, name)) t.routes.push_back({s.get(), sub});
+    t.routes_version = routing_version_;
+    return t.routes;
 }
 
 void event_hub::offer(subscriber& s, const std::shared_ptr<const event>& e, const topic_state& t,
@@ -498,6 +509,7 @@ void event_hub::settle(subscriber_id id) {
     auto& s = *it->second;
     if (s.sink.expired()) {
         subscribers_.erase(it);
+        ++routing_version_;
         counters_->subscribers.fetch_sub(1);
         return;
     }
@@ -519,6 +531,7 @@ void event_hub::evict(subscriber_id id, std::string reason, bool count) {
     if (it == subscribers_.end()) return;
     auto sink = it->second->sink.lock();
     subscribers_.erase(it);
+    ++routing_version_;
     counters_->subscribers.fetch_sub(1);
     if (count) add(counters_->evicted);
     if (sink) sink->close(std::move(reason));
@@ -530,6 +543,7 @@ void event_hub::on_subscribe(subscriber_id id, std::string filter, subscription_
     auto& s = *it->second;
     auto existing = std::find_if(s.subscriptions.begin(), s.subscriptions.end(),
                                  [&](const auto& sub) { return sub.filter == filter; });
+    ++routing_version_;
     if (existing == s.subscriptions.end())
         s.subscriptions.push_back({filter, options.max_rate_hz});
     else
@@ -576,6 +590,7 @@ void event_hub::on_unsubscribe(subscriber_id id, const std::string& filter) {
     if (it == subscribers_.end()) return;
     auto& s = *it->second;
     std::erase_if(s.subscriptions, [&](const auto& sub) { return sub.filter == filter; });
+    ++routing_version_;
     auto unwanted = [&](const std::string& topic) { return matching(s, topic) == nullptr; };
     std::erase_if(s.latest, [&](const auto& kv) { return unwanted(kv.first); });
     std::erase_if(s.gaps, [&](const auto& kv) { return unwanted(kv.first); });

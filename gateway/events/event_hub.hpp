@@ -125,6 +125,13 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     std::uint64_t epoch() const { return epoch_; }
 
   private:
+    struct subscriber;
+    struct subscription;
+    // A subscriber whose subscriptions match a topic, and the first one that does.
+    struct route {
+        subscriber* target = nullptr;
+        const subscription* via = nullptr;
+    };
     struct topic_state {
         topic_class cls = topic_class::stream;
         std::uint64_t last_seq = 0;
@@ -132,6 +139,9 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
         std::deque<std::shared_ptr<const event>> replay;  // consecutive sequence numbers, newest last
         std::uint64_t replay_bytes = 0;                   // replay_cost of what `replay` holds
         std::uint64_t last_publish = 0;                   // publish_order_ when last published
+        // Who receives its events: worked out again only after subscriptions changed (routing_version_).
+        std::vector<route> routes;
+        std::uint64_t routes_version = 0;
         std::optional<std::multimap<std::chrono::steady_clock::time_point, std::string>::iterator>
             retirement;  // its entry in retirements_, once retire_topic() was called
 
@@ -200,6 +210,7 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     // Keeps the replay buffers within max_replay_bytes after `published` grew (see the settings).
     void trim_replay(topic_state& published);
     const subscription* matching(const subscriber& s, const std::string& topic) const;
+    const std::vector<route>& routes_of(const std::string& name, topic_state& t);
     void offer(subscriber& s, const std::shared_ptr<const event>& e, const topic_state& t,
                const subscription& sub);
     void push_stream(subscriber& s, const std::shared_ptr<const event>& e);
@@ -236,6 +247,8 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     std::uint64_t retirements_done_ = 0;
     std::map<subscriber_id, std::unique_ptr<subscriber>> subscribers_;
     std::uint64_t publish_order_ = 0;
+    // Moves on whenever a subscriber or a subscription comes or goes: every topic's routes are stale.
+    std::uint64_t routing_version_ = 1;
     std::uint64_t replay_bytes_ = 0;  // every topic's replay_bytes
     std::atomic<subscriber_id> next_id_{1};
 
