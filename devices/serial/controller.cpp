@@ -399,7 +399,10 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
     if (!ec && !done.job.internal && sets_ttl_mode(done.job.cmd)) refresh_ttl_modes();
     // Whoever asked "/" (a waited move, a job), its answer is the newest word on motion: the snapshot
     // must not go on saying "moving" after a move's waiter was told it stopped.
-    if (!ec && !done.job.poll && reply && reply->what == ms2000::reply::kind::status) note_busy(reply->busy);
+    if (!ec && !done.job.poll && reply && reply->what == ms2000::reply::kind::status) {
+        if (snapshot_.busy && !reply->busy) changed_since_poll_ = true;  // read where it stopped
+        note_busy(reply->busy);
+    }
     // It may have started a move or changed a setting: the next poll tick starts a round.
     if (!done.job.poll && !done.job.internal && !ms2000::only_reads(done.job.cmd)) changed_since_poll_ = true;
 
@@ -857,8 +860,9 @@ void controller::note_busy(bool busy) {
 void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_code ec,
                                const ms2000::reply& r) {
     if (ec) {
-        // Give up this round; the next tick starts a new one.
+        // Give up this round; the next tick starts a new one (at once: nothing fresh was read).
         poll_step_ = poll_step::idle;
+        changed_since_poll_ = true;
         if (!aborted(ec)) log_error("poll", ec);
         return;
     }
@@ -869,7 +873,9 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
             poll_step_ = poll_step::status;
             return;
         case poll_step::status:
-            // reply: "B" or "N"
+            // reply: "B" or "N". Stopped since the positions were read: they may be from before the
+            // end of the move, so the next tick reads them again.
+            if (snapshot_.busy && !r.busy) changed_since_poll_ = true;
             note_busy(r.busy);
             if (r.busy && !snapshot_.axes.empty()) {
                 poll_step_ = poll_step::axis_status;
