@@ -95,6 +95,9 @@ void websocket_session::run(http::request<http::string_body> request) {
         self->ws_.set_option(websocket::stream_base::decorator(
             [](websocket::response_type& res) { res.set(http::field::server, "asi-gateway"); }));
         self->ws_.read_message_max(self->limits_.max_message_bytes);
+        // Each message in one frame: Beast would cut it into 4 KiB frames (a write each), and a
+        // batch of events is often much larger.
+        self->ws_.auto_fragment(false);
         self->ws_.async_accept(self->upgrade_,
                                beast::bind_front_handler(&websocket_session::on_accept, self));
     });

@@ -32,6 +32,9 @@ struct client {
     int closed;
     char *buf;
     size_t len, cap;
+    char *message;  // a fragmented message being put together
+    size_t message_len, message_cap;
+    int in_text;  // the fragments are of a text message
     uint64_t events;
 };
 
@@ -163,13 +166,24 @@ static int on_readable(struct client *c) {
             off = 10;
         }
         if (c->len - at < off + n) break;
-        const int opcode = f[0] & 0x0f;
+        const int opcode = f[0] & 0x0f, fin = f[0] & 0x80;
         if (opcode == 0x8) return 0;  // close
         if (opcode == 0x9) {          // ping: answer with an empty masked pong
             const uint8_t pong[6] = {0x8A, 0x80, 0, 0, 0, 0};
             send_all(c->fd, pong, sizeof pong);
-        } else if (opcode == 0x1) {
+        } else if (opcode == 0x1 && fin) {
             on_message(c, (const char *)f + off, (size_t)n);
+        } else if (opcode == 0x1 || (opcode == 0x0 && c->in_text)) {  // a fragment
+            if (opcode == 0x1) c->message_len = 0;
+            if (c->message_cap < c->message_len + n) {
+                c->message_cap = (c->message_len + n) * 2;
+                c->message = realloc(c->message, c->message_cap);
+                if (!c->message) die("realloc");
+            }
+            memcpy(c->message + c->message_len, f + off, (size_t)n);
+            c->message_len += (size_t)n;
+            c->in_text = !fin;
+            if (fin) on_message(c, c->message, c->message_len);
         }
         at += off + (size_t)n;
     }
