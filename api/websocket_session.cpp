@@ -146,6 +146,8 @@ void websocket_session::on_accept(beast::error_code ec) {
         subscriber_settings batched;
         batched.queue_limit = 8192;
         batched.max_batch_events = 2048;
+        // It holds back its acknowledgement for up to one window on purpose: not a sign of slowness.
+        batched.slow_ack += *batch_window_;
         subscriber_ = ctx_->hub->add_subscriber(weak_from_this(), batched);
     } else {
         subscriber_ = ctx_->hub->add_subscriber(weak_from_this());
