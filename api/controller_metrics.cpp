@@ -99,10 +99,21 @@ void controller_metrics::on_snapshot(const devices::controller_snapshot& s) {
 }
 
 void controller_metrics::on_report(const devices::report_event& e) {
-    metrics_->increment("gw_controller_report_frames_total", {{"controller", e.controller_id}});
+    metrics::handle frames, skipped;
+    {
+        std::lock_guard lock(mutex_);
+        auto& st = state_[e.controller_id];
+        if (!st.report_frames) {
+            st.report_frames = metrics_->find("gw_controller_report_frames_total", {{"controller", e.controller_id}});
+            st.report_bytes_skipped =
+                metrics_->find("gw_controller_report_bytes_skipped_total", {{"controller", e.controller_id}});
+        }
+        frames = st.report_frames;
+        skipped = st.report_bytes_skipped;
+    }
+    metrics_->increment(frames);
     // bytes_skipped is the decoder's running count: mirror it.
-    metrics_->set("gw_controller_report_bytes_skipped_total", {{"controller", e.controller_id}},
-                  static_cast<double>(e.bytes_skipped));
+    metrics_->set(skipped, static_cast<double>(e.bytes_skipped));
 }
 
 void controller_metrics::on_trace(const devices::command_trace& t) {

@@ -30,6 +30,8 @@ class controller_metrics final : public devices::controller_observer {
     struct per_controller {
         bool was_connected = false;
         bool ever_connected = false;
+        // Found at the first frame: a report stream updates them hundreds of times a second.
+        metrics::handle report_frames, report_bytes_skipped;
     };
 
     std::shared_ptr<gw::metrics> metrics_;

@@ -28,7 +28,7 @@ std::string request_id_of(const http::request_header<>& header) {
 
 }  // namespace
 
-http_session::http_session(net::ip::tcp::socket&& socket, std::shared_ptr<api_context> ctx,
+http_session::http_session(session_socket&& socket, std::shared_ptr<api_context> ctx,
                            std::shared_ptr<connection_permit> permit, std::shared_ptr<body_budget> bodies,
                            std::string refusal)
     : stream_(std::move(socket)),
@@ -343,9 +343,15 @@ void http_session::do_write(string_response res, std::string route, bool close_a
     if (close_after) res.keep_alive(false);
     const auto status = res.result_int();
     auto elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
-    ctx_->metrics->increment("gw_http_requests_total",
-                             {{"route", route}, {"method", method_}, {"status", std::to_string(status)}});
-    ctx_->metrics->observe("gw_http_request_duration_seconds", {{"route", route}}, elapsed);
+    auto& series = last_series_;
+    if (series.status != status || series.route != route || series.method != method_) {
+        series = {route, method_, status,
+                  ctx_->metrics->find("gw_http_requests_total",
+                                      {{"route", route}, {"method", method_}, {"status", std::to_string(status)}}),
+                  ctx_->metrics->find("gw_http_request_duration_seconds", {{"route", route}})};
+    }
+    ctx_->metrics->increment(series.requests);
+    ctx_->metrics->observe(series.duration, elapsed);
     // A refused connection is counted (gw_http_connections_refused_total), not logged: a flood of them
     // must not flood the log.
     if (status >= 500 && refusal_.empty())

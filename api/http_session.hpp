@@ -22,6 +22,7 @@
 #include "api/connection_permit.hpp"
 #include "api/net.hpp"
 #include "api/router.hpp"
+#include "gateway/common/metrics.hpp"
 
 namespace gw::api {
 
@@ -31,7 +32,7 @@ class http_session : public std::enable_shared_from_this<http_session>, public t
   public:
     // Without a `permit` the connection limits were reached: answer 503 (`refusal` says why) and
     // close. The permit moves into the WebSocket session at an upgrade.
-    http_session(net::ip::tcp::socket&& socket, std::shared_ptr<api_context> ctx,
+    http_session(session_socket&& socket, std::shared_ptr<api_context> ctx,
                  std::shared_ptr<connection_permit> permit, std::shared_ptr<body_budget> bodies,
                  std::string refusal = {});
     ~http_session() override;
@@ -70,7 +71,7 @@ class http_session : public std::enable_shared_from_this<http_session>, public t
     void fail(beast::error_code ec, const char* what);
     void set_phase(connection_phase phase);
 
-    beast::tcp_stream stream_;
+    session_stream stream_;
     beast::flat_buffer buffer_;
     std::shared_ptr<api_context> ctx_;
     std::shared_ptr<connection_permit> permit_;
@@ -90,6 +91,15 @@ class http_session : public std::enable_shared_from_this<http_session>, public t
     std::string request_id_;
     std::string method_;
     std::chrono::steady_clock::time_point started_;
+
+    // The request metrics of the last route, method and status answered: a client that repeats its
+    // request on a kept-alive connection (a poll) updates them without a lookup.
+    struct request_series {
+        std::string route, method;
+        unsigned status = 0;
+        metrics::handle requests, duration;
+    };
+    request_series last_series_;
 };
 
 }  // namespace gw::api

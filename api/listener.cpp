@@ -7,7 +7,7 @@
 
 namespace gw::api {
 
-listener::listener(net::any_io_executor executor, net::ip::tcp::endpoint endpoint,
+listener::listener(io_executor executor, net::ip::tcp::endpoint endpoint,
                    std::shared_ptr<api_context> ctx)
     : executor_(executor),
       strand_(net::make_strand(executor)),
@@ -51,7 +51,7 @@ void listener::do_accept() {
                            beast::bind_front_handler(&listener::on_accept, shared_from_this()));
 }
 
-void listener::on_accept(beast::error_code ec, net::ip::tcp::socket socket) {
+void listener::on_accept(beast::error_code ec, session_socket socket) {
     if (ec == net::error::operation_aborted || !acceptor_.is_open()) return;
     if (ec) {
         // EMFILE and friends: the pending connection stays queued; try again shortly instead of
@@ -71,7 +71,7 @@ void listener::on_accept(beast::error_code ec, net::ip::tcp::socket socket) {
     // I/O loop would queue a client behind every connection that came before it (each turn also runs
     // the other clients' work).
     for (int i = 0; i < max_accept_batch; ++i) {
-        net::ip::tcp::socket next(net::make_strand(executor_));
+        session_socket next(net::make_strand(executor_));
         beast::error_code aec;
         acceptor_.accept(next, aec);  // non-blocking: would_block once the backlog is empty
         if (aec) break;
@@ -80,7 +80,7 @@ void listener::on_accept(beast::error_code ec, net::ip::tcp::socket socket) {
     do_accept();
 }
 
-void listener::start(net::ip::tcp::socket socket) {
+void listener::start(session_socket socket) {
     beast::error_code remote_ec;
     const auto remote = socket.remote_endpoint(remote_ec);
     if (remote_ec) return;  // gone already
@@ -101,7 +101,7 @@ void listener::start(net::ip::tcp::socket socket) {
     session->run();
 }
 
-void listener::refuse(net::ip::tcp::socket socket, std::string detail) {
+void listener::refuse(session_socket socket, std::string detail) {
     if (refused_.size() >= max_refused_waiting) {
         beast::error_code ignored;
         socket.close(ignored);  // a flood beyond this gets no answer at all

@@ -24,7 +24,7 @@ namespace gw::api {
 class listener : public std::enable_shared_from_this<listener> {
   public:
     // Opens, binds and listens. Throws boost::system::system_error (start-up only).
-    listener(net::any_io_executor executor, net::ip::tcp::endpoint endpoint,
+    listener(io_executor executor, net::ip::tcp::endpoint endpoint,
              std::shared_ptr<api_context> ctx);
 
     void run();
@@ -36,11 +36,11 @@ class listener : public std::enable_shared_from_this<listener> {
 
   private:
     void do_accept();
-    void on_accept(beast::error_code ec, net::ip::tcp::socket socket);
+    void on_accept(beast::error_code ec, session_socket socket);
     // Admits a connection (or refuses it) and starts its session.
-    void start(net::ip::tcp::socket socket);
+    void start(session_socket socket);
     // A connection the limits refused: answered 503 later, after the admitted clients' work.
-    void refuse(net::ip::tcp::socket socket, std::string detail);
+    void refuse(session_socket socket, std::string detail);
     void answer_refused();
 
     // Refused connections waiting for their 503; beyond, one is closed unanswered (a flood must not
@@ -48,16 +48,16 @@ class listener : public std::enable_shared_from_this<listener> {
     static constexpr std::size_t max_refused_waiting = 512;
     static constexpr int max_accept_batch = 256;
 
-    net::any_io_executor executor_;
-    net::strand<net::any_io_executor> strand_;  // the acceptor's
+    io_executor executor_;
+    session_strand strand_;  // the acceptor's
     net::ip::tcp::acceptor acceptor_;
     net::steady_timer retry_timer_;  // after an accept error (EMFILE), retry a little later
     net::ip::tcp::endpoint endpoint_;
     std::shared_ptr<api_context> ctx_;
     std::shared_ptr<connection_table> connections_;
     std::shared_ptr<body_budget> bodies_;
-    std::deque<std::pair<net::ip::tcp::socket, std::string>> refused_;  // on strand_
-    mutable std::mutex mutex_;                                          // guards stopped_
+    std::deque<std::pair<session_socket, std::string>> refused_;  // on strand_
+    mutable std::mutex mutex_;                                   // guards stopped_
     bool stopped_ = false;
 };
 

@@ -26,11 +26,12 @@ std::shared_ptr<gcode_file_store> make_gcode_store(const gateway_config& config)
 
 }  // namespace
 
-server::server(net::any_io_executor executor, const gateway_config& config, controller_registry& registry,
+server::server(io_executor executor, const gateway_config& config, controller_registry& registry,
                std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
                std::shared_ptr<jobs::job_manager> jobs, std::shared_ptr<lease_manager> leases,
                std::shared_ptr<const controller_state_texts> state_texts)
-    : http_(config.http),
+    : executor_(executor),
+      http_(config.http),
       ctx_(std::make_shared<api_context>(
           api_context{executor, registry, std::move(hub), std::move(metrics), config.http.limits, config.auth,
                       get_logger("api"), std::move(jobs), std::move(leases), make_gcode_store(config),
@@ -61,7 +62,7 @@ void server::start() {
     if (ec) throw std::runtime_error("http.listen_address \"" + http_.listen_address + "\": " + ec.message());
     try {
         listener_ =
-            std::make_shared<listener>(ctx_->executor, net::ip::tcp::endpoint(address, http_.port), ctx_);
+            std::make_shared<listener>(executor_, net::ip::tcp::endpoint(address, http_.port), ctx_);
     } catch (const boost::system::system_error& e) {
         throw std::runtime_error("cannot listen on " + http_.listen_address + ":" +
                                  std::to_string(http_.port) + ": " + e.code().message());

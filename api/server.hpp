@@ -20,7 +20,7 @@ class listener;
 
 class server {
   public:
-    server(net::any_io_executor executor, const gateway_config& config, controller_registry& registry,
+    server(io_executor executor, const gateway_config& config, controller_registry& registry,
            std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
            std::shared_ptr<jobs::job_manager> jobs = nullptr, std::shared_ptr<lease_manager> leases = nullptr,
            std::shared_ptr<const controller_state_texts> state_texts = nullptr);
@@ -34,6 +34,7 @@ class server {
     const std::shared_ptr<api_context>& context() const { return ctx_; }
 
   private:
+    io_executor executor_;  // the sessions' strands are made on it
     http_config http_;
     std::shared_ptr<api_context> ctx_;
     std::shared_ptr<listener> listener_;

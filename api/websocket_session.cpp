@@ -51,7 +51,7 @@ websocket_limits websocket_limits_from(const http_limits& limits) {
     return l;
 }
 
-void start_websocket_session(beast::tcp_stream&& stream, http::request<http::string_body>&& request,
+void start_websocket_session(session_stream&& stream, http::request<http::string_body>&& request,
                              std::shared_ptr<api_context> context, auth_identity who,
                              std::shared_ptr<connection_permit> permit,
                              std::optional<std::chrono::milliseconds> batch_window) {
@@ -61,7 +61,7 @@ void start_websocket_session(beast::tcp_stream&& stream, http::request<http::str
     session->run(std::move(request));
 }
 
-websocket_session::websocket_session(beast::tcp_stream&& stream, std::shared_ptr<api_context> context,
+websocket_session::websocket_session(session_stream&& stream, std::shared_ptr<api_context> context,
                                      auth_identity who, websocket_limits limits,
                                      std::shared_ptr<connection_permit> permit,
                                      std::optional<std::chrono::milliseconds> batch_window)

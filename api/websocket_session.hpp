@@ -47,7 +47,7 @@ struct api_outcome;
 // Takes over the connection: accepts the upgrade `request` (already read, already authenticated as
 // `who`) and runs the session until it closes. The session keeps the connection's `permit` (its slot
 // in http.limits.max_connections) until it ends. `batch_window`: the client's batch_ms.
-void start_websocket_session(beast::tcp_stream&& stream, http::request<http::string_body>&& request,
+void start_websocket_session(session_stream&& stream, http::request<http::string_body>&& request,
                              std::shared_ptr<api_context> context, auth_identity who,
                              std::shared_ptr<connection_permit> permit = nullptr,
                              std::optional<std::chrono::milliseconds> batch_window = std::nullopt);
@@ -69,7 +69,7 @@ websocket_limits websocket_limits_from(const http_limits& limits);
 class websocket_session final : public gw::event_sink,
                                 public std::enable_shared_from_this<websocket_session> {
   public:
-    websocket_session(beast::tcp_stream&& stream, std::shared_ptr<api_context> context, auth_identity who,
+    websocket_session(session_stream&& stream, std::shared_ptr<api_context> context, auth_identity who,
                       websocket_limits limits, std::shared_ptr<connection_permit> permit = nullptr,
                       std::optional<std::chrono::milliseconds> batch_window = std::nullopt);
     ~websocket_session() override;
@@ -117,7 +117,7 @@ class websocket_session final : public gw::event_sink,
     void finish(std::string_view why);
     void fail(beast::error_code ec, std::string_view what);
 
-    websocket::stream<beast::tcp_stream> ws_;
+    websocket::stream<session_stream> ws_;
     std::shared_ptr<api_context> ctx_;
     auth_identity who_;
     websocket_limits limits_;

@@ -10,22 +10,12 @@
 // one line of "key value" pairs: clients, closed (connections the gateway ended), events (all
 // clients), min_events and max_events (per client), missed, p50_ms, p99_ms, max_ms.
 #define _GNU_SOURCE
-#include <arpa/inet.h>
-#include <errno.h>
-#include <fcntl.h>
-#include <netinet/in.h>
-#include <netinet/tcp.h>
 #include <signal.h>
-#include <stdint.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
 #include <sys/epoll.h>
-#include <sys/socket.h>
-#include <time.h>
-#include <unistd.h>
 
-enum { max_clients = 1024, latency_buckets = 10000 };  // 0.1 ms buckets up to 1 s
+#include "fanout_common.h"
+
+enum { max_clients = 1024 };
 
 struct client {
     int fd;
@@ -39,39 +29,11 @@ struct client {
 };
 
 static volatile sig_atomic_t stopping;
-static uint64_t latency_hist[latency_buckets + 1];
 static uint64_t missed_total;
 
 static void on_stop(int sig) {
     (void)sig;
     stopping = 1;
-}
-
-static void die(const char *what) {
-    fprintf(stderr, "fanout_client: %s: %s\n", what, strerror(errno));
-    exit(1);
-}
-
-static double now_ms(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_REALTIME, &t);
-    return (double)t.tv_sec * 1e3 + (double)t.tv_nsec / 1e6;
-}
-
-static int fcntl_nonblock(int fd) {
-    int flags = fcntl(fd, F_GETFL);
-    return flags < 0 ? -1 : fcntl(fd, F_SETFL, flags | O_NONBLOCK);
-}
-
-static void send_all(int fd, const void *p, size_t n) {
-    const char *c = p;
-    while (n > 0) {
-        ssize_t w = write(fd, c, n);
-        if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) continue;  // a pong on a full socket
-        if (w <= 0) die("write");
-        c += w;
-        n -= (size_t)w;
-    }
 }
 
 static void send_text(int fd, const char *text) {
@@ -86,10 +48,7 @@ static void send_text(int fd, const char *text) {
 }
 
 static int connect_ws(int port, int batch_ms) {
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (fd < 0 || connect(fd, (struct sockaddr *)&a, sizeof a) != 0) die("connect");
+    int fd = connect_loopback(port);
     char req[512], query[32] = "";
     if (batch_ms >= 0) snprintf(query, sizeof query, "?batch_ms=%d", batch_ms);
     snprintf(req, sizeof req,
@@ -122,13 +81,7 @@ static void on_message(struct client *c, const char *p, size_t n) {
         if ((size_t)(end - q) >= 6 && memcmp(q, "event\"", 6) == 0) {
             ++c->events;
             const char *tm = memmem(q, (size_t)(end - q), "\"time_ms\":", 10);
-            if (tm) {
-                double sent = strtod(tm + 10, NULL);
-                long bucket = (long)((t - sent) * 10);
-                if (bucket < 0) bucket = 0;
-                if (bucket > latency_buckets) bucket = latency_buckets;
-                ++latency_hist[bucket];
-            }
+            if (tm) record_latency(strtod(tm + 10, NULL), t);
         } else if ((size_t)(end - q) >= 4 && memcmp(q, "gap\"", 4) == 0) {
             const char *m = memmem(q, (size_t)(end - q), "\"missed\":", 9);
             if (m) missed_total += strtoull(m + 9, NULL, 10);
@@ -192,20 +145,12 @@ static int on_readable(struct client *c) {
     return 1;
 }
 
-static double percentile(double p, uint64_t total) {
-    uint64_t want = (uint64_t)(p * (double)total), seen = 0;
-    for (int i = 0; i <= latency_buckets; ++i) {
-        seen += latency_hist[i];
-        if (seen > want) return i / 10.0;
-    }
-    return latency_buckets / 10.0;
-}
-
 int main(int argc, char **argv) {
     if (argc != 5) {
         fprintf(stderr, "usage: fanout_client PORT CLIENTS BATCH_MS TOPIC\n");
         return 2;
     }
+    program_name = "fanout_client";
     const int port = atoi(argv[1]), count = atoi(argv[2]), batch_ms = atoi(argv[3]);
     if (count <= 0 || count > max_clients) die("CLIENTS must be 1..1024");
     signal(SIGTERM, on_stop);
@@ -219,12 +164,11 @@ int main(int argc, char **argv) {
     for (int i = 0; i < count; ++i) {
         clients[i].fd = connect_ws(port, batch_ms);
         send_text(clients[i].fd, subscribe);
-        int flags = 1;
-        setsockopt(clients[i].fd, IPPROTO_TCP, TCP_NODELAY, &flags, sizeof flags);
         struct epoll_event e = {.events = EPOLLIN, .data.u32 = (uint32_t)i};
         if (epoll_ctl(ep, EPOLL_CTL_ADD, clients[i].fd, &e) != 0) die("epoll_ctl");
         if (fcntl_nonblock(clients[i].fd) != 0) die("nonblock");
     }
+    start_ms = now_ms();
     printf("subscribed\n");
     fflush(stdout);
     struct epoll_event ready[64];
@@ -238,19 +182,18 @@ int main(int argc, char **argv) {
             }
         }
     }
-    uint64_t total = 0, min = UINT64_MAX, max = 0, closed = 0, latencies = 0;
+    uint64_t total = 0, min = UINT64_MAX, max = 0, closed = 0;
     for (int i = 0; i < count; ++i) {
         total += clients[i].events;
         if (clients[i].events < min) min = clients[i].events;
         if (clients[i].events > max) max = clients[i].events;
         closed += (uint64_t)clients[i].closed;
     }
-    for (int i = 0; i <= latency_buckets; ++i)
-        latencies += latency_hist[i];
     printf("clients %d closed %llu events %llu min_events %llu max_events %llu missed %llu p50_ms %.1f p99_ms %.1f "
            "max_ms %.1f\n",
            count, (unsigned long long)closed, (unsigned long long)total, (unsigned long long)min,
-           (unsigned long long)max, (unsigned long long)missed_total, percentile(0.5, latencies),
-           percentile(0.99, latencies), percentile(1.0 - 1e-9, latencies));
+           (unsigned long long)max, (unsigned long long)missed_total, latency_percentile(0.5),
+           latency_percentile(0.99), latency_percentile(1.0 - 1e-9));
+    print_timeline();
     return 0;
 }

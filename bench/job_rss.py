@@ -24,17 +24,16 @@ import json
 import os
 import platform
 import shutil
-import socket
 import subprocess
 import sys
 import tempfile
 import threading
 import time
 
+from bench_broker import MOSQUITTO, Mosquitto
 from gateway_rig import (HERE, ROOT, TERMINAL, Http, WsClient, free_port, git_commit, load_average, log_tail,
                          start_gateway, stop_process, wait_until)
 
-MOSQUITTO = "/usr/sbin/mosquitto"
 SECTION = "Reliability: memory over finished jobs"
 # A1 at a fixed place: with "current" each job would start where the last one ended and the stage would
 # walk off its soft limits after a few thousand jobs.
@@ -98,16 +97,9 @@ class Run:
         a = self.args
         mqtt = a.mqtt and os.path.exists(MOSQUITTO)
         if mqtt:
-            self.broker_port = free_port()
-            conf = os.path.join(self.tmp, "mosquitto.conf")
-            with open(conf, "w") as f:
-                f.write("\n".join(["allow_anonymous true", "persistence false",
-                                   *(["user root"] if os.geteuid() == 0 else []),
-                                   f"listener {self.broker_port} 127.0.0.1"]) + "\n")
-            self.procs.append(subprocess.Popen([MOSQUITTO, "-c", conf], stdout=subprocess.DEVNULL,
-                                               stderr=subprocess.STDOUT))
-            wait_until("mosquitto", lambda: socket.create_connection(("127.0.0.1", self.broker_port), 1).close()
-                       or True)
+            broker = Mosquitto(self.tmp)
+            self.broker_port = broker.port
+            self.procs.append(broker.proc)
         config = {
             "http": {"listen_address": "127.0.0.1", "port": self.port},
             "simulate": {"count": a.controllers, "time_scale": a.time_scale,

@@ -44,8 +44,11 @@ class mqtt_bridge;
 // the job manager, which holds the event hub and its timers on the I/O thread's context; a reply
 // pending on the I/O thread holds a job's coroutine and its timers on the jobs thread's context), so
 // both are shut down before either is destroyed.
+// Each is run by one thread: the hint lets Asio queue a handler posted from that thread without
+// waking another.
 class application_io_context : public boost::asio::io_context {
   public:
+    application_io_context() : boost::asio::io_context(1) {}
     using boost::asio::execution_context::shutdown;
 };
 

@@ -87,15 +87,46 @@ void metrics::set(std::string_view name, const metric_labels& labels, double val
 void metrics::observe(std::string_view name, const metric_labels& labels, double value) {
     std::lock_guard lock(mutex_);
     auto* s = find_series(name, labels, metric_type::histogram, metric_type::histogram);
-    if (!s) return;
-    const auto& bounds = families_.find(name)->second.buckets;
+    if (s) record(*s, families_.find(name)->second.buckets, value);
+}
+
+void metrics::record(series& s, const std::vector<double>& bounds, double value) {
     for (std::size_t i = 0; i < bounds.size(); ++i)
         if (value <= bounds[i]) {
-            ++s->histogram.buckets[i];
+            ++s.histogram.buckets[i];
             break;
         }
-    ++s->histogram.count;
-    s->histogram.sum += value;
+    ++s.histogram.count;
+    s.histogram.sum += value;
+}
+
+metrics::handle metrics::find(std::string_view name, const metric_labels& labels) {
+    std::lock_guard lock(mutex_);
+    handle h;
+    auto it = families_.find(name);
+    if (it == families_.end()) return h;
+    h.series_ = find_series(name, labels, it->second.type, it->second.type);
+    h.type_ = it->second.type;
+    h.buckets_ = &it->second.buckets;
+    return h;
+}
+
+void metrics::increment(const handle& h, double by) {
+    if (!h || h.type_ == metric_type::histogram) return;
+    std::lock_guard lock(mutex_);
+    h.series_->value += by;
+}
+
+void metrics::set(const handle& h, double value) {
+    if (!h || h.type_ == metric_type::histogram) return;
+    std::lock_guard lock(mutex_);
+    h.series_->value = value;
+}
+
+void metrics::observe(const handle& h, double value) {
+    if (!h || h.type_ != metric_type::histogram) return;
+    std::lock_guard lock(mutex_);
+    record(*h.series_, *h.buckets_, value);
 }
 
 double metrics::value(std::string_view name, const metric_labels& labels) const {

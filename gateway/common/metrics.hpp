@@ -27,7 +27,22 @@ using metric_labels = std::vector<std::pair<std::string, std::string>>;
 std::vector<double> default_latency_buckets();
 
 class metrics {
+    struct series;
+
   public:
+    // One series, found once and then updated without rendering its labels again (a hot path's, such
+    // as HTTP requests). Series are never removed: a handle stays valid as long as the registry.
+    class handle {
+      public:
+        explicit operator bool() const { return series_ != nullptr; }
+
+      private:
+        friend class metrics;
+        series* series_ = nullptr;
+        metric_type type_ = metric_type::counter;
+        const std::vector<double>* buckets_ = nullptr;  // a histogram's
+    };
+
     // Declares a family. `buckets` (histograms only) must be ascending; +Inf is implicit.
     void describe(std::string name, metric_type type, std::string help, std::vector<double> buckets = {});
 
@@ -35,6 +50,12 @@ class metrics {
     void set(std::string_view name, const metric_labels& labels, double value);         // gauge, or a counter
                                                                                  // mirrored from elsewhere
     void observe(std::string_view name, const metric_labels& labels, double value);  // histogram
+
+    // An empty handle for a family that was never described (updating it does nothing).
+    handle find(std::string_view name, const metric_labels& labels);
+    void increment(const handle& h, double by = 1);  // counter, gauge
+    void set(const handle& h, double value);         // gauge, or a counter mirrored from elsewhere
+    void observe(const handle& h, double value);     // histogram
 
     // One sample's current value (counter/gauge), 0 when absent. For tests.
     double value(std::string_view name, const metric_labels& labels) const;
@@ -60,6 +81,7 @@ class metrics {
         std::map<std::string, series> samples;  // key: rendered label set ("{a=\"b\"}")
     };
 
+    static void record(series& s, const std::vector<double>& bounds, double value);  // a histogram's
     series* find_series(std::string_view name, const metric_labels& labels, metric_type t1, metric_type t2);
 
     mutable std::mutex mutex_;

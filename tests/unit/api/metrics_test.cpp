@@ -53,5 +53,38 @@ TEST(metrics, a_counter_cannot_be_observed_and_a_histogram_cannot_be_incremented
     EXPECT_EQ(m.count("t_seconds", {}), 0u);
 }
 
+TEST(metrics, a_handle_updates_the_series_it_was_found_for) {
+    metrics m;
+    m.describe("t_total", metric_type::counter, "T");
+    m.describe("t_seconds", metric_type::histogram, "S", {0.1, 1});
+    const auto requests = m.find("t_total", {{"route", "/a"}});
+    const auto latency = m.find("t_seconds", {{"route", "/a"}});
+    m.increment(requests);
+    m.increment(requests, 2);
+    m.increment("t_total", {{"route", "/a"}});  // the same series by its labels
+    m.observe(latency, 0.05);
+    m.observe(latency, 0.5);
+    m.describe("t_mirrored_total", metric_type::counter, "M");
+    const auto mirrored = m.find("t_mirrored_total", {});
+    m.set(mirrored, 7);
+    m.set(mirrored, 9);
+    EXPECT_EQ(m.value("t_mirrored_total", {}), 9);
+    EXPECT_EQ(m.value("t_total", {{"route", "/a"}}), 4);
+    EXPECT_EQ(m.value("t_total", {{"route", "/b"}}), 0);
+    EXPECT_EQ(m.count("t_seconds", {{"route", "/a"}}), 2u);
+    EXPECT_NE(m.exposition().find("t_seconds_bucket{route=\"/a\",le=\"0.1\"} 1\n"), std::string::npos);
+
+    // A handle of the wrong kind, or of a family never described, changes nothing.
+    m.observe(requests, 1);
+    m.increment(latency);
+    m.set(latency, 3);
+    const auto unknown = m.find("t_undeclared_total", {});
+    EXPECT_FALSE(unknown);
+    m.increment(unknown);
+    EXPECT_EQ(m.value("t_total", {{"route", "/a"}}), 4);
+    EXPECT_EQ(m.count("t_seconds", {{"route", "/a"}}), 2u);
+    EXPECT_EQ(m.exposition().find("t_undeclared_total"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace gw

@@ -1,0 +1,34 @@
+"""A mosquitto broker for a benchmark: anonymous, no persistence, on a free loopback port."""
+
+import os
+import socket
+import subprocess
+import time
+
+from bench_gateway import free_port
+
+MOSQUITTO = "/usr/sbin/mosquitto"
+
+
+class Mosquitto:
+    def __init__(self, workdir):
+        self.port = free_port()
+        conf = os.path.join(workdir, "mosquitto.conf")
+        with open(conf, "w") as f:
+            f.write("\n".join(["allow_anonymous true", "persistence false",
+                               *(["user root"] if os.geteuid() == 0 else []),
+                               f"listener {self.port} 127.0.0.1"]) + "\n")
+        self.proc = subprocess.Popen([MOSQUITTO, "-c", conf], stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+        deadline = time.monotonic() + 10
+        while True:
+            try:
+                socket.create_connection(("127.0.0.1", self.port), 1).close()
+                return
+            except OSError:
+                if self.proc.poll() is not None or time.monotonic() > deadline:
+                    raise RuntimeError("mosquitto did not start (bench/setup installs it)")
+                time.sleep(0.1)
+
+    def stop(self):
+        self.proc.terminate()
+        self.proc.wait(10)

@@ -1,0 +1,93 @@
+// What the fan-out clients share (bench/fanout_client.c for WebSocket, bench/mqtt_fanout_client.c for
+// MQTT): sockets, the clock, and the latency histogram with its per-second worst case.
+#ifndef FANOUT_COMMON_H
+#define FANOUT_COMMON_H
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+enum { latency_buckets = 10000, timeline_seconds = 600 };  // 0.1 ms buckets up to 1 s
+
+static const char *program_name = "fanout";
+static uint64_t latency_hist[latency_buckets + 1];
+static double second_max_ms[timeline_seconds];  // the worst latency seen in each second of the run
+static double start_ms;
+
+static inline void die(const char *what) {
+    fprintf(stderr, "%s: %s: %s\n", program_name, what, strerror(errno));
+    exit(1);
+}
+
+// Wall-clock milliseconds: the gateway's timestamps are wall-clock, and it runs on this machine.
+static inline double now_ms(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_REALTIME, &t);
+    return (double)t.tv_sec * 1e3 + (double)t.tv_nsec / 1e6;
+}
+
+static inline int fcntl_nonblock(int fd) {
+    int flags = fcntl(fd, F_GETFL);
+    return flags < 0 ? -1 : fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+}
+
+static inline void send_all(int fd, const void *p, size_t n) {
+    const char *c = p;
+    while (n > 0) {
+        ssize_t w = write(fd, c, n);
+        if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) continue;  // a small reply on a full socket
+        if (w <= 0) die("write");
+        c += w;
+        n -= (size_t)w;
+    }
+}
+
+static inline int connect_loopback(int port) {
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (fd < 0 || connect(fd, (struct sockaddr *)&a, sizeof a) != 0) die("connect");
+    int one = 1;
+    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    return fd;
+}
+
+// One delivery: sent_ms is the sender's clock when the frame arrived there, t when it was read here.
+static inline void record_latency(double sent_ms, double t) {
+    long bucket = (long)((t - sent_ms) * 10);
+    if (bucket < 0) bucket = 0;
+    if (bucket > latency_buckets) bucket = latency_buckets;
+    ++latency_hist[bucket];
+    const long second = (long)((t - start_ms) / 1000);
+    if (second >= 0 && second < timeline_seconds && t - sent_ms > second_max_ms[second])
+        second_max_ms[second] = t - sent_ms;
+}
+
+static inline double latency_percentile(double p) {
+    uint64_t total = 0, seen = 0;
+    for (int i = 0; i <= latency_buckets; ++i)
+        total += latency_hist[i];
+    const uint64_t want = (uint64_t)(p * (double)total);
+    for (int i = 0; i <= latency_buckets; ++i) {
+        seen += latency_hist[i];
+        if (seen > want) return i / 10.0;
+    }
+    return latency_buckets / 10.0;
+}
+
+// The worst latency of each second, for telling a steady tail from a burst (stderr).
+static inline void print_timeline(void) {
+    for (int i = 0; i < timeline_seconds && i <= (int)((now_ms() - start_ms) / 1000); ++i)
+        fprintf(stderr, "second %d max_ms %.1f\n", i, second_max_ms[i]);
+}
+
+#endif
