@@ -72,10 +72,12 @@ static inline void record_latency(double sent_ms, double t) {
         second_max_ms[second] = t - sent_ms;
 }
 
+// -1 when no latency was recorded.
 static inline double latency_percentile(double p) {
     uint64_t total = 0, seen = 0;
     for (int i = 0; i <= latency_buckets; ++i)
         total += latency_hist[i];
+    if (total == 0) return -1;  // nothing arrived
     const uint64_t want = (uint64_t)(p * (double)total);
     for (int i = 0; i <= latency_buckets; ++i) {
         seen += latency_hist[i];

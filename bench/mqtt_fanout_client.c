@@ -98,16 +98,23 @@ static int connect_mqtt(int port, int index, const char *filter) {
     return fd;
 }
 
-// "2026-12-03T01:02:03.456Z" -> milliseconds since the epoch, or -1.
+// "2026-12-03T01:02:03.456Z" -> milliseconds since the epoch, or -1. The date and time to the second
+// are parsed once per second of frames (timegm is far dearer than the frames' other handling).
 static double parse_time_ms(const char *p, const char *end) {
-    struct tm tm = {0};
-    int ms = 0;
-    if (end - p < 24 || sscanf(p, "%4d-%2d-%2dT%2d:%2d:%2d.%3dZ", &tm.tm_year, &tm.tm_mon, &tm.tm_mday, &tm.tm_hour,
-                               &tm.tm_min, &tm.tm_sec, &ms) != 7)
-        return -1;
-    tm.tm_year -= 1900;
-    tm.tm_mon -= 1;
-    return (double)timegm(&tm) * 1e3 + ms;
+    static char cached[19];
+    static double cached_ms = -1;
+    if (end - p < 24 || p[19] != '.' || p[23] != 'Z') return -1;
+    if (cached_ms < 0 || memcmp(cached, p, 19) != 0) {
+        struct tm tm = {0};
+        if (sscanf(p, "%4d-%2d-%2dT%2d:%2d:%2d", &tm.tm_year, &tm.tm_mon, &tm.tm_mday, &tm.tm_hour, &tm.tm_min,
+                   &tm.tm_sec) != 6)
+            return -1;
+        tm.tm_year -= 1900;
+        tm.tm_mon -= 1;
+        memcpy(cached, p, 19);
+        cached_ms = (double)timegm(&tm) * 1e3;
+    }
+    return cached_ms + (p[20] - '0') * 100 + (p[21] - '0') * 10 + (p[22] - '0');
 }
 
 static void on_publish(struct client *c, const char *p, size_t n) {
