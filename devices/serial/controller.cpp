@@ -1,5 +1,7 @@
 #include "devices/serial/controller.hpp"
 
+#include <sys/ioctl.h>
+
 #include <algorithm>
 #include <utility>
 
@@ -36,6 +38,11 @@ std::shared_ptr<spdlog::logger> make_logger(const std::string& name) {
         if (auto existing = spdlog::get(name)) return existing;
     }
     return logger;
+}
+
+// Ten bits (8N1) at the baud rate.
+steady_clock::duration configured_char_time(unsigned baud) {
+    return std::chrono::microseconds(10'000'000 / std::max(baud, 1u));
 }
 
 // Errors that mean "the command never got an answer because the port or the controller went away";
@@ -80,9 +87,7 @@ controller::controller(const net::any_io_executor& ex, controller_settings setti
       poll_timer_(strand_),
       presence_timer_(strand_),
       guard_timer_(strand_),
-      // Three characters at the baud rate (10 bits each) and scheduling slack.
-      reply_guard_(std::chrono::microseconds(30'000'000 / std::max(settings_.baud, 1u)) +
-                   std::chrono::microseconds(100)),
+      char_time_(configured_char_time(settings_.baud)),
       backoff_(settings_.reconnect_min),
       report_port_(strand_) {
     snapshot_.id = settings_.id;
@@ -218,11 +223,13 @@ void controller::do_write(std::uint64_t sequence) {
         mark_out_of_step(link_fault::kind::unexpected, "bytes nobody asked for");
     if (sync_ == link_sync::out_of_step && may_wait) return hold_back_in_flight();
     // A reply repeated at once (an echoing adapter, a duplicated frame) would arrive just as the next
-    // command goes out and could be taken for its answer: keep a short guard after the last byte read,
-    // so such bytes land while nothing accepts them.
+    // command goes out and could be taken for its answer. Its first byte follows the last one read
+    // within a character time: wait one and a half, then for any byte already in the port's buffer to
+    // be read, so that such bytes land while nothing accepts them.
+    const auto guard = char_time_ + char_time_ / 2;
     const auto quiet_for = steady_clock::now() - last_read_;
-    if (may_wait && quiet_for < reply_guard_) {
-        guard_timer_.expires_after(reply_guard_ - quiet_for);
+    if (may_wait && (quiet_for < guard || bytes_waiting_in_port())) {
+        guard_timer_.expires_after(quiet_for < guard ? guard - quiet_for : guard);
         guard_timer_.async_wait([self = shared_from_this(), sequence](error_code ec) {
             if (!ec) self->do_write(sequence);
         });
@@ -244,6 +251,18 @@ void controller::do_write(std::uint64_t sequence) {
         net::bind_executor(strand_, [self = shared_from_this(), sequence, wire](error_code ec, std::size_t) {
             self->on_write(sequence, ec);
         }));
+}
+
+bool controller::bytes_waiting_in_port() {
+    int waiting = 0;
+    return ::ioctl(port_.stream().native_handle(), FIONREAD, &waiting) == 0 && waiting > 0;
+}
+
+void controller::note_line_pace(std::size_t characters, steady_clock::duration round_trip) {
+    // A command and its answer crossed the line within the round trip: no character took longer
+    // than round_trip / characters. Only ever shortens the configured character time.
+    if (characters == 0) return;
+    char_time_ = std::min(char_time_, round_trip / static_cast<long>(characters));
 }
 
 void controller::arm_command_timer(steady_clock::duration after, std::uint64_t sequence) {
@@ -356,6 +375,8 @@ void controller::on_line(const std::string& line) {
 void controller::accept(ms2000::reply r, const std::string& line) {
     const auto& cmd = in_flight_->job.cmd;
     last_answer_ = {line, cmd.wire, steady_clock::now()};
+    // The line's end ("\r\n") was read too.
+    note_line_pace(cmd.wire.size() + line.size() + 2, last_answer_.at - in_flight_->started);
     if (r.what == ms2000::reply::kind::error) {
         // HALT answers ":N-21" when it stopped a move: that is what HALT is for.
         if (cmd.is_halt && r.error_code == ms2000::halted) return finish({}, std::move(r), line);
@@ -561,6 +582,7 @@ void controller::do_connect() {
         return set_unreachable(problem_of_open_error(settings_.port, ec));
     }
     ++generation_;
+    char_time_ = configured_char_time(settings_.baud);  // another device may be on the port now
     attempt_bytes_ = 0;
     attempt_sample_.clear();
     framer_.reset();

@@ -141,6 +141,8 @@ class controller : public std::enable_shared_from_this<controller> {
     void start_in_flight(pending job);
     void hold_back_in_flight();
     void do_write(std::uint64_t sequence);
+    bool bytes_waiting_in_port();
+    void note_line_pace(std::size_t characters, std::chrono::steady_clock::duration round_trip);
     void on_write(std::uint64_t sequence, boost::system::error_code ec);
     void on_timeout(std::uint64_t sequence);
     void finish(boost::system::error_code ec, std::optional<ms2000::reply> reply, const std::string& raw);
@@ -205,7 +207,10 @@ class controller : public std::enable_shared_from_this<controller> {
     boost::asio::steady_timer poll_timer_;
     boost::asio::steady_timer presence_timer_;
     boost::asio::steady_timer guard_timer_;
-    std::chrono::steady_clock::duration reply_guard_;  // quiet time after the last byte before a write
+    // One character on the line (10 bits): the configured baud rate's, or less once an answer has
+    // proven the line faster (a pty, a USB device that ignores the baud rate). The guard before a
+    // write is one and a half of them after the last byte read.
+    std::chrono::steady_clock::duration char_time_;
     std::chrono::steady_clock::time_point last_read_{};
     // The last reply taken as an answer: a repeat of it soon after, for another command, is suspect.
     struct answered {
