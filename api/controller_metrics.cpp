@@ -104,7 +104,8 @@ void controller_metrics::on_report(const devices::report_event& e) {
         std::lock_guard lock(mutex_);
         auto& st = state_[e.controller_id];
         if (!st.report_frames) {
-            st.report_frames = metrics_->find("gw_controller_report_frames_total", {{"controller", e.controller_id}});
+            st.report_frames =
+                metrics_->find("gw_controller_report_frames_total", {{"controller", e.controller_id}});
             st.report_bytes_skipped =
                 metrics_->find("gw_controller_report_bytes_skipped_total", {{"controller", e.controller_id}});
         }

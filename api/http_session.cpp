@@ -345,10 +345,11 @@ void http_session::do_write(string_response res, std::string route, bool close_a
     auto elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
     auto& series = last_series_;
     if (series.status != status || series.route != route || series.method != method_) {
-        series = {route, method_, status,
-                  ctx_->metrics->find("gw_http_requests_total",
-                                      {{"route", route}, {"method", method_}, {"status", std::to_string(status)}}),
-                  ctx_->metrics->find("gw_http_request_duration_seconds", {{"route", route}})};
+        series = {
+            route, method_, status,
+            ctx_->metrics->find("gw_http_requests_total",
+                                {{"route", route}, {"method", method_}, {"status", std::to_string(status)}}),
+            ctx_->metrics->find("gw_http_request_duration_seconds", {{"route", route}})};
     }
     ctx_->metrics->increment(series.requests);
     ctx_->metrics->observe(series.duration, elapsed);

@@ -7,7 +7,7 @@
 
 namespace gw::api {
 
-listener::listener(io_executor executor, net::ip::tcp::endpoint endpoint,
+listener::listener(const io_executor& executor, const net::ip::tcp::endpoint& endpoint,
                    std::shared_ptr<api_context> ctx)
     : executor_(executor),
       strand_(net::make_strand(executor)),

@@ -24,7 +24,7 @@ namespace gw::api {
 class listener : public std::enable_shared_from_this<listener> {
   public:
     // Opens, binds and listens. Throws boost::system::system_error (start-up only).
-    listener(io_executor executor, net::ip::tcp::endpoint endpoint,
+    listener(const io_executor& executor, const net::ip::tcp::endpoint& endpoint,
              std::shared_ptr<api_context> ctx);
 
     void run();
@@ -57,7 +57,7 @@ class listener : public std::enable_shared_from_this<listener> {
     std::shared_ptr<connection_table> connections_;
     std::shared_ptr<body_budget> bodies_;
     std::deque<std::pair<session_socket, std::string>> refused_;  // on strand_
-    mutable std::mutex mutex_;                                   // guards stopped_
+    mutable std::mutex mutex_;                                    // guards stopped_
     bool stopped_ = false;
 };
 

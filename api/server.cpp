@@ -26,7 +26,7 @@ std::shared_ptr<gcode_file_store> make_gcode_store(const gateway_config& config)
 
 }  // namespace
 
-server::server(io_executor executor, const gateway_config& config, controller_registry& registry,
+server::server(const io_executor& executor, const gateway_config& config, controller_registry& registry,
                std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
                std::shared_ptr<jobs::job_manager> jobs, std::shared_ptr<lease_manager> leases,
                std::shared_ptr<const controller_state_texts> state_texts)
@@ -61,8 +61,7 @@ void server::start() {
     auto address = net::ip::make_address(http_.listen_address, ec);
     if (ec) throw std::runtime_error("http.listen_address \"" + http_.listen_address + "\": " + ec.message());
     try {
-        listener_ =
-            std::make_shared<listener>(executor_, net::ip::tcp::endpoint(address, http_.port), ctx_);
+        listener_ = std::make_shared<listener>(executor_, net::ip::tcp::endpoint(address, http_.port), ctx_);
     } catch (const boost::system::system_error& e) {
         throw std::runtime_error("cannot listen on " + http_.listen_address + ":" +
                                  std::to_string(http_.port) + ": " + e.code().message());

@@ -20,7 +20,7 @@ class listener;
 
 class server {
   public:
-    server(io_executor executor, const gateway_config& config, controller_registry& registry,
+    server(const io_executor& executor, const gateway_config& config, controller_registry& registry,
            std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
            std::shared_ptr<jobs::job_manager> jobs = nullptr, std::shared_ptr<lease_manager> leases = nullptr,
            std::shared_ptr<const controller_state_texts> state_texts = nullptr);

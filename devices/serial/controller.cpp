@@ -1,8 +1,7 @@
 #include "devices/serial/controller.hpp"
 
-#include <sys/ioctl.h>
-
 #include <algorithm>
+#include <sys/ioctl.h>
 #include <utility>
 
 #include <boost/asio/append.hpp>

@@ -168,8 +168,10 @@ std::string metrics::exposition() const {
             }
             out += name + "_bucket" + with_label(labels, "le", "+Inf") + " " +
                    std::to_string(s.histogram.count) + "\n";
-            out += name + "_sum" + labels + " " + format_value(s.histogram.sum) + "\n";
-            out += name + "_count" + labels + " " + std::to_string(s.histogram.count) + "\n";
+            out += name;
+            out += "_sum" + labels + " " + format_value(s.histogram.sum) + "\n";
+            out += name;
+            out += "_count" + labels + " " + std::to_string(s.histogram.count) + "\n";
         }
     }
     return out;
