@@ -20,8 +20,7 @@ enum { max_clients = 1024 };
 struct client {
     int fd;
     int closed;
-    char *buf;
-    size_t len, cap;
+    struct input_buffer in;
     char *message;  // a fragmented message being put together
     size_t message_len, message_cap;
     int in_text;  // the fragments are of a text message
@@ -91,34 +90,25 @@ static void on_message(struct client *c, const char *p, size_t n) {
 
 // Parses whole frames from the client's buffer; returns 0 when the server closed.
 static int on_readable(struct client *c) {
-    for (;;) {
-        if (c->cap - c->len < 65536) {
-            c->cap = c->cap ? c->cap * 2 : 1 << 20;
-            c->buf = realloc(c->buf, c->cap);
-            if (!c->buf) die("realloc");
-        }
-        ssize_t r = read(c->fd, c->buf + c->len, c->cap - c->len);
-        if (r < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
-        if (r <= 0) return 0;
-        c->len += (size_t)r;
-    }
+    if (!read_available(c->fd, &c->in)) return 0;
+    const size_t len = c->in.len;
     size_t at = 0;
-    while (c->len - at >= 2) {
-        const uint8_t *f = (const uint8_t *)c->buf + at;
+    while (len - at >= 2) {
+        const uint8_t *f = (const uint8_t *)c->in.data + at;
         uint64_t n = f[1] & 0x7f;
         size_t off = 2;
         if (n == 126) {
-            if (c->len - at < 4) break;
+            if (len - at < 4) break;
             n = ((uint64_t)f[2] << 8) | f[3];
             off = 4;
         } else if (n == 127) {
-            if (c->len - at < 10) break;
+            if (len - at < 10) break;
             n = 0;
             for (int i = 0; i < 8; ++i)
                 n = (n << 8) | f[2 + i];
             off = 10;
         }
-        if (c->len - at < off + n) break;
+        if (len - at < off + n) break;
         const int opcode = f[0] & 0x0f, fin = f[0] & 0x80;
         if (opcode == 0x8) return 0;  // close
         if (opcode == 0x9) {          // ping: answer with an empty masked pong
@@ -140,8 +130,7 @@ static int on_readable(struct client *c) {
         }
         at += off + (size_t)n;
     }
-    memmove(c->buf, c->buf + at, c->len - at);
-    c->len -= at;
+    consume(&c->in, at);
     return 1;
 }
 

@@ -61,6 +61,33 @@ static inline int connect_loopback(int port) {
     return fd;
 }
 
+// A connection's input: what has arrived and not yet been parsed.
+struct input_buffer {
+    char *data;
+    size_t len, cap;
+};
+
+// Reads everything the socket has (it is non-blocking); returns 0 when the peer closed.
+static inline int read_available(int fd, struct input_buffer *in) {
+    for (;;) {
+        if (in->cap - in->len < 65536) {
+            in->cap = in->cap ? in->cap * 2 : 1 << 20;
+            in->data = realloc(in->data, in->cap);
+            if (!in->data) die("realloc");
+        }
+        ssize_t r = read(fd, in->data + in->len, in->cap - in->len);
+        if (r < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return 1;
+        if (r <= 0) return 0;
+        in->len += (size_t)r;
+    }
+}
+
+// Drops the first `parsed` bytes.
+static inline void consume(struct input_buffer *in, size_t parsed) {
+    memmove(in->data, in->data + parsed, in->len - parsed);
+    in->len -= parsed;
+}
+
 // One delivery: sent_ms is the sender's clock when the frame arrived there, t when it was read here.
 static inline void record_latency(double sent_ms, double t) {
     long bucket = (long)((t - sent_ms) * 10);

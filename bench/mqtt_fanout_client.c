@@ -22,8 +22,7 @@ enum { max_clients = 1024 };
 struct client {
     int fd;
     int closed;
-    unsigned char *buf;
-    size_t len, cap;
+    struct input_buffer in;
     uint64_t events, messages;
 };
 
@@ -136,24 +135,15 @@ static void on_publish(struct client *c, const char *p, size_t n) {
 
 // Parses whole packets from the client's buffer; returns 0 when the broker closed.
 static int on_readable(struct client *c) {
-    for (;;) {
-        if (c->cap - c->len < 65536) {
-            c->cap = c->cap ? c->cap * 2 : 1 << 20;
-            c->buf = realloc(c->buf, c->cap);
-            if (!c->buf) die("realloc");
-        }
-        ssize_t r = read(c->fd, c->buf + c->len, c->cap - c->len);
-        if (r < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
-        if (r <= 0) return 0;
-        c->len += (size_t)r;
-    }
+    if (!read_available(c->fd, &c->in)) return 0;
+    const size_t len = c->in.len;
     size_t at = 0;
-    while (c->len - at >= 2) {
-        const unsigned char *f = c->buf + at;
+    while (len - at >= 2) {
+        const unsigned char *f = (const unsigned char *)c->in.data + at;
         size_t body = 0;
-        const int used = remaining_length(f + 1, c->len - at - 1, &body);
+        const int used = remaining_length(f + 1, len - at - 1, &body);
         if (used < 0) return 0;
-        if (used == 0 || c->len - at < 1 + (size_t)used + body) break;
+        if (used == 0 || len - at < 1 + (size_t)used + body) break;
         const unsigned char *b = f + 1 + used;
         if ((f[0] >> 4) == 3 && body >= 2) {  // PUBLISH, QoS 0: topic, then the payload
             const size_t topic = ((size_t)b[0] << 8) | b[1];
@@ -161,8 +151,7 @@ static int on_readable(struct client *c) {
         }
         at += 1 + (size_t)used + body;
     }
-    memmove(c->buf, c->buf + at, c->len - at);
-    c->len -= at;
+    consume(&c->in, at);
     return 1;
 }
 

@@ -13,18 +13,8 @@
 #include <signal.h>
 
 #include "fanout_common.h"
+#include "paced_run.h"
 
-static volatile sig_atomic_t started, stopping;
-
-static void on_start(int sig) {
-    (void)sig;
-    started = 1;
-}
-
-static void on_stop(int sig) {
-    (void)sig;
-    stopping = 1;
-}
 
 static void format_time(char *out, size_t size) {
     struct timespec t;
@@ -71,19 +61,14 @@ int main(int argc, char **argv) {
     send_all(fd, connect_packet, sizeof connect_packet);
     unsigned char connack[4];
     if (read(fd, connack, 4) != 4 || connack[0] != 0x20 || connack[3] != 0) die("no CONNACK");
-    signal(SIGUSR1, on_start);
-    signal(SIGTERM, on_stop);
-    signal(SIGINT, on_stop);
     signal(SIGPIPE, SIG_IGN);
     printf("ready\n");
     fflush(stdout);
-    while (!started && !stopping)
-        pause();
+    wait_for_start();
 
-    const long period_ns = (long)(1e9 / rate);
-    struct timespec next;
-    clock_gettime(CLOCK_MONOTONIC, &next);
-    uint64_t written = 0, late = 0;
+    struct ticker ticker;
+    ticker_start(&ticker, rate);
+    uint64_t written = 0;
     long n = 0;
     unsigned char *packets = malloc((size_t)count * 1024);
     if (!packets) die("malloc");
@@ -106,17 +91,8 @@ int main(int argc, char **argv) {
         }
         send_all(fd, packets, size);  // blocks while the broker does not read: counted as late ticks
         written += (uint64_t)count;
-        next.tv_nsec += period_ns;
-        while (next.tv_nsec >= 1000000000L) {
-            next.tv_nsec -= 1000000000L;
-            ++next.tv_sec;
-        }
-        struct timespec now;
-        clock_gettime(CLOCK_MONOTONIC, &now);
-        if (now.tv_sec > next.tv_sec || (now.tv_sec == next.tv_sec && now.tv_nsec > next.tv_nsec)) ++late;
-        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, NULL) == EINTR && !stopping) {
-        }
+        ticker_wait(&ticker);
     }
-    printf("written %llu refused 0 late %llu\n", (unsigned long long)written, (unsigned long long)late);
+    printf("written %llu refused 0 late %llu\n", (unsigned long long)written, (unsigned long long)ticker.late);
     return 0;
 }

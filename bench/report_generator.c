@@ -21,17 +21,8 @@
 #include <time.h>
 #include <unistd.h>
 
-static volatile sig_atomic_t started, stopping;
+#include "paced_run.h"
 
-static void on_start(int sig) {
-    (void)sig;
-    started = 1;
-}
-
-static void on_stop(int sig) {
-    (void)sig;
-    stopping = 1;
-}
 
 static void die(const char *what) {
     fprintf(stderr, "report_generator: %s: %s\n", what, strerror(errno));
@@ -79,18 +70,13 @@ int main(int argc, char **argv) {
         snprintf(link, sizeof link, "%s/r%d", argv[1], i);
         masters[i] = open_pty(link);
     }
-    signal(SIGUSR1, on_start);
-    signal(SIGTERM, on_stop);
-    signal(SIGINT, on_stop);
     printf("ready\n");
     fflush(stdout);
-    while (!started && !stopping)
-        pause();
+    wait_for_start();
 
-    const long period_ns = (long)(1e9 / rate);
-    struct timespec next;
-    clock_gettime(CLOCK_MONOTONIC, &next);
-    uint64_t written = 0, refused = 0, late = 0;
+    struct ticker ticker;
+    ticker_start(&ticker, rate);
+    uint64_t written = 0, refused = 0;
     int32_t n = 0;
     uint8_t frame[16];
     while (!stopping) {
@@ -106,18 +92,9 @@ int main(int argc, char **argv) {
             else
                 ++refused;
         }
-        next.tv_nsec += period_ns;
-        while (next.tv_nsec >= 1000000000L) {
-            next.tv_nsec -= 1000000000L;
-            ++next.tv_sec;
-        }
-        struct timespec now;
-        clock_gettime(CLOCK_MONOTONIC, &now);
-        if (now.tv_sec > next.tv_sec || (now.tv_sec == next.tv_sec && now.tv_nsec > next.tv_nsec)) ++late;
-        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, NULL) == EINTR && !stopping) {
-        }
+        ticker_wait(&ticker);
     }
     printf("written %llu refused %llu late %llu\n", (unsigned long long)written, (unsigned long long)refused,
-           (unsigned long long)late);
+           (unsigned long long)ticker.late);
     return 0;
 }
