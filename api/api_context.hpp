@@ -29,6 +29,7 @@ class job_manager;
 
 namespace gw::api {
 
+class batch_text_cache;
 class gcode_worker;
 class port_scan_worker;
 
@@ -47,6 +48,8 @@ struct api_context {
     std::shared_ptr<port_scan_worker> port_scans;  // GET /api/v1/ports runs here; null: the route answers 503
     // Each controller's state JSON text, built once per snapshot; null: built per request.
     std::shared_ptr<const controller_state_texts> state_texts;
+    // Batch messages shared by the WebSocket sessions that get the same events; null: one per session.
+    std::shared_ptr<batch_text_cache> batch_texts;
 };
 
 }  // namespace gw::api

@@ -39,8 +39,9 @@
 // is answered with an error message; the connection stays open.
 //
 // Batching: a client that connects to /api/v1/ws?batch_ms=N (0..1000) gets its events in "batch"
-// messages: the event, gap and retired messages above, unchanged and in order, at most one batch per N
-// ms (0: as fast as the client takes them, each batch holding what queued meanwhile). Answers
+// messages: the event, gap and retired messages above, unchanged and in order, at most one batch per
+// tick of N ms (ticks shared by the sessions with the same N, which then send the same bytes:
+// batch_text_cache; 0: as fast as the client takes them, each batch holding what queued meanwhile). Answers
 // (result, error, subscribed, ...) stay single messages. One write per batch instead of one per event
 // is what lets a client follow hundreds of report streams; under load the batches grow instead of
 // the connection being dropped. The hello says which mode is on ("batch_ms": N or null).

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "api/batch_text_cache.hpp"
 #include "api/job_requests.hpp"
 #include "api/websocket_protocol.hpp"
 #include "gateway/common/metrics.hpp"
@@ -305,7 +306,9 @@ void websocket_session::on_deliver(const std::vector<std::shared_ptr<const event
     }
     if (batch_window_) {
         batch_arrived_ = std::chrono::steady_clock::now();
-        out_.push_back({std::make_shared<const std::string>(ws_batch_message(batch)), false, false});
+        out_.push_back({ctx_->batch_texts ? ctx_->batch_texts->text(batch)
+                                          : std::make_shared<const std::string>(ws_batch_message(batch)),
+                        false, false});
     }
     out_.back().ends_batch = true;
     if (ctx_->metrics && gaps != 0) {
@@ -345,7 +348,11 @@ void websocket_session::on_write(beast::error_code ec, std::size_t) {
 
 void websocket_session::request_next_batch() {
     if (!batch_window_ || batch_window_->count() == 0) return ctx_->hub->request_more(subscriber_);
-    const auto due = batch_arrived_ + *batch_window_;
+    // The next point of a grid of the window's length: sessions with the same window ask at the same
+    // moments, get the same events, and share one batch text (batch_text_cache).
+    const auto window = std::chrono::duration_cast<std::chrono::steady_clock::duration>(*batch_window_);
+    const auto due =
+        std::chrono::steady_clock::time_point((batch_arrived_.time_since_epoch() / window + 1) * window);
     if (std::chrono::steady_clock::now() >= due) return ctx_->hub->request_more(subscriber_);
     batch_timer_.expires_at(due);
     batch_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {

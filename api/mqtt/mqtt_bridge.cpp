@@ -20,9 +20,9 @@ using nlohmann::json;
 
 namespace {
 
-// "controllers/sim1/state" -> {"controllers", "sim1", "state"}.
-std::vector<std::string> split(const std::string& topic) {
-    std::vector<std::string> out;
+// "controllers/sim1/state" -> {"controllers", "sim1", "state"}, views into the topic.
+std::vector<std::string_view> split(std::string_view topic) {
+    std::vector<std::string_view> out;
     std::size_t start = 0;
     while (true) {
         const auto slash = topic.find('/', start);
@@ -57,7 +57,8 @@ mqtt_bridge::mqtt_bridge(std::shared_ptr<api_context> ctx, mqtt_bridge_settings 
       log_(settings_.log ? settings_.log : ctx_->log),
       topics_(settings_.config.topic_prefix, settings_.gateway_id),
       strand_(net::make_strand(ctx_->executor)),
-      housekeeping_(strand_) {
+      housekeeping_(strand_),
+      batch_timer_(strand_) {
     if (settings_.version.empty()) settings_.version = GW_VERSION;
     if (ctx_->metrics) {
         describe_metrics(*ctx_->metrics);
@@ -131,6 +132,7 @@ void mqtt_bridge::async_stop(std::function<void()> done) {
         }
         self->stopped_ = true;
         self->housekeeping_.cancel();
+        self->batch_timer_.cancel();
         if (self->subscriber_ != 0) self->ctx_->hub->remove_subscriber(self->subscriber_);
         self->subscriber_ = 0;
         if (!self->client_) {
@@ -258,8 +260,8 @@ void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& ba
             seen = std::max(seen, e->kind == event_kind::gap ? e->gap_to : e->sequence);
         }
         if (l.size() == 3 && l[0] == "controllers") {
-            const auto& id = l[1];
-            const auto& leaf = l[2];
+            const std::string id(l[1]);
+            const auto leaf = l[2];
             if (leaf == "state") {
                 if (e->kind == event_kind::data) on_state(id, e);
             } else if (leaf == "reports") {
@@ -274,12 +276,29 @@ void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& ba
             if (e->kind == event_kind::gap)
                 drop("jobs", e->missed());
             else
-                on_job(l[1], e);
+                on_job(std::string(l[1]), e);
         }
     }
     flush_reports();
     awaiting_more_ = true;
+    open_batch_window();
     maybe_request_more();
+}
+
+void mqtt_bridge::open_batch_window() {
+    const auto window = settings_.config.reports_batch;
+    if (window.count() == 0) return;
+    // Report frames gather in the hub meanwhile: one message per controller per window, not one per
+    // handful of frames (the broker's and the client's cost is per message).
+    batch_window_open_ = true;
+    batch_timer_.expires_after(window);
+    batch_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
+        if (ec) return;
+        if (auto self = weak.lock()) {
+            self->batch_window_open_ = false;
+            self->maybe_request_more();
+        }
+    });
 }
 
 void mqtt_bridge::on_state(const std::string& id, const std::shared_ptr<const event>& e) {
@@ -395,7 +414,7 @@ void mqtt_bridge::drop(std::string_view kind, std::uint64_t n) {
 }
 
 void mqtt_bridge::maybe_request_more() {
-    if (!awaiting_more_ || stopped_ || subscriber_ == 0) return;
+    if (!awaiting_more_ || batch_window_open_ || stopped_ || subscriber_ == 0) return;
     if (client_->connected() && client_->in_flight() >= settings_.max_in_flight) return;
     awaiting_more_ = false;
     ctx_->hub->request_more(subscriber_);

@@ -59,9 +59,10 @@ struct mqtt_bridge_settings {
     std::string gateway_id;  // resolved (resolve_gateway_id)
     std::string version;     // in the birth message; empty: the project version
     std::size_t max_in_flight = 256;
-    // Its subscription to the event hub: room for bursts, and patience with a slow broker.
+    // Its subscription to the event hub: room for bursts (a second of 32 busy report streams), and
+    // patience with a slow broker.
     subscriber_settings hub_subscriber{
-        .queue_limit = 4096, .max_batch_events = 256, .max_stall = std::chrono::seconds(30)};
+        .queue_limit = 16384, .max_batch_events = 2048, .max_stall = std::chrono::seconds(30)};
     std::size_t max_tracked_jobs = 10000;  // jobs whose state is kept retained; the oldest ended go first
     std::shared_ptr<spdlog::logger> log;   // "mqtt"; null: the API's logger
 };
@@ -106,6 +107,7 @@ class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_
     void on_connected();
     void on_disconnected();
     void on_deliver(const std::vector<std::shared_ptr<const event>>& batch);
+    void open_batch_window();
     void on_state(const std::string& id, const std::shared_ptr<const event>& e);
     void on_job(const std::string& id, const std::shared_ptr<const event>& e);
     void publish_birth();
@@ -139,6 +141,9 @@ class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_
     std::uint64_t job_queue_dropped_ = 0;     // oldest changes dropped from it during this outage
     std::set<std::string> lost_clears_;       // job topics whose clearing was dropped from it
     boost::asio::steady_timer housekeeping_;
+    boost::asio::steady_timer batch_timer_;
+    bool batch_window_open_ =
+        false;  // the hub is asked for more once mqtt.telemetry.reports_batch_ms is over
 };
 
 }  // namespace gw::api

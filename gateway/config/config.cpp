@@ -330,9 +330,11 @@ void read_mqtt(const json& j, mqtt_config& out) {
         if (auto* v = q.get("responses")) out.qos.responses = read_qos(*v, q.path("responses"));
     }
     if (auto* tj = r.get("telemetry")) {
-        object_reader t(*tj, "mqtt.telemetry", {"position_max_hz"});
+        object_reader t(*tj, "mqtt.telemetry", {"position_max_hz", "reports_batch_ms"});
         if (auto* v = t.get("position_max_hz"))
             out.position_max_hz = read_double(*v, t.path("position_max_hz"), 0, 1000);
+        if (auto* v = t.get("reports_batch_ms"))
+            out.reports_batch = std::chrono::milliseconds(read_uint(*v, t.path("reports_batch_ms"), 0, 1000));
     }
     if (auto* rj = r.get("reconnect")) {
         object_reader t(*rj, "mqtt.reconnect", {"min_ms", "max_ms"});

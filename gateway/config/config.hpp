@@ -147,6 +147,8 @@ struct mqtt_config {
     mqtt_protocol protocol = mqtt_protocol::v5;
     mqtt_qos_config qos;
     double position_max_hz = 10;  // per controller; 0: every position event
+    // Report frames of a controller gathered into one message for up to this long; 0: as they come.
+    std::chrono::milliseconds reports_batch{10};
     // Waits between connect attempts: from min doubling up to max, each drawn from [half, all] of it
     // (api/mqtt/reconnect_backoff.hpp). max bounds how long a broker's return goes unnoticed.
     std::chrono::milliseconds reconnect_min{500};

@@ -58,6 +58,7 @@ class mqtt_bridge_eviction : public ::testing::Test {
         // Every overflow counts against it, even while it acknowledges (the hub's default forgives
         // those: they mean the gateway is behind), so that two bursts evict it.
         s.hub_subscriber.slow_ack = std::chrono::milliseconds(0);
+        s.hub_subscriber.queue_limit = 4096;  // a burst of 5000 overflows it
         bridge_ = mqtt_bridge::create(ctx_, s);
         bridge_->start();
         settle();
@@ -79,7 +80,7 @@ class mqtt_bridge_eviction : public ::testing::Test {
         }
     }
     // Publishes n TTL events in one go: all of them reach the hub's strand before the bridge can ask
-    // for more, so more than its queue bound (4096) overflows it once.
+    // for more, so more than its queue bound (4096 here) overflows it once.
     void burst(std::uint64_t n) {
         for (std::uint64_t i = 0; i < n; ++i)
             ASSERT_FALSE(hub_->publish("controllers/sim1/ttl", ttl_data(++published_)));
