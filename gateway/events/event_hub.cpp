@@ -342,7 +342,7 @@ void event_hub::on_publish(std::string topic, std::shared_ptr<const std::string>
     std::vector<subscriber_id> ids;
     ids.reserve(routes.size());
     for (const auto& r : routes) {
-        offer(*r.target, e, t, *r.via);
+        offer(*r.target, e, t, *r.via, *r.cursor);
         ids.push_back(r.target->id);
     }
     // settle() may evict (and so change the routes): by id from here on.
@@ -355,16 +355,15 @@ const std::vector<event_hub::route>& event_hub::routes_of(const std::string& nam
     if (t.routes_version == routing_version_) return t.routes;
     t.routes.clear();
     for (auto& [id, s] : subscribers_)
-        if (const auto* sub = matching(*s, name)) t.routes.push_back({s.get(), sub});
+        if (const auto* sub = matching(*s, name)) t.routes.push_back({s.get(), sub, &s->cursor[name]});
     t.routes_version = routing_version_;
     return t.routes;
 }
 
 void event_hub::offer(subscriber& s, const std::shared_ptr<const event>& e, const topic_state& t,
-                      const subscription& sub) {
+                      const subscription& sub, std::uint64_t& cursor) {
     // A topic in catch-up reads this event from the replay buffer in its turn.
-    if (s.catch_up.contains(e->topic)) return;
-    auto& cursor = s.cursor[e->topic];
+    if (!s.catch_up.empty() && s.catch_up.contains(e->topic)) return;
     if (e->sequence <= cursor) return;
     cursor = e->sequence;
     if (t.cls == topic_class::latest_value) {

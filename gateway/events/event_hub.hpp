@@ -131,6 +131,9 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     struct route {
         subscriber* target = nullptr;
         const subscription* via = nullptr;
+        // The target's cursor of this topic (a map node: stable until the topic, and these routes
+        // with it, are gone), so that an event costs no lookup by name per subscriber.
+        std::uint64_t* cursor = nullptr;
     };
     struct topic_state {
         topic_class cls = topic_class::stream;
@@ -212,7 +215,7 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     const subscription* matching(const subscriber& s, const std::string& topic) const;
     const std::vector<route>& routes_of(const std::string& name, topic_state& t);
     void offer(subscriber& s, const std::shared_ptr<const event>& e, const topic_state& t,
-               const subscription& sub);
+               const subscription& sub, std::uint64_t& cursor);
     void push_stream(subscriber& s, const std::shared_ptr<const event>& e);
     // Marks it for eviction when it overflows twice within the window. A live overflow counts only
     // while the subscriber is not acknowledging (slow_ack); falling behind its replay always counts.
