@@ -326,12 +326,17 @@ void mqtt_bridge::flush_reports() {
         }
         c.reports.add_missed(c.dropped_reports);
         c.dropped_reports = 0;
-        send({topics_.controller(id, "reports"),
-              c.reports.take_payload(id, now),
-              settings_.config.qos.telemetry,
-              false,
-              {}},
-             "reports");
+        const auto frames = c.reports.frames();
+        const auto lost = frames + c.reports.missed();
+        // A batch the client refused (its queue full) is lost like one while disconnected: counted per
+        // frame, and the next batch's "missed" carries it, so a subscriber is never silently short.
+        if (!send({topics_.controller(id, "reports"),
+                   c.reports.take_payload(id, now),
+                   settings_.config.qos.telemetry,
+                   false,
+                   {}},
+                  "reports", frames))
+            c.dropped_reports = lost;
     }
 }
 
@@ -398,12 +403,12 @@ void mqtt_bridge::queue_job_message(mqtt_message_out m) {
     if (ctx_->metrics) ctx_->metrics->set("gw_mqtt_job_queue", {}, static_cast<double>(job_queue_.size()));
 }
 
-bool mqtt_bridge::send(const mqtt_message_out& m, std::string_view kind) {
+bool mqtt_bridge::send(const mqtt_message_out& m, std::string_view kind, std::uint64_t items) {
     if (client_ && client_->publish(m)) {
         if (ctx_->metrics) ctx_->metrics->increment("gw_mqtt_published_total", {{"kind", std::string(kind)}});
         return true;
     }
-    drop(kind);
+    drop(kind, items);
     return false;
 }
 

@@ -56,9 +56,9 @@ class mqtt_commands;
 
 struct mqtt_bridge_settings {
     mqtt_config config;
-    std::string gateway_id;  // resolved (resolve_gateway_id)
-    std::string version;     // in the birth message; empty: the project version
-    std::size_t max_in_flight = 256;
+    std::string gateway_id;           // resolved (resolve_gateway_id)
+    std::string version;              // in the birth message; empty: the project version
+    std::size_t max_in_flight = 256;  // below mqtt_client::max_buffered_messages
     // Its subscription to the event hub: room for bursts (a second of 32 busy report streams), and
     // patience with a slow broker.
     subscriber_settings hub_subscriber{
@@ -115,7 +115,8 @@ class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_
     void clear_job(const std::string& id);
     void flush_reports();
     void queue_job_message(mqtt_message_out m);
-    bool send(const mqtt_message_out& m, std::string_view kind);
+    // items: what a refused message counts as in gw_mqtt_dropped_total (a report batch: its frames).
+    bool send(const mqtt_message_out& m, std::string_view kind, std::uint64_t items = 1);
     void drop(std::string_view kind, std::uint64_t n = 1);
     void maybe_request_more();
     void subscribe_hub();

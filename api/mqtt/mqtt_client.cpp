@@ -89,9 +89,13 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
       stop_timer_(strand_),
       backoff_(config.reconnect_min, config.reconnect_max, std::random_device{}()) {
     const int version = paho_mqtt_version(config_.protocol);
+    mqtt::create_options create(version);
+    // Paho refuses a publish while this many wait in its queue ("No more messages can be buffered"),
+    // connected or not; its default, 100, is below the bridge's own bound on messages in flight
+    // (mqtt_bridge_settings::max_in_flight), so busy report streams lost whole batches to it.
+    create.set_max_buffered_messages(max_buffered_messages);
     try {
-        cli_ = std::make_unique<mqtt::async_client>(config_.brokers.front(), client_id_,
-                                                    mqtt::create_options(version), nullptr);
+        cli_ = std::make_unique<mqtt::async_client>(config_.brokers.front(), client_id_, create, nullptr);
     } catch (const mqtt::exception& e) {
         throw std::runtime_error("mqtt: cannot create the client for " + config_.brokers.front() + ": " +
                                  e.what());

@@ -63,6 +63,8 @@ struct mqtt_client_handlers {
 class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
   public:
     using strand = boost::asio::strand<boost::asio::any_io_executor>;
+    // Messages Paho may hold before it has written them: well above what the bridge keeps in flight.
+    static constexpr int max_buffered_messages = 1024;
 
     // Handlers run on `strand`. Throws std::runtime_error when Paho refuses the settings (a bad URI).
     static std::shared_ptr<mqtt_client> create(strand executor, const mqtt_config& config,
