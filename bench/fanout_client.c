@@ -18,22 +18,13 @@
 enum { max_clients = 1024 };
 
 struct client {
-    int fd;
-    int closed;
-    struct input_buffer in;
+    struct connection base;  // first: serve() and print_counts() see it
     char *message;  // a fragmented message being put together
     size_t message_len, message_cap;
     int in_text;  // the fragments are of a text message
-    uint64_t events;
 };
 
-static volatile sig_atomic_t stopping;
 static uint64_t missed_total;
-
-static void on_stop(int sig) {
-    (void)sig;
-    stopping = 1;
-}
 
 static void send_text(int fd, const char *text) {
     size_t n = strlen(text);
@@ -78,7 +69,7 @@ static void on_message(struct client *c, const char *p, size_t n) {
     for (const char *q = p; (q = memmem(q, (size_t)(end - q), "\"type\":\"", 8)) != NULL;) {
         q += 8;
         if ((size_t)(end - q) >= 6 && memcmp(q, "event\"", 6) == 0) {
-            ++c->events;
+            ++c->base.events;
             const char *tm = memmem(q, (size_t)(end - q), "\"time_ms\":", 10);
             if (tm) record_latency(strtod(tm + 10, NULL), t);
         } else if ((size_t)(end - q) >= 4 && memcmp(q, "gap\"", 4) == 0) {
@@ -89,12 +80,13 @@ static void on_message(struct client *c, const char *p, size_t n) {
 }
 
 // Parses whole frames from the client's buffer; returns 0 when the server closed.
-static int on_readable(struct client *c) {
-    if (!read_available(c->fd, &c->in)) return 0;
-    const size_t len = c->in.len;
+static int on_readable(struct connection *connection) {
+    struct client *c = (struct client *)connection;
+    if (!read_available(c->base.fd, &c->base.in)) return 0;
+    const size_t len = c->base.in.len;
     size_t at = 0;
     while (len - at >= 2) {
-        const uint8_t *f = (const uint8_t *)c->in.data + at;
+        const uint8_t *f = (const uint8_t *)c->base.in.data + at;
         uint64_t n = f[1] & 0x7f;
         size_t off = 2;
         if (n == 126) {
@@ -113,7 +105,7 @@ static int on_readable(struct client *c) {
         if (opcode == 0x8) return 0;  // close
         if (opcode == 0x9) {          // ping: answer with an empty masked pong
             const uint8_t pong[6] = {0x8A, 0x80, 0, 0, 0, 0};
-            send_all(c->fd, pong, sizeof pong);
+            send_all(c->base.fd, pong, sizeof pong);
         } else if (opcode == 0x1 && fin) {
             on_message(c, (const char *)f + off, (size_t)n);
         } else if (opcode == 0x1 || (opcode == 0x0 && c->in_text)) {  // a fragment
@@ -130,7 +122,7 @@ static int on_readable(struct client *c) {
         }
         at += off + (size_t)n;
     }
-    consume(&c->in, at);
+    consume(&c->base.in, at);
     return 1;
 }
 
@@ -142,47 +134,23 @@ int main(int argc, char **argv) {
     program_name = "fanout_client";
     const int port = atoi(argv[1]), count = atoi(argv[2]), batch_ms = atoi(argv[3]);
     if (count <= 0 || count > max_clients) die("CLIENTS must be 1..1024");
-    signal(SIGTERM, on_stop);
-    signal(SIGINT, on_stop);
-    signal(SIGPIPE, SIG_IGN);
+    stop_on_signals();
     struct client *clients = calloc((size_t)count, sizeof *clients);
     int ep = epoll_create1(0);
     if (!clients || ep < 0) die("setup");
     char subscribe[128];
     snprintf(subscribe, sizeof subscribe, "{\"op\":\"subscribe\",\"topics\":[\"%s\"]}", argv[4]);
     for (int i = 0; i < count; ++i) {
-        clients[i].fd = connect_ws(port, batch_ms);
-        send_text(clients[i].fd, subscribe);
-        struct epoll_event e = {.events = EPOLLIN, .data.u32 = (uint32_t)i};
-        if (epoll_ctl(ep, EPOLL_CTL_ADD, clients[i].fd, &e) != 0) die("epoll_ctl");
-        if (fcntl_nonblock(clients[i].fd) != 0) die("nonblock");
+        clients[i].base.fd = connect_ws(port, batch_ms);
+        send_text(clients[i].base.fd, subscribe);
+        watch(ep, &clients[i].base, i);
     }
     start_ms = now_ms();
     printf("subscribed\n");
     fflush(stdout);
-    struct epoll_event ready[64];
-    while (!stopping) {
-        int n = epoll_wait(ep, ready, 64, 200);
-        for (int k = 0; k < n; ++k) {
-            struct client *c = &clients[ready[k].data.u32];
-            if (!c->closed && !on_readable(c)) {
-                c->closed = 1;
-                epoll_ctl(ep, EPOLL_CTL_DEL, c->fd, NULL);
-            }
-        }
-    }
-    uint64_t total = 0, min = UINT64_MAX, max = 0, closed = 0;
-    for (int i = 0; i < count; ++i) {
-        total += clients[i].events;
-        if (clients[i].events < min) min = clients[i].events;
-        if (clients[i].events > max) max = clients[i].events;
-        closed += (uint64_t)clients[i].closed;
-    }
-    printf("clients %d closed %llu events %llu min_events %llu max_events %llu missed %llu p50_ms %.1f p99_ms %.1f "
-           "max_ms %.1f\n",
-           count, (unsigned long long)closed, (unsigned long long)total, (unsigned long long)min,
-           (unsigned long long)max, (unsigned long long)missed_total, latency_percentile(0.5),
-           latency_percentile(0.99), latency_percentile(1.0 - 1e-9));
-    print_timeline();
+    serve(ep, clients, sizeof *clients, on_readable);
+    print_counts(clients, sizeof *clients, count);
+    printf("missed %llu ", (unsigned long long)missed_total);
+    print_latencies();
     return 0;
 }

@@ -8,10 +8,12 @@
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/epoll.h>
 #include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
@@ -19,6 +21,7 @@
 enum { latency_buckets = 10000, timeline_seconds = 600 };  // 0.1 ms buckets up to 1 s
 
 static const char *program_name = "fanout";
+static volatile sig_atomic_t stopping;
 static uint64_t latency_hist[latency_buckets + 1];
 static double second_max_ms[timeline_seconds];  // the worst latency seen in each second of the run
 static double start_ms;
@@ -26,6 +29,18 @@ static double start_ms;
 static inline void die(const char *what) {
     fprintf(stderr, "%s: %s: %s\n", program_name, what, strerror(errno));
     exit(1);
+}
+
+static void on_stop(int sig) {
+    (void)sig;
+    stopping = 1;
+}
+
+// SIGTERM and SIGINT end the run; a peer that went away is a closed connection, not a signal.
+static inline void stop_on_signals(void) {
+    signal(SIGTERM, on_stop);
+    signal(SIGINT, on_stop);
+    signal(SIGPIPE, SIG_IGN);
 }
 
 // Wall-clock milliseconds: the gateway's timestamps are wall-clock, and it runs on this machine.
@@ -117,6 +132,62 @@ static inline double latency_percentile(double p) {
 static inline void print_timeline(void) {
     for (int i = 0; i < timeline_seconds && i <= (int)((now_ms() - start_ms) / 1000); ++i)
         fprintf(stderr, "second %d max_ms %.1f\n", i, second_max_ms[i]);
+}
+
+// What every client connection has: first in each client program's struct client.
+struct connection {
+    int fd;
+    int closed;  // by the server
+    struct input_buffer in;
+    uint64_t events;
+};
+
+static inline struct connection *connection_at(void *clients, size_t size, int index) {
+    return (struct connection *)((char *)clients + (size_t)index * size);
+}
+
+// Watches the connection (made non-blocking) under its index.
+static inline void watch(int ep, struct connection *c, int index) {
+    struct epoll_event e = {.events = EPOLLIN, .data.u32 = (uint32_t)index};
+    if (epoll_ctl(ep, EPOLL_CTL_ADD, c->fd, &e) != 0) die("epoll_ctl");
+    if (fcntl_nonblock(c->fd) != 0) die("nonblock");
+}
+
+// Until a stop signal: on_readable for every connection with input; 0 from it means the server
+// closed the connection.
+static inline void serve(int ep, void *clients, size_t size, int (*on_readable)(struct connection *)) {
+    struct epoll_event ready[64];
+    while (!stopping) {
+        int n = epoll_wait(ep, ready, 64, 200);
+        for (int k = 0; k < n; ++k) {
+            struct connection *c = connection_at(clients, size, (int)ready[k].data.u32);
+            if (!c->closed && !on_readable(c)) {
+                c->closed = 1;
+                epoll_ctl(ep, EPOLL_CTL_DEL, c->fd, NULL);
+            }
+        }
+    }
+}
+
+// "clients N closed C events E min_events A max_events B " (the start of the summary line).
+static inline void print_counts(void *clients, size_t size, int count) {
+    uint64_t total = 0, min = UINT64_MAX, max = 0, closed = 0;
+    for (int i = 0; i < count; ++i) {
+        const struct connection *c = connection_at(clients, size, i);
+        total += c->events;
+        if (c->events < min) min = c->events;
+        if (c->events > max) max = c->events;
+        closed += (uint64_t)c->closed;
+    }
+    printf("clients %d closed %llu events %llu min_events %llu max_events %llu ", count, (unsigned long long)closed,
+           (unsigned long long)total, (unsigned long long)min, (unsigned long long)max);
+}
+
+// " p50_ms P p99_ms Q max_ms M" and the end of the summary line, then the timeline on stderr.
+static inline void print_latencies(void) {
+    printf("p50_ms %.1f p99_ms %.1f max_ms %.1f\n", latency_percentile(0.5), latency_percentile(0.99),
+           latency_percentile(1.0 - 1e-9));
+    print_timeline();
 }
 
 #endif

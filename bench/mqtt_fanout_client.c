@@ -20,19 +20,11 @@
 enum { max_clients = 1024 };
 
 struct client {
-    int fd;
-    int closed;
-    struct input_buffer in;
-    uint64_t events, messages;
+    struct connection base;  // first: serve() and print_counts() see it
+    uint64_t messages;
 };
 
-static volatile sig_atomic_t stopping;
 static uint64_t missed_total;
-
-static void on_stop(int sig) {
-    (void)sig;
-    stopping = 1;
-}
 
 // The remaining-length field of a packet: bytes used, 0 when more bytes are needed, -1 when malformed.
 static int remaining_length(const unsigned char *p, size_t n, size_t *value) {
@@ -122,7 +114,7 @@ static void on_publish(struct client *c, const char *p, size_t n) {
     ++c->messages;
     for (const char *q = p; (q = memmem(q, (size_t)(end - q), "\"controller_seq\":", 17)) != NULL;) {
         q += 17;
-        ++c->events;
+        ++c->base.events;
         const char *tm = memmem(q, (size_t)(end - q), "\"time\":\"", 8);
         if (tm) {
             const double sent = parse_time_ms(tm + 8, end);
@@ -134,12 +126,13 @@ static void on_publish(struct client *c, const char *p, size_t n) {
 }
 
 // Parses whole packets from the client's buffer; returns 0 when the broker closed.
-static int on_readable(struct client *c) {
-    if (!read_available(c->fd, &c->in)) return 0;
-    const size_t len = c->in.len;
+static int on_readable(struct connection *connection) {
+    struct client *c = (struct client *)connection;
+    if (!read_available(c->base.fd, &c->base.in)) return 0;
+    const size_t len = c->base.in.len;
     size_t at = 0;
     while (len - at >= 2) {
-        const unsigned char *f = (const unsigned char *)c->in.data + at;
+        const unsigned char *f = (const unsigned char *)c->base.in.data + at;
         size_t body = 0;
         const int used = remaining_length(f + 1, len - at - 1, &body);
         if (used < 0) return 0;
@@ -151,7 +144,7 @@ static int on_readable(struct client *c) {
         }
         at += 1 + (size_t)used + body;
     }
-    consume(&c->in, at);
+    consume(&c->base.in, at);
     return 1;
 }
 
@@ -164,45 +157,23 @@ int main(int argc, char **argv) {
     const int port = atoi(argv[1]), count = atoi(argv[2]);
     if (count <= 0 || count > max_clients) die("CLIENTS must be 1..1024");
     if (strlen(argv[3]) > 200) die("TOPIC_FILTER too long");
-    signal(SIGTERM, on_stop);
-    signal(SIGINT, on_stop);
-    signal(SIGPIPE, SIG_IGN);
+    stop_on_signals();
     struct client *clients = calloc((size_t)count, sizeof *clients);
     int ep = epoll_create1(0);
     if (!clients || ep < 0) die("setup");
     for (int i = 0; i < count; ++i) {
-        clients[i].fd = connect_mqtt(port, i, argv[3]);
-        struct epoll_event e = {.events = EPOLLIN, .data.u32 = (uint32_t)i};
-        if (epoll_ctl(ep, EPOLL_CTL_ADD, clients[i].fd, &e) != 0) die("epoll_ctl");
-        if (fcntl_nonblock(clients[i].fd) != 0) die("nonblock");
+        clients[i].base.fd = connect_mqtt(port, i, argv[3]);
+        watch(ep, &clients[i].base, i);
     }
     start_ms = now_ms();
     printf("subscribed\n");
     fflush(stdout);
-    struct epoll_event ready[64];
-    while (!stopping) {
-        int n = epoll_wait(ep, ready, 64, 200);
-        for (int k = 0; k < n; ++k) {
-            struct client *c = &clients[ready[k].data.u32];
-            if (!c->closed && !on_readable(c)) {
-                c->closed = 1;
-                epoll_ctl(ep, EPOLL_CTL_DEL, c->fd, NULL);
-            }
-        }
-    }
-    uint64_t total = 0, messages = 0, min = UINT64_MAX, max = 0, closed = 0;
-    for (int i = 0; i < count; ++i) {
-        total += clients[i].events;
+    serve(ep, clients, sizeof *clients, on_readable);
+    uint64_t messages = 0;
+    for (int i = 0; i < count; ++i)
         messages += clients[i].messages;
-        if (clients[i].events < min) min = clients[i].events;
-        if (clients[i].events > max) max = clients[i].events;
-        closed += (uint64_t)clients[i].closed;
-    }
-    printf("clients %d closed %llu events %llu min_events %llu max_events %llu messages %llu missed %llu p50_ms %.1f "
-           "p99_ms %.1f max_ms %.1f\n",
-           count, (unsigned long long)closed, (unsigned long long)total, (unsigned long long)min,
-           (unsigned long long)max, (unsigned long long)messages, (unsigned long long)missed_total,
-           latency_percentile(0.5), latency_percentile(0.99), latency_percentile(1.0 - 1e-9));
-    print_timeline();
+    print_counts(clients, sizeof *clients, count);
+    printf("messages %llu missed %llu ", (unsigned long long)messages, (unsigned long long)missed_total);
+    print_latencies();
     return 0;
 }

@@ -61,7 +61,6 @@ int main(int argc, char **argv) {
     send_all(fd, connect_packet, sizeof connect_packet);
     unsigned char connack[4];
     if (read(fd, connack, 4) != 4 || connack[0] != 0x20 || connack[3] != 0) die("no CONNACK");
-    signal(SIGPIPE, SIG_IGN);
     printf("ready\n");
     fflush(stdout);
     wait_for_start();

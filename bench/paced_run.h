@@ -10,23 +10,19 @@
 #include <time.h>
 #include <unistd.h>
 
-static volatile sig_atomic_t started, stopping;
+#include "fanout_common.h"
+
+static volatile sig_atomic_t started;
 
 static void on_start(int sig) {
     (void)sig;
     started = 1;
 }
 
-static void on_stop(int sig) {
-    (void)sig;
-    stopping = 1;
-}
-
 // Installs the handlers, then waits for SIGUSR1 (or a stop).
 static inline void wait_for_start(void) {
     signal(SIGUSR1, on_start);
-    signal(SIGTERM, on_stop);
-    signal(SIGINT, on_stop);
+    stop_on_signals();
     while (!started && !stopping)
         pause();
 }

@@ -23,12 +23,6 @@
 
 #include "paced_run.h"
 
-
-static void die(const char *what) {
-    fprintf(stderr, "report_generator: %s: %s\n", what, strerror(errno));
-    exit(1);
-}
-
 static int open_pty(const char *link) {
     int master = posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK);
     if (master < 0 || grantpt(master) != 0 || unlockpt(master) != 0) die("posix_openpt");
@@ -53,6 +47,7 @@ static void put_le32(uint8_t *p, int32_t v) {
 }
 
 int main(int argc, char **argv) {
+    program_name = "report_generator";
     if (argc != 4) {
         fprintf(stderr, "usage: report_generator DIR COUNT RATE_HZ\n");
         return 2;

@@ -144,7 +144,7 @@ void mqtt_client::install_callbacks() {
     std::weak_ptr<mqtt_client> weak = weak_from_this();
     connect_listener_ = std::make_unique<listener>(
         weak, strand_,
-        [](mqtt_client& c, bool ok, std::string what) { c.on_connect_result(ok, std::move(what)); });
+        [](mqtt_client& c, bool ok, const std::string& what) { c.on_connect_result(ok, what); });
     publish_listener_ =
         std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
             if (c.in_flight_ > 0) --c.in_flight_;
@@ -211,7 +211,7 @@ void mqtt_client::do_connect() {
     }
 }
 
-void mqtt_client::on_connect_result(bool ok, std::string what) {
+void mqtt_client::on_connect_result(bool ok, const std::string& what) {
     connecting_ = false;
     if (stopping_) return;
     if (!ok) {

@@ -92,7 +92,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
                 mqtt_client_handlers handlers, std::shared_ptr<spdlog::logger> log);
     void install_callbacks();
     void do_connect();
-    void on_connect_result(bool ok, std::string what);
+    void on_connect_result(bool ok, const std::string& what);
     // The warning for a failed connect, with a reason a person can act on (connect_failure.hpp); when
     // Paho gives none, after broker_probe has asked the broker itself (TCP, TLS handshake).
     void log_connect_failure(std::chrono::milliseconds wait, spdlog::level::level_enum level);

@@ -140,9 +140,10 @@ void read_http(const json& j, http_config& out) {
                          "max_buffered_body_mb"});
         auto& lim = out.limits;
         if (auto* v = l.get("max_header_bytes"))
-            lim.max_header_bytes = read_uint(*v, l.path("max_header_bytes"), 1024, 1024 * 1024);
+            lim.max_header_bytes =
+                read_uint(*v, l.path("max_header_bytes"), 1024, std::uint64_t{1024} * 1024);
         if (auto* v = l.get("max_body_bytes"))
-            lim.max_body_bytes = read_uint(*v, l.path("max_body_bytes"), 1, 64 * 1024 * 1024);
+            lim.max_body_bytes = read_uint(*v, l.path("max_body_bytes"), 1, std::uint64_t{64} * 1024 * 1024);
         if (auto* v = l.get("header_timeout_ms"))
             lim.header_timeout =
                 std::chrono::milliseconds(read_uint(*v, l.path("header_timeout_ms"), 100, 600000));
@@ -151,7 +152,7 @@ void read_http(const json& j, http_config& out) {
                 std::chrono::milliseconds(read_uint(*v, l.path("read_timeout_ms"), 100, 600000));
         if (auto* v = l.get("max_websocket_message_bytes"))
             lim.max_websocket_message_bytes =
-                read_uint(*v, l.path("max_websocket_message_bytes"), 128, 16 * 1024 * 1024);
+                read_uint(*v, l.path("max_websocket_message_bytes"), 128, std::uint64_t{16} * 1024 * 1024);
         if (auto* v = l.get("max_connections"))
             lim.max_connections = read_uint(*v, l.path("max_connections"), 1, 10000);
         if (auto* v = l.get("max_connections_per_address"))
@@ -476,7 +477,7 @@ std::string validate_config(const gateway_config& config) {
     std::set<std::string> ids;
     for (std::size_t i = 0; i < config.controllers.size(); ++i) {
         const auto& id = config.controllers[i].id;
-        const auto where = "controllers[" + std::to_string(i) + "].id: duplicate id \"" + id + "\"";
+        auto where = "controllers[" + std::to_string(i) + "].id: duplicate id \"" + id + "\"";
         if (simulated.contains(id)) return where + " (simulated controllers are named sim1..simN)";
         if (!ids.insert(id).second) return where;
     }

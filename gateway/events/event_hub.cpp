@@ -48,12 +48,12 @@ std::uint64_t replay_cost(const event& e) {
 
 }  // namespace
 
-std::shared_ptr<event_hub> event_hub::create(net::any_io_executor executor, event_hub_settings settings,
-                                             event_clock clock) {
-    return std::shared_ptr<event_hub>(new event_hub(std::move(executor), settings, std::move(clock)));
+std::shared_ptr<event_hub> event_hub::create(const net::any_io_executor& executor,
+                                             event_hub_settings settings, event_clock clock) {
+    return std::shared_ptr<event_hub>(new event_hub(executor, settings, std::move(clock)));
 }
 
-event_hub::event_hub(net::any_io_executor executor, event_hub_settings settings, event_clock clock)
+event_hub::event_hub(const net::any_io_executor& executor, event_hub_settings settings, event_clock clock)
     : strand_(net::make_strand(executor)),
       settings_(settings),
       clock_(std::move(clock)),
@@ -85,7 +85,7 @@ boost::system::error_code event_hub::publish(std::string topic, std::shared_ptr<
     if (auto ec = validate_topic_name(topic)) return ec;
     auto when = time ? *time : clock_.system();
     net::post(strand_, [self = shared_from_this(), topic = std::move(topic), data = std::move(data_json),
-                        when]() mutable { self->on_publish(std::move(topic), std::move(data), when); });
+                        when]() mutable { self->on_publish(topic, std::move(data), when); });
     return {};
 }
 
@@ -329,7 +329,7 @@ const event_hub::subscription* event_hub::matching(const subscriber& s, const st
     return nullptr;
 }
 
-void event_hub::on_publish(std::string topic, std::shared_ptr<const std::string> data,
+void event_hub::on_publish(const std::string& topic, std::shared_ptr<const std::string> data,
                            std::chrono::system_clock::time_point time) {
     if (stopped_) return;
     auto& t = topic_for(topic);

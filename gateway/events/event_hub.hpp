@@ -80,7 +80,7 @@ struct event_hub_counters {
 
 class event_hub : public std::enable_shared_from_this<event_hub> {
   public:
-    static std::shared_ptr<event_hub> create(boost::asio::any_io_executor executor,
+    static std::shared_ptr<event_hub> create(const boost::asio::any_io_executor& executor,
                                              event_hub_settings settings = {}, event_clock clock = {});
     ~event_hub();
 
@@ -190,9 +190,9 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
         }
     };
 
-    event_hub(boost::asio::any_io_executor executor, event_hub_settings settings, event_clock clock);
+    event_hub(const boost::asio::any_io_executor& executor, event_hub_settings settings, event_clock clock);
 
-    void on_publish(std::string topic, std::shared_ptr<const std::string> data,
+    void on_publish(const std::string& topic, std::shared_ptr<const std::string> data,
                     std::chrono::system_clock::time_point time);
     void on_subscribe(subscriber_id id, std::string filter, subscription_options options);
     void on_unsubscribe(subscriber_id id, const std::string& filter);
