@@ -374,8 +374,11 @@ void controller::on_line(const std::string& line) {
 void controller::accept(ms2000::reply r, const std::string& line) {
     const auto& cmd = in_flight_->job.cmd;
     last_answer_ = {line, cmd.wire, steady_clock::now()};
-    // The line's end ("\r\n") was read too.
-    note_line_pace(cmd.wire.size() + line.size() + 2, last_answer_.at - in_flight_->started);
+    // Only an answer taken in step proves the pace: a HALT's (written at once, even out of step) or the
+    // resynchronisation probe's may be an older reply that was already on its way. The line's end
+    // ("\r\n") was read too.
+    if (sync_ == link_sync::in_step && !cmd.is_halt && !in_flight_->job.probe)
+        note_line_pace(cmd.wire.size() + line.size() + 2, last_answer_.at - in_flight_->started);
     if (r.what == ms2000::reply::kind::error) {
         // HALT answers ":N-21" when it stopped a move: that is what HALT is for.
         if (cmd.is_halt && r.error_code == ms2000::halted) return finish({}, std::move(r), line);
