@@ -117,7 +117,8 @@ def run(args, tmp):
         if args.mqtt_clients > 0:
             broker = Mosquitto(tmp)
             config["mqtt"] = {"enabled": True, "brokers": [f"mqtt://127.0.0.1:{broker.port}"], "gateway_id": "bench",
-                              "telemetry": {"reports_batch_ms": args.mqtt_batch_ms}}
+                              "telemetry": {"reports_batch_ms": args.mqtt_batch_ms},
+                              "tcp_nodelay": not args.mqtt_nagle}
         gw_dir = os.path.join(tmp, "gateway")
         os.makedirs(gw_dir)
         gw = Gateway(args.gateway, gw_dir, config)
@@ -244,7 +245,8 @@ def table(args, r, peer):
         got = int(m["events"])
         mqtt_ok = got == due and 0 <= m["p99_ms"] < 20
         lines += [
-            f"| MQTT subscribers (through mosquitto) | {args.mqtt_clients} (reports_batch_ms={args.mqtt_batch_ms}) |",
+            f"| MQTT subscribers (through mosquitto) | {args.mqtt_clients} (reports_batch_ms={args.mqtt_batch_ms}, "
+            f"tcp_nodelay {'false' if args.mqtt_nagle else 'true'}) |",
             f"| MQTT frames due / delivered / told missed | {due:,} / {got:,} / {int(m['missed']):,} |",
             f"| MQTT messages (report batches) | {int(m['messages']):,} |",
             f"| MQTT messages dropped: by the gateway / by mosquitto (a full subscriber queue) | "
@@ -298,6 +300,7 @@ def main():
     p.add_argument("--batch-ms", type=int, default=10, help="the clients' batch_ms; -1: plain messages")
     p.add_argument("--mqtt-clients", type=int, default=1, help="MQTT subscribers of the gateway's bridge; 0: none")
     p.add_argument("--mqtt-batch-ms", type=int, default=10, help="the gateway's mqtt.telemetry.reports_batch_ms")
+    p.add_argument("--mqtt-nagle", action="store_true", help="the gateway's mqtt.tcp_nodelay false")
     p.add_argument("--no-peer", action="store_true", help="skip the mosquitto run")
     p.add_argument("--seconds", type=float, default=10)
     p.add_argument("--results", default="", help="append the table to this file (e.g. bench/RESULTS.md)")

@@ -1,6 +1,7 @@
 #include "api/mqtt/mqtt_client.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <mqtt/async_client.h>
 #include <random>
 #include <stdexcept>
@@ -11,6 +12,7 @@
 
 #include "api/mqtt/broker_probe.hpp"
 #include "api/mqtt/connect_failure.hpp"
+#include "api/mqtt/tcp_nodelay.hpp"
 
 namespace gw::api {
 
@@ -26,6 +28,18 @@ bool uses_tls(const std::vector<std::string>& brokers) {
     return std::any_of(brokers.begin(), brokers.end(), [](const std::string& b) {
         return b.starts_with("ssl://") || b.starts_with("mqtts://");
     });
+}
+
+std::vector<std::uint16_t> broker_ports(const std::vector<std::string>& brokers) {
+    std::vector<std::uint16_t> ports;
+    for (const auto& b : brokers) {
+        const auto port = parse_broker_address(b).port;
+        unsigned value = 0;
+        const auto [end, ec] = std::from_chars(port.data(), port.data() + port.size(), value);
+        if (ec == std::errc() && end == port.data() + port.size() && value > 0 && value <= 65535)
+            ports.push_back(static_cast<std::uint16_t>(value));
+    }
+    return ports;
 }
 
 std::string describe(const mqtt::token& t) {
@@ -226,6 +240,7 @@ void mqtt_client::on_connect_result(bool ok, const std::string& what) {
     ++connects_;
     failed_attempts_ = 0;
     backoff_.reset();
+    if (config_.tcp_nodelay) disable_nagle_towards(broker_ports(config_.brokers));
     if (log_) log_->info("connected to {} as {}", cli_->get_server_uri(), client_id_);
     if (handlers_.connected) handlers_.connected();
 }

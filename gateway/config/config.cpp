@@ -277,8 +277,9 @@ void read_mqtt(const json& j, mqtt_config& out) {
     object_reader r(
         j, "mqtt",
         {"enabled", "brokers", "client_id", "username", "password", "tls", "keepalive_s", "topic_prefix",
-         "gateway_id", "protocol", "qos", "telemetry", "reconnect", "jobs", "commands"});
+         "gateway_id", "protocol", "qos", "telemetry", "reconnect", "jobs", "commands", "tcp_nodelay"});
     if (auto* v = r.get("enabled")) out.enabled = read_bool(*v, r.path("enabled"));
+    if (auto* v = r.get("tcp_nodelay")) out.tcp_nodelay = read_bool(*v, r.path("tcp_nodelay"));
     if (auto* v = r.get("brokers")) {
         if (!v->is_array() || v->empty() || v->size() > 16)
             fail(r.path("brokers"), "must be an array of 1..16 broker URIs");

@@ -114,7 +114,7 @@ struct shutdown_config {
 //            "keepalive_s": 30, "topic_prefix": "asi", "gateway_id": "" (the host name),
 //            "protocol": "5"|"3.1.1", "qos": {"status": 1, "state": 1, "telemetry": 0, "jobs": 1,
 //            "responses": 1}, "telemetry": {"position_max_hz": 10},
-//            "reconnect": {"min_ms": 500, "max_ms": 2000},
+//            "reconnect": {"min_ms": 500, "max_ms": 2000}, "tcp_nodelay": true,
 //            "jobs": {"queue_limit": 1000, "retain_finished_s": events.ended_job_topic_ttl_s},
 //            "commands": {"enabled": false}}
 enum class mqtt_protocol : std::uint8_t { v3_1_1, v5 };
@@ -149,6 +149,9 @@ struct mqtt_config {
     double position_max_hz = 10;  // per controller; 0: every position event
     // Report frames of a controller gathered into one message for up to this long; 0: as they come.
     std::chrono::milliseconds reports_batch{10};
+    // Nagle's algorithm off on the broker connection: a message leaves at once instead of waiting for
+    // the broker's ACK of the one before (about 10 ms on loopback). Costs a TCP segment per message.
+    bool tcp_nodelay = true;
     // Waits between connect attempts: from min doubling up to max, each drawn from [half, all] of it
     // (api/mqtt/reconnect_backoff.hpp). max bounds how long a broker's return goes unnoticed.
     std::chrono::milliseconds reconnect_min{500};

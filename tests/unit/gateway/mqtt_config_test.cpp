@@ -27,6 +27,7 @@ TEST(mqtt_config, defaults_are_off_and_safe) {
     EXPECT_EQ(m.qos.telemetry, 0);
     EXPECT_EQ(m.position_max_hz, 10.0);
     EXPECT_EQ(m.reports_batch, 10ms);
+    EXPECT_TRUE(m.tcp_nodelay);
     EXPECT_TRUE(m.tls.verify);
     // A broker's return is noticed within reconnect_max however long it was away (issue 12).
     EXPECT_EQ(m.reconnect_min, 500ms);
@@ -40,7 +41,7 @@ TEST(mqtt_config, every_key_is_read) {
       "tls":{"ca_file":"/etc/ca.pem","cert_file":"c.pem","key_file":"k.pem","verify":false},
       "keepalive_s":12,"topic_prefix":"lab/asi","gateway_id":"pc-3.lab","protocol":"3.1.1",
       "qos":{"status":2,"state":0,"telemetry":1,"jobs":2,"responses":0},
-      "telemetry":{"position_max_hz":2.5,"reports_batch_ms":0},"reconnect":{"min_ms":100,"max_ms":2000},
+      "telemetry":{"position_max_hz":2.5,"reports_batch_ms":0},"reconnect":{"min_ms":100,"max_ms":2000},"tcp_nodelay":false,
       "jobs":{"queue_limit":7,"retain_finished_s":0},"commands":{"enabled":true}}})");
     ASSERT_TRUE(c) << c.error();
     const auto& m = c->mqtt;
@@ -63,6 +64,7 @@ TEST(mqtt_config, every_key_is_read) {
     EXPECT_EQ(m.qos.responses, 0);
     EXPECT_EQ(m.position_max_hz, 2.5);
     EXPECT_EQ(m.reports_batch, 0ms);
+    EXPECT_FALSE(m.tcp_nodelay);
     EXPECT_EQ(m.reconnect_min, 100ms);
     EXPECT_EQ(m.reconnect_max, 2000ms);
     EXPECT_EQ(m.job_queue_limit, 7u);
