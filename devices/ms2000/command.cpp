@@ -112,9 +112,10 @@ reply_form infer_form(std::string_view verb, std::string_view args) {
         });
         if (!queries) form.what = reply_form::kind::bare_ack;
     } else if (is_one_of(verb,
-                         {"S",     "SPEED", "PC",       "OS", "KP",   "KI", "KD",     "AA", "VE",    "HM",
-                          "UL",    "Z2B",   "LR",       "AL", "CNTS", "SL", "SETLOW", "SU", "SETUP", "AC",
-                          "ACCEL", "B",     "BACKLASH", "WT", "WAIT", "E",  "ERROR",  "LED"})) {
+                         {"S",    "SPEED",  "PC",    "OS",    "O",  "OVERSHOOT", "KP", "KI",       "KD",
+                          "KV",   "AA",     "VE",    "HM",    "UL", "Z2B",       "LR", "AL",       "CNTS",
+                          "SL",   "SETLOW", "SU",    "SETUP", "AC", "ACCEL",     "B",  "BACKLASH", "WT",
+                          "WAIT", "E",      "ERROR", "LED",   "J",  "JOYSTICK"})) {
         form.axes = letters_if_all(words, '?');
         if (!form.axes.empty()) form.what = reply_form::kind::axis_values;
     } else if (is_one_of(verb, {"TTL", "RS", "RDSTAT", "LK", "LOCK"})) {
@@ -257,7 +258,9 @@ boost::system::result<command> raw_command(std::string_view line) {
     // "/" and "\" may be followed directly by arguments; other verbs end at the first space.
     const std::size_t verb_end = is_single_char_verb(rest[0]) ? 1 : std::min(rest.find(' '), rest.size());
     std::string verb = checked_verb(rest.substr(0, verb_end));
-    if (verb.empty()) return make_error_code(error::invalid_argument);
+    // RDSBYTE answers with raw bytes, which the line framing cannot carry (a status byte may be a line
+    // feed); RDSTAT ("RS X") gives the same byte in ASCII.
+    if (verb.empty() || verb == "RB" || verb == "RDSBYTE") return make_error_code(error::invalid_argument);
     const std::string_view args = rest.substr(verb_end);
     std::string wire = verb;
     wire.append(args);

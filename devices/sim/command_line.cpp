@@ -30,7 +30,7 @@ constexpr std::pair<std::string_view, std::string_view> aliases[] = {
     {"AH", "AHOME"},   {"IJ", "AIJ"},     {"AR", "ARRAY"},  {"RT", "RTIME"},    {"SS", "SAVESET"},
     {"SP", "SAVEPOS"}, {"BU", "BUILD"},   {"V", "VERSION"}, {"CD", "CDATE"},    {"N", "WHO"},
     {"I", "INFO"},     {"DU", "DUMP"},    {"~", "RESET"},   {"UN", "UNITS"},    {"RA", "RDADC"},
-    {"LK", "LOCK"},    {"AF", "AFOCUS"},  {"EX", "EXTRA"},  {"ST", "STATUS"},
+    {"LK", "LOCK"},    {"AF", "AFOCUS"},  {"EX", "EXTRA"},  {"ST", "STATUS"},   {"O", "OVERSHOOT"},
 };
 
 bool is_space(char c) {

@@ -66,7 +66,7 @@ struct param_row {
     double min, max;      // out of range -> ":N-4" (SPEED clamps instead)
 };
 
-constexpr std::array<param_row, 20> param_rows{{
+constexpr std::array<param_row, 21> param_rows{{
     {"SPEED", shape::a, 6, true, 0, 1e12},       {"ACCEL", shape::colon, 0, false, 1, 10000},
     {"BACKLASH", shape::colon, 6, false, 0, 10}, {"PCROS", shape::a, 6, false, 0, 10},
     {"ERROR", shape::colon, 6, false, 0, 100},   {"WAIT", shape::colon, 0, false, 0, 250},
@@ -77,7 +77,24 @@ constexpr std::array<param_row, 20> param_rows{{
     {"CNTS", shape::a, 4, false, 0, 1e9},        {"Z2B", shape::a, 0, false, 0, 15},
     {"JSSPD", shape::a, 0, false, -100, 100},    {"LR", shape::a, 3, false, -1e6, 1e6},
     {"AL", shape::a, 3, false, -1e6, 1e6},       {"UL", shape::a, 0, false, -1e6, 1e6},
+    {"KV", shape::a, 0, false, 0, 10000},
 }};
+
+// INFO's name of a JOYSTICK input code.
+std::string input_device_name(double code) {
+    switch (static_cast<int>(code)) {
+        case 0:
+            return "NONE";
+        case 2:
+            return "JS_X";
+        case 3:
+            return "JS_Y";
+        case 22:
+            return "Z_WHEEL";
+        default:
+            return std::to_string(static_cast<int>(code));
+    }
+}
 
 const param_row* find_param(std::string_view verb) {
     for (const auto& row : param_rows)
@@ -105,6 +122,7 @@ ms2000_model::ms2000_model(sim_config config)
                     {"KP", 60},
                     {"KI", 10},
                     {"KD", 0},
+                    {"KV", 15},
                     {"AALIGN", 85},
                     {"SETUP", 110},
                     {"SETLOW", -110},
@@ -117,7 +135,13 @@ ms2000_model::ms2000_model(sim_config config)
                     {"UL", 0},
                     {"SETHOME", 1000},
                     {"MOTCTRL", 1},
-                    {"VECTOR", 0}};
+                    {"VECTOR", 0},
+                    // The input that drives the axis (TASI's JoystickInput codes): the joystick's X
+                    // and Y for the first two axes, the knob for the third.
+                    {"JOYSTICK", index == 0   ? 2
+                                 : index == 1 ? 3
+                                 : index == 2 ? 22
+                                              : 0}};
         axes_.push_back(std::move(a));
         ++index;
     }
@@ -245,6 +269,7 @@ std::string ms2000_model::dispatch(const command_line& cmd, sim_time now) {
     if (v == "HOME") return cmd_home(cmd, now);
     if (v == "SETHOME") return cmd_sethome(cmd, now);
     if (v == "RDSTAT") return cmd_rdstat(cmd, now);
+    if (v == "RDSBYTE") return cmd_rdsbyte(cmd, now);
     if (find_param(v)) return cmd_axis_param(cmd, now);
     if (v == "BUILD") return cmd_build(cmd);
     if (v == "VERSION") {
@@ -286,8 +311,8 @@ std::string ms2000_model::dispatch(const command_line& cmd, sim_time now) {
         }
         return q.empty() ? ack() : axes_a(q);
     }
-    if (v == "JOYSTICK" || v == "AZERO" || v == "CUSTOMA" || v == "VB" || v == "SAVEPOS" || v == "UNITS" ||
-        v == "RESET") {
+    if (v == "JOYSTICK") return cmd_joystick(cmd);
+    if (v == "AZERO" || v == "CUSTOMA" || v == "VB" || v == "SAVEPOS" || v == "UNITS" || v == "RESET") {
         if (v == "RESET") {
             // Power-up state: positions, settings and buffers as after switching on.
             auto config = config_;
@@ -505,14 +530,7 @@ std::string ms2000_model::cmd_rdstat(const command_line& cmd, sim_time now) {
                 chars.push_back(busy_axis ? (a->commanded ? 'B' : 'M') : ' ');
                 break;
             default: {
-                // bit0 commanded move, bit1 enabled, bit2 motor active, bit3 joystick enabled,
-                // bit4 ramping, bit5 ramping up, bit6 upper limit, bit7 lower limit (doc §2.4).
-                int byte = 0b1010;
-                if (busy_axis && a->commanded) byte |= 1;
-                if (a->motion.moving(now)) byte |= 4;
-                if (a->motion.ramping(now)) byte |= 16;
-                if (upper) byte |= 64;
-                if (lower) byte |= 128;
+                const int byte = status_byte(*a, now);
                 if (cmd.args.size() == 1) return values({std::to_string(byte)});
                 chars += std::to_string(byte) + " ";
             }
@@ -523,6 +541,49 @@ std::string ms2000_model::cmd_rdstat(const command_line& cmd, sim_time now) {
     while (!chars.empty() && chars.back() == ' ' && std::isdigit(static_cast<unsigned char>(chars.front())))
         chars.pop_back();
     return ":A " + chars + "\r\n";
+}
+
+int ms2000_model::status_byte(const axis& a, sim_time now) const {
+    // bit0 commanded move, bit1 enabled, bit2 motor active, bit3 joystick enabled, bit4 ramping,
+    // bit5 ramping up, bit6 upper limit, bit7 lower limit (doc §2.4).
+    const double pos = a.motion.position_mm(now);
+    int byte = 0b1010;
+    if (a.commanded && a.motion.busy(now)) byte |= 1;
+    if (a.motion.moving(now)) byte |= 4;
+    if (a.motion.ramping(now)) byte |= 16;
+    if (pos >= a.params.at("SETUP")) byte |= 64;
+    if (pos <= a.params.at("SETLOW")) byte |= 128;
+    return byte;
+}
+
+std::string ms2000_model::cmd_rdsbyte(const command_line& cmd, sim_time now) {
+    // "RB X Y": a colon, then each axis's status byte as one raw byte, not ASCII (doc §2.4; the exact
+    // framing is unconfirmed there).
+    if (cmd.args.empty()) return error(ms2000::missing_parameters);
+    std::string out = ":";
+    for (const auto& arg : cmd.args) {
+        const auto* a = find_axis(arg.letter);
+        if (!a) return error(ms2000::unrecognized_axis);
+        out.push_back(static_cast<char>(status_byte(*a, now)));
+    }
+    return out + "\r\n";
+}
+
+std::string ms2000_model::cmd_joystick(const command_line& cmd) {
+    // "J X+" / "J X-" enable or disable the inputs (always answered :A); "J X=n" maps an input to the
+    // axis; "J X?" reads the mapping.
+    std::vector<std::pair<char, std::string>> q;
+    for (const auto& arg : cmd.args) {
+        auto* a = find_axis(arg.letter);
+        if (!a) return error(ms2000::unrecognized_axis);
+        if (arg.kind == op::query) {
+            q.emplace_back(a->letter, fixed(a->params["JOYSTICK"], 0));
+        } else if (arg.kind == op::set) {
+            if (arg.value < 0 || arg.value > 99) return error(ms2000::parameter_out_of_range);
+            a->params["JOYSTICK"] = std::round(arg.value);
+        }
+    }
+    return q.empty() ? ack() : axes_a(q);
 }
 
 std::string ms2000_model::cmd_axis_param(const command_line& cmd, sim_time now) {
@@ -603,7 +664,7 @@ std::string ms2000_model::cmd_info(const command_line& cmd, sim_time now) {
     const std::string ax(1, letter);
     // Two 33-character columns per line (PYM/TASI split at 33); "Name: value [CMD] unit".
     const std::vector<std::pair<std::string, std::string>> items = {
-        {"Axis Name    : " + ax, "Input Device : JS_X [J]"},
+        {"Axis Name    : " + ax, "Input Device : " + input_device_name(p("JOYSTICK")) + " [J]"},
         {"Max Lim      : " + fixed(p("SETUP"), 3) + " [SU]mm",
          "Min Lim      : " + fixed(p("SETLOW"), 3) + " [SL]mm"},
         {"Ramp Time    : " + fixed(p("ACCEL"), 0) + " [AC]ms",
@@ -615,7 +676,7 @@ std::string ms2000_model::cmd_info(const command_line& cmd, sim_time now) {
         {"Backlash     : " + fixed(p("BACKLASH"), 5) + " [B]mm",
          "Overshoot    : " + fixed(p("OVERSHOOT"), 5) + " [O]mm"},
         {"Kp           : " + fixed(p("KP"), 0) + " [KP]", "Ki           : " + fixed(p("KI"), 0) + " [KI]"},
-        {"Kv           : 15 [KV]", "Kd           : " + fixed(p("KD"), 0) + " [KD]"},
+        {"Kv           : " + fixed(p("KV"), 0) + " [KV]", "Kd           : " + fixed(p("KD"), 0) + " [KD]"},
         {"Axis Enable  : 1 [MC]", "Motor Enable : " + fixed(p("MOTCTRL"), 0)},
         {"CMD_stat     : NO_MOVE", "Move_stat    : " + std::string(a->motion.busy(now) ? "MOVING" : "IDLE")},
         {"Current pos  : " + fixed(a->motion.position_mm(now), 5) + " mm",
@@ -655,11 +716,13 @@ std::string ms2000_model::cmd_info(const command_line& cmd, sim_time now) {
 std::string ms2000_model::cmd_dump(const command_line& cmd) {
     const auto* x = cmd.find('X');
     const auto* y = cmd.find('Y');
-    if (x) {
+    // "DU X" clears the error log; "DU X?" (a client reading what INFO's "Error Count [DU]" names) only
+    // reads it: a query must not destroy what it asks about.
+    if (x && x->kind != op::query) {
         errors_.clear();
         return ack();
     }
-    if (y) {
+    if (y || x) {
         std::vector<std::string> codes;
         for (const int e : errors_)
             codes.push_back(std::to_string(e));

@@ -155,6 +155,9 @@ class ms2000_model {
     std::string cmd_home(const command_line& cmd, sim_time now);
     std::string cmd_sethome(const command_line& cmd, sim_time now);
     std::string cmd_rdstat(const command_line& cmd, sim_time now);
+    std::string cmd_rdsbyte(const command_line& cmd, sim_time now);
+    std::string cmd_joystick(const command_line& cmd);
+    int status_byte(const axis& a, sim_time now) const;
     std::string cmd_axis_param(const command_line& cmd, sim_time now);
     std::string cmd_build(const command_line& cmd);
     std::string cmd_info(const command_line& cmd, sim_time now);

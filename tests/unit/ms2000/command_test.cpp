@@ -252,10 +252,11 @@ INSTANTIATE_TEST_SUITE_P(
 
 TEST(raw_command, refuses_injection_and_non_printable) {
     const std::vector<std::string> bad{
-        "",       "   ",     "X=1\rM Y=2",      "W X\r",
-        "W X\n",  "W X\r\n", "M X=1\nM Y=2",    std::string("W\0X", 3),
-        "W\tX",   "W X\x7f", "W \x1b[2J",       "W \xc3\xa9",
-        "W \x80", "M=3 X",   "ABCDEFGHIJKLM X", std::string(max_raw_command_bytes + 1, 'W')};
+        "",       "   ",        "X=1\rM Y=2",      "W X\r",
+        "W X\n",  "W X\r\n",    "M X=1\nM Y=2",    std::string("W\0X", 3),
+        "W\tX",   "W X\x7f",    "W \x1b[2J",       "W \xc3\xa9",
+        "W \x80", "M=3 X",      "ABCDEFGHIJKLM X", std::string(max_raw_command_bytes + 1, 'W'),
+        "RB X",   "rdsbyte X Y"};  // a raw-byte reply the line framing cannot carry
     for (const std::string& line : bad) {
         const auto c = raw_command(line);
         ASSERT_FALSE(c.has_value()) << line;

@@ -79,6 +79,9 @@ INSTANTIATE_TEST_SUITE_P(
         fit_case{"rs_one", "RS X?", k::axis_values, ":A B", true},
         fit_case{"rs_adjacent_short", "RS X? Y? Z?", k::axis_values, ":A NB", false},
         fit_case{"lk", "LK X?", k::axis_values, ":A F", true},
+        fit_case{"overshoot_as_info_names_it", "O X? Y?", k::axis_values, ":A X=0 Y=0", true},
+        fit_case{"kv_gets_another_axis", "KV X?", k::axis_values, ":A Y=15", false},
+        fit_case{"joystick_input", "J Z?", k::axis_values, ":A Z=22", true},
         // BUILD X: the multi-line text, not a one-line reply of another command.
         fit_case{"build_x", "BU X", k::build_text, "STD_XYZ\rMotor Axes: X Y Z\rAxis Addr: 1 2 3", true},
         fit_case{"build_x_gets_ack", "BU X", k::build_text, ":A 12 34", false},

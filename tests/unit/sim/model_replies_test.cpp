@@ -53,6 +53,15 @@ INSTANTIATE_TEST_SUITE_P(
         // RDSTAT
         reply_case{"plain", "RS X?", ":A N\r\n"}, reply_case{"plain", "RS X? Y?", ":A NN\r\n"},
         reply_case{"plain", "RS X", ":A 10 \r\n"}, reply_case{"plain", "RS X+", ":A  \r\n"},
+        // RDSBYTE: the same byte, raw (10 = enabled, joystick on)
+        reply_case{"plain", "RB X", ":\x0a\r\n"}, reply_case{"plain", "RB X Y", ":\x0a\x0a\r\n"},
+        reply_case{"plain", "RB Q", ":N-2\r\n"},
+        // servo settings INFO lists: overshoot as O (INFO's name) and OS, Kv, the joystick input
+        reply_case{"plain", "O X?", ":A X=0 \r\n"}, reply_case{"plain", "OS X=0.01?", ":A X=0.01 \r\n"},
+        reply_case{"plain", "KV X?", ":A X=15 \r\n"}, reply_case{"plain", "KV X=20 Y?", ":A Y=15 \r\n"},
+        reply_case{"plain", "J X? Y? Z?", ":A X=2 Y=3 Z=22 \r\n"}, reply_case{"plain", "J X=100", ":N-4\r\n"},
+        // the error log: DU Y reads it, DU X? reads without clearing
+        reply_case{"plain", "DU Y", ":A \r\n"}, reply_case{"plain", "DU X?", ":A \r\n"},
         // identity
         reply_case{"plain", "V", ":A Version: USB-9.50 \r\n"}, reply_case{"plain", "BU", "STD_XYZ\r\n"},
         reply_case{"plain", "BU X", "STD_XYZ\rMotor Axes: X Y Z\rCMDs: XYZFTR\rBootLdr V:1\rHdwr REV.E\r\n"},
@@ -111,6 +120,35 @@ TEST(model_framing, trailing_spaces_are_configurable) {
     ms2000_model m(config);
     EXPECT_EQ(send(m, "M X=1", sim_time{0}), ":A \r\n");
     EXPECT_EQ(send(m, "W Y", sim_time{0}), ":A 0.0\r\n");
+}
+
+// Clients build their settings from INFO (PYM sends "<CMD> X?" for every "[CMD]" it prints): each
+// one must answer, not ":N-1".
+TEST(model_info, every_command_info_names_answers_a_query) {
+    for (const char* preset_name : {"plain", "full", "crisp"}) {
+        ms2000_model m(config_for(preset_name));
+        const auto info = send(m, "INFO X", sim_time{0});
+        int commands = 0;
+        for (std::size_t open = info.find('['); open != std::string::npos; open = info.find('[', open + 1)) {
+            const auto close = info.find(']', open);
+            ASSERT_NE(close, std::string::npos);
+            const auto verb = info.substr(open + 1, close - open - 1);
+            const auto reply = send(m, verb + " X?", sim_time{0});
+            ++commands;
+            EXPECT_FALSE(reply.starts_with(":N")) << preset_name << ": " << verb << " X? -> " << reply;
+            EXPECT_TRUE(reply.ends_with("\r\n")) << preset_name << ": " << verb << " X? -> " << reply;
+        }
+        EXPECT_GE(commands, 20) << preset_name;
+        // Reading did not change the controller: the same screen again (the error count included).
+        EXPECT_EQ(send(m, "INFO X", sim_time{0}), info) << preset_name;
+    }
+}
+
+TEST(model_info, names_the_input_that_drives_each_axis) {
+    ms2000_model m(config_for("plain"));
+    EXPECT_NE(send(m, "INFO Y", sim_time{0}).find("Input Device : JS_Y [J]"), std::string::npos);
+    send(m, "J Y=0", sim_time{0});
+    EXPECT_NE(send(m, "INFO Y", sim_time{0}).find("Input Device : NONE [J]"), std::string::npos);
 }
 
 TEST(model_info, two_columns_over_1023_characters) {
