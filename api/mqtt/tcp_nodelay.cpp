@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstdlib>
-
 #include <dirent.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
