@@ -105,6 +105,8 @@ reply_form infer_form(std::string_view verb, std::string_view args) {
         form.what = reply_form::kind::version;
     } else if (is_one_of(verb, {"BU", "BUILD"}) && words.size() == 1 && words[0] == "X") {
         form.what = reply_form::kind::build_text;
+    } else if (is_one_of(verb, {"DU", "DUMP"}) && words.size() == 1 && words[0] == "Y") {
+        form.what = reply_form::kind::integers;
     } else if (is_one_of(verb,
                          {"M", "MOVE", "R", "MOVREL", "H", "HERE", "Z", "ZERO", "!", "HOME", "\\", "HALT"})) {
         const bool queries = std::any_of(words.begin(), words.end(), [](const std::string& w) {

@@ -35,6 +35,7 @@ struct reply_form {
         axis_values,  // "L=value" for every letter of `axes` (parameter queries "S X? Y?")
         version,      // ":A Version: USB-9.52" or ":A v9.54" (VERSION)
         build_text,   // the multi-line BUILD X text, not a one-line ":A .." reply
+        integers,     // ":A" then any number of integers, none "L=": the error log (DU Y)
     };
     kind what = kind::any;
     std::string axes;  // upper-case letters in request order (numbers, axis_values)

@@ -50,6 +50,12 @@ bool reply_fits(const reply_form& form, const reply& r) {
             return parse_version(r).has_value();
         case reply_form::kind::build_text:
             return r.what == reply::kind::text;
+        case reply_form::kind::integers:
+            return r.what == reply::kind::ack && r.axes.empty() &&
+                   std::all_of(r.values.begin(), r.values.end(), [](const std::string& v) {
+                       return !v.empty() &&
+                              std::all_of(v.begin(), v.end(), [](char c) { return c >= '0' && c <= '9'; });
+                   });
     }
     return false;
 }
