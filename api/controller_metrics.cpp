@@ -1,6 +1,7 @@
 #include "api/controller_metrics.hpp"
 
 #include "devices/ms2000/error.hpp"
+#include "devices/ms2000/error_log.hpp"
 
 namespace gw::api {
 
@@ -57,6 +58,9 @@ void controller_metrics::describe(gw::metrics& m) {
                "Encoder report frames decoded (TTL_REPORT port)");
     m.describe("gw_controller_report_bytes_skipped_total", counter,
                "Bytes on the report port that fit no frame");
+    m.describe("gw_controller_error_log_total", counter,
+               "Codes read from the controller's own error log (DU Y), by code and name "
+               "(87 TTL_REPORT_BUFFER_OVERRUN: report frames the controller could not send)");
     m.describe("gw_http_requests_total", counter, "HTTP requests by route, method and status");
     m.describe("gw_http_request_duration_seconds", histogram, "HTTP request handling time by route",
                default_latency_buckets());
@@ -130,6 +134,14 @@ void controller_metrics::on_trace(const devices::command_trace& t) {
     }
     metrics_->observe("gw_controller_command_duration_seconds", controller,
                       std::chrono::duration<double>(t.latency).count());
+}
+
+void controller_metrics::on_error_log(const devices::error_log_event& e) {
+    for (const int code : e.codes)
+        metrics_->increment("gw_controller_error_log_total",
+                            {{"controller", e.controller_id},
+                             {"code", std::to_string(code)},
+                             {"name", std::string(devices::ms2000::error_log_name(code))}});
 }
 
 void controller_metrics::on_link_fault(const devices::link_fault& f) {

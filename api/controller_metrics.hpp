@@ -1,6 +1,7 @@
 #pragma once
 // Counts what controllers do into the metrics registry: command latency histogram, commands,
-// errors, timeouts, reconnects, connection state, report frames decoded and bytes skipped.
+// errors, timeouts, reconnects, connection state, report frames decoded and bytes skipped, and the
+// codes of the controllers' own error logs.
 // A controller_observer added to the registry; called on each controller's strand (metrics is
 // thread-safe, the small per-controller state below is guarded by a mutex).
 
@@ -25,6 +26,7 @@ class controller_metrics final : public devices::controller_observer {
     void on_report(const devices::report_event& event) override;
     void on_trace(const devices::command_trace& trace) override;
     void on_link_fault(const devices::link_fault& fault) override;
+    void on_error_log(const devices::error_log_event& event) override;
 
   private:
     struct per_controller {

@@ -152,7 +152,8 @@ void controller::enqueue_internal(ms2000::command cmd, const char* tag, internal
 }
 
 std::optional<controller::pending> controller::take_next() {
-    // HALT first, then the driver's identification, then user commands, then the poll's next step.
+    // HALT first, then the driver's identification, then user commands, then the error log's next
+    // step, then the poll's.
     for (auto* queue : {&halts_, &internal_queue_, &user_queue_}) {
         if (!queue->empty()) {
             auto job = std::move(queue->front());
@@ -160,6 +161,7 @@ std::optional<controller::pending> controller::take_next() {
             return job;
         }
     }
+    if (auto job = next_error_log_command()) return job;
     return next_poll_command();
 }
 
@@ -824,6 +826,11 @@ void controller::on_identified() {
     const auto& id = *snapshot_.identity;
     log_->info("identified: version {}, build {}, axes {}", id.version, id.build.name, id.build.motor_axes);
     open_report_port();
+    // A new connection: what the log holds is news (the controller may have been power-cycled).
+    error_log_seen_.clear();
+    error_log_step_ = error_log_step::idle;
+    error_log_clear_due_ = false;
+    error_log_due_ = true;
     poll_due_ = settings_.poll_interval.count() > 0;
     arm_poll_timer();
     publish_snapshot();
@@ -836,6 +843,7 @@ void controller::arm_poll_timer() {
         if (ec || generation != self->generation_) return;
         // At most one poll round: a round still running absorbs this tick.
         if (self->poll_step_ == poll_step::idle && self->poll_round_wanted()) self->poll_due_ = true;
+        self->note_error_log_occasions();
         self->pump();
         self->arm_poll_timer();
     });
@@ -968,6 +976,8 @@ void controller::on_report_bytes(std::size_t bytes) {
     const auto system_now = system_clock::now();
     frames_.clear();
     decoder_->feed(std::span<const std::uint8_t>(report_buffer_.data(), bytes), frames_);
+    report_activity_ = true;
+    last_report_bytes_ = steady_now;
     for (const auto& frame : frames_) {
         report_event event;
         event.controller_id = settings_.id;
@@ -997,6 +1007,10 @@ void controller::publish_snapshot() {
     snapshot_.updated = system_clock::now();
     published_ = snapshot_;
     notify("snapshot", [&](controller_observer& o) { o.on_snapshot(snapshot_); });
+}
+
+void controller::publish_error_log(const error_log_event& event) {
+    notify("error_log", [&](controller_observer& o) { o.on_error_log(event); });
 }
 
 template <typename Notify>

@@ -83,6 +83,10 @@ class controller : public std::enable_shared_from_this<controller> {
             token, std::move(cmd), std::move(request_id));
     }
 
+    // Reads the controller's error log soon (after the user commands waiting), e.g. after a command
+    // it refused; new codes come as on_error_log.
+    void check_error_log();
+
     // Delivers a copy of the current snapshot (from the strand) to `handler`, which runs on the strand.
     void get_snapshot(std::function<void(controller_snapshot)> handler);
 
@@ -170,6 +174,13 @@ class controller : public std::enable_shared_from_this<controller> {
                        const ms2000::reply& reply);
     std::string motor_axes() const;
 
+    // The error log (controller_error_log.cpp).
+    void note_error_log_occasions();  // on each poll tick: the schedule, a report stream gone quiet
+    std::optional<pending> next_error_log_command();
+    void on_error_log_read(boost::system::error_code ec, const ms2000::reply& reply);
+    void on_error_log_cleared(boost::system::error_code ec, const ms2000::reply& reply);
+    bool error_log_clear_is_safe(std::size_t logged) const;
+
     // Report port.
     void open_report_port();
     void do_report_read(std::uint64_t generation);
@@ -179,6 +190,7 @@ class controller : public std::enable_shared_from_this<controller> {
 
     // Events.
     void publish_snapshot();
+    void publish_error_log(const error_log_event& event);
     template <typename Notify>
     void notify(const char* what, Notify&& call);
     template <typename Body>
@@ -248,6 +260,16 @@ class controller : public std::enable_shared_from_this<controller> {
     std::chrono::steady_clock::time_point last_poll_round_;
     bool changed_since_poll_ = true;
     std::size_t poll_axis_ = 0;
+
+    enum class error_log_step : std::uint8_t { idle, reading, clearing, unsupported };
+    error_log_step error_log_step_ = error_log_step::idle;
+    bool error_log_due_ = false;
+    bool error_log_clear_due_ = false;
+    std::vector<int> error_log_seen_;  // the codes read since the log was last cleared
+    std::chrono::steady_clock::time_point error_log_read_at_;
+    // Report frames arrived since the log was last read: once the stream is quiet, it is read.
+    bool report_activity_ = false;
+    std::chrono::steady_clock::time_point last_report_bytes_;
 
     serial_port report_port_;
     std::uint64_t report_generation_ = 0;

@@ -44,6 +44,14 @@ struct ttl_event {
     std::vector<axis> axes;    // letters assumed in hardware order (RM Y axis mask unknown to us)
 };
 
+// New codes in the controller's internal error log (DU Y), oldest first: diagnostics the firmware
+// logged by itself (a move clamped at a limit: 34/35; an encoder report lost: 87).
+struct error_log_event {
+    std::string controller_id;
+    std::vector<int> codes;
+    std::chrono::system_clock::time_point system_time;  // when the log was read
+};
+
 // One finished command, user or internal (identify, poll).
 struct command_trace {
     std::string controller_id;

@@ -16,6 +16,7 @@ class controller_observer {
     virtual void on_snapshot(const controller_snapshot& snapshot) {}  // only when something changed
     virtual void on_report(const report_event& event) {}
     virtual void on_ttl(const ttl_event& event) {}
+    virtual void on_error_log(const error_log_event& event) {}
     virtual void on_trace(const command_trace& trace) {}
     virtual void on_link_fault(const link_fault& fault) {}
 };

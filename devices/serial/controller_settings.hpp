@@ -19,6 +19,10 @@ struct controller_settings {
     // STATUS, queries), a round starts only this long after the previous one: a client's commands
     // then rarely wait behind a poll. Anything that may move the stage brings back poll_interval.
     std::chrono::milliseconds idle_poll_interval{500};
+    // The controller's error log (DU Y) is read when it connects, when its report stream has gone
+    // quiet after frames, on check_error_log(), and at least this often (with the poll timer, so never
+    // while polling is off); zero: only on those occasions. Like polls, reads wait behind user commands.
+    std::chrono::milliseconds error_log_interval{10000};
     std::chrono::milliseconds command_timeout{1000};
     std::chrono::milliseconds long_reply_timeout{5000};  // SS Z, BU X, INFO
     // Resynchronisation after a timeout, a reply that does not fit or unexpected bytes: the line must

@@ -71,6 +71,11 @@ struct controller_snapshot {
     std::optional<int> ttl_out0_mode;  // TTL Y?
     std::optional<controller_error_info> last_error;
     report_port_state report = report_port_state::none;
+    // The controller's own error log (DU Y): the newest codes read (at most error_log_recent_limit,
+    // oldest first) and how many have been read since the controller object was created.
+    static constexpr std::size_t error_log_recent_limit = 16;
+    std::vector<int> error_log_recent;
+    std::uint64_t error_log_count = 0;
     // The start of the latest attempt to open and identify the port, and, while not connected, when
     // the next one is due (a replugged adapter is tried sooner).
     std::optional<std::chrono::system_clock::time_point> last_attempt;

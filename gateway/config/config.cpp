@@ -168,7 +168,8 @@ void read_http(const json& j, http_config& out) {
 
 devices::controller_settings read_controller(const json& j, const std::string& path) {
     object_reader r(j, path,
-                    {"id", "port", "baud", "report_port", "poll_ms", "idle_poll_ms", "command_timeout_ms"});
+                    {"id", "port", "baud", "report_port", "poll_ms", "idle_poll_ms", "error_log_ms",
+                     "command_timeout_ms"});
     devices::controller_settings s;
     auto* id = r.get("id");
     if (!id) fail(r.path("id"), "required");
@@ -190,6 +191,8 @@ devices::controller_settings read_controller(const json& j, const std::string& p
         s.poll_interval = std::chrono::milliseconds(read_uint(*v, r.path("poll_ms"), 0, 60000));
     if (auto* v = r.get("idle_poll_ms"))
         s.idle_poll_interval = std::chrono::milliseconds(read_uint(*v, r.path("idle_poll_ms"), 0, 60000));
+    if (auto* v = r.get("error_log_ms"))
+        s.error_log_interval = std::chrono::milliseconds(read_uint(*v, r.path("error_log_ms"), 0, 3600000));
     if (auto* v = r.get("command_timeout_ms"))
         s.command_timeout = std::chrono::milliseconds(read_uint(*v, r.path("command_timeout_ms"), 10, 60000));
     return s;

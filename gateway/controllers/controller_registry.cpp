@@ -63,6 +63,10 @@ class controller_registry::store final : public devices::controller_observer {
         for (const auto& o : live())
             o->on_ttl(e);
     }
+    void on_error_log(const devices::error_log_event& e) override {
+        for (const auto& o : live())
+            o->on_error_log(e);
+    }
     void on_trace(const devices::command_trace& t) override {
         for (const auto& o : live())
             o->on_trace(t);

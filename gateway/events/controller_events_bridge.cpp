@@ -70,6 +70,10 @@ void controller_events_bridge::on_ttl(const devices::ttl_event& e) {
     hub_->publish(controller_topic(e.controller_id, "ttl"), ttl_json(e), known(e.system_time));
 }
 
+void controller_events_bridge::on_error_log(const devices::error_log_event& e) {
+    hub_->publish(controller_topic(e.controller_id, "errors"), error_log_json(e), known(e.system_time));
+}
+
 void controller_events_bridge::forget(const std::string& id) {
     std::lock_guard lock(mutex_);
     last_position_.erase(id);

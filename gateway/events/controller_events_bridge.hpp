@@ -5,6 +5,7 @@
 //                                       -> "controllers/<id>/position" (position_json)
 //   every report_event                  -> "controllers/<id>/reports"  (report_json)
 //   every ttl_event                     -> "controllers/<id>/ttl"      (ttl_json)
+//   every error_log_event               -> "controllers/<id>/errors"   (error_log_json)
 // Event times: the snapshot's `updated` and the events' system_time (when the gateway received the
 // bytes), so a client can line encoder frames and TTL reports up on one clock.
 // Called on each controller's strand (several at once); serialises to JSON there and posts to the
@@ -38,6 +39,7 @@ class controller_events_bridge final : public devices::controller_observer {
     void on_snapshot(const devices::controller_snapshot& snapshot) override;
     void on_report(const devices::report_event& event) override;
     void on_ttl(const devices::ttl_event& event) override;
+    void on_error_log(const devices::error_log_event& event) override;
 
     // The controller was removed; a controller with this id later starts with a fresh position.
     void forget(const std::string& id);

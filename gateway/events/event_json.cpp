@@ -6,6 +6,7 @@
 
 #include "devices/ms2000/build_info.hpp"
 #include "devices/ms2000/error.hpp"
+#include "devices/ms2000/error_log.hpp"
 #include "gateway/common/timestamp.hpp"
 
 namespace gw {
@@ -75,6 +76,23 @@ nlohmann::json state_json(const devices::controller_snapshot& s) {
     return state_json(s, s.identity ? identity_json(*s.identity) : nlohmann::json(nullptr));
 }
 
+namespace {
+
+nlohmann::json error_log_codes_json(const std::vector<int>& codes) {
+    auto out = nlohmann::json::array();
+    for (const int code : codes)
+        out.push_back({{"code", code}, {"name", std::string(devices::ms2000::error_log_name(code))}});
+    return out;
+}
+
+}  // namespace
+
+nlohmann::json error_log_json(const devices::error_log_event& e) {
+    return {{"id", e.controller_id},
+            {"codes", error_log_codes_json(e.codes)},
+            {"time", format_timestamp(e.system_time)}};
+}
+
 nlohmann::json state_json(const devices::controller_snapshot& s, nlohmann::json identity) {
     auto axes = nlohmann::json::array();
     for (const auto& a : s.axes) {
@@ -95,18 +113,20 @@ nlohmann::json state_json(const devices::controller_snapshot& s, nlohmann::json 
                                                           : nlohmann::json(s.last_error->hint)},
                       {"time", format_timestamp(s.last_error->when)}};
     }
-    return {{"id", s.id},
-            {"state", std::string(devices::to_string(s.state))},
-            {"port", s.port},
-            {"busy", s.busy},
-            {"identity", std::move(identity)},
-            {"axes", std::move(axes)},
-            {"ttl", {{"in0_mode", or_null(s.ttl_in0_mode)}, {"out0_mode", or_null(s.ttl_out0_mode)}}},
-            {"last_error", std::move(last_error)},
-            {"report_port", std::string(devices::to_string(s.report))},
-            {"last_attempt", time_or_null(s.last_attempt)},
-            {"next_retry", time_or_null(s.next_retry)},
-            {"updated", format_timestamp(s.updated)}};
+    return {
+        {"id", s.id},
+        {"state", std::string(devices::to_string(s.state))},
+        {"port", s.port},
+        {"busy", s.busy},
+        {"identity", std::move(identity)},
+        {"axes", std::move(axes)},
+        {"ttl", {{"in0_mode", or_null(s.ttl_in0_mode)}, {"out0_mode", or_null(s.ttl_out0_mode)}}},
+        {"last_error", std::move(last_error)},
+        {"error_log", {{"recent", error_log_codes_json(s.error_log_recent)}, {"count", s.error_log_count}}},
+        {"report_port", std::string(devices::to_string(s.report))},
+        {"last_attempt", time_or_null(s.last_attempt)},
+        {"next_retry", time_or_null(s.next_retry)},
+        {"updated", format_timestamp(s.updated)}};
 }
 
 nlohmann::json position_json(const devices::controller_snapshot& s) {

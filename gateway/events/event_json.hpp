@@ -12,6 +12,7 @@
 //             "soft_limits_um":{"lower":-110000.0|null,"upper":110000.0|null}}],
 //    "ttl":{"in0_mode":1|null,"out0_mode":0|null},
 //    "last_error":{"code":-4,"name":"parameter_out_of_range","text":"...","time":"..."} | null,
+//    "error_log":{"recent":[{"code":87,"name":"TTL_REPORT_BUFFER_OVERRUN"}],"count":1},
 //    "report_port":"none"|"closed"|"open","updated":"2026-11-22T02:45:40.123Z"}
 // position (controllers/<id>/position):
 //   {"id":"stage1","busy":false,"axes":[{"axis":"X","position_um":1234.5|null,"busy":false}]}
@@ -21,6 +22,8 @@
 // ttl (controllers/<id>/ttl), one serial position report ("T:   400    0.0    0.1"):
 //   {"id":"stage1","controller_seq":3,"time":"...","controller_ms":400.0,
 //    "axes":[{"axis":"X","position_um":0.0}]}
+// errors (controllers/<id>/errors), new codes of the controller's own error log (DU Y), oldest first:
+//   {"id":"stage1","codes":[{"code":35,"name":"LOWER_LIMIT"}],"time":"..."}
 
 #include <nlohmann/json.hpp>
 
@@ -37,6 +40,7 @@ nlohmann::json identity_json(const devices::controller_identity& identity);
 nlohmann::json position_json(const devices::controller_snapshot& snapshot);
 nlohmann::json report_json(const devices::report_event& event);
 nlohmann::json ttl_json(const devices::ttl_event& event);
+nlohmann::json error_log_json(const devices::error_log_event& event);
 // A parsed controller reply, as the raw command operation returns it: kind, values, axes, lines.
 nlohmann::json reply_json(const devices::ms2000::reply& reply);
 

@@ -58,7 +58,20 @@ class controller_test : public ::testing::Test {
             threads_.emplace_back([this] { io_.run(); });
         ctl_->start();
         ASSERT_TRUE(observer_->wait_state(connection_state::connected)) << "not identified";
+        // The error log is read right after the identification, before any command of the test.
+        ASSERT_TRUE(error_log_read()) << "the error log was not read";
     }
+
+    // True once the driver has finished a read of the error log (its answer taken, or failed).
+    bool error_log_read() {
+        return observer_->wait([&] {
+            return std::any_of(observer_->traces.begin(), observer_->traces.end(),
+                               [](const command_trace& t) { return t.request_id == "error_log"; });
+        });
+    }
+
+    // The probe, the identification (6) and the error log read.
+    static constexpr std::size_t identification_commands = 7;
 
     void TearDown() override {
         if (ctl_) {
@@ -101,8 +114,8 @@ TEST_F(controller_test, identifies_the_controller_on_connect) {
     EXPECT_EQ(s.ttl_in0_mode, 0);
     EXPECT_EQ(s.ttl_out0_mode, 2);
     // The resynchronisation probe that proves a fresh port in step, then the identification.
-    const std::vector<std::string> expected{"V",        "V",        "BU X",     "CNTS X? Y?",
-                                            "SL X? Y?", "SU X? Y?", "TTL X? Y?"};
+    const std::vector<std::string> expected{"V",        "V",        "BU X",      "CNTS X? Y?",
+                                            "SL X? Y?", "SU X? Y?", "TTL X? Y?", "DU Y"};
     EXPECT_EQ(fake_.commands(), expected);
 }
 
@@ -178,7 +191,7 @@ TEST_F(controller_test, queue_is_bounded) {
     start(s);
     fake_.hold();
     auto in_flight = submit(raw("A1"));
-    ASSERT_TRUE(fake_.wait_for_commands(7));  // identification (6) + A1: A1 is in flight
+    ASSERT_TRUE(fake_.wait_for_commands(identification_commands + 1));  // and A1: A1 is in flight
     std::vector<std::future<result_pair>> queued;
     for (int i = 0; i < 3; ++i)
         queued.push_back(submit(raw("Q" + std::to_string(i))));
@@ -200,7 +213,7 @@ TEST_F(controller_test, halt_jumps_the_queue_and_its_minus_21_is_success) {
     });
     fake_.hold();
     auto a = submit(raw("A1"));
-    ASSERT_TRUE(fake_.wait_for_commands(7));
+    ASSERT_TRUE(fake_.wait_for_commands(identification_commands + 1));
     auto b = submit(raw("B1"));
     auto c = submit(raw("C1"));
     auto halt = submit(ms2000::halt());
@@ -352,7 +365,7 @@ TEST_F(controller_test, user_command_goes_ahead_of_the_next_poll_step) {
     // come next (a loaded machine can take seconds between the hold and the release).
     s.command_timeout = 30s;
     start(s);
-    ASSERT_TRUE(fake_.wait_for_commands(8));
+    ASSERT_TRUE(fake_.wait_for_commands(identification_commands + 1));
     // Catch a W in flight, queue a user command, and check it is written right after the W.
     fake_.hold_on("W X Y");
     ASSERT_TRUE(fake_.wait_deferred(1));
@@ -373,7 +386,7 @@ TEST_F(controller_test, unplug_fails_commands_with_disconnected_and_replug_recon
     start(settings());
     fake_.hold();
     auto pending = submit(raw("LONG"));
-    ASSERT_TRUE(fake_.wait_for_commands(7));
+    ASSERT_TRUE(fake_.wait_for_commands(identification_commands + 1));
     fake_.unplug();
     ASSERT_EQ(pending.wait_for(20s), std::future_status::ready);
     EXPECT_EQ(pending.get().first, ms2000::error::disconnected);
@@ -459,9 +472,10 @@ TEST_F(controller_test, commands_before_start_and_after_stop_fail) {
     EXPECT_EQ(call(raw("NUM 1")).first, ms2000::error::not_connected);
     ctl_->start();
     ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    ASSERT_TRUE(error_log_read());
     fake_.hold();
     auto pending = submit(raw("LONG"));
-    ASSERT_TRUE(fake_.wait_for_commands(7));
+    ASSERT_TRUE(fake_.wait_for_commands(identification_commands + 1));
     ctl_->stop();
     EXPECT_EQ(pending.get().first, ms2000::error::cancelled);
     EXPECT_EQ(call(raw("NUM 1")).first, ms2000::error::cancelled);

@@ -59,7 +59,7 @@ TEST(config, reads_every_key) {
                           "max_buffered_body_mb": 3}},
       "controllers": [
         {"id": "stage1", "port": "/dev/ttyUSB0", "baud": 115200, "report_port": "/dev/ttyUSB1",
-         "poll_ms": 50, "command_timeout_ms": 700},
+         "poll_ms": 50, "error_log_ms": 0, "command_timeout_ms": 700},
         {"id": "stage-2_b", "port": "/dev/serial/by-id/x"}
       ],
       "simulate": {"count": 2, "time_scale": 10.5, "directory": "/tmp/sims"},
@@ -92,12 +92,14 @@ TEST(config, reads_every_key) {
     EXPECT_EQ(s.report_port, "/dev/ttyUSB1");
     EXPECT_EQ(s.poll_interval, 50ms);
     EXPECT_EQ(s.command_timeout, 700ms);
+    EXPECT_EQ(s.error_log_interval, 0ms);
     const auto& d = c->controllers[1];
     EXPECT_EQ(d.id, "stage-2_b");
     EXPECT_EQ(d.baud, 9600u);  // the controller's factory default
     EXPECT_EQ(d.report_port, "");
     EXPECT_EQ(d.poll_interval, 100ms);
     EXPECT_EQ(d.command_timeout, 1000ms);
+    EXPECT_EQ(d.error_log_interval, 10000ms);
     EXPECT_EQ(c->simulate.count, 2u);
     EXPECT_EQ(c->simulate.time_scale, 10.5);
     EXPECT_EQ(c->simulate.directory, "/tmp/sims");
@@ -195,6 +197,8 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
          "controllers[0].report_port: must be a string"},
         {R"({"controllers": [{"id": "a", "port": "/dev/x", "poll_ms": 60001}]})",
          "controllers[0].poll_ms: must be an integer from 0 to 60000"},
+        {R"({"controllers": [{"id": "a", "port": "/dev/x", "error_log_ms": -1}]})",
+         "controllers[0].error_log_ms: must be an integer from 0 to 3600000"},
         {R"({"controllers": [{"id": "a", "port": "/dev/x", "command_timeout_ms": 5}]})",
          "controllers[0].command_timeout_ms: must be an integer from 10 to 60000"},
         {R"({"controllers": [{"id": "a", "port": "/dev/x"}, {"id": "a", "port": "/dev/y"}]})",

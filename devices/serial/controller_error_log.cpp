@@ -1,0 +1,110 @@
+// The controller's internal error log (DU Y), read in the gaps between user commands.
+//
+// When: on connecting, when the report stream goes quiet after frames (the controller logs error 87
+// for each frame it could not send), on check_error_log() (the jobs layer calls it after a refused
+// step), and every error_log_interval. Clearing (DU X) is how the next read tells new codes from old
+// ones, but a code logged between the read and the clear would be lost: so the log is cleared only
+// while the stage is idle and the report stream quiet, or when it is filling up (the firmware keeps a
+// bounded log). Meanwhile each read publishes what follows the codes already seen.
+#include <algorithm>
+
+#include <spdlog/spdlog.h>
+
+#include "devices/ms2000/error.hpp"
+#include "devices/ms2000/error_log.hpp"
+#include "devices/serial/controller.hpp"
+
+namespace gw::devices {
+namespace net = boost::asio;
+using boost::system::error_code;
+using std::chrono::steady_clock;
+using std::chrono::system_clock;
+
+namespace {
+
+// The report stream counts as quiet this long after its last bytes.
+constexpr auto report_quiet = std::chrono::milliseconds(250);
+// Cleared even while busy from this many codes on: the log must not overflow and drop codes unseen.
+constexpr std::size_t clear_anyway_from = 32;
+
+}  // namespace
+
+void controller::check_error_log() {
+    net::post(strand_, [self = shared_from_this()] {
+        self->error_log_due_ = true;
+        self->pump();
+    });
+}
+
+void controller::note_error_log_occasions() {
+    const auto now = steady_clock::now();
+    if (report_activity_ && now - last_report_bytes_ >= report_quiet) {
+        report_activity_ = false;
+        error_log_due_ = true;
+    }
+    if (settings_.error_log_interval.count() > 0 && now - error_log_read_at_ >= settings_.error_log_interval)
+        error_log_due_ = true;
+}
+
+std::optional<controller::pending> controller::next_error_log_command() {
+    if (snapshot_.state != connection_state::connected || error_log_step_ != error_log_step::idle)
+        return std::nullopt;
+    auto self = shared_from_this();
+    if (error_log_clear_due_) {
+        error_log_clear_due_ = false;
+        error_log_step_ = error_log_step::clearing;
+        return pending{
+            ms2000::clear_error_log(), "error_log", {}, [this, self](error_code ec, const auto& r) {
+                on_error_log_cleared(ec, r);
+            }};
+    }
+    if (!error_log_due_) return std::nullopt;
+    error_log_due_ = false;
+    error_log_step_ = error_log_step::reading;
+    error_log_read_at_ = steady_clock::now();
+    return pending{ms2000::read_error_log(), "error_log", {}, [this, self](error_code ec, const auto& r) {
+                       on_error_log_read(ec, r);
+                   }};
+}
+
+void controller::on_error_log_read(error_code ec, const ms2000::reply& r) {
+    error_log_step_ = error_log_step::idle;
+    if (ec) {
+        if (ec == ms2000::error::controller_rejected) {
+            // A firmware without DU Y: not asked again on this connection.
+            log_->info("the controller has no error log (DU Y answered {})", r.raw);
+            error_log_step_ = error_log_step::unsupported;
+        }
+        return;  // otherwise the next occasion tries again
+    }
+    const auto codes = ms2000::error_log_codes(r);
+    if (!codes) return;  // the reply form guarantees integers; a code beyond 9999 is not one
+    const auto fresh = ms2000::new_error_log_codes(error_log_seen_, *codes);
+    error_log_seen_ = *codes;
+    if (!fresh.empty()) {
+        auto& recent = snapshot_.error_log_recent;
+        recent.insert(recent.end(), fresh.begin(), fresh.end());
+        if (recent.size() > controller_snapshot::error_log_recent_limit)
+            recent.erase(recent.begin(), recent.end() - static_cast<std::ptrdiff_t>(
+                                                            controller_snapshot::error_log_recent_limit));
+        snapshot_.error_log_count += fresh.size();
+        log_->warn("error log: {} new code(s), the newest {} ({})", fresh.size(), fresh.back(),
+                   ms2000::error_log_name(fresh.back()));
+        publish_error_log(error_log_event{settings_.id, fresh, system_clock::now()});
+        publish_snapshot();
+    }
+    if (!codes->empty() && error_log_clear_is_safe(codes->size())) error_log_clear_due_ = true;
+}
+
+void controller::on_error_log_cleared(error_code ec, const ms2000::reply&) {
+    error_log_step_ = error_log_step::idle;
+    // Cleared: the next read starts afresh. Not cleared: the next read still sees what we saw.
+    if (!ec) error_log_seen_.clear();
+}
+
+bool controller::error_log_clear_is_safe(std::size_t logged) const {
+    if (logged >= clear_anyway_from) return true;
+    return !snapshot_.busy && !report_activity_ && steady_clock::now() - last_report_bytes_ >= report_quiet;
+}
+
+}  // namespace gw::devices
