@@ -12,6 +12,7 @@
 #include <spdlog/spdlog.h>
 
 #include "devices/ms2000/error.hpp"
+#include "devices/ms2000/error_log.hpp"
 #include "devices/ms2000/reply_check.hpp"
 #include "devices/serial/connection_problem.hpp"
 #include "devices/serial/escape.hpp"
@@ -767,6 +768,9 @@ std::string controller::motor_axes() const {
 
 void controller::identify() {
     auto self = shared_from_this();
+    error_log_seen_.clear();
+    error_log_step_ = error_log_step::idle;
+    error_log_due_ = error_log_clear_due_ = false;
     // reply: ":A Version: USB-9.52 "
     enqueue_internal(ms2000::version(), "identify", [this, self](error_code ec, const ms2000::reply& r) {
         if (aborted(ec)) return;
@@ -806,8 +810,16 @@ void controller::identify() {
                              if (aborted(ec)) return;
                              if (identify_failed(ec)) return disconnect(ec, "identify (TTL)");
                              if (!ec) apply_ttl_modes(snapshot_, r);
-                             on_identified();
                          });
+        // What the error log holds is news to this connection (the controller may have been power-
+        // cycled): read before the controller counts as connected, so no command waits behind it.
+        // A controller that cannot answer it is still connected.
+        enqueue_internal(ms2000::read_error_log(), "identify", [this](error_code ec, const ms2000::reply& r) {
+            if (aborted(ec)) return;
+            error_log_read_at_ = steady_clock::now();
+            on_error_log_read(ec, r);
+            on_identified();
+        });
     });
 }
 
@@ -826,11 +838,6 @@ void controller::on_identified() {
     const auto& id = *snapshot_.identity;
     log_->info("identified: version {}, build {}, axes {}", id.version, id.build.name, id.build.motor_axes);
     open_report_port();
-    // A new connection: what the log holds is news (the controller may have been power-cycled).
-    error_log_seen_.clear();
-    error_log_step_ = error_log_step::idle;
-    error_log_clear_due_ = false;
-    error_log_due_ = true;
     poll_due_ = settings_.poll_interval.count() > 0;
     arm_poll_timer();
     publish_snapshot();

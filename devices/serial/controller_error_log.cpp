@@ -1,6 +1,6 @@
 // The controller's internal error log (DU Y), read in the gaps between user commands.
 //
-// When: on connecting, when the report stream goes quiet after frames (the controller logs error 87
+// When: as the last step of identification (controller.cpp), when the report stream goes quiet after frames (the controller logs error 87
 // for each frame it could not send), on check_error_log() (the jobs layer calls it after a refused
 // step), and every error_log_interval. Clearing (DU X) is how the next read tells new codes from old
 // ones, but a code logged between the read and the clear would be lost: so the log is cleared only

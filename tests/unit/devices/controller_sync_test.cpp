@@ -91,15 +91,6 @@ class controller_sync_test : public ::testing::Test {
         if (thread_.joinable()) thread_.join();
     }
 
-    // Connected, and the error log read that follows the identification is done: the test's own
-    // commands come after it.
-    bool ready() {
-        return observer_->wait_state(connection_state::connected) && observer_->wait([&] {
-            return std::any_of(observer_->traces.begin(), observer_->traces.end(),
-                               [](const command_trace& t) { return t.request_id == "error_log"; });
-        });
-    }
-
     test::command_result call(ms2000::command cmd) {
         return test::await_command(test::submit_command(*ctl_, std::move(cmd), "t"), 20s);
     }
@@ -121,7 +112,7 @@ class controller_sync_test : public ::testing::Test {
 
 TEST_F(controller_sync_test, a_reply_that_does_not_fit_its_command_is_refused_and_the_link_resynchronised) {
     start(settings());
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     std::atomic<int> wheres{0};
     fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
         // The first WHERE of two axes gets one number: the late answer of a "W X", not its own.
@@ -146,7 +137,7 @@ TEST_F(controller_sync_test, a_reply_that_does_not_fit_its_command_is_refused_an
 
 TEST_F(controller_sync_test, a_move_answered_with_values_is_not_acknowledged) {
     start(settings());
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
         if (c == "M X=10") return {":A 555.1 0\r\n"};
         return test::drv_pty_controller::default_reply(c);
@@ -157,7 +148,7 @@ TEST_F(controller_sync_test, a_move_answered_with_values_is_not_acknowledged) {
 
 TEST_F(controller_sync_test, bytes_that_are_not_ascii_never_reach_a_reply) {
     start(settings());
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
         if (c == "WHO") return {std::string(":A ASI\xFF\xC3(\r\n")};
         return test::drv_pty_controller::default_reply(c);
@@ -176,7 +167,7 @@ TEST_F(controller_sync_test, bytes_that_are_not_ascii_never_reach_a_reply) {
 TEST_F(controller_sync_test, a_late_reply_after_the_probe_starts_the_resynchronisation_over) {
     auto s = settings();
     start(s);
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     std::atomic<int> versions{0};
     fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
         if (c == "DROP") return {};
@@ -193,7 +184,7 @@ TEST_F(controller_sync_test, a_late_reply_after_the_probe_starts_the_resynchroni
 
 TEST_F(controller_sync_test, a_halt_goes_out_at_once_while_the_link_is_out_of_step) {
     start(settings());
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
         if (c == "DROP") return {};
         return test::drv_pty_controller::default_reply(c);
@@ -210,7 +201,7 @@ TEST_F(controller_sync_test, a_halt_goes_out_at_once_while_the_link_is_out_of_st
 
 TEST_F(controller_sync_test, a_halt_whose_answer_is_in_doubt_is_sent_again_once_in_step) {
     start(settings());
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     std::atomic<int> halts{0};
     fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
         if (c == "\\" && halts++ == 0) return {":A 12 34\r\n"};  // another command's late reply
@@ -229,7 +220,7 @@ TEST_F(controller_sync_test, noise_during_identification_starts_it_over_instead_
         return xyz_reply(c);
     });
     start(settings());
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     const auto s = observer_->latest();
     ASSERT_TRUE(s.identity);
     EXPECT_EQ(s.identity->build.motor_axes, "XYZ") << "not the XY a firmware without BU X is taken for";
@@ -248,7 +239,7 @@ TEST_F(controller_sync_test, a_ttl_mode_set_by_a_command_is_read_back_into_the_s
         return test::drv_pty_controller::default_reply(c);
     });
     start(settings());
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     EXPECT_EQ(observer_->latest().ttl_in0_mode, 0);
     EXPECT_FALSE(call(raw("TTL X=7")).first);
     EXPECT_TRUE(observer_->wait([&] { return observer_->snapshots.back().ttl_in0_mode == 7; }));
@@ -278,7 +269,7 @@ TEST_F(controller_sync_test, a_reply_repeated_after_the_guard_is_not_the_next_co
     s.repeated_reply_window = 10s;  // the copy's lateness is up to the scheduler here; 50 ms in use
     s.resync_delay = 1s;            // the drain outlasts the 3 ms until W X's own answer
     start(s);
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     std::atomic<int> xs{0};
     fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
         if (c == "W Z") return {":A 776.9 \r\n"};
@@ -310,7 +301,7 @@ TEST_F(controller_sync_test, identical_answers_to_different_commands_are_each_th
     // repeated-reply window and, with nothing after it, taken. One-character answers (two idle axes)
     // are not held at all. No refusal, no resynchronisation.
     start(settings());
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
         if (c == "RS X?" || c == "RS Y?") return {":A N\r\n"};
         if (c == "W X" || c == "W Y") return {":A 12.5\r\n"};
@@ -337,7 +328,7 @@ TEST_F(controller_sync_test, a_moving_stage_is_polled_without_link_faults) {
     auto s = settings();
     s.poll_interval = 10ms;
     start(s);
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     const auto resynced_at_connect = count_of(kind::resynced);
     fake_.clear_commands();
     const auto rounds = [&] {
@@ -357,7 +348,7 @@ TEST_F(controller_sync_test, a_moving_stage_is_polled_without_link_faults) {
 
 TEST_F(controller_sync_test, identical_acks_of_different_moves_are_each_their_own) {
     start(settings());
-    ASSERT_TRUE(ready());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     for (double x : {1.0, 2.0, 3.0}) {
         const auto [ec, r] = call(ms2000::move({{'X', x}}).value());
         EXPECT_FALSE(ec) << ec.message();

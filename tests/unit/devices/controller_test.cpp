@@ -58,19 +58,9 @@ class controller_test : public ::testing::Test {
             threads_.emplace_back([this] { io_.run(); });
         ctl_->start();
         ASSERT_TRUE(observer_->wait_state(connection_state::connected)) << "not identified";
-        // The error log is read right after the identification, before any command of the test.
-        ASSERT_TRUE(error_log_read()) << "the error log was not read";
     }
 
-    // True once the driver has finished a read of the error log (its answer taken, or failed).
-    bool error_log_read() {
-        return observer_->wait([&] {
-            return std::any_of(observer_->traces.begin(), observer_->traces.end(),
-                               [](const command_trace& t) { return t.request_id == "error_log"; });
-        });
-    }
-
-    // The probe, the identification (6) and the error log read.
+    // The probe and the identification, its last step the error log read.
     static constexpr std::size_t identification_commands = 7;
 
     void TearDown() override {
@@ -472,7 +462,6 @@ TEST_F(controller_test, commands_before_start_and_after_stop_fail) {
     EXPECT_EQ(call(raw("NUM 1")).first, ms2000::error::not_connected);
     ctl_->start();
     ASSERT_TRUE(observer_->wait_state(connection_state::connected));
-    ASSERT_TRUE(error_log_read());
     fake_.hold();
     auto pending = submit(raw("LONG"));
     ASSERT_TRUE(fake_.wait_for_commands(identification_commands + 1));
