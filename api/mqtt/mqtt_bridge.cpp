@@ -119,6 +119,7 @@ void mqtt_bridge::subscribe_hub() {
     resume.resume = stream_seq_;
     ctx_->hub->subscribe(subscriber_, "controllers/+/reports", resume);
     ctx_->hub->subscribe(subscriber_, "controllers/+/ttl", resume);
+    ctx_->hub->subscribe(subscriber_, "controllers/+/errors", resume);
     ctx_->hub->subscribe(subscriber_, "jobs/#", resume);
 }
 
@@ -246,9 +247,9 @@ void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& ba
     const auto& qos = settings_.config.qos;
     for (const auto& e : batch) {
         const auto l = split(e->topic);
-        const bool stream =
-            (l.size() == 3 && l[0] == "controllers" && (l[2] == "reports" || l[2] == "ttl")) ||
-            (l.size() == 2 && l[0] == "jobs");
+        const bool stream = (l.size() == 3 && l[0] == "controllers" &&
+                             (l[2] == "reports" || l[2] == "ttl" || l[2] == "errors")) ||
+                            (l.size() == 2 && l[0] == "jobs");
         if (e->kind == event_kind::retired) {
             // The topic left the hub (an ended job's, after events.ended_job_topic_ttl_s): nothing to
             // resume there any more. A job's retained state goes on its own clock (clear_at).
@@ -266,11 +267,13 @@ void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& ba
                 if (e->kind == event_kind::data) on_state(id, e);
             } else if (leaf == "reports") {
                 controllers_[id].reports.add(*e);
-            } else if (leaf == "position" || leaf == "ttl") {
+            } else if (leaf == "position" || leaf == "ttl" || leaf == "errors") {
+                // The controller's own error log is rare and matters: delivered like state changes.
+                const int level = leaf == "errors" ? qos.state : qos.telemetry;
                 if (e->kind == event_kind::gap)
                     drop(leaf, e->missed());
                 else
-                    send({topics_.controller(id, leaf), *e->message, qos.telemetry, false, {}}, leaf);
+                    send({topics_.controller(id, leaf), *e->message, level, false, {}}, leaf);
             }
         } else if (l.size() == 2 && l[0] == "jobs") {
             if (e->kind == event_kind::gap)

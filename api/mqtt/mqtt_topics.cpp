@@ -17,7 +17,8 @@ constexpr std::array<std::pair<mqtt_command_kind, std::string_view>, 5> job_comm
     {mqtt_command_kind::job_next, "next"},
 }};
 
-constexpr std::array<std::string_view, 4> controller_leaves = {"state", "position", "reports", "ttl"};
+constexpr std::array<std::string_view, 5> controller_leaves = {"state", "position", "reports", "ttl",
+                                                               "errors"};
 
 // The levels of `s` (no validation).
 std::vector<std::string_view> levels(std::string_view s) {

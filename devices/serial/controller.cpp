@@ -456,6 +456,8 @@ void controller::complete(pending& job, error_code ec, ms2000::reply reply) {
     if (job.internal) {
         job.internal(ec, reply);
     } else if (job.user) {
+        // A command the controller refused may have left a code in its error log (a job step too).
+        if (ec == ms2000::error::controller_rejected) error_log_due_ = true;
         // Never call user code inline: post to the handler's associated executor (or our strand).
         net::post(strand_, net::append(std::move(job.user), ec, std::move(reply)));
     }
@@ -914,7 +916,8 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
         case poll_step::status:
             // reply: "B" or "N". Stopped since the positions were read: they may be from before the
             // end of the move, so the next tick reads them again.
-            if (snapshot_.busy && !r.busy) changed_since_poll_ = true;
+            // The end of a move: a target beyond a soft limit was clamped and logged (34/35).
+            if (snapshot_.busy && !r.busy) changed_since_poll_ = error_log_due_ = true;
             note_busy(r.busy);
             if (r.busy && !snapshot_.axes.empty()) {
                 poll_step_ = poll_step::axis_status;

@@ -83,10 +83,6 @@ class controller : public std::enable_shared_from_this<controller> {
             token, std::move(cmd), std::move(request_id));
     }
 
-    // Reads the controller's error log soon (after the user commands waiting), e.g. after a command
-    // it refused; new codes come as on_error_log.
-    void check_error_log();
-
     // Delivers a copy of the current snapshot (from the strand) to `handler`, which runs on the strand.
     void get_snapshot(std::function<void(controller_snapshot)> handler);
 

@@ -1,11 +1,12 @@
 // The controller's internal error log (DU Y), read in the gaps between user commands.
 //
-// When: as the last step of identification (controller.cpp), when the report stream goes quiet after frames (the controller logs error 87
-// for each frame it could not send), on check_error_log() (the jobs layer calls it after a refused
-// step), and every error_log_interval. Clearing (DU X) is how the next read tells new codes from old
-// ones, but a code logged between the read and the clear would be lost: so the log is cleared only
-// while the stage is idle and the report stream quiet, or when it is filling up (the firmware keeps a
-// bounded log). Meanwhile each read publishes what follows the codes already seen.
+// When: as the last step of identification (controller.cpp), when the report stream goes quiet after
+// frames (the controller logs error 87 for each frame it could not send), when the poll sees a move
+// end (a clamped target logs 34/35), after a user command the controller refused, and every
+// error_log_interval. Clearing (DU X) is how the next read tells new codes from old ones, but a code
+// logged between the read and the clear would be lost: so the log is cleared only while the stage is
+// idle and the report stream quiet, or when it is filling up (the firmware keeps a bounded log).
+// Meanwhile each read publishes what follows the codes already seen.
 #include <algorithm>
 
 #include <spdlog/spdlog.h>
@@ -15,7 +16,6 @@
 #include "devices/serial/controller.hpp"
 
 namespace gw::devices {
-namespace net = boost::asio;
 using boost::system::error_code;
 using std::chrono::steady_clock;
 using std::chrono::system_clock;
@@ -28,13 +28,6 @@ constexpr auto report_quiet = std::chrono::milliseconds(250);
 constexpr std::size_t clear_anyway_from = 32;
 
 }  // namespace
-
-void controller::check_error_log() {
-    net::post(strand_, [self = shared_from_this()] {
-        self->error_log_due_ = true;
-        self->pump();
-    });
-}
 
 void controller::note_error_log_occasions() {
     const auto now = steady_clock::now();

@@ -20,8 +20,9 @@ struct controller_settings {
     // then rarely wait behind a poll. Anything that may move the stage brings back poll_interval.
     std::chrono::milliseconds idle_poll_interval{500};
     // The controller's error log (DU Y) is read when it connects, when its report stream has gone
-    // quiet after frames, on check_error_log(), and at least this often (with the poll timer, so never
-    // while polling is off); zero: only on those occasions. Like polls, reads wait behind user commands.
+    // quiet after frames, after a move or a refused command, and at least this often; zero: only on
+    // those occasions. All but the first ride the poll timer, so none while polling is off. Like polls,
+    // reads wait behind user commands.
     std::chrono::milliseconds error_log_interval{10000};
     std::chrono::milliseconds command_timeout{1000};
     std::chrono::milliseconds long_reply_timeout{5000};  // SS Z, BU X, INFO

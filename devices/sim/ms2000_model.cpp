@@ -975,6 +975,7 @@ std::optional<timed_output> ms2000_model::ttl_pulse(sim_time now) {
         const sim_time start = now + sim_time{static_cast<long long>(latch_us - ta_us + ts_us)};
         if (now < report_busy_until_) {
             log_error(87);  // TTL_REPORT_BUFFER_OVERRUN: the previous frame is still going out
+            ++reports_dropped_;
             return std::nullopt;
         }
         const double transmit_us = static_cast<double>(bytes.size()) * 10.0 * 1e6 / config_.baud;
@@ -1073,6 +1074,7 @@ nlohmann::json ms2000_model::state(sim_time now) const {
                  {"pattern", scan_.pattern}};
     j["errors"] = errors_;
     j["reports_sent"] = reports_sent_;
+    j["reports_dropped"] = reports_dropped_;  // triggers that met a frame still going out (error 87)
     j["planar_correction"] = {{"points", plane_points_.size()}, {"enabled", plane_enabled_}};
     j["crisp_state"] = std::string(1, crisp_state_);
     j["led"] = led_;

@@ -230,6 +230,7 @@ class ms2000_model {
     long build_counter_ = 0;
     sim_time report_busy_until_{0};
     std::uint64_t reports_sent_ = 0;
+    std::uint64_t reports_dropped_ = 0;
     std::optional<std::pair<std::string, int>> refuse_next_;
 };
 

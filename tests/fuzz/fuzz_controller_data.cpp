@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "devices/ms2000/command.hpp"
+#include "devices/ms2000/error_log.hpp"
 #include "devices/ms2000/line_framer.hpp"
 #include "devices/ms2000/reply_check.hpp"
 #include "devices/ms2000/report_frame.hpp"
@@ -46,7 +47,8 @@ const std::vector<ms2000::command>& commands() {
                                        ms2000::query("RS", "X"),
                                        ms2000::who(),
                                        ms2000::halt(),
-                                       ms2000::save_settings()};
+                                       ms2000::save_settings(),
+                                       ms2000::read_error_log()};
         for (const char* line : {"INFO X", "RM X?", "LED X?", "BU"})
             c.push_back(ms2000::raw_command(line).value());
         return c;
@@ -79,6 +81,12 @@ void apply(devices::controller_snapshot& s, std::size_t index, const ms2000::rep
             break;
         case 8:
             devices::apply_axis_busy(s, 0, r);
+            break;
+        case 12:
+            if (const auto codes = ms2000::error_log_codes(r)) {
+                s.error_log_recent = *codes;
+                strict_dump(gw::error_log_json(devices::error_log_event{"fuzz", *codes, {}}));
+            }
             break;
         default:
             break;

@@ -23,6 +23,9 @@ class drv_recording_observer : public devices::controller_observer {
     void on_ttl(const devices::ttl_event& e) override {
         record([&] { ttls.push_back(e); });
     }
+    void on_error_log(const devices::error_log_event& e) override {
+        record([&] { error_logs.push_back(e); });
+    }
     void on_trace(const devices::command_trace& t) override {
         record([&] { traces.push_back(t); });
     }
@@ -57,6 +60,7 @@ class drv_recording_observer : public devices::controller_observer {
     std::vector<devices::controller_snapshot> snapshots;
     std::vector<devices::report_event> reports;
     std::vector<devices::ttl_event> ttls;
+    std::vector<devices::error_log_event> error_logs;
     std::vector<devices::command_trace> traces;
     std::vector<devices::link_fault::kind> faults;
 

@@ -284,6 +284,7 @@ class Contract:
                        "{prefix}/{gateway}/controllers/{controller}/position",
                        "{prefix}/{gateway}/controllers/{controller}/reports",
                        "{prefix}/{gateway}/controllers/{controller}/ttl",
+                       "{prefix}/{gateway}/controllers/{controller}/errors",
                        "{prefix}/{gateway}/jobs/{job}/state", "{prefix}/{gateway}/controllers/{controller}/cmd",
                        "{prefix}/{gateway}/jobs/submit", "{prefix}/{gateway}/jobs/cancel",
                        "{prefix}/{gateway}/jobs/pause", "{prefix}/{gateway}/jobs/resume",
@@ -488,6 +489,25 @@ def test_position_rate(gw, c):
     http_request(gw.port, "POST", "/api/v1/controllers/sim2/halt", {})
     n = len(c.all(lambda t: t == topic, start=mark))
     check(2 <= n <= 3 * 5 + 3, f"{n} positions in 3 s at position_max_hz 5")
+
+
+def test_error_log(gw, c, contract):
+    # The controller clamps a move beyond its lower soft limit and logs 35; the gateway publishes it.
+    topic = gw.topic("controllers", "sim1", "errors")
+    c.subscribe(topic)
+    mark = c.mark()
+    status, text = http_request(gw.port, "POST", "/api/v1/controllers/sim1/command", {"command": "M Y=-2000000"})
+    check(status == 200, f"move beyond the limit: {status} {text}")
+    wait_until("the error log message", lambda: c.all(lambda t: t == topic, start=mark), 30)
+    t, p, r, _ = c.all(lambda t: t == topic, start=mark)[0]
+    check(not r, "error log messages are not retained")
+    contract.validate(t, p)
+    m = payload_json(p)
+    check(m["topic"] == "controllers/sim1/errors" and m["data"]["codes"] == [{"code": 35, "name": "LOWER_LIMIT"}],
+          f"error log message {m}")
+    # Back where the later tests expect the stage.
+    status, text = http_request(gw.port, "POST", "/api/v1/controllers/sim1/move", {"axes": {"Y": 0}, "wait": True})
+    check(status == 200, f"move back: {status} {text}")
 
 
 def test_commands_v311(gw, broker, contract):
@@ -1214,6 +1234,7 @@ def main():
         run("commands over MQTT 5 (response topic, correlation data)", test_commands_v5, gw, c, contract)
         run("position rate limit", test_position_rate, gw, c)
         run("G-code check", test_gcode_check, gw, c, contract)
+        run("the controller's error log", test_error_log, gw, c, contract)
         run("commands over MQTT 3.1.1 (reply_to)", test_commands_v311, gw, broker, contract)
         run("bad payloads", test_bad_payloads, gw, c, contract)
         run("jobs", test_jobs, gw, c, broker, contract)

@@ -388,6 +388,27 @@ def test_commands(port):
     admin.close()
 
 
+def test_error_log(port):
+    # A move beyond the lower soft limit is clamped by the controller, which logs code 35 in its own
+    # error log; the driver reads it when the move ends and the gateway publishes it.
+    c = WsClient(port, TOKENS["admin"], "admin")
+    ack = c.request({"op": "subscribe", "id": "e", "topics": ["controllers/ext1/errors"]})
+    check(ack["type"] == "subscribed", f"ack {ack}")
+    a = c.request({"op": "command", "id": "far", "controller": "ext1", "operation": "command",
+                   "args": {"command": "M Y=-2000000"}})
+    check(a["type"] == "result", f"move beyond the limit: {a}")
+    m = c.wait_for(is_event("controllers/ext1/errors"), "the error log event", 30)
+    check(m["data"]["codes"] == [{"code": 35, "name": "LOWER_LIMIT"}] and m["data"]["id"] == "ext1",
+          f"error log event {m}")
+    c.close()
+    check(metric(port, "gw_controller_error_log_total", '{controller="ext1",code="35",name="LOWER_LIMIT"}') == 1,
+          "gw_controller_error_log_total counts the code")
+    status, body = http_request(port, "GET", "/api/v1/controllers/ext1")
+    log = json.loads(body)["error_log"]
+    check(status == 200 and log["count"] >= 1 and {"code": 35, "name": "LOWER_LIMIT"} in log["recent"],
+          f"the state's error_log {log}")
+
+
 def test_resume(port):
     topic = "controllers/sim3/position"
     c = WsClient(port, TOKENS["operator"], "resume1")
@@ -657,6 +678,7 @@ def main():
         run("oversized message closes with 1009", test_oversized_message_closes_with_1009, port)
         run("subscribe with wildcards, events while a move runs", test_subscribe_and_move, port)
         run("commands over the WebSocket", test_commands, port)
+        run("the controller's error log: a clamped move comes as code 35", test_error_log, port)
         run("resume: replay and gap", test_resume, port)
         run("reports: every frame in order; resume replays the rest", test_reports_stream, port, control2)
         run("batched connection: batch messages, same events, none lost", test_batched_reports, port, control2)

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "devices/ms2000/error.hpp"
+#include "devices/ms2000/error_log.hpp"
 #include "devices/serial/controller.hpp"
 #include "devices/sim/sim_config.hpp"
 #include "devices/sim/simulator.hpp"
@@ -276,6 +277,94 @@ TEST_F(controller_sim_test, an_unplugged_controller_does_not_stop_the_other) {
     // A keeps trying in the background and comes back when replugged.
     a.sim->replug();
     EXPECT_TRUE(a.observer->wait_state(connection_state::connected, 30s));
+}
+
+}  // namespace
+}  // namespace gw::devices
+
+namespace gw::devices {
+namespace {
+
+// Every code the error-log events carried, in order.
+std::vector<int> logged_codes(test::drv_recording_observer& o) {
+    return o.locked([&] {
+        std::vector<int> codes;
+        for (const auto& e : o.error_logs)
+            codes.insert(codes.end(), e.codes.begin(), e.codes.end());
+        return codes;
+    });
+}
+
+using controller_error_log_test = test::drv_sim_fixture;
+
+TEST_F(controller_error_log_test, a_move_clamped_at_a_soft_limit_comes_as_its_code_once) {
+    auto c = make("plain", 20);
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+    EXPECT_TRUE(logged_codes(*c.observer).empty());  // read at identification: nothing logged yet
+
+    // Beyond the lower soft limit (-110 mm): clamped and answered :A, logged as 35.
+    auto below = ms2000::move(std::vector<ms2000::axis_position>{{'X', -2'000'000}}).value();
+    ASSERT_FALSE(c.call(below).first);
+    ASSERT_TRUE(c.observer->wait([&] { return !c.observer->error_logs.empty(); }, 60s))
+        << "simulator: " << c.sim->state_json();
+    EXPECT_EQ(logged_codes(*c.observer), std::vector<int>{35});
+    ASSERT_TRUE(c.observer->wait([&] { return c.observer->snapshots.back().error_log_count == 1; }));
+    EXPECT_EQ(c.observer->latest().error_log_recent, std::vector<int>{35});
+
+    // Read while idle and quiet, so cleared: the next code is reported alone, 35 not again.
+    ASSERT_TRUE(
+        c.observer->wait([&] { return nlohmann::json::parse(c.sim->state_json())["errors"].empty(); }, 20s))
+        << "the driver did not clear the log: " << c.sim->state_json();
+    auto above = ms2000::move(std::vector<ms2000::axis_position>{{'Y', 2'000'000}}).value();
+    ASSERT_FALSE(c.call(above).first);
+    ASSERT_TRUE(c.observer->wait([&] { return c.observer->error_logs.size() >= 2; }, 60s));
+    std::this_thread::sleep_for(300ms);  // a repeated 35 would show up here
+    EXPECT_EQ(logged_codes(*c.observer), (std::vector<int>{35, 34}));
+    EXPECT_EQ(c.observer->latest().error_log_count, 2u);
+}
+
+TEST_F(controller_error_log_test, report_frames_lost_in_the_controller_come_as_87_one_per_frame) {
+    // Real time: the pulses' simulated times and the frames' pacing on the pty agree.
+    auto c = make("full", 1);
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+    ASSERT_EQ(c.observer->latest().report, report_port_state::open);
+    const ms2000::argument ttl_on{'X', ms2000::argument::op::set, 1};
+    ASSERT_FALSE(c.call(ms2000::make_command("TTL", std::span(&ttl_on, 1)).value()).first);
+
+    // A frame takes about 1.6 ms to go out at 115200 baud; triggers every 0.5 ms meet most of them
+    // still going out, and the controller drops those (seed 003).
+    constexpr std::size_t pulses = 40;
+    c.sim->ttl_pulse_train(pulses, 2000);
+    const auto sim_state = [&] { return nlohmann::json::parse(c.sim->state_json()); };
+    ASSERT_TRUE(c.observer->wait(
+        [&] {
+            const auto s = sim_state();
+            return s["reports_sent"].get<std::size_t>() + s["reports_dropped"].get<std::size_t>() == pulses;
+        },
+        20s))
+        << sim_state().dump();
+    const auto s = sim_state();
+    const auto sent = s["reports_sent"].get<std::size_t>();
+    const auto dropped = s["reports_dropped"].get<std::size_t>();
+    ASSERT_GT(dropped, 0u) << "the train was not faster than the report port";
+    ASSERT_GT(sent, 0u);
+
+    // Read once the stream is quiet: one 87 per frame the controller dropped, every other frame here.
+    ASSERT_TRUE(c.observer->wait(
+        [&] {
+            std::size_t n = 0;
+            for (const auto& e : c.observer->error_logs)
+                n += std::count(e.codes.begin(), e.codes.end(), ms2000::ttl_report_buffer_overrun);
+            return n >= dropped;
+        },
+        20s))
+        << "codes: " << ::testing::PrintToString(logged_codes(*c.observer)) << ", simulator: " << s.dump();
+    std::this_thread::sleep_for(300ms);  // one 87 too many would show up here
+    const auto codes = logged_codes(*c.observer);
+    EXPECT_EQ(
+        static_cast<std::size_t>(std::count(codes.begin(), codes.end(), ms2000::ttl_report_buffer_overrun)),
+        dropped);
+    EXPECT_EQ(c.observer->locked([&] { return c.observer->reports.size(); }), sent);
 }
 
 }  // namespace

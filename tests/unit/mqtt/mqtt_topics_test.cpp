@@ -35,6 +35,7 @@ TEST(mqtt_topics, hub_topics_map_to_the_tree) {
         {"controllers/sim1/position", "asi/gw/controllers/sim1/position"},
         {"controllers/sim1/reports", "asi/gw/controllers/sim1/reports"},
         {"controllers/s-2/ttl", "asi/gw/controllers/s-2/ttl"},
+        {"controllers/s-2/errors", "asi/gw/controllers/s-2/errors"},
         {"jobs/j-1", "asi/gw/jobs/j-1/state"},
         {"controllers/sim1/cmd", std::nullopt},
         {"controllers/sim1", std::nullopt},
