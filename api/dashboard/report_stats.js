@@ -1,7 +1,8 @@
 // Counts an encoder report stream (messages of WebSocket topic controllers/<id>/reports): every frame,
 // the rate in frames/s, and the gaps: `gap` messages of the gateway (frames it could not send this
-// page) and jumps of the controller's own frame counter (frames lost before the gateway). Counting is
-// O(1) per frame so that 500 frames/s cost nothing; drawing is someone else's business.
+// page), jumps of the frame counter, and the stream's `controller_overruns` notices (frames the
+// controller itself could not send: its error 87). Counting is O(1) per frame so that 500 frames/s
+// cost nothing; drawing is someone else's business.
 
 const RATE_WINDOW_MS = 1000;
 
@@ -9,7 +10,8 @@ export class ReportStats {
   constructor() {
     this.frames = 0;
     this.gaps = 0;
-    this.missed = 0;  // frames known to be lost (both kinds of gap)
+    this.missed = 0;  // frames known to be lost (every kind of gap)
+    this.lostInController = 0;  // of those, the ones the controller could not send
     this.lastControllerSeq = null;
     this.rate = 0;
     this.rateMark = { at: performance.now(), frames: 0 };
@@ -24,6 +26,13 @@ export class ReportStats {
       return null;
     }
     if (msg.type !== "event") return null;
+    const overruns = msg.data?.controller_overruns;
+    if (typeof overruns === "number") {
+      this.gaps += 1;
+      this.missed += overruns;
+      this.lostInController += overruns;
+      return null;
+    }
     this.frames += 1;
     const seq = msg.data?.controller_seq;
     if (typeof seq === "number") {
@@ -49,7 +58,10 @@ export class ReportStats {
 
   summary() {
     const rate = this.rate >= 10 ? this.rate.toFixed(0) : this.rate.toFixed(1);
-    const gaps = this.gaps ? `${this.gaps} gap${this.gaps > 1 ? "s" : ""} (${this.missed} frames lost)` : "no gaps";
+    const inController = this.lostInController ? `, ${this.lostInController} in the controller` : "";
+    const gaps = this.gaps
+      ? `${this.gaps} gap${this.gaps > 1 ? "s" : ""} (${this.missed} frames lost${inController})`
+      : "no gaps";
     return `${rate} frames/s · ${this.frames} frames · ${gaps}`;
   }
 }

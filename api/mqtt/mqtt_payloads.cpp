@@ -3,6 +3,7 @@
 #include <utility>
 
 #include "gateway/common/timestamp.hpp"
+#include "gateway/events/event_json.hpp"
 
 namespace gw::api {
 
@@ -65,6 +66,10 @@ void mqtt_report_batch::add(const event& e) {
         return;
     }
     if (!e.data) return;
+    if (const auto n = report_overruns(*e.data)) {
+        controller_overruns_ += *n;
+        return;
+    }
     if (frames_.empty()) from_ = e.sequence;
     to_ = e.sequence;
     frames_.push_back(e.data);
@@ -86,11 +91,13 @@ std::string mqtt_report_batch::take_payload(std::string_view controller,
     out += frames_.empty() ? "null" : std::to_string(to_);
     out += R"(,"missed":)";
     out += std::to_string(missed_);
+    out += R"(,"controller_overruns":)";
+    out += std::to_string(controller_overruns_);
     out += R"(,"time":")";
     out += format_timestamp(time);
     out += "\"}";
     frames_.clear();
-    from_ = to_ = missed_ = 0;
+    from_ = to_ = missed_ = controller_overruns_ = 0;
     return out;
 }
 

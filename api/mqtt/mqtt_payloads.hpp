@@ -53,12 +53,13 @@ nlohmann::json birth_controller(const nlohmann::json& state);
 // Encoder report frames of one controller, collected between two publications.
 class mqtt_report_batch {
   public:
-    // A data event of topic controllers/<id>/reports, or a gap event of it (its count is added).
+    // A data event of topic controllers/<id>/reports (a frame, or a report_overrun_json notice whose
+    // count is added), or a gap event of it (its count is added).
     void add(const event& e);
     // Frames that never reached the batch (dropped while the broker was unreachable).
     void add_missed(std::uint64_t n) { missed_ += n; }
 
-    bool empty() const { return frames_.empty() && missed_ == 0; }
+    bool empty() const { return frames_.empty() && missed_ == 0 && controller_overruns_ == 0; }
     std::size_t frames() const { return frames_.size(); }
     std::uint64_t missed() const { return missed_; }
 
@@ -70,6 +71,7 @@ class mqtt_report_batch {
     std::uint64_t from_ = 0;
     std::uint64_t to_ = 0;
     std::uint64_t missed_ = 0;
+    std::uint64_t controller_overruns_ = 0;  // frames the controller itself could not send (error 87)
 };
 
 // A job's retained state. apply() takes the data of an event of hub topic jobs/<id> ("state" events

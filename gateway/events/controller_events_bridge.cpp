@@ -1,7 +1,9 @@
 #include "gateway/events/controller_events_bridge.hpp"
 
+#include <algorithm>
 #include <optional>
 
+#include "devices/ms2000/error_log.hpp"
 #include "gateway/common/json_text.hpp"
 #include "gateway/events/controller_state_texts.hpp"
 #include "gateway/events/event_hub.hpp"
@@ -72,6 +74,11 @@ void controller_events_bridge::on_ttl(const devices::ttl_event& e) {
 
 void controller_events_bridge::on_error_log(const devices::error_log_event& e) {
     hub_->publish(controller_topic(e.controller_id, "errors"), error_log_json(e), known(e.system_time));
+    const auto overruns = static_cast<std::uint64_t>(
+        std::count(e.codes.begin(), e.codes.end(), devices::ms2000::ttl_report_buffer_overrun));
+    if (overruns != 0)
+        hub_->publish(controller_topic(e.controller_id, "reports"), report_overrun_json(e, overruns),
+                      known(e.system_time));
 }
 
 void controller_events_bridge::forget(const std::string& id) {

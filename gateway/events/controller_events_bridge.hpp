@@ -5,7 +5,8 @@
 //                                       -> "controllers/<id>/position" (position_json)
 //   every report_event                  -> "controllers/<id>/reports"  (report_json)
 //   every ttl_event                     -> "controllers/<id>/ttl"      (ttl_json)
-//   every error_log_event               -> "controllers/<id>/errors"   (error_log_json)
+//   every error_log_event               -> "controllers/<id>/errors"   (error_log_json), and if it
+//                                          has 87s, "controllers/<id>/reports" (report_overrun_json)
 // Event times: the snapshot's `updated` and the events' system_time (when the gateway received the
 // bytes), so a client can line encoder frames and TTL reports up on one clock.
 // Called on each controller's strand (several at once); serialises to JSON there and posts to the

@@ -1,5 +1,6 @@
 #include "gateway/events/event_json.hpp"
 
+#include <charconv>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -85,7 +86,24 @@ nlohmann::json error_log_codes_json(const std::vector<int>& codes) {
     return out;
 }
 
+constexpr std::string_view overruns_prefix = R"({"controller_overruns":)";
+
 }  // namespace
+
+nlohmann::json report_overrun_json(const devices::error_log_event& e, std::uint64_t overruns) {
+    return {{"controller_overruns", overruns},
+            {"id", e.controller_id},
+            {"time", format_timestamp(e.system_time)}};
+}
+
+std::optional<std::uint64_t> report_overruns(std::string_view text) {
+    if (!text.starts_with(overruns_prefix)) return std::nullopt;
+    text.remove_prefix(overruns_prefix.size());
+    std::uint64_t n = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
+    if (ec != std::errc()) return std::nullopt;
+    return n;
+}
 
 nlohmann::json error_log_json(const devices::error_log_event& e) {
     return {{"id", e.controller_id},

@@ -25,6 +25,10 @@
 // errors (controllers/<id>/errors), new codes of the controller's own error log (DU Y), oldest first:
 //   {"id":"stage1","codes":[{"code":35,"name":"LOWER_LIMIT"}],"time":"..."}
 
+#include <cstdint>
+#include <optional>
+#include <string_view>
+
 #include <nlohmann/json.hpp>
 
 #include "devices/serial/controller_events.hpp"
@@ -41,6 +45,14 @@ nlohmann::json position_json(const devices::controller_snapshot& snapshot);
 nlohmann::json report_json(const devices::report_event& event);
 nlohmann::json ttl_json(const devices::ttl_event& event);
 nlohmann::json error_log_json(const devices::error_log_event& event);
+// In the report stream (controllers/<id>/reports), after frames the controller itself could not send
+// (error 87 in its log, read once the stream went quiet), so a subscriber tells frames lost in the
+// controller from frames the gateway could not deliver (gap events):
+//   {"controller_overruns":3,"id":"stage1","time":"..."}
+// Its text starts with {"controller_overruns": (keys are sorted), so is_report_overrun needs no parse.
+nlohmann::json report_overrun_json(const devices::error_log_event& event, std::uint64_t overruns);
+// The count of a report_overrun_json text, or nullopt for a frame.
+std::optional<std::uint64_t> report_overruns(std::string_view data_text);
 // A parsed controller reply, as the raw command operation returns it: kind, values, axes, lines.
 nlohmann::json reply_json(const devices::ms2000::reply& reply);
 

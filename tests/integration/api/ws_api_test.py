@@ -520,6 +520,38 @@ def test_batched_reports(port, control2):
     batched.close()
 
 
+def test_controller_overruns(port, control2):
+    # Triggers every 0.5 ms while a frame takes about 1.6 ms to go out: the controller drops most of
+    # them (error 87). A report subscriber learns it in its own stream, after the frames: a notice
+    # {"controller_overruns": N} with N the frames the controller dropped, apart from gateway gaps.
+    topic = "controllers/ext2/reports"
+    c = WsClient(port, TOKENS["operator"], "overruns", query="?batch_ms=50")
+    c.request({"op": "subscribe", "id": 1, "topics": [topic]})
+    r = c.request({"op": "command", "id": 2, "controller": "ext2", "operation": "ttl", "args": {"in0_mode": 1}})
+    check(r["type"] == "result", f"ttl in0_mode 1: {r}")
+    before = json.loads(control2("state"))
+    n = 40
+    check(control2(f"pulse {n} 2000") == "ok", "pulse")
+    frames, overruns = 0, 0
+    deadline = time.monotonic() + WAIT
+    while overruns == 0:
+        check(time.monotonic() < deadline, f"no overrun notice after {frames} frames")
+        m = c.wait_for(lambda m: m.get("type") == "batch", "a batch")
+        for e in m["events"]:
+            check(e.get("type") == "event" and e.get("topic") == topic, f"only report events: {e}")
+            if "controller_overruns" in e["data"]:
+                overruns += e["data"]["controller_overruns"]
+            else:
+                frames += 1
+    after = json.loads(control2("state"))
+    sent = after["reports_sent"] - before["reports_sent"]
+    dropped = after["reports_dropped"] - before["reports_dropped"]
+    check(sent + dropped == n and dropped > 0, f"the simulator sent {sent} and dropped {dropped} of {n}")
+    check(frames == sent and overruns == dropped,
+          f"{frames} frames and {overruns} overruns in the stream; the controller sent {sent}, dropped {dropped}")
+    c.close()
+
+
 def test_stalled_client(port):
     # The stalled client: upgrades, subscribes to everything, then asks for many large answers
     # (acks echo their topics) and never reads, so the gateway's write to it cannot complete.
@@ -682,6 +714,8 @@ def main():
         run("resume: replay and gap", test_resume, port)
         run("reports: every frame in order; resume replays the rest", test_reports_stream, port, control2)
         run("batched connection: batch messages, same events, none lost", test_batched_reports, port, control2)
+        run("frames the controller dropped come as a notice in the report stream", test_controller_overruns,
+            port, control2)
         run("stalled client: healthy one unaffected, stalled one disconnected", test_stalled_client, port)
         run("controller unplugged while watched", test_unplug, port, control)
         run("metrics", test_metrics, port)

@@ -260,6 +260,32 @@ TEST_F(bridge_test, ttl_event_becomes_a_ttl_event) {
         R"("controller_seq":3,"id":"stage1","time":"2026-11-22T04:45:40.789Z"})");
 }
 
+TEST_F(bridge_test, error_log_codes_become_an_errors_event_and_87s_a_notice_in_the_report_stream) {
+    bridge_.on_error_log({"stage1", {35, 87, 87}, at_ms(1795322740789)});
+    bridge_.on_error_log({"stage1", {34}, at_ms(1795322740790)});
+    run();
+    auto errors = sink_->on("controllers/stage1/errors");
+    ASSERT_EQ(errors.size(), 2u);
+    EXPECT_EQ(
+        *errors[0]->data,
+        R"({"codes":[{"code":35,"name":"LOWER_LIMIT"},{"code":87,"name":"TTL_REPORT_BUFFER_OVERRUN"},)"
+        R"({"code":87,"name":"TTL_REPORT_BUFFER_OVERRUN"}],"id":"stage1","time":"2026-11-22T04:45:40.789Z"})");
+    // Only the read with 87s puts a notice into the report stream.
+    auto reports = sink_->on("controllers/stage1/reports");
+    ASSERT_EQ(reports.size(), 1u);
+    EXPECT_EQ(*reports[0]->data,
+              R"({"controller_overruns":2,"id":"stage1","time":"2026-11-22T04:45:40.789Z"})");
+    EXPECT_EQ(gw::report_overruns(*reports[0]->data), 2u);
+}
+
+TEST(event_json, report_overruns_reads_only_the_notice) {
+    EXPECT_EQ(gw::report_overruns(R"({"controller_overruns":12,"id":"a","time":"t"})"), 12u);
+    EXPECT_EQ(gw::report_overruns(R"({"axes":[],"bytes_skipped":0,"controller_seq":3,"id":"a"})"),
+              std::nullopt);
+    EXPECT_EQ(gw::report_overruns(R"({"controller_overruns":x})"), std::nullopt);
+    EXPECT_EQ(gw::report_overruns(""), std::nullopt);
+}
+
 TEST(event_json, disconnected_controller_without_identity) {
     gw::devices::controller_snapshot s;
     s.id = "stage9";

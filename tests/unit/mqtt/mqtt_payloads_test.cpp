@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "gateway/events/event_json.hpp"
+
 namespace gw::api {
 namespace {
 
@@ -82,6 +84,28 @@ TEST(mqtt_payloads, report_batch_counts_gaps_and_empties) {
     EXPECT_EQ(k["frames"], json::array());
     EXPECT_TRUE(k["from"].is_null());
     EXPECT_EQ(k["missed"], 3);
+    EXPECT_EQ(k["controller_overruns"], 0);
+}
+
+TEST(mqtt_payloads, report_batch_tells_frames_lost_in_the_controller_from_those_lost_here) {
+    mqtt_report_batch b;
+    b.add(*report(5, 100));
+    // The report stream's notice of frames the controller could not send (its error 87).
+    devices::error_log_event log{"sim1", {87, 87, 87}, t0};
+    const auto notice = std::make_shared<const std::string>(report_overrun_json(log, 3).dump());
+    b.add(*make_data_event("controllers/sim1/reports", 6, t0, notice));
+    b.add(*make_gap_event("controllers/sim1/reports", 7, 8, t0));
+    EXPECT_EQ(b.frames(), 1u);
+    const auto j = json::parse(b.take_payload("sim1", t0));
+    EXPECT_EQ(j["frames"].size(), 1u);
+    EXPECT_EQ(j["to"], 5);
+    EXPECT_EQ(j["missed"], 2);
+    EXPECT_EQ(j["controller_overruns"], 3);
+    EXPECT_TRUE(b.empty());
+    // Overruns alone still make a batch: the stream went quiet before they were read.
+    b.add(*make_data_event("controllers/sim1/reports", 9, t0, notice));
+    EXPECT_FALSE(b.empty());
+    EXPECT_EQ(json::parse(b.take_payload("sim1", t0))["controller_overruns"], 3);
 }
 
 TEST(mqtt_payloads, job_state_follows_state_and_step_events) {
