@@ -22,9 +22,22 @@ axis_motion::axis_motion(double from_mm, double to_mm, double speed_mm_s, double
         motion_end_ + from_seconds(ms2000::settle_after_move_ms(profile_.distance_mm(), settle_ms) / 1000.0);
 }
 
+axis_motion axis_motion::at_velocity(double from_mm, double velocity_mm_s, double end_mm, sim_time start) {
+    axis_motion m;
+    m.from_mm_ = from_mm;
+    m.to_mm_ = end_mm;
+    m.velocity_mm_s_ = velocity_mm_s;
+    m.start_ = start;
+    const double distance = std::abs(end_mm - from_mm);
+    m.motion_end_ = velocity_mm_s == 0 ? start : start + from_seconds(distance / std::abs(velocity_mm_s));
+    m.settled_ = m.motion_end_;
+    return m;
+}
+
 double axis_motion::position_mm(sim_time now) const {
     if (now >= motion_end_) return to_mm_;
     if (now <= start_) return from_mm_;
+    if (velocity_mm_s_ != 0) return from_mm_ + velocity_mm_s_ * seconds(now - start_);
     const double s = profile_.travelled_mm(seconds(now - start_));
     return to_mm_ >= from_mm_ ? from_mm_ + s : from_mm_ - s;
 }
@@ -39,6 +52,7 @@ void axis_motion::stop(sim_time now) {
     from_mm_ = here;
     to_mm_ = here;
     profile_ = ms2000::motion_profile{};
+    velocity_mm_s_ = 0;
     start_ = now;
     motion_end_ = now;
     settled_ = now;

@@ -19,6 +19,8 @@ class axis_motion {
     // A move from `from_mm` to `to_mm` starting at `start`.
     axis_motion(double from_mm, double to_mm, double speed_mm_s, double ramp_ms, double settle_ms,
                 sim_time start);
+    // Constant velocity (SPIN, VECTOR) from `from_mm` until `end_mm` (the limit ahead) or stop().
+    static axis_motion at_velocity(double from_mm, double velocity_mm_s, double end_mm, sim_time start);
 
     double position_mm(sim_time now) const;
     bool moving(sim_time now) const { return now < motion_end_; }  // motor running
@@ -29,6 +31,7 @@ class axis_motion {
     sim_time settled() const { return settled_; }
     double target_mm() const { return to_mm_; }
     double from_mm() const { return from_mm_; }
+    double velocity_mm_s() const { return velocity_mm_s_; }  // non-zero for SPIN/VECTOR motion
 
     // Stops at the current position (HALT): no further motion, not busy.
     void stop(sim_time now);
@@ -40,6 +43,7 @@ class axis_motion {
     sim_time start_{0};
     sim_time motion_end_{0};
     sim_time settled_{0};
+    double velocity_mm_s_ = 0;
 };
 
 }  // namespace gw::devices::sim

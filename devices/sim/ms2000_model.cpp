@@ -252,7 +252,11 @@ std::string ms2000_model::dispatch(const command_line& cmd, sim_time now) {
     const auto& v = cmd.verb;
     if (v == "STATUS") return commanded_busy(now) ? "B\r\n" : "N\r\n";
     if (v == "HALT") {
-        const bool was_moving = commanded_busy(now) || array_.self_scan || scan_.running || ring_.autoplay;
+        // A SPIN or VECTOR motion is stopped without :N-21 (doc §3.2); a commanded move is not.
+        const bool move_running = std::any_of(axes_.begin(), axes_.end(), [now](const axis& a) {
+            return a.commanded && a.motion.busy(now) && a.motion.velocity_mm_s() == 0;
+        });
+        const bool was_moving = move_running || array_.self_scan || scan_.running || ring_.autoplay;
         stop_all(now);
         return was_moving ? error(ms2000::halted) : ack();
     }
@@ -298,19 +302,7 @@ std::string ms2000_model::dispatch(const command_line& cmd, sim_time now) {
         }
         return ack();
     }
-    if (v == "SPIN" || v == "VECTOR") {
-        // Joystick-like velocity control is not simulated; settings are kept for queries.
-        std::vector<std::pair<char, std::string>> q;
-        for (const auto& arg : cmd.args) {
-            auto* a = find_axis(arg.letter);
-            if (!a) return error(ms2000::unrecognized_axis);
-            if (arg.kind == op::query)
-                q.emplace_back(a->letter, trimmed(a->params["VECTOR"], 6));
-            else if (arg.kind == op::set || arg.kind == op::bare)
-                a->params["VECTOR"] = arg.value;
-        }
-        return q.empty() ? ack() : axes_a(q);
-    }
+    if (v == "SPIN" || v == "VECTOR") return cmd_velocity(cmd, now);
     if (v == "JOYSTICK") return cmd_joystick(cmd);
     if (v == "AZERO" || v == "CUSTOMA" || v == "VB" || v == "SAVEPOS" || v == "UNITS" || v == "RESET") {
         if (v == "RESET") {
@@ -527,7 +519,10 @@ std::string ms2000_model::cmd_rdstat(const command_line& cmd, sim_time now) {
                 chars.push_back(upper ? 'U' : lower ? 'L' : ' ');
                 break;
             case op::plus:
-                chars.push_back(busy_axis ? (a->commanded ? 'B' : 'M') : ' ');
+                chars.push_back(!busy_axis                       ? ' '
+                                : a->motion.velocity_mm_s() != 0 ? 'S'
+                                : a->commanded                   ? 'B'
+                                                                 : 'M');
                 break;
             default: {
                 const int byte = status_byte(*a, now);
@@ -567,6 +562,51 @@ std::string ms2000_model::cmd_rdsbyte(const command_line& cmd, sim_time now) {
         out.push_back(static_cast<char>(status_byte(*a, now)));
     }
     return out + "\r\n";
+}
+
+std::string ms2000_model::cmd_velocity(const command_line& cmd, sim_time now) {
+    // SPIN ("@ X=100 Y=-100 Z"): a motor rate in joystick units, taken here as -128..127 parts of 128
+    // of the lead screw's maximum speed (the manual gives no scale); an axis without a value stops.
+    // VECTOR ("VE X=2"): mm/s, read back with "VE X?"; 0 stops. Either runs until HALT, another move,
+    // or the soft limit ahead, where the firmware logs 34/35 as for a clamped move.
+    const bool spin = cmd.verb == "SPIN";
+    for (const auto& arg : cmd.args)
+        if (!find_axis(arg.letter)) return error(ms2000::unrecognized_axis);
+    std::vector<std::pair<char, std::string>> q;
+    const double max = screw_.max_speed_mm_s;
+    for (const auto& arg : cmd.args) {
+        auto& a = *find_axis(arg.letter);
+        if (arg.kind == op::query) {
+            q.emplace_back(a.letter, trimmed(a.params["VECTOR"], 6));
+            continue;
+        }
+        double velocity = 0;
+        if (arg.kind == op::set)
+            velocity =
+                spin ? std::clamp(arg.value, -128.0, 127.0) / 128.0 * max : std::clamp(arg.value, -max, max);
+        if (!spin) a.params["VECTOR"] = velocity;
+        start_velocity(a, velocity, now);
+    }
+    return q.empty() ? ack() : axes_a(q);
+}
+
+void ms2000_model::start_velocity(axis& a, double velocity_mm_s, sim_time now) {
+    a.limit_error_ahead = 0;
+    if (velocity_mm_s == 0) {
+        if (a.motion.velocity_mm_s() != 0) a.motion.stop(now);
+        return;
+    }
+    const bool up = velocity_mm_s > 0;
+    const double here = a.motion.position_mm(now);
+    const double limit = up ? a.params["SETUP"] : a.params["SETLOW"];
+    a.commanded = true;
+    if (up ? here >= limit : here <= limit) {  // already there: nothing moves
+        a.motion.stop(now);
+        log_error(up ? 34 : 35);
+        return;
+    }
+    a.motion = axis_motion::at_velocity(here, velocity_mm_s, limit, now);
+    a.limit_error_ahead = up ? 34 : 35;
 }
 
 std::string ms2000_model::cmd_joystick(const command_line& cmd) {
@@ -833,6 +873,13 @@ std::optional<sim_time> ms2000_model::next_event() const {
 }
 
 void ms2000_model::advance(sim_time now) {
+    // SPIN/VECTOR motions that reached their soft limit by now.
+    for (auto& a : axes_) {
+        if (a.limit_error_ahead != 0 && a.motion.velocity_mm_s() != 0 && !a.motion.moving(now)) {
+            log_error(a.limit_error_ahead);
+            a.limit_error_ahead = 0;
+        }
+    }
     // Module events in time order, so that chained moves start at exact simulated times.
     for (int guard = 0; guard < 1000000; ++guard) {
         const auto t = next_internal_event();

@@ -91,6 +91,8 @@ class ms2000_model {
         bool commanded = false;  // the running motion came from a serial command (STATUS 'B')
         std::map<std::string, double, std::less<>> params;  // SPEED, ACCEL, PCROS, ...
         double last_relative_mm = 0;                        // for TTL IN0 mode 2
+        // A SPIN/VECTOR motion that runs into the soft limit logs 34/35 when it gets there.
+        int limit_error_ahead = 0;
     };
 
     struct ring_state {
@@ -157,6 +159,8 @@ class ms2000_model {
     std::string cmd_rdstat(const command_line& cmd, sim_time now);
     std::string cmd_rdsbyte(const command_line& cmd, sim_time now);
     std::string cmd_joystick(const command_line& cmd);
+    std::string cmd_velocity(const command_line& cmd, sim_time now);
+    void start_velocity(axis& a, double velocity_mm_s, sim_time now);
     int status_byte(const axis& a, sim_time now) const;
     std::string cmd_axis_param(const command_line& cmd, sim_time now);
     std::string cmd_build(const command_line& cmd);

@@ -53,6 +53,54 @@ TEST(model_motion, soft_limits_clamp_and_log_errors) {
     EXPECT_EQ(send(m, "DU Y", done), ":A \r\n");
 }
 
+TEST(model_motion, vector_moves_at_constant_velocity_until_halt_which_answers_a) {
+    ms2000_model m(config_for("plain"));
+    EXPECT_EQ(send(m, "VE X=2", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "VE X?", sim_time{0}), ":A X=2 \r\n");
+    EXPECT_EQ(send(m, "/", milliseconds(1000)), "B\r\n");
+    EXPECT_EQ(send(m, "RS X+", milliseconds(1000)), ":A S\r\n");
+    EXPECT_NEAR(m.position_units('X', milliseconds(1000)), 20000, 1);  // 2 mm/s for 1 s
+    EXPECT_NEAR(m.position_units('X', milliseconds(3000)), 60000, 1);
+    // HALT stops SPIN/VECTOR without :N-21 (doc §3.2)
+    EXPECT_EQ(send(m, "\\", milliseconds(3000)), ":A\r\n");
+    EXPECT_EQ(send(m, "/", milliseconds(3001)), "N\r\n");
+    EXPECT_NEAR(m.position_units('X', milliseconds(9000)), 60000, 1);
+    EXPECT_EQ(send(m, "DU Y", milliseconds(9000)), ":A \r\n");
+    // VE X=0 stops too; a negative velocity runs the other way
+    send(m, "VE X=-1", milliseconds(9000));
+    send(m, "VE X=0", milliseconds(10000));
+    EXPECT_NEAR(m.position_units('X', milliseconds(20000)), 50000, 1);
+}
+
+TEST(model_motion, spinning_to_each_soft_limit_finds_the_travel) {
+    // How programs home a stage: spin one way until it stops, then the other way.
+    ms2000_model m(config_for("plain"));
+    EXPECT_EQ(send(m, "@ X=127", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "/", milliseconds(100)), "B\r\n");
+    const auto up = run_to_completion(m) + milliseconds(1);
+    EXPECT_EQ(send(m, "/", up), "N\r\n");
+    const double upper = m.position_units('X', up);
+    EXPECT_NEAR(upper, 110 * 10000, 0.5);
+    EXPECT_EQ(send(m, "RS X-", up), ":A U\r\n");
+    EXPECT_EQ(send(m, "DU Y", up), ":A 34 \r\n");  // logged when it got there
+    EXPECT_EQ(send(m, "@ X=-64", up), ":A\r\n");   // half speed down
+    // A WHERE while it runs moves at half the maximum speed
+    const auto screw = lead_screw_for('B').value();
+    EXPECT_NEAR(m.position_units('X', up + milliseconds(1000)), upper - screw.max_speed_mm_s / 2 * 10000, 1);
+    const auto down = run_to_completion(m) + milliseconds(1);
+    EXPECT_NEAR(upper - m.position_units('X', down), 220 * 10000, 0.5);
+    EXPECT_EQ(send(m, "RS X-", down), ":A L\r\n");
+    EXPECT_EQ(send(m, "DU Y", down), ":A 34 35 \r\n");
+    // At the limit already: nothing moves, and it is logged again
+    EXPECT_EQ(send(m, "@ X=-10", down), ":A\r\n");
+    EXPECT_EQ(send(m, "/", down), "N\r\n");
+    EXPECT_EQ(send(m, "DU Y", down), ":A 34 35 35 \r\n");
+    // "@ X" without a value stops a spin
+    send(m, "@ X=10", down);
+    send(m, "@ X", down + milliseconds(100));
+    EXPECT_EQ(send(m, "/", down + milliseconds(101)), "N\r\n");
+}
+
 TEST(model_motion, speed_is_clamped_to_the_lead_screw_maximum) {
     ms2000_model m(config_for("plain", 'C'));
     EXPECT_EQ(send(m, "S X=100000000", sim_time{0}), ":A\r\n");
