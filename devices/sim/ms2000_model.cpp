@@ -357,7 +357,7 @@ void ms2000_model::log_error(int code) {
 
 void ms2000_model::start_move(axis& a, double target_mm, sim_time now, bool commanded,
                               double speed_override) {
-    const double upper = a.params["SETUP"], lower = a.params["SETLOW"];
+    const double upper = upper_stop(a), lower = lower_stop(a);
     if (target_mm > upper) {
         target_mm = upper;
         log_error(34);
@@ -510,7 +510,7 @@ std::string ms2000_model::cmd_rdstat(const command_line& cmd, sim_time now) {
         if (!a) return error(ms2000::unrecognized_axis);
         const bool busy_axis = a->motion.busy(now);
         const double pos = a->motion.position_mm(now);
-        const bool upper = pos >= a->params.at("SETUP"), lower = pos <= a->params.at("SETLOW");
+        const bool upper = pos >= upper_stop(*a), lower = pos <= lower_stop(*a);
         switch (arg.kind) {
             case op::query:
                 chars.push_back(busy_axis ? 'B' : 'N');
@@ -538,6 +538,14 @@ std::string ms2000_model::cmd_rdstat(const command_line& cmd, sim_time now) {
     return ":A " + chars + "\r\n";
 }
 
+double ms2000_model::upper_stop(const axis& a) const {
+    return std::min(a.params.at("SETUP"), config_.limit_switch_mm);
+}
+
+double ms2000_model::lower_stop(const axis& a) const {
+    return std::max(a.params.at("SETLOW"), -config_.limit_switch_mm);
+}
+
 int ms2000_model::status_byte(const axis& a, sim_time now) const {
     // bit0 commanded move, bit1 enabled, bit2 motor active, bit3 joystick enabled, bit4 ramping,
     // bit5 ramping up, bit6 upper limit, bit7 lower limit (doc §2.4).
@@ -546,8 +554,8 @@ int ms2000_model::status_byte(const axis& a, sim_time now) const {
     if (a.commanded && a.motion.busy(now)) byte |= 1;
     if (a.motion.moving(now)) byte |= 4;
     if (a.motion.ramping(now)) byte |= 16;
-    if (pos >= a.params.at("SETUP")) byte |= 64;
-    if (pos <= a.params.at("SETLOW")) byte |= 128;
+    if (pos >= upper_stop(a)) byte |= 64;
+    if (pos <= lower_stop(a)) byte |= 128;
     return byte;
 }
 
@@ -598,7 +606,7 @@ void ms2000_model::start_velocity(axis& a, double velocity_mm_s, sim_time now) {
     }
     const bool up = velocity_mm_s > 0;
     const double here = a.motion.position_mm(now);
-    const double limit = up ? a.params["SETUP"] : a.params["SETLOW"];
+    const double limit = up ? upper_stop(a) : lower_stop(a);
     a.commanded = true;
     if (up ? here >= limit : here <= limit) {  // already there: nothing moves
         a.motion.stop(now);
@@ -732,9 +740,9 @@ std::string ms2000_model::cmd_info(const command_line& cmd, sim_time now) {
          "Joystick Spd : " + fixed(p("JSSPD"), 0) + " [JS]%"},
         {"Encoder Res  : " + fixed(screw_.encoder_nm, 1) + " nm",
          "Axis Index   : " + fixed(p("Z2B"), 0) + " [Z2B]"},
-        {"Lim Status   : " + std::string(a->motion.position_mm(now) >= p("SETUP")    ? "U"
-                                         : a->motion.position_mm(now) <= p("SETLOW") ? "L"
-                                                                                     : "-"),
+        {"Lim Status   : " + std::string(a->motion.position_mm(now) >= upper_stop(*a)   ? "U"
+                                         : a->motion.position_mm(now) <= lower_stop(*a) ? "L"
+                                                                                        : "-"),
          "Sys Ver      : " + config_.version},
         {"TTL IN0 mode : " + std::to_string(ttl_.in0_mode) + " [TTL]",
          "TTL OUT0 mode: " + std::to_string(ttl_.out0_mode) + " [TTL]"},

@@ -162,6 +162,9 @@ class ms2000_model {
     std::string cmd_velocity(const command_line& cmd, sim_time now);
     void start_velocity(axis& a, double velocity_mm_s, sim_time now);
     int status_byte(const axis& a, sim_time now) const;
+    // Where motion up / down ends: the soft limit (SU/SL) or the limit switch, whichever comes first.
+    double upper_stop(const axis& a) const;
+    double lower_stop(const axis& a) const;
     std::string cmd_axis_param(const command_line& cmd, sim_time now);
     std::string cmd_build(const command_line& cmd);
     std::string cmd_info(const command_line& cmd, sim_time now);

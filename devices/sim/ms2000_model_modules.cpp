@@ -508,7 +508,7 @@ std::string ms2000_model::cmd_customb(const command_line& cmd, sim_time now) {
             const auto* za = find_axis('Z');
             if (!za) return values({"N"});
             const double pos = za->motion.position_mm(now);
-            return values({pos >= za->params.at("SETUP") ? "U" : pos <= za->params.at("SETLOW") ? "L" : "N"});
+            return values({pos >= upper_stop(*za) ? "U" : pos <= lower_stop(*za) ? "L" : "N"});
         }
         default:
             return error(ms2000::parameter_out_of_range);

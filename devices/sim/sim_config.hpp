@@ -38,10 +38,13 @@ struct sim_config {
     std::string motor_axes = "XYZ";       // hardware order; WHERE answers in this order
     std::vector<ms2000::module> modules;  // firmware modules; commands of absent ones -> ":N-1"
     char lead_screw = 'B';                // 'A'..'D'
-    std::string version = "9.50";         // V -> ":A Version: USB-9.50 "
-    unsigned baud = 115200;               // output pacing, 10 bits per byte
-    double time_scale = 1.0;              // 1 = real time, 10 = ten times faster
-    bool report_port = false;             // a second pty for SERIAL OUT (TTL_REPORT frames)
+    // The stage's physical travel ends in limit switches at +-this, beyond the default soft limits
+    // (SU/SL, +-110 mm): any motion stops there, as at a soft limit. Matters when SU/SL are set wider.
+    double limit_switch_mm = 125;
+    std::string version = "9.50";  // V -> ":A Version: USB-9.50 "
+    unsigned baud = 115200;        // output pacing, 10 bits per byte
+    double time_scale = 1.0;       // 1 = real time, 10 = ten times faster
+    bool report_port = false;      // a second pty for SERIAL OUT (TTL_REPORT frames)
     ms2000::report_format report_format = ms2000::report_format::binary;
     std::string link_path;         // stable symlink to the pty; empty -> /tmp/ms2000-sim/<name>/port
     std::string report_link_path;  // empty -> /tmp/ms2000-sim/<name>/report

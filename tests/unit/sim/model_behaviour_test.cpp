@@ -101,6 +101,24 @@ TEST(model_motion, spinning_to_each_soft_limit_finds_the_travel) {
     EXPECT_EQ(send(m, "/", down + milliseconds(101)), "N\r\n");
 }
 
+TEST(model_motion, limit_switches_end_the_travel_when_the_soft_limits_are_wider) {
+    ms2000_model m(config_for("plain"));  // switches at +-125 mm
+    EXPECT_EQ(send(m, "SU X=1000", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "M X=2000000", sim_time{0}), ":A\r\n");  // 200 mm
+    auto done = run_to_completion(m);
+    EXPECT_NEAR(m.position_units('X', done), 125 * 10000, 0.5);
+    EXPECT_EQ(send(m, "RS X-", done), ":A U\r\n");
+    EXPECT_EQ(send(m, "RS X", done), ":A 74 \r\n");  // enabled, joystick, upper limit (bit 6)
+    EXPECT_EQ(send(m, "DU Y", done), ":A 34 \r\n");
+    // A spin down with a soft limit beyond the switch too
+    EXPECT_EQ(send(m, "SL X=-1000", done), ":A\r\n");
+    send(m, "VE X=-6", done);
+    done = run_to_completion(m) + milliseconds(1);
+    EXPECT_NEAR(m.position_units('X', done), -125 * 10000, 0.5);
+    EXPECT_EQ(send(m, "RS X-", done), ":A L\r\n");
+    EXPECT_EQ(send(m, "DU Y", done), ":A 34 35 \r\n");
+}
+
 TEST(model_motion, speed_is_clamped_to_the_lead_screw_maximum) {
     ms2000_model m(config_for("plain", 'C'));
     EXPECT_EQ(send(m, "S X=100000000", sim_time{0}), ":A\r\n");
