@@ -54,6 +54,18 @@ double settle_ms(double screw_settle_ms, double default_pc_mm, double pc_mm) {
     return std::max(screw_settle_ms, 0.0) * std::clamp(std::sqrt(default_pc_mm / pc), 0.1, 3.0);
 }
 
+double approach_leg_mm(double distance_mm, double backlash_mm, double overshoot_mm) {
+    if (distance_mm == 0) return 0;
+    const double backlash = distance_mm < 0 ? std::max(backlash_mm, 0.0) : 0.0;
+    return std::max(backlash, std::max(overshoot_mm, 0.0));
+}
+
+double move_with_approach_s(double distance_mm, double leg_mm, double speed_mm_s, double ramp_ms) {
+    const double out = std::abs(distance_mm) + leg_mm;
+    return move_time_s(out, speed_mm_s, ramp_ms) +
+           (leg_mm > 0 ? move_time_s(leg_mm, speed_mm_s, ramp_ms) : 0);
+}
+
 double settle_after_move_ms(double distance_mm, double settle) {
     return (distance_mm == 0 ? zero_move_settle_fraction : 1.0) * std::max(settle, 0.0);
 }

@@ -51,4 +51,14 @@ inline constexpr double zero_move_settle_fraction = 0.1;
 // Settle time (ms) after a move of `distance_mm` (the zero-length case above included).
 double settle_after_move_ms(double distance_mm, double settle_ms);
 
+// How far a point-to-point move of `distance_mm` (signed) runs past its target before it comes back
+// to it (mm, >= 0). BACKLASH b: a move down goes b past, so the target is always approached moving
+// up; OVERSHOOT o: every move goes o past. The larger applies. The direction BACKLASH acts in is our
+// reading: the protocol reference (§3.2) gives none.
+double approach_leg_mm(double distance_mm, double backlash_mm, double overshoot_mm);
+
+// Motion time (settle excluded) of a point-to-point move with its approach leg: out past the target
+// and back.
+double move_with_approach_s(double distance_mm, double leg_mm, double speed_mm_s, double ramp_ms);
+
 }  // namespace gw::devices::ms2000

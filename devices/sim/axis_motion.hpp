@@ -16,9 +16,10 @@ using sim_time = std::chrono::microseconds;
 class axis_motion {
   public:
     axis_motion() = default;
-    // A move from `from_mm` to `to_mm` starting at `start`.
+    // A move from `from_mm` to `to_mm` starting at `start`; with `leg_mm` > 0 it runs that far past
+    // the target and comes back (BACKLASH, OVERSHOOT: ms2000::approach_leg_mm), then settles.
     axis_motion(double from_mm, double to_mm, double speed_mm_s, double ramp_ms, double settle_ms,
-                sim_time start);
+                sim_time start, double leg_mm = 0);
     // Constant velocity (SPIN, VECTOR) from `from_mm` until `end_mm` (the limit ahead) or stop().
     static axis_motion at_velocity(double from_mm, double velocity_mm_s, double end_mm, sim_time start);
 
@@ -39,7 +40,9 @@ class axis_motion {
   private:
     double from_mm_ = 0;
     double to_mm_ = 0;
-    ms2000::motion_profile profile_;
+    ms2000::motion_profile profile_;       // out: to the target, or past it by the leg
+    ms2000::motion_profile back_profile_;  // back from past the target (a zero profile: no leg)
+    double via_mm_ = 0;                    // where the outward motion turns (the target without a leg)
     sim_time start_{0};
     sim_time motion_end_{0};
     sim_time settled_{0};

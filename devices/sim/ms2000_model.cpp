@@ -375,7 +375,12 @@ void ms2000_model::start_move(axis& a, double target_mm, sim_time now, bool comm
     const double default_pc = screw_.encoder_nm / 1e6;
     const double pc = std::max(a.params["PCROS"], 1e-9);
     const double settle = ms2000::settle_ms(screw_.settle_ms, default_pc, pc);
-    a.motion = axis_motion(from, target_mm, speed, a.params["ACCEL"], settle, now);
+    // Point-to-point moves approach their target past it with BACKLASH / OVERSHOOT; moves at a given
+    // speed (scan lines, retraces) do not.
+    const double leg = speed_override > 0 ? 0
+                                          : ms2000::approach_leg_mm(target_mm - from, a.params["BACKLASH"],
+                                                                    a.params["OVERSHOOT"]);
+    a.motion = axis_motion(from, target_mm, speed, a.params["ACCEL"], settle, now, leg);
     a.commanded = commanded;
 }
 

@@ -58,7 +58,9 @@ double motion_model::axis_move_seconds(char axis_letter, double mm, double speed
     if (mm == 0) return 0;
     const auto& p = axis(axis_letter);
     const double v = speed_mm_s > 0 ? speed_mm_s : p.speed_mm_s;
-    return devices::ms2000::move_time_s(mm, v, p.ramp_ms) +
+    const double leg =
+        speed_mm_s > 0 ? 0 : devices::ms2000::approach_leg_mm(mm, p.backlash_mm, p.overshoot_mm);
+    return devices::ms2000::move_with_approach_s(mm, leg, v, p.ramp_ms) +
            devices::ms2000::settle_after_move_ms(mm, p.settle_ms) / 1000.0;
 }
 

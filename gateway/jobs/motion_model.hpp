@@ -21,6 +21,8 @@ struct axis_motion_params {
     double ramp_ms = 20;          // ACCEL (AC X?)
     double settle_ms = 14;        // after every move; from the lead screw and the finish error (PC X?)
     double max_speed_mm_s = 6.8;  // the lead screw's top speed (SCAN moves to a line start at it)
+    double backlash_mm = 0;       // BACKLASH (B X?): a move down runs this far past and comes back
+    double overshoot_mm = 0;      // OVERSHOOT (OS X?): every move runs this far past and comes back
 };
 
 struct axis_delta_mm {
@@ -71,7 +73,9 @@ class motion_model {
     // Seconds for one axis to travel `mm` at `speed_mm_s` (a scan line), ramps included, no settle.
     double travel_seconds(char axis, double mm, double speed_mm_s) const;
     // Seconds for one axis to move `mm` at `speed_mm_s` (<= 0: its SPEED), settle included: what the
-    // controller stays busy for (a SCAN line, retrace or start move at a given speed).
+    // controller stays busy for (a SCAN line, retrace or start move at a given speed). A move at its
+    // own SPEED is a point-to-point move and includes the BACKLASH / OVERSHOOT leg, as the controller
+    // (and the simulator) runs it; one at a given speed does not.
     double axis_move_seconds(char axis, double mm, double speed_mm_s = 0) const;
 
   private:

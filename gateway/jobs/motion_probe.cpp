@@ -49,11 +49,12 @@ struct probe_state {
     std::string controller;
     std::string request_id;
     std::function<void(motion_model)> done;
-    std::string axes;                                       // hardware order
-    std::map<char, std::optional<double>> counts;           // CNTS from the snapshot
-    std::map<char, std::optional<double>> speed, ramp, pc;  // S, AC, PC answers
-    std::map<char, double> pc_resolution;                   // half the last printed digit of PC
-    std::optional<unsigned> baud;                           // the controller's serial settings
+    std::string axes;                                           // hardware order
+    std::map<char, std::optional<double>> counts;               // CNTS from the snapshot
+    std::map<char, std::optional<double>> speed, ramp, pc;      // S, AC, PC answers
+    std::map<char, std::optional<double>> backlash, overshoot;  // B, OS answers (unset: none)
+    std::map<char, double> pc_resolution;                       // half the last printed digit of PC
+    std::optional<unsigned> baud;                               // the controller's serial settings
 };
 
 // "S X? Y? Z?"
@@ -108,7 +109,10 @@ void finish(const std::shared_ptr<probe_state>& s) {
         auto pc = s->pc[a];
         if (pc && std::abs(*pc - screw->default_pc_mm) <= s->pc_resolution[a]) pc = screw->default_pc_mm;
         if (pc && *pc <= 0) pc.reset();
-        model.set_axis(a, axis_params_for(*screw, speed, ramp, pc));
+        auto params = axis_params_for(*screw, speed, ramp, pc);
+        params.backlash_mm = s->backlash[a].value_or(0);
+        params.overshoot_mm = s->overshoot[a].value_or(0);
+        model.set_axis(a, params);
     }
     if (s->baud) {
         auto link = model.link();
@@ -134,7 +138,12 @@ void async_read_motion_model(controller_registry& registry, const std::string& c
     if (const auto c = registry.controller(controller_id)) s->baud = c->settings().baud;
     // One at a time: the driver serialises them anyway, and a dead controller fails fast.
     query(s, "S", &probe_state::speed, [s] {
-        query(s, "AC", &probe_state::ramp, [s] { query(s, "PC", &probe_state::pc, [s] { finish(s); }); });
+        query(s, "AC", &probe_state::ramp, [s] {
+            query(s, "PC", &probe_state::pc, [s] {
+                query(s, "B", &probe_state::backlash,
+                      [s] { query(s, "OS", &probe_state::overshoot, [s] { finish(s); }); });
+            });
+        });
     });
 }
 

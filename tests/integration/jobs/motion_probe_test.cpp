@@ -215,6 +215,9 @@ TEST_F(motion_probe_test, estimate_agrees_with_the_simulated_busy_time) {
         {"wide_finish_error", {"PC X=0.0002 Y=0.0002"}, {{'X', 16000}}},
         {"tight_finish_error", {"PC X=0.000005"}, {{'X', 15800}}},
         {"short_under_tight_error", {}, {{'X', 15805}}},
+        // The probe reads B and OS: a move down runs past its target and back.
+        {"backlash_down", {"PC X=0.000022", "B X=0.4 Y=0.4"}, {{'X', 2000}, {'Y', -28000}}},
+        {"overshoot", {"B X=0 Y=0", "OS X=0.2"}, {{'X', 9000}}},
     };
     for (const auto& row : table) {
         SCOPED_TRACE(row.name);

@@ -146,6 +146,7 @@ struct agreement_row {
     std::string move;                   // "M X=.. Y=.." in tenths of a micron
     std::vector<axis_delta_mm> deltas;
     std::optional<double> speed, ramp, pc;  // what the settings set on X and Y
+    double backlash = 0, overshoot = 0;     // likewise
 };
 
 const agreement_row agreement_table[] = {
@@ -165,6 +166,21 @@ const agreement_row agreement_table[] = {
     {"tight_finish_error", 'B', {"PC X=0.000005 Y=0.000005"}, "M X=2000", {{'X', 0.2}}, {}, {}, 0.000005},
     {"screw_a", 'A', {}, "M X=90000", {{'X', 9.0}}, {}, {}, {}},
     {"screw_d", 'D', {}, "M X=2000 Y=90000", {{'X', 0.2}, {'Y', 9.0}}, {}, {}, {}},
+    // A move down with backlash runs past the target and back; a move up does not.
+    {"backlash_down", 'B', {"B X=0.5 Y=0.5"}, "M X=-90000", {{'X', -9.0}}, {}, {}, {}, 0.5, 0},
+    {"backlash_up", 'B', {"B X=0.5 Y=0.5"}, "M X=90000", {{'X', 9.0}}, {}, {}, {}, 0.5, 0},
+    // Overshoot: every move, and the larger leg wins when both apply.
+    {"overshoot_up", 'B', {"OS X=0.05 Y=0.05"}, "M X=2000", {{'X', 0.2}}, {}, {}, {}, 0, 0.05},
+    {"backlash_and_overshoot",
+     'B',
+     {"B X=0.02 Y=0.02", "O X=0.3 Y=0.3"},
+     "M X=-90000 Y=-1000",
+     {{'X', -9.0}, {'Y', -0.1}},
+     {},
+     {},
+     {},
+     0.02,
+     0.3},
 };
 
 class motion_model_agreement : public ::testing::TestWithParam<agreement_row> {};
@@ -184,8 +200,12 @@ TEST_P(motion_model_agreement, with_the_simulator_model) {
     const auto screw = lead_screw_for_counts(counts);
     ASSERT_TRUE(screw);
     motion_model m;
-    for (const char a : {'X', 'Y'})
-        m.set_axis(a, axis_params_for(*screw, row.speed, row.ramp, row.pc));
+    for (const char a : {'X', 'Y'}) {
+        auto p = axis_params_for(*screw, row.speed, row.ramp, row.pc);
+        p.backlash_mm = row.backlash;
+        p.overshoot_mm = row.overshoot;
+        m.set_axis(a, p);
+    }
     EXPECT_NEAR(m.move_seconds(row.deltas), simulated_s, 5e-6) << row.move;
 }
 

@@ -119,6 +119,26 @@ TEST(model_motion, limit_switches_end_the_travel_when_the_soft_limits_are_wider)
     EXPECT_EQ(send(m, "DU Y", done), ":A 34 35 \r\n");
 }
 
+TEST(model_motion, backlash_runs_a_move_down_past_its_target_and_back) {
+    ms2000_model plain(config_for("plain"));
+    ms2000_model with(config_for("plain"));
+    EXPECT_EQ(send(with, "B X=0.5", sim_time{0}), ":A\r\n");
+    send(plain, "M X=-90000", sim_time{0});
+    send(with, "M X=-90000", sim_time{0});
+    const auto plain_done = run_to_completion(plain);
+    const auto with_done = run_to_completion(with);
+    EXPECT_GT(with_done, plain_done + milliseconds(150));  // 2 x 0.5 mm more at 5.5 mm/s, and ramps
+    double lowest = 0;
+    for (auto t = sim_time{0}; t <= with_done; t += sim_time{100})
+        lowest = std::min(lowest, with.position_units('X', t));
+    EXPECT_NEAR(lowest, -95000, 1);  // 0.5 mm past the target
+    EXPECT_NEAR(with.position_units('X', with_done), -90000, 0.5);
+    // A move up approaches directly
+    send(with, "M X=0", with_done);
+    send(plain, "M X=0", plain_done);
+    EXPECT_EQ(run_to_completion(with) - with_done, run_to_completion(plain) - plain_done);
+}
+
 TEST(model_motion, speed_is_clamped_to_the_lead_screw_maximum) {
     ms2000_model m(config_for("plain", 'C'));
     EXPECT_EQ(send(m, "S X=100000000", sim_time{0}), ":A\r\n");
