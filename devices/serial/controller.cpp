@@ -771,6 +771,7 @@ std::string controller::motor_axes() const {
 void controller::identify() {
     auto self = shared_from_this();
     error_log_seen_.clear();
+    error_log_failures_ = 0;
     error_log_step_ = error_log_step::idle;
     error_log_due_ = error_log_clear_due_ = false;
     // reply: ":A Version: USB-9.52 "

@@ -261,7 +261,8 @@ class controller : public std::enable_shared_from_this<controller> {
     error_log_step error_log_step_ = error_log_step::idle;
     bool error_log_due_ = false;
     bool error_log_clear_due_ = false;
-    std::vector<int> error_log_seen_;  // the codes read since the log was last cleared
+    std::vector<int> error_log_seen_;     // the codes read since the log was last cleared
+    std::size_t error_log_failures_ = 0;  // reads in a row that got no usable answer
     std::chrono::steady_clock::time_point error_log_read_at_;
     // Report frames arrived since the log was last read: once the stream is quiet, it is read.
     bool report_activity_ = false;

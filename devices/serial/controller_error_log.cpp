@@ -26,6 +26,10 @@ namespace {
 constexpr auto report_quiet = std::chrono::milliseconds(250);
 // Cleared even while busy from this many codes on: the log must not overflow and drop codes unseen.
 constexpr std::size_t clear_anyway_from = 32;
+// Reads in a row without a usable answer (a timeout, an answer of another shape) before the log is
+// left alone on this connection: the protocol reference does not confirm DU Y's reply format, and
+// every such failure costs a resynchronisation of the link.
+constexpr std::size_t give_up_after_failures = 3;
 
 }  // namespace
 
@@ -62,16 +66,25 @@ std::optional<controller::pending> controller::next_error_log_command() {
 
 void controller::on_error_log_read(error_code ec, const ms2000::reply& r) {
     error_log_step_ = error_log_step::idle;
-    if (ec) {
-        if (ec == ms2000::error::controller_rejected) {
-            // A firmware without DU Y: not asked again on this connection.
-            log_->info("the controller has no error log (DU Y answered {})", r.raw);
+    if (ec == ms2000::error::controller_rejected) {
+        // A firmware without DU Y: not asked again on this connection.
+        log_->info("the controller has no error log (DU Y answered {})", r.raw);
+        error_log_step_ = error_log_step::unsupported;
+        return;
+    }
+    const auto codes = ec ? std::nullopt : ms2000::error_log_codes(r);
+    if (!codes) {
+        if (ec == ms2000::error::disconnected || ec == ms2000::error::cancelled) return;
+        if (++error_log_failures_ >= give_up_after_failures) {
+            log_->warn(
+                "the error log (DU Y) got no usable answer {} times in a row ({}); not read again "
+                "on this connection",
+                error_log_failures_, ec ? ec.message() : "a code beyond 9999");
             error_log_step_ = error_log_step::unsupported;
         }
         return;  // otherwise the next occasion tries again
     }
-    const auto codes = ms2000::error_log_codes(r);
-    if (!codes) return;  // the reply form guarantees integers; a code beyond 9999 is not one
+    error_log_failures_ = 0;
     const auto fresh = ms2000::new_error_log_codes(error_log_seen_, *codes);
     error_log_seen_ = *codes;
     if (!fresh.empty()) {

@@ -109,6 +109,27 @@ TEST_F(controller_test, identifies_the_controller_on_connect) {
     EXPECT_EQ(fake_.commands(), expected);
 }
 
+TEST_F(controller_test, an_error_log_answer_it_cannot_read_is_asked_for_three_times_then_left_alone) {
+    // DU Y's reply format is unconfirmed: a firmware that answers in another shape must not cost a
+    // resynchronisation every few seconds for ever.
+    fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
+        if (c == "DU Y") return {":A X=1\r\n"};  // not a list of codes
+        return test::drv_pty_controller::default_reply(c);
+    });
+    auto s = settings();
+    s.poll_interval = 20ms;
+    s.error_log_interval = 50ms;
+    start(s);
+    const auto deadline = std::chrono::steady_clock::now() + 20s;
+    while (fake_.count("DU Y") < 3 && std::chrono::steady_clock::now() < deadline)
+        std::this_thread::sleep_for(10ms);
+    ASSERT_EQ(fake_.count("DU Y"), 3u);
+    std::this_thread::sleep_for(600ms);  // a dozen more scheduled reads, were it still asking
+    EXPECT_EQ(fake_.count("DU Y"), 3u);
+    EXPECT_EQ(observer_->latest().state, connection_state::connected);
+    EXPECT_TRUE(call(ms2000::where("XY")).first == error_code{}) << "the link is usable";
+}
+
 TEST_F(controller_test, reply_split_over_several_writes_is_reassembled) {
     start(settings());
     fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
