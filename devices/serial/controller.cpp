@@ -208,6 +208,8 @@ void controller::hold_back_in_flight() {
     in_flight_.reset();
     if (job.poll) {
         poll_step_ = poll_step::idle;  // the next tick starts a new round
+    } else if (job.error_log) {
+        retry_error_log_step();  // after the user commands, not ahead of them in the internal queue
     } else if (job.internal) {
         internal_queue_.push_front(std::move(job));
     } else {

@@ -95,6 +95,7 @@ class controller : public std::enable_shared_from_this<controller> {
         completion_handler user;    // set for user commands
         internal_handler internal;  // set for the driver's own (identify, poll, resync probe)
         bool poll = false;          // a step of the poll round (dropped, not requeued, when held back)
+        bool error_log = false;     // a read or clear of the error log (likewise: it waits for its turn)
         bool probe = false;         // the resynchronisation probe
         bool resent = false;        // a HALT sent again after the link was resynchronised
     };
@@ -176,6 +177,7 @@ class controller : public std::enable_shared_from_this<controller> {
     void on_error_log_read(boost::system::error_code ec, const ms2000::reply& reply);
     void on_error_log_cleared(boost::system::error_code ec, const ms2000::reply& reply);
     bool error_log_clear_is_safe(std::size_t logged) const;
+    void retry_error_log_step();  // a step held back (a HALT jumped in): due again
 
     // Report port.
     void open_report_port();

@@ -47,21 +47,29 @@ std::optional<controller::pending> controller::next_error_log_command() {
     if (snapshot_.state != connection_state::connected || error_log_step_ != error_log_step::idle)
         return std::nullopt;
     auto self = shared_from_this();
+    pending job;
+    job.request_id = "error_log";
+    job.error_log = true;
     if (error_log_clear_due_) {
         error_log_clear_due_ = false;
         error_log_step_ = error_log_step::clearing;
-        return pending{
-            ms2000::clear_error_log(), "error_log", {}, [this, self](error_code ec, const auto& r) {
-                on_error_log_cleared(ec, r);
-            }};
+        job.cmd = ms2000::clear_error_log();
+        job.internal = [this, self](error_code ec, const auto& r) { on_error_log_cleared(ec, r); };
+        return job;
     }
     if (!error_log_due_) return std::nullopt;
     error_log_due_ = false;
     error_log_step_ = error_log_step::reading;
     error_log_read_at_ = steady_clock::now();
-    return pending{ms2000::read_error_log(), "error_log", {}, [this, self](error_code ec, const auto& r) {
-                       on_error_log_read(ec, r);
-                   }};
+    job.cmd = ms2000::read_error_log();
+    job.internal = [this, self](error_code ec, const auto& r) { on_error_log_read(ec, r); };
+    return job;
+}
+
+void controller::retry_error_log_step() {
+    if (error_log_step_ == error_log_step::reading) error_log_due_ = true;
+    if (error_log_step_ == error_log_step::clearing) error_log_clear_due_ = true;
+    error_log_step_ = error_log_step::idle;
 }
 
 void controller::on_error_log_read(error_code ec, const ms2000::reply& r) {
