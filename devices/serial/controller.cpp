@@ -428,7 +428,10 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
     // Whoever asked "/" (a waited move, a job), its answer is the newest word on motion: the snapshot
     // must not go on saying "moving" after a move's waiter was told it stopped.
     if (!ec && !done.job.poll && reply && reply->what == ms2000::reply::kind::status) {
-        if (snapshot_.busy && !reply->busy) changed_since_poll_ = true;  // read where it stopped
+        if (snapshot_.busy && !reply->busy) {
+            changed_since_poll_ = true;
+            poll_due_ = settings_.poll_interval.count() > 0;  // read where it stopped now, not next tick
+        }
         note_busy(reply->busy);
     }
     // It may have started a move or changed a setting: the next poll tick starts a round.
@@ -871,7 +874,7 @@ std::optional<controller::pending> controller::next_poll_command() {
     if (poll_step_ == poll_step::idle) {
         if (!poll_due_) return std::nullopt;
         poll_due_ = false;
-        poll_step_ = poll_step::where;
+        poll_step_ = poll_step::status;
         last_poll_round_ = steady_clock::now();
         changed_since_poll_ = false;
     }
@@ -911,18 +914,17 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
         return;
     }
     switch (step) {
+        case poll_step::status:
+            polled_busy_ = r.busy;  // reply: "B" or "N"
+            poll_step_ = poll_step::where;
+            return;
         case poll_step::where:
             apply_where(snapshot_, r);
             snapshot_.positions_read = system_clock::now();
-            poll_step_ = poll_step::status;
-            return;
-        case poll_step::status:
-            // reply: "B" or "N". Stopped since the positions were read: they may be from before the
-            // end of the move, so the next tick reads them again.
             // The end of a move: a target beyond a soft limit was clamped and logged (34/35).
-            if (snapshot_.busy && !r.busy) changed_since_poll_ = error_log_due_ = true;
-            note_busy(r.busy);
-            if (r.busy && !snapshot_.axes.empty()) {
+            if (snapshot_.busy && !polled_busy_) error_log_due_ = true;
+            note_busy(polled_busy_);
+            if (polled_busy_ && !snapshot_.axes.empty()) {
                 poll_step_ = poll_step::axis_status;
                 poll_axis_ = 0;
                 return;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <future>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <unistd.h>
@@ -86,6 +87,17 @@ TEST_F(controller_sim_test, a_move_shows_in_snapshots_until_arrival) {
         60s));
     EXPECT_FALSE(c.observer->latest().axes[0].busy);
 
+    // The snapshot that first says the move ended already says where: the target.
+    const auto ended = c.observer->locked([&]() -> std::optional<controller_snapshot> {
+        const auto& all = c.observer->snapshots;
+        for (std::size_t i = 1; i < all.size(); ++i)
+            if (all[i - 1].busy && !all[i].busy) return all[i];
+        return std::nullopt;
+    });
+    ASSERT_TRUE(ended);
+    ASSERT_TRUE(ended->axes[0].position_um);
+    EXPECT_NEAR(*ended->axes[0].position_um, target_um, 1.0);
+
     // Each snapshot says when its positions were read: new positions come with a newer time, a change
     // of the busy flags alone keeps the time of the positions it carries.
     const auto snapshots = c.observer->locked([&] { return c.observer->snapshots; });
@@ -101,6 +113,58 @@ TEST_F(controller_sim_test, a_move_shows_in_snapshots_until_arrival) {
             EXPECT_GT(now.positions_read, before.positions_read) << "snapshot " << i;
         else
             EXPECT_GE(now.positions_read, before.positions_read) << "snapshot " << i;
+    }
+}
+
+// A round that read the positions and then saw the stage stop would show it idle where it still
+// moved. Back-to-back rounds (1 ms ticks) make the stop fall inside a round most of the time.
+TEST_F(controller_sim_test, a_stopped_move_is_shown_idle_only_with_the_position_it_stopped_at) {
+    auto c = make("plain", 4, 1ms);
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+    ASSERT_TRUE(
+        c.observer->wait([&] { return c.observer->snapshots.back().axes.at(0).position_um.has_value(); }));
+    const auto simulated_x_um = [&] {
+        // The simulator speaks the controller's units: tenths of a micrometre.
+        return nlohmann::json::parse(c.sim->state_json())["axes"]["X"]["position"].get<double>() / 10.0;
+    };
+    // Under the observer's lock: inside wait(), or through locked().
+    const auto first_idle_after = [&](std::size_t from) -> std::optional<controller_snapshot> {
+        const auto& all = c.observer->snapshots;
+        for (std::size_t i = std::max<std::size_t>(from, 1); i < all.size(); ++i)
+            if (all[i - 1].busy && !all[i].busy) return all[i];
+        return std::nullopt;
+    };
+    for (int round = 0; round < 8; ++round) {
+        SCOPED_TRACE("round " + std::to_string(round));
+        // A short move that ends by itself.
+        double start_um = *c.observer->latest().axes[0].position_um;
+        std::size_t from = c.observer->locked([&] { return c.observer->snapshots.size(); });
+        const double target_um = start_um + 500 + 100 * round;
+        ASSERT_FALSE(
+            c.call(ms2000::move(std::vector<ms2000::axis_position>{{'X', target_um}}).value()).first);
+        ASSERT_TRUE(c.observer->wait([&] { return first_idle_after(from).has_value(); }, 20s));
+        auto ended = c.observer->locked([&] { return first_idle_after(from); });
+        ASSERT_TRUE(ended->axes[0].position_um);
+        EXPECT_NEAR(*ended->axes[0].position_um, target_um, 1.0) << "shown idle before it arrived";
+
+        // A long move, halted on the way.
+        start_um = target_um;
+        from = c.observer->locked([&] { return c.observer->snapshots.size(); });
+        const double far_um = start_um + 50000;
+        ASSERT_FALSE(c.call(ms2000::move(std::vector<ms2000::axis_position>{{'X', far_um}}).value()).first);
+        ASSERT_TRUE(c.observer->wait([&] {
+            const auto& x = c.observer->snapshots.back().axes[0];
+            return x.position_um && *x.position_um > start_um + 200 + 150 * round;
+        }));
+        // Waiting on a snapshot lines the HALT up with the poll round; a varying pause does not.
+        std::this_thread::sleep_for(std::chrono::microseconds(900 * round));
+        c.call(ms2000::halt());  // answered :A or :N-21; either way the stage stops
+        ASSERT_TRUE(c.observer->wait([&] { return first_idle_after(from).has_value(); }, 20s));
+        ended = c.observer->locked([&] { return first_idle_after(from); });
+        const double stopped_um = simulated_x_um();
+        EXPECT_LT(stopped_um, far_um - 1000) << "the halt did not stop the move";
+        ASSERT_TRUE(ended->axes[0].position_um);
+        EXPECT_NEAR(*ended->axes[0].position_um, stopped_um, 1.0) << "shown idle before it stopped";
     }
 }
 
