@@ -325,7 +325,7 @@ std::string ms2000_model::dispatch(const command_line& cmd, sim_time now) {
     if (v == "LED") return cmd_led(cmd);
     if (v == "CUSTOMB") return cmd_customb(cmd, now);
     if (v == "LOCK") return cmd_lock(cmd, now);
-    if (v == "EXTRA") return std::string(1, crisp_state_) + "    0    0 \r\n";
+    if (v == "EXTRA") return cmd_extra(cmd, now);
     if (v == "AFOCUS") return cmd_afocus(cmd, now);
     return error(ms2000::unknown_command);
 }
@@ -391,6 +391,7 @@ void ms2000_model::stop_all(sim_time now) {
     array_.next_step.reset();
     if (array_.state != 'I' && array_.state != 'C') array_.state = 'I';
     scan_.running = false;
+    autofocus_done_at_.reset();  // a focus scan is a Z motion: HALT ends it
     ring_.autoplay = false;
     ring_.waiting_arrival = false;
     ring_.next_step.reset();
@@ -898,10 +899,7 @@ void ms2000_model::advance(sim_time now) {
         const auto t = next_internal_event();
         if (!t || *t > now) break;
         const auto at = *t;
-        if (crisp_lock_at_ && *crisp_lock_at_ <= at) {
-            crisp_state_ = 'F';
-            crisp_lock_at_.reset();
-        }
+        if (crisp_lock_at_ && *crisp_lock_at_ <= at) crisp_settle_lock(at);
         if (autofocus_done_at_ && *autofocus_done_at_ <= at) autofocus_done_at_.reset();
         const auto done = motion_done_at();
         if ((array_.state == 'M' || array_.state == 'S') && done <= at) {

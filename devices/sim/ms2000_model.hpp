@@ -191,6 +191,15 @@ class ms2000_model {
     std::string cmd_customb(const command_line& cmd, sim_time now);
     std::string cmd_lock(const command_line& cmd, sim_time now);
     std::string cmd_afocus(const command_line& cmd, sim_time now);
+    std::string cmd_extra(const command_line& cmd, sim_time now) const;
+    // CRISP's readings now: focus error (nm of Z from the lock's set point), sum, signal-to-noise.
+    struct crisp_reading {
+        long focus_error = 0;
+        long sum = 0;
+        double snr = 0;
+    };
+    crisp_reading crisp_read(sim_time now) const;
+    void crisp_settle_lock(sim_time now);
 
     void ring_next(sim_time now);
     void array_start(sim_time now, bool self_scan, bool graceful);
@@ -232,6 +241,7 @@ class ms2000_model {
     bool plane_enabled_ = false;
     char crisp_state_ = 'I';
     std::optional<sim_time> crisp_lock_at_;
+    double crisp_offset_ = 0;  // LK Z: the focus error the lock holds, in the focus error's unit
     std::optional<sim_time> autofocus_done_at_;
     std::string build_user_string_;
     long build_counter_ = 0;

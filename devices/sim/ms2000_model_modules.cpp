@@ -516,7 +516,40 @@ std::string ms2000_model::cmd_customb(const command_line& cmd, sim_time now) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// CRISP "LK": states I idle, R ready, K trying to lock, F locked (doc §3.12). AUTOFOCUS "AF".
+// CRISP "LK": states I idle (LED off), R ready, K trying to lock, F locked, E could not lock
+// (doc §3.12). The sample is in focus at config_.focus_plane_um; the focus error is the distance of Z
+// from the lock's set point (focus plane plus offset) in nanometres, our reading of the LCD's unit.
+// AUTOFOCUS "AF": a focus scan that ends with Z at the focus plane.
+
+namespace {
+constexpr double crisp_capture_um = 50;  // beyond this the reflection is too weak to lock on
+constexpr long crisp_full_sum = 2400;    // "LK T?" in focus; our figure
+}  // namespace
+
+ms2000_model::crisp_reading ms2000_model::crisp_read(sim_time now) const {
+    crisp_reading r;
+    const auto* z = find_axis('Z');
+    if (crisp_state_ == 'I' || !z) return r;  // LED off: no signal
+    const double defocus_um = z->motion.position_mm(now) * 1000 - config_.focus_plane_um;
+    const bool captured = std::abs(defocus_um) <= crisp_capture_um;
+    r.focus_error = std::lround(std::clamp(defocus_um * 1000 - crisp_offset_, -32767.0, 32767.0));
+    r.sum = captured ? crisp_full_sum : crisp_full_sum / 8;
+    r.snr = captured ? 20.0 : 2.0;
+    return r;
+}
+
+// The end of "trying to lock": locked, Z servoed to the set point, when the reflection is strong
+// enough; otherwise the error state, as when the sample is too far out of focus.
+void ms2000_model::crisp_settle_lock(sim_time now) {
+    crisp_lock_at_.reset();
+    auto* z = find_axis('Z');
+    if (!z || std::abs(z->motion.position_mm(now) * 1000 - config_.focus_plane_um) > crisp_capture_um) {
+        crisp_state_ = 'E';
+        return;
+    }
+    crisp_state_ = 'F';
+    start_move(*z, (config_.focus_plane_um + crisp_offset_ / 1000) / 1000, now, false);
+}
 
 std::string ms2000_model::cmd_lock(const command_line& cmd, sim_time now) {
     constexpr auto lock_time = std::chrono::milliseconds(500);
@@ -536,6 +569,7 @@ std::string ms2000_model::cmd_lock(const command_line& cmd, sim_time now) {
         return ack();
     }
     const auto& arg = cmd.args.front();
+    const auto reading = crisp_read(now);
     switch (arg.letter) {
         case 'X':
             // "LK X?" -> ":A R": no trailing space, MM-Stage reads the last character.
@@ -558,10 +592,18 @@ std::string ms2000_model::cmd_lock(const command_line& cmd, sim_time now) {
             return ack();
         }
         case 'Y':
+            if (arg.kind == op::query) return values({std::to_string(reading.focus_error)});
+            return ack();
         case 'T':
-            if (arg.kind == op::query) return values({"0"});
+            if (arg.kind == op::query) return values({std::to_string(reading.sum)});
             return ack();
         case 'Z':
+            if (arg.kind == op::query) return axes_a({{'Z', ms2000::format_number(crisp_offset_, 1)}});
+            if (arg.kind == op::set) {
+                if (std::abs(arg.value) > 32767) return error(ms2000::parameter_out_of_range);
+                crisp_offset_ = arg.value;
+            }
+            return ack();
         case 'M':
             if (arg.kind == op::query) return axes_a({{arg.letter, "0"}});
             return ack();
@@ -570,11 +612,24 @@ std::string ms2000_model::cmd_lock(const command_line& cmd, sim_time now) {
     }
 }
 
+// "EXTRA X?" (before 9.2o): state, sum and dither error on one line without ":A"; "EXTRA Y?" ("EX Y?"
+// from 9.53): the signal-to-noise ratio.
+std::string ms2000_model::cmd_extra(const command_line& cmd, sim_time now) const {
+    const auto reading = crisp_read(now);
+    if (cmd.has_query() && cmd.args.front().letter == 'Y')
+        return values({ms2000::format_number(reading.snr, 1)});
+    return std::string(1, crisp_state_) + "    " + std::to_string(reading.sum) + "    0 \r\n";
+}
+
 std::string ms2000_model::cmd_afocus(const command_line& cmd, sim_time now) {
     if (cmd.args.empty()) {
-        autofocus_done_at_ = now + std::chrono::milliseconds(1500);
+        auto* z = find_axis('Z');
+        if (!z) return error(ms2000::unrecognized_axis);
+        start_move(*z, config_.focus_plane_um / 1000, now, true);
+        autofocus_done_at_ = std::max(z->motion.settled(), now + std::chrono::milliseconds(1));
         return ack();
     }
+    // "AF X?": 1 while the focus scan runs (our reading; the AF syntax is not published).
     if (cmd.has_query()) return values({autofocus_done_at_ ? "1" : "0"});
     return ack();
 }

@@ -60,6 +60,8 @@ boost::system::result<sim_config> preset(std::string_view name) {
     if (name == "crisp") {
         c.build_name = "STD_XYZ_CRISP";
         c.modules = {module::crisp, module::autofocus, module::ring_buffer, module::led_dimmer};
+        c.version = "9.53";  // reads the signal-to-noise ratio with "EX Y?" (doc §3.12)
+        c.focus_plane_um = 150;
         return c;
     }
     if (name == "xy") {

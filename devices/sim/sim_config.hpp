@@ -41,6 +41,8 @@ struct sim_config {
     // The stage's physical travel ends in limit switches at +-this, beyond the default soft limits
     // (SU/SL, +-110 mm): any motion stops there, as at a soft limit. Matters when SU/SL are set wider.
     double limit_switch_mm = 125;
+    // Where the sample is in focus: the Z position CRISP locks near and AUTOFOCUS finds.
+    double focus_plane_um = 0;
     std::string version = "9.50";  // V -> ":A Version: USB-9.50 "
     unsigned baud = 115200;        // output pacing, 10 bits per byte
     double time_scale = 1.0;       // 1 = real time, 10 = ten times faster
@@ -55,7 +57,7 @@ struct sim_config {
     std::chrono::milliseconds flash_write_time{300};  // SS Z: ":" at once, "A\r\n" after this
 };
 
-// Presets by name: "full", "plain", "planar", "crisp". Error for an unknown name.
+// Presets by name: "full", "plain", "planar", "crisp", "xy". Error for an unknown name.
 boost::system::result<sim_config> preset(std::string_view name);
 std::vector<std::string_view> preset_names();
 

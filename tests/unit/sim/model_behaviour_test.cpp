@@ -330,17 +330,6 @@ TEST(model_planar, three_points_define_the_correction) {
     EXPECT_EQ(send(m, "CCB Z=8", sim_time{0}), ":A 1 \r\n");
 }
 
-TEST(model_crisp, lock_reaches_focus) {
-    ms2000_model m(config_for("crisp"));
-    EXPECT_EQ(send(m, "LK", sim_time{0}), ":A\r\n");
-    EXPECT_EQ(send(m, "LK X?", sim_time{0}), ":A R\r\n");
-    EXPECT_EQ(send(m, "LK F=83", sim_time{0}), ":A\r\n");  // 'S': lock
-    EXPECT_EQ(send(m, "LK X?", milliseconds(100)), ":A K\r\n");
-    EXPECT_EQ(send(m, "LK X?", milliseconds(600)), ":A F\r\n");
-    EXPECT_EQ(send(m, "LK F=85", milliseconds(700)), ":A\r\n");  // 'U': unlock
-    EXPECT_EQ(send(m, "LK X?", milliseconds(700)), ":A R\r\n");
-}
-
 }  // namespace
 }  // namespace gw::devices::sim
 
