@@ -11,6 +11,7 @@
 #include <boost/asio/post.hpp>
 
 #include "api/json_object.hpp"
+#include "devices/ms2000/crisp.hpp"
 #include "devices/ms2000/error.hpp"
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/controllers/operations.hpp"
@@ -24,8 +25,8 @@ using nlohmann::json;
 
 namespace {
 
-constexpr std::array<std::string_view, 10> names = {"move",  "halt", "home", "zero", "here",
-                                                    "speed", "ttl",  "dac",  "led",  "command"};
+constexpr std::array<std::string_view, 12> names = {"move", "halt", "home", "zero",  "here",      "speed",
+                                                    "ttl",  "dac",  "led",  "crisp", "autofocus", "command"};
 
 operation_error invalid(std::string field, std::string message) {
     return make_error(operation_error_kind::invalid_value, std::move(message), std::move(field));
@@ -121,7 +122,20 @@ class body_reader {
 };
 
 using any_request = std::variant<move_request, halt_request, home_request, zero_request, here_request,
-                                 speed_request, ttl_request, dac_request, led_request, raw_command_request>;
+                                 speed_request, ttl_request, dac_request, led_request, crisp_request,
+                                 autofocus_request, raw_command_request>;
+
+// "timeout_ms": 1..max_wait_timeout.
+void read_timeout(body_reader& r, std::chrono::milliseconds& out) {
+    if (auto* v = r.get("timeout_ms")) {
+        if (auto ms = r.integer("timeout_ms", *v)) {
+            if (*ms < 1 || *ms > max_wait_timeout.count())
+                r.fail("timeout_ms", "timeout_ms must be 1.." + std::to_string(max_wait_timeout.count()));
+            else
+                out = std::chrono::milliseconds(*ms);
+        }
+    }
+}
 
 operation_result<any_request> parse_move(const json& body) {
     body_reader r(body, {"axes", "mode", "wait", "timeout_ms"});
@@ -142,14 +156,7 @@ operation_result<any_request> parse_move(const json& body) {
     }
     if (auto* v = r.get("wait"))
         if (auto b = r.boolean("wait", *v)) m.wait = *b;
-    if (auto* v = r.get("timeout_ms")) {
-        if (auto ms = r.integer("timeout_ms", *v)) {
-            if (*ms < 1 || *ms > max_wait_timeout.count())
-                r.fail("timeout_ms", "timeout_ms must be 1.." + std::to_string(max_wait_timeout.count()));
-            else
-                m.wait_timeout = std::chrono::milliseconds(*ms);
-        }
-    }
+    read_timeout(r, m.wait_timeout);
     if (r.error()) return *r.error();
     return any_request(std::move(m));
 }
@@ -262,6 +269,38 @@ operation_result<any_request> parse_led(const json& body) {
     return any_request(l);
 }
 
+operation_result<any_request> parse_crisp(const json& body) {
+    body_reader r(body, {"action", "lock_offset", "save", "wait", "timeout_ms"});
+    crisp_request c;
+    if (auto* v = r.get("action")) {
+        auto a = r.string("action", *v);
+        if (a == "lock")
+            c.what = crisp_request::action::lock;
+        else if (a == "unlock")
+            c.what = crisp_request::action::unlock;
+        else if (a == "off")
+            c.what = crisp_request::action::off;
+        else if (a)
+            r.fail("action", "action must be \"lock\", \"unlock\" or \"off\"");
+    }
+    if (auto* v = r.get("lock_offset")) c.lock_offset = r.number("lock_offset", *v);
+    if (auto* v = r.get("save"))
+        if (auto b = r.boolean("save", *v)) c.save = *b;
+    if (auto* v = r.get("wait"))
+        if (auto b = r.boolean("wait", *v)) c.wait = *b;
+    read_timeout(r, c.wait_timeout);
+    if (r.error()) return *r.error();
+    return any_request(c);
+}
+
+operation_result<any_request> parse_autofocus(const json& body) {
+    body_reader r(body, {"timeout_ms"});
+    autofocus_request a;
+    read_timeout(r, a.wait_timeout);
+    if (r.error()) return *r.error();
+    return any_request(a);
+}
+
 operation_result<any_request> parse_command(const json& body) {
     body_reader r(body, {"command"});
     raw_command_request c;
@@ -286,9 +325,24 @@ operation_result<any_request> parse_request(std::string_view op, const json& bod
     if (op == "ttl") return parse_ttl(body);
     if (op == "dac") return parse_dac(body);
     if (op == "led") return parse_led(body);
+    if (op == "crisp") return parse_crisp(body);
+    if (op == "autofocus") return parse_autofocus(body);
     if (op == "command") return parse_command(body);
     return make_error(operation_error_kind::invalid_value, "unknown operation \"" + std::string(op) + "\"",
                       "op");
+}
+
+json or_null(const std::optional<double>& v) {
+    return v ? json(*v) : json(nullptr);
+}
+
+json crisp_reading_json(const crisp_result& c) {
+    return {{"state", std::string(1, c.state)},
+            {"name", std::string(devices::ms2000::crisp_state_name(c.state))},
+            {"focus_error", or_null(c.focus_error)},
+            {"sum", or_null(c.sum)},
+            {"lock_offset", or_null(c.lock_offset)},
+            {"snr", or_null(c.snr)}};
 }
 
 json base_result(std::string_view id, std::string_view op, const std::string& request_id) {
@@ -380,6 +434,23 @@ void run_operation(api_context& ctx, std::string_view controller_id, std::string
                                        j["positions"] = std::move(pos);
                                    });
                                }));
+            } else if constexpr (std::is_same_v<R, crisp_request>) {
+                reg.async_crisp(id, r, request_id,
+                                net::bind_executor(ex, [complete](const operation_result<crisp_result>& res) {
+                                    complete(res, [](const crisp_result& c, json& j) {
+                                        j["crisp"] = crisp_reading_json(c);
+                                        j["latency_us"] = c.latency.count();
+                                    });
+                                }));
+            } else if constexpr (std::is_same_v<R, autofocus_request>) {
+                reg.async_autofocus(
+                    id, r, request_id,
+                    net::bind_executor(ex, [complete](const operation_result<autofocus_result>& res) {
+                        complete(res, [](const autofocus_result& a, json& j) {
+                            j["z_um"] = a.z_um;
+                            j["latency_us"] = a.latency.count();
+                        });
+                    }));
             } else if constexpr (std::is_same_v<R, raw_command_request>) {
                 auto command = r.command;
                 reg.async_raw_command(

@@ -13,11 +13,16 @@
 //   ttl     {"in0_mode":1, "out0_mode":0, "output_high":true}
 //   dac     {"volts":2.5}
 //   led     {"percent":50, "channel":"X"}
+//   crisp   {"action":"lock"|"unlock"|"off", "lock_offset":20, "save":false, "wait":false,
+//            "timeout_ms":60000}  (every field optional: {} only reads)
+//   autofocus {"timeout_ms":60000}
 //   command {"command":"W X Y"}      (admin)
 // Results:
 //   {"id":"sim1","operation":"halt","request_id":"...","latency_us":812}
 //   move:    + "waited":true, "positions":[{"axis":"X","position_um":1000.0}]
 //   command: + "command":"W X Y", "raw_reply":":A 0 0", "reply":{"kind":"ack","values":[...],...}
+//   crisp:   + "crisp":{"state":"F","name":"locked","focus_error":0,"sum":2400,"lock_offset":0,"snr":20}
+//   autofocus: + "z_um":150.0
 
 #include <optional>
 #include <span>

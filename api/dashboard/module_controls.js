@@ -1,11 +1,12 @@
 // The controls a controller's firmware allows: TTL IN0/OUT0 modes and the OUT0 level (every MS-2000
 // has the TTL port), the DAC output in volts (dac_out module) and an LED channel's brightness in
-// percent (led_dimmer module). Nothing is shown for a module the build lacks. Ranges are the
-// OpenAPI's (TtlRequest, DacRequest, LedRequest).
+// percent (led_dimmer module), CRISP and AUTOFOCUS (focus_controls.js). Nothing is shown for a module
+// the build lacks. Ranges are the OpenAPI's (TtlRequest, DacRequest, LedRequest, CrispRequest).
 
 import * as api from "./api.js";
 import { actionButton, controlGroup, labelled, numberInput, numberValue } from "./controls.js";
 import { el } from "./dom.js";
+import { autofocusGroup, CrispControls } from "./focus_controls.js";
 
 // IN0 modes the gateway accepts, with the names ASI's manual gives the ones we know the meaning of.
 const IN0_MODES = [[0, "0 off"], [1, "1 next position (ring buffer)"], [2, "2 repeat relative move"],
@@ -43,9 +44,13 @@ export class ModuleControls {
         this.root.append(this.ttl());
         if (modules.includes("dac_out")) this.root.append(this.dac());
         if (modules.includes("led_dimmer")) this.root.append(this.led());
+        this.crisp = modules.includes("crisp") ? new CrispControls(this.id) : null;
+        if (this.crisp) this.root.append(this.crisp.root);
+        if (modules.includes("autofocus")) this.root.append(autofocusGroup(this.id));
       }
     }
     this.showTtl(s.ttl);
+    this.crisp?.setState(s.crisp);
   }
 
   showTtl(ttl) {

@@ -11,6 +11,7 @@
 #include <boost/asio/write.hpp>
 #include <spdlog/spdlog.h>
 
+#include "devices/ms2000/crisp.hpp"
 #include "devices/ms2000/error.hpp"
 #include "devices/ms2000/error_log.hpp"
 #include "devices/ms2000/reply_check.hpp"
@@ -779,6 +780,8 @@ void controller::identify() {
     error_log_failures_ = 0;
     error_log_step_ = error_log_step::idle;
     error_log_due_ = error_log_clear_due_ = false;
+    crisp_refused_ = false;
+    snapshot_.crisp_state.reset();
     // reply: ":A Version: USB-9.52 "
     enqueue_internal(ms2000::version(), "identify", [this, self](error_code ec, const ms2000::reply& r) {
         if (aborted(ec)) return;
@@ -865,7 +868,8 @@ void controller::arm_poll_timer() {
 }
 
 bool controller::poll_round_wanted() const {
-    return snapshot_.busy || changed_since_poll_ ||
+    // CRISP trying to lock ends by itself, in locked or in error: watched like a move.
+    return snapshot_.busy || changed_since_poll_ || snapshot_.crisp_state == 'K' ||
            steady_clock::now() - last_poll_round_ >= settings_.idle_poll_interval;
 }
 
@@ -891,6 +895,8 @@ std::optional<controller::pending> controller::next_poll_command() {
             return pending{ms2000::status(), "poll", {}, std::move(handler), true};
         case poll_step::axis_status:
             return pending{ms2000::query("RS", axes.substr(index, 1)), "poll", {}, std::move(handler), true};
+        case poll_step::crisp:
+            return pending{ms2000::crisp_state_query(), "poll", {}, std::move(handler), true};
         case poll_step::idle:
             break;
     }
@@ -906,6 +912,14 @@ void controller::note_busy(bool busy) {
 
 void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_code ec,
                                const ms2000::reply& r) {
+    if (step == poll_step::crisp && ec == ms2000::error::controller_rejected) {
+        // A build that names CRISP but refuses LK X?: the round ends without it from now on.
+        log_->warn("LK X? refused: the CRISP state is not polled on this connection");
+        crisp_refused_ = true;
+        snapshot_.crisp_state.reset();
+        poll_step_ = poll_step::idle;
+        return;
+    }
     if (ec) {
         // Give up this round; the next tick starts a new one (at once: nothing fresh was read).
         poll_step_ = poll_step::idle;
@@ -936,8 +950,18 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
             if (poll_axis_ < snapshot_.axes.size()) return;
             break;
         }
+        case poll_step::crisp:
+            snapshot_.crisp_state = ms2000::crisp_state_of(r);
+            poll_step_ = poll_step::idle;
+            snapshot_.updated = system_clock::now();
+            return;
         case poll_step::idle:
             break;
+    }
+    // A controller with CRISP: its lock state ends the round.
+    if (!crisp_refused_ && snapshot_.identity && snapshot_.identity->build.has(ms2000::module::crisp)) {
+        poll_step_ = poll_step::crisp;
+        return;
     }
     poll_step_ = poll_step::idle;
     snapshot_.updated = system_clock::now();

@@ -113,7 +113,7 @@ class controller : public std::enable_shared_from_this<controller> {
 
     // A round asks "/" first and applies its answer with the positions read after it, so a snapshot
     // that says a move ended also says where it ended.
-    enum class poll_step : std::uint8_t { idle, status, where, axis_status };
+    enum class poll_step : std::uint8_t { idle, status, where, axis_status, crisp };
 
     // Whether replies can be matched to commands. in_step: yes. out_of_step: a fault was seen, a
     // resynchronisation starts at the next pump. draining: waiting for the line to stay quiet for
@@ -260,7 +260,8 @@ class controller : public std::enable_shared_from_this<controller> {
     std::chrono::steady_clock::time_point last_poll_round_;
     bool changed_since_poll_ = true;
     std::size_t poll_axis_ = 0;
-    bool polled_busy_ = false;  // this round's answer to "/", applied with its positions
+    bool polled_busy_ = false;    // this round's answer to "/", applied with its positions
+    bool crisp_refused_ = false;  // LK X? answered :N- on this connection: not polled again
 
     enum class error_log_step : std::uint8_t { idle, reading, clearing, unsupported };
     error_log_step error_log_step_ = error_log_step::idle;

@@ -52,9 +52,10 @@ bool same_identity(const std::optional<controller_identity>& a, const std::optio
 bool same_content(const controller_snapshot& a, const controller_snapshot& b) {
     return a.id == b.id && a.state == b.state && a.port == b.port && same_identity(a.identity, b.identity) &&
            a.axes == b.axes && a.busy == b.busy && a.ttl_in0_mode == b.ttl_in0_mode &&
-           a.ttl_out0_mode == b.ttl_out0_mode && a.last_error == b.last_error && a.report == b.report &&
-           a.error_log_recent == b.error_log_recent && a.error_log_count == b.error_log_count &&
-           a.last_attempt == b.last_attempt && a.next_retry == b.next_retry;
+           a.ttl_out0_mode == b.ttl_out0_mode && a.crisp_state == b.crisp_state &&
+           a.last_error == b.last_error && a.report == b.report && a.error_log_recent == b.error_log_recent &&
+           a.error_log_count == b.error_log_count && a.last_attempt == b.last_attempt &&
+           a.next_retry == b.next_retry;
 }
 
 }  // namespace gw::devices

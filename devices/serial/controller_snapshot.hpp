@@ -69,6 +69,9 @@ struct controller_snapshot {
     bool busy = false;                 // STATUS "/"
     std::optional<int> ttl_in0_mode;   // TTL X?
     std::optional<int> ttl_out0_mode;  // TTL Y?
+    // CRISP's state letter ("LK X?", ms2000/crisp.hpp), read in every poll round of a controller with
+    // the CRISP module.
+    std::optional<char> crisp_state;
     std::optional<controller_error_info> last_error;
     report_port_state report = report_port_state::none;
     // The controller's own error log (DU Y): the newest codes read (at most error_log_recent_limit,

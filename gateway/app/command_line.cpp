@@ -35,12 +35,13 @@ struct flags {
 };
 
 void declare(CLI::App& app, flags& f) {
-    app.add_option("--config", f.config_file, "JSON config file (without it: three simulated controllers)")
+    app.add_option("--config", f.config_file, "JSON config file (without it: four simulated controllers)")
         ->check(CLI::ExistingFile);
     app.add_option("--check-config", f.check_file,
                    "Validate a config file, print \"ok\" or the error, exit 0/2");
-    app.add_option("--simulate", f.simulate,
-                   "Start N simulated MS-2000 controllers in-process (builds cycle: full, plain, planar)")
+    app.add_option(
+           "--simulate", f.simulate,
+           "Start N simulated MS-2000 controllers in-process (builds cycle: full, plain, planar, crisp)")
         ->check(CLI::Range(std::size_t{0}, max_simulated_controllers));
     app.add_option("--time-scale", f.time_scale, "Speed-up of the simulated controllers (1 = real time)")
         ->check(CLI::Range(0.01, 1000.0));

@@ -1,5 +1,5 @@
 // asi-gateway: puts MS-2000 stage controllers behind one service.
-// Reads the command line (a JSON config file or the embedded default of three simulated controllers,
+// Reads the command line (a JSON config file or the embedded default of four simulated controllers,
 // flags on top), sets up logging, and runs the application until SIGINT/SIGTERM.
 
 #include <cstdlib>

@@ -446,7 +446,7 @@ std::string_view to_string(log_level l) {
 
 gateway_config default_config() {
     gateway_config c;
-    c.simulate.count = 3;
+    c.simulate.count = 4;
     return c;
 }
 

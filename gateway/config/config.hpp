@@ -48,7 +48,7 @@ struct http_config {
 };
 
 struct simulate_config {
-    std::size_t count = 0;    // simulated controllers "sim1".."simN" (presets cycle full, plain, planar)
+    std::size_t count = 0;  // simulated controllers "sim1".."simN" (presets cycle full, plain, planar, crisp)
     double time_scale = 1.0;  // 1 = real time
     std::string directory;    // where their port symlinks go; empty = /tmp/asi-gateway-<pid>
 };
@@ -184,7 +184,8 @@ inline constexpr std::size_t max_queued_jobs_per_controller = 100000;
 inline constexpr std::size_t max_gcode_file_mb = 4096;
 inline constexpr std::uint64_t max_ended_job_topic_ttl_s = std::uint64_t{7} * 24 * 3600;
 
-// The embedded default used without a file: three simulated controllers (`--simulate 3`).
+// The embedded default used without a file: four simulated controllers (`--simulate 4`), one of each
+// preset, so that every firmware module can be tried.
 gateway_config default_config();
 
 // Parses and validates the text of a config file. Keys left out keep their default (simulate.count

@@ -144,6 +144,18 @@ class controller_registry {
         return initiate<operation_done>(&controller_registry::run_simple<led_request>, std::move(id), r,
                                         std::move(request_id), std::forward<Token>(token));
     }
+    // CRISP: the request's writes, then the read-out (and with wait, the end of a lock attempt).
+    template <typename Token>
+    auto async_crisp(std::string id, crisp_request r, std::string request_id, Token&& token) {
+        return initiate<crisp_result>(&controller_registry::run_crisp, std::move(id), std::move(r),
+                                      std::move(request_id), std::forward<Token>(token));
+    }
+    // AUTOFOCUS: a focus scan, waited for; the result is where Z stopped.
+    template <typename Token>
+    auto async_autofocus(std::string id, autofocus_request r, std::string request_id, Token&& token) {
+        return initiate<autofocus_result>(&controller_registry::run_autofocus, std::move(id), r,
+                                          std::move(request_id), std::forward<Token>(token));
+    }
     // Completes with success when the controller answered at all, even ":N-<code>" (the parsed reply
     // says so): an expert wants to see the reply.
     template <typename Token>
@@ -171,6 +183,10 @@ class controller_registry {
     void run_move(std::string id, move_request r, std::string request_id, handler<move_result> h);
     void run_raw(std::string id, raw_command_request r, std::string request_id,
                  handler<raw_command_result> h);
+    // focus_runs.cpp
+    void run_crisp(std::string id, crisp_request r, std::string request_id, handler<crisp_result> h);
+    void run_autofocus(std::string id, autofocus_request r, std::string request_id,
+                       handler<autofocus_result> h);
 
     // The controller and its snapshot, or unknown_controller.
     struct target {

@@ -6,6 +6,8 @@
 #include <fmt/format.h>
 #include <set>
 
+#include "devices/ms2000/crisp.hpp"
+
 namespace gw {
 
 namespace ms2000 = devices::ms2000;
@@ -237,6 +239,51 @@ operation_result<ms2000::command> plan(const led_request& r, const controller_sn
         return invalid("percent", fmt::format("must be from 0 to {}", max_led_percent));
     const ms2000::argument arg{channel, ms2000::argument::op::set, std::round(r.percent), 0};
     return built(ms2000::make_command("LED", std::span(&arg, 1)), "percent");
+}
+
+operation_result<crisp_plan> plan(const crisp_request& r, const controller_snapshot& s) {
+    if (auto e = check_connected(s)) return *e;
+    if (auto e = check_module(s, ms2000::module::crisp, "CRISP")) return *e;
+    if (r.wait && r.what != crisp_request::action::lock)
+        return invalid("wait", "wait goes with action \"lock\"");
+    if (r.wait_timeout.count() < 1 || r.wait_timeout > max_wait_timeout)
+        return invalid("timeout_ms", fmt::format("must be 1..{}", max_wait_timeout.count()));
+    crisp_plan p;
+    if (r.lock_offset) {
+        if (!std::isfinite(*r.lock_offset) || std::abs(*r.lock_offset) > ms2000::max_crisp_offset)
+            return invalid("lock_offset", fmt::format("must be from -{0} to {0}", ms2000::max_crisp_offset));
+        auto c = built(ms2000::crisp_set_offset(*r.lock_offset), "lock_offset");
+        if (!c) return c.error();
+        p.writes.push_back(std::move(*c));
+    }
+    switch (r.what) {
+        case crisp_request::action::lock:
+            p.writes.push_back(ms2000::crisp_lock());
+            break;
+        case crisp_request::action::unlock:
+            p.writes.push_back(ms2000::crisp_unlock());
+            break;
+        case crisp_request::action::off:
+            p.writes.push_back(ms2000::crisp_off());
+            break;
+        case crisp_request::action::none:
+            break;
+    }
+    if (r.save) p.writes.push_back(ms2000::save_settings());
+    p.reads = {ms2000::crisp_state_query(), ms2000::crisp_focus_error_query(), ms2000::crisp_sum_query(),
+               ms2000::crisp_offset_query()};
+    if (auto snr = ms2000::crisp_snr_query(s.identity->version)) p.reads.push_back(std::move(*snr));
+    return p;
+}
+
+operation_result<ms2000::command> plan(const autofocus_request& r, const controller_snapshot& s) {
+    if (auto e = check_connected(s)) return *e;
+    if (auto e = check_module(s, ms2000::module::autofocus, "AUTOFOCUS")) return *e;
+    if (motor_axes(s).find('Z') == std::string::npos)
+        return invalid("", fmt::format("{} has no Z axis to focus with", s.id));
+    if (r.wait_timeout.count() < 1 || r.wait_timeout > max_wait_timeout)
+        return invalid("timeout_ms", fmt::format("must be 1..{}", max_wait_timeout.count()));
+    return ms2000::autofocus_start();
 }
 
 operation_result<ms2000::command> plan(const raw_command_request& r, const controller_snapshot& s) {

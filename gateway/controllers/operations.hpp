@@ -79,6 +79,37 @@ struct led_request {  // "LED X=percent" (LED DIMMER module)
     char channel = 'X';  // X, Y, Z or F
 };
 
+// CRISP focus lock (CRISP module): any of a new lock offset, a state change and saving, in that
+// order; then every reading is read back. With `wait`, a lock completes once CRISP stopped trying
+// (locked, or the error state when the sample is too far from focus).
+struct crisp_request {
+    enum class action : std::uint8_t { none, lock, unlock, off };
+    action what = action::none;         // LK F=83 / 85 / 79
+    std::optional<double> lock_offset;  // LK Z=<n>
+    bool save = false;                  // SS Z: the settings survive a power cycle
+    bool wait = false;                  // only with action::lock
+    std::chrono::milliseconds wait_timeout = default_wait_timeout;
+};
+
+struct crisp_result {
+    char state = 'I';                   // LK X?
+    std::optional<double> focus_error;  // LK Y?
+    std::optional<double> sum;          // LK T?
+    std::optional<double> lock_offset;  // LK Z?
+    std::optional<double> snr;          // EX Y? (EXTRA Y? before 9.53)
+    std::chrono::microseconds latency{0};
+};
+
+// AUTOFOCUS (AUTOFOCUS module): a focus scan of Z; completes when it ended, with where Z stopped.
+struct autofocus_request {
+    std::chrono::milliseconds wait_timeout = default_wait_timeout;
+};
+
+struct autofocus_result {
+    double z_um = 0;
+    std::chrono::microseconds latency{0};
+};
+
 struct raw_command_request {  // one line typed by an expert: "W X Y"
     std::string command;
 };
@@ -110,6 +141,14 @@ operation_result<devices::ms2000::command> plan(const ttl_request& r, const devi
 operation_result<devices::ms2000::command> plan(const dac_request& r, const devices::controller_snapshot& s);
 operation_result<devices::ms2000::command> plan(const led_request& r, const devices::controller_snapshot& s);
 operation_result<devices::ms2000::command> plan(const raw_command_request& r,
+                                                const devices::controller_snapshot& s);
+// The writes of a CRISP request (possibly none: a read-out) and the read-out that follows them.
+struct crisp_plan {
+    std::vector<devices::ms2000::command> writes;
+    std::vector<devices::ms2000::command> reads;  // LK X?, LK Y?, LK T?, LK Z? and, if known, the SNR
+};
+operation_result<crisp_plan> plan(const crisp_request& r, const devices::controller_snapshot& s);
+operation_result<devices::ms2000::command> plan(const autofocus_request& r,
                                                 const devices::controller_snapshot& s);
 
 // The axes of a move in hardware order ("W" reads them back in this order).

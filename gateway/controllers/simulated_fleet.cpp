@@ -6,7 +6,7 @@
 namespace gw {
 
 namespace {
-constexpr std::array<std::string_view, 3> preset_cycle{"full", "plain", "planar"};
+constexpr std::array<std::string_view, 4> preset_cycle{"full", "plain", "planar", "crisp"};
 }
 
 simulated_fleet::simulated_fleet(const boost::asio::any_io_executor& executor, std::size_t count,

@@ -1,8 +1,9 @@
 #pragma once
 // The embedded default of asi-gateway (--simulate N): N simulated MS-2000 controllers started
 // in-process on pseudo-terminals, with different firmware builds so that every feature can be tried
-// without hardware. Controller i uses preset_cycle[i % 3]: "full" (ARRAY, RING BUFFER, SCAN,
-// TTL_REPORT with its report port), "plain" (XYZ only), "planar" (PLANAR CORRECTION, DAC OUT, LED).
+// without hardware. Controller i uses preset_cycle[i % 4]: "full" (ARRAY, RING BUFFER, SCAN,
+// TTL_REPORT with its report port), "plain" (XYZ only), "planar" (PLANAR CORRECTION, DAC OUT, LED),
+// "crisp" (CRISP, AUTOFOCUS, LED, RING BUFFER).
 // Created and stopped on the main thread; the simulators themselves run on the given executor.
 
 #include <cstddef>

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "devices/ms2000/build_info.hpp"
+#include "devices/ms2000/crisp.hpp"
 #include "devices/ms2000/error.hpp"
 #include "devices/ms2000/error_log.hpp"
 #include "gateway/common/timestamp.hpp"
@@ -79,6 +80,13 @@ nlohmann::json state_json(const devices::controller_snapshot& s) {
 
 namespace {
 
+// null for a controller without CRISP (or before its first poll).
+nlohmann::json crisp_json(std::optional<char> state) {
+    if (!state) return nullptr;
+    return {{"state", std::string(1, *state)},
+            {"name", std::string(devices::ms2000::crisp_state_name(*state))}};
+}
+
 nlohmann::json error_log_codes_json(const std::vector<int>& codes) {
     auto out = nlohmann::json::array();
     for (const int code : codes)
@@ -139,6 +147,7 @@ nlohmann::json state_json(const devices::controller_snapshot& s, nlohmann::json 
         {"identity", std::move(identity)},
         {"axes", std::move(axes)},
         {"ttl", {{"in0_mode", or_null(s.ttl_in0_mode)}, {"out0_mode", or_null(s.ttl_out0_mode)}}},
+        {"crisp", crisp_json(s.crisp_state)},
         {"last_error", std::move(last_error)},
         {"error_log", {{"recent", error_log_codes_json(s.error_log_recent)}, {"count", s.error_log_count}}},
         {"report_port", std::string(devices::to_string(s.report))},

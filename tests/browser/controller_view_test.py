@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """The controller view (#/controller/<id>) in headless chromium (cdp.py) against the real asi-gateway:
-three simulated controllers in-process (sim1 full, sim2 plain, sim3 planar with DAC and LED; time
+four simulated controllers in-process (sim1 full, sim2 plain, sim3 planar with DAC and LED, sim4 CRISP; time
 scale 10) plus one external ms2000-sim (ext1, preset full) with a report port and a control socket
 whose TTL pulse trains make encoder report frames, and ext2 (preset plain) whose pulses in IN0 mode 5
 make TTL position reports.
@@ -8,7 +8,8 @@ make TTL position reports.
 Checks: the view shows the axes the controller has (and jog buttons for them only); a jog click
 moves the stage (REST agrees); go-to moves to the position and the XY marker follows; sim3 shows DAC
 and LED controls, sim2 neither, and setting the LED from the page changes it (the controller's own
-answer to LED X?); TTL IN0 mode set from the page, then a pulse train: the page counts every report
+answer to LED X?); sim4 shows CRISP and autofocus controls (sim1 not): a focus scan from the page
+shows where Z ended, a lock shows locked (from the state events) with the readings; TTL IN0 mode set from the page, then a pulse train: the page counts every report
 frame (equal to the pulses sent) at 500 frames/s while drawing a decimated few, and stays responsive
 (longest main-thread task and the worst gap between animation frames are printed and bounded);
 TTL events of ext2 (IN0 mode 5 set from the page) are marked on its chart;
@@ -196,6 +197,30 @@ async def test_modules(b, port):
     await b.click("[data-controller-view=sim3] [data-action=dac]")
     err = await b.wait_for("the DAC's range error", f"{view('sim3')}.querySelector('[data-control=dac] .op-error').textContent")
     check("volts" in err, f"DAC error shown: {err!r}")
+
+
+async def test_focus_controls(b, port):
+    """sim4 ("crisp" build, in focus at Z = 150 um): a focus scan, then a lock, from the page."""
+    await open_view(b, port, "sim4")
+    groups = await b.evaluate(f"[...{view('sim4')}.querySelectorAll('[data-control]')].map(e => e.dataset.control)")
+    check({"crisp", "autofocus", "led"} <= set(groups) and "dac" not in groups, f"sim4 (CRISP, AUTOFOCUS) shows {groups}")
+    await b.wait_for("CRISP's state from the state events",
+                     f"{view('sim4')}.querySelector('[data-crisp-state]').dataset.crispState === 'I'")
+    await b.click("[data-controller-view=sim4] [data-action=autofocus]")
+    done = await b.wait_for("the focus scan's result", f"{view('sim4')}.querySelector('[data-last=autofocus]').textContent", timeout=30)
+    check("150.0" in done, f"autofocus result shown: {done!r}")
+    await b.click("[data-controller-view=sim4] [data-action=crisp-lock]")
+    await b.wait_for("locked on the page", f"{view('sim4')}.querySelector('[data-crisp-state]').dataset.crispState === 'F'",
+                     timeout=30)
+    readings = await b.wait_for("the readings", f"{view('sim4')}.querySelector('[data-crisp-readings]').textContent")
+    check("focus error" in readings and "SNR 20.0" in readings, f"readings shown: {readings!r}")
+    status, r = rest(port, "GET", "/api/v1/controllers/sim4")
+    check(status == 200 and r["crisp"] == {"state": "F", "name": "locked"}, f"GET sim4 crisp: {status} {r.get('crisp')}")
+    await b.click("[data-controller-view=sim4] [data-action=crisp-off]")
+    await b.wait_for("LED off on the page", f"{view('sim4')}.querySelector('[data-crisp-state]').dataset.crispState === 'I'")
+    await open_view(b, port, "sim1")
+    groups = await b.evaluate(f"[...{view('sim1')}.querySelectorAll('[data-control]')].map(e => e.dataset.control)")
+    check("crisp" not in groups and "autofocus" not in groups, f"sim1 (no CRISP) shows {groups}")
 
 
 async def frames(b):
@@ -386,7 +411,7 @@ async def main_async(args, fx):
         "controllers": [{"id": "ext1", "port": ext1.link, "report_port": ext1.report_link, "baud": 115200,
                          "poll_ms": 100},
                         {"id": "ext2", "port": ext2.link, "baud": 115200, "poll_ms": 100}],
-        "simulate": {"count": 3, "time_scale": TIME_SCALE, "directory": os.path.join(fx.tmp, "sim")},
+        "simulate": {"count": 4, "time_scale": TIME_SCALE, "directory": os.path.join(fx.tmp, "sim")},
         "storage": {"path": os.path.join(fx.tmp, "store")},
         "logging": {"level": "info"},
     }
@@ -403,6 +428,7 @@ async def main_async(args, fx):
         await run("here, zero, speed, home and the OUT0 level from the page", test_origin_speed_and_ttl_level, b, port)
         await run("module controls: DAC and LED only where the build has them; LED set from the page",
                   test_modules, b, port, expected=r"status of 422")
+        await run("CRISP and autofocus from the page", test_focus_controls, b, port)
         await run("report frames (500/s; 100/s under ASan): every one counted, a few drawn, the page responsive",
                   test_reports, b, port, ext1, args.report_rate)
         await run("TTL events marked on the chart", test_ttl_marks, b, port, ext2)

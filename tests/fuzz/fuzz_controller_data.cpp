@@ -2,6 +2,7 @@
 // every command the driver sends, the snapshot updates, and every JSON encoder of controller data.
 // The JSON is dumped with nlohmann's strict handler, which throws on invalid UTF-8: the fuzzer fails if
 // any byte a controller sent reaches an encoder unescaped. Byte 0 picks how the stream is cut.
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "devices/ms2000/command.hpp"
+#include "devices/ms2000/crisp.hpp"
 #include "devices/ms2000/error_log.hpp"
 #include "devices/ms2000/line_framer.hpp"
 #include "devices/ms2000/reply_check.hpp"
@@ -48,7 +50,9 @@ const std::vector<ms2000::command>& commands() {
                                        ms2000::who(),
                                        ms2000::halt(),
                                        ms2000::save_settings(),
-                                       ms2000::read_error_log()};
+                                       ms2000::read_error_log(),
+                                       ms2000::crisp_state_query(),
+                                       ms2000::crisp_offset_query()};
         for (const char* line : {"INFO X", "RM X?", "LED X?", "BU"})
             c.push_back(ms2000::raw_command(line).value());
         return c;
@@ -87,6 +91,14 @@ void apply(devices::controller_snapshot& s, std::size_t index, const ms2000::rep
                 s.error_log_recent = *codes;
                 strict_dump(gw::error_log_json(devices::error_log_event{"fuzz", *codes, {}}));
             }
+            break;
+        case 13:
+            s.crisp_state = ms2000::crisp_state_of(r);
+            if (s.crisp_state) check(!ms2000::crisp_state_name(*s.crisp_state).empty());
+            strict_dump(gw::state_json(s));
+            break;
+        case 14:
+            if (const auto v = ms2000::single_reading(r)) check(std::isfinite(*v));
             break;
         default:
             break;

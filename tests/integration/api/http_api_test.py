@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""End-to-end test of the REST API: starts the real asi-gateway (three simulated controllers
+"""End-to-end test of the REST API: starts the real asi-gateway (four simulated controllers
 in-process plus one external ms2000-sim with a control socket for unplug/timeouts) on a free
 loopback port, talks to it with real HTTP clients, and checks every endpoint, every error kind,
 auth roles, request ids and limits. It validates openapi/openapi.yaml structurally (every $ref
@@ -321,12 +321,17 @@ def test_controllers(c):
     r = c.request("GET", "/api/v1/controllers", token=TOKENS["viewer"])
     check(r.status == 200, f"list: {r.status}")
     by_id = {x["id"]: x for x in r.json()["controllers"]}
-    check(set(by_id) == {"ext1", "sim1", "sim2", "sim3"}, f"ids {sorted(by_id)}")
+    check(set(by_id) == {"ext1", "sim1", "sim2", "sim3", "sim4"}, f"ids {sorted(by_id)}")
     full = by_id["sim1"]["identity"]["modules"]
     check({"array", "ring_buffer", "scan", "ttl_report"} <= set(full), f"sim1 modules {full}")
     check(by_id["sim1"]["report_port"] == "open", f"sim1 report port {by_id['sim1']['report_port']}")
     planar = by_id["sim3"]["identity"]["modules"]
     check({"planar_correction", "dac_out", "led_dimmer"} <= set(planar), f"sim3 modules {planar}")
+    focus = by_id["sim4"]["identity"]["modules"]
+    check({"crisp", "autofocus"} <= set(focus), f"sim4 modules {focus}")
+    check(by_id["sim1"]["crisp"] is None, f"sim1 has no CRISP: {by_id['sim1']['crisp']}")
+    wait_until("sim4's CRISP state polled", lambda: c.request("GET", "/api/v1/controllers/sim4",
+                                                               token=TOKENS["viewer"]).json()["crisp"] is not None)
     r = c.request("GET", "/api/v1/controllers/sim2", token=TOKENS["viewer"])
     check(r.status == 200 and r.json()["id"] == "sim2", f"get sim2: {r.status}")
     check([a["axis"] for a in r.json()["axes"]] == ["X", "Y", "Z"], "sim2 axes")
@@ -364,6 +369,51 @@ def test_operations(c):
     check(r.status == 200, f"led on sim3: {r.status} {r.body}")
     r = c.request("POST", base + "/halt", token=t)  # no body at all
     check(r.status == 200, f"halt without body: {r.status}")
+
+
+def test_focus(c):
+    """CRISP and AUTOFOCUS on sim4 (the "crisp" preset: the sample is in focus at Z = 150 um)."""
+    t = TOKENS["operator"]
+    base = "/api/v1/controllers/sim4"
+
+    def crisp(body):
+        r = c.request("POST", base + "/crisp", body, token=t)
+        check(r.status == 200, f"crisp {body}: {r.status} {r.body}")
+        check(r.json()["operation"] == "crisp", f"crisp {body}: {r.body}")
+        return r.json()["crisp"]
+
+    r = c.request("POST", base + "/move", {"axes": {"Z": 0}, "wait": True}, token=t)
+    check(r.status == 200, f"Z to 0: {r.status} {r.body}")
+    got = crisp({"action": "unlock"})
+    check(got["name"] == "ready" and got["focus_error"] == -150000, f"ready 150 um below focus: {got}")
+    check(got["sum"] > 0 and got["snr"] is not None, f"readings with the LED on: {got}")
+    got = crisp({"action": "lock", "wait": True, "timeout_ms": 20000})
+    check(got["state"] == "E" and got["name"] == "error", f"too far from focus to lock: {got}")
+    wait_until("the error state in GET", lambda: c.request("GET", base, token=t).json()["crisp"]
+               == {"state": "E", "name": "error"})
+    r = c.request("POST", base + "/autofocus", {"timeout_ms": 30000}, token=t)
+    check(r.status == 200 and abs(r.json()["z_um"] - 150) < 0.1, f"autofocus: {r.status} {r.body}")
+    got = crisp({"lock_offset": 500, "action": "lock", "wait": True, "save": True})
+    # The servo may still be moving Z the 500 nm to the new set point.
+    check(got["name"] == "locked" and got["lock_offset"] == 500 and -525 <= got["focus_error"] <= 25,
+          f"locked with an offset: {got}")
+    r = c.request("POST", base + "/move", {"axes": {"Z": 0}, "mode": "relative", "wait": True}, token=t)
+    z = {p["axis"]: p["position_um"] for p in r.json()["positions"]}["Z"]
+    check(abs(z - 150.5) < 0.1, f"the lock holds Z 500 nm above focus: {z}")
+    wait_until("locked in GET", lambda: c.request("GET", base, token=t).json()["crisp"]["name"] == "locked")
+    got = crisp({})
+    check(got["name"] == "locked" and abs(got["focus_error"]) <= 25, f"a read changes nothing: {got}")
+    got = crisp({"action": "off", "lock_offset": 0})
+    check(got["name"] == "idle" and got["sum"] == 0 and got["lock_offset"] == 0, f"LED off: {got}")
+
+    c.problem("POST", "/api/v1/controllers/sim1/crisp", 409, "missing-module", body={}, token=t)
+    c.problem("POST", "/api/v1/controllers/sim1/autofocus", 409, "missing-module", body={}, token=t)
+    for body, field in [({"action": "focus"}, "action"), ({"wait": True}, "wait"),
+                        ({"lock_offset": 1e9}, "lock_offset"), ({"lock_offset": "up"}, "lock_offset"),
+                        ({"timeout_ms": 0}, "timeout_ms"), ({"now": True}, "now")]:
+        p = c.problem("POST", base + "/crisp", 422, "invalid-value", body=body, token=t)
+        check(p.get("field") == field, f"{body}: field {p.get('field')}")
+    c.problem("POST", base + "/crisp", 403, "forbidden", body={}, token=TOKENS["viewer"])
 
 
 def test_raw_command(c):
@@ -678,7 +728,7 @@ def main():
                                 "read_timeout_ms": 4000, "max_connections": max_connections}},
             "controllers": [{"id": "ext1", "port": ext1.link, "baud": 115200, "poll_ms": 0,
                              "command_timeout_ms": 500}],
-            "simulate": {"count": 3, "time_scale": 20, "directory": os.path.join(fx.tmp, "sim")},
+            "simulate": {"count": 4, "time_scale": 20, "directory": os.path.join(fx.tmp, "sim")},
             "auth": auth_tokens(),
             "logging": {"level": "info"},
         }
@@ -690,6 +740,7 @@ def main():
         run("dashboard assets", test_dashboard_assets, c)
         run("controllers", test_controllers, c)
         run("typed operations", test_operations, c)
+        run("CRISP and autofocus", test_focus, c)
         run("raw command", test_raw_command, c)
         run("a slow operation does not block others", test_slow_operation_does_not_block_others, c)
         run("error kinds", test_errors, c)

@@ -510,6 +510,42 @@ def test_error_log(gw, c, contract):
     check(status == 200, f"move back: {status} {text}")
 
 
+def test_focus(fx, binary, contract):
+    """CRISP and AUTOFOCUS over MQTT on a gateway with the fourth simulated build (sim4, "crisp")."""
+    broker = Broker(fx, "broker-focus")
+    broker.start()
+    gw = Gateway(fx, binary, "gw-focus", [f"mqtt://127.0.0.1:{broker.port}"], sims=4)
+    gw.start()
+    c = Client(broker.port, "focus-client")
+    try:
+        reply = "clients/focus/replies"
+        state = gw.topic("controllers", "sim4", "state")
+        c.subscribe(reply, state)
+        cmd = gw.topic("controllers", "sim4", "cmd")
+        ans = command(c, cmd, {"id": "af", "operation": "autofocus", "token": TOKENS["operator"]}, reply)
+        contract.validate(reply, json.dumps(ans))
+        check(ans["type"] == "result" and abs(ans["result"]["z_um"] - 150) < 0.1, f"autofocus: {ans}")
+        mark = c.mark()
+        ans = command(c, cmd, {"id": "lk", "operation": "crisp", "args": {"action": "lock", "wait": True},
+                               "token": TOKENS["operator"]}, reply)
+        contract.validate(reply, json.dumps(ans))
+        check(ans["type"] == "result" and ans["result"]["crisp"]["name"] == "locked", f"lock: {ans}")
+
+        def locked_state(topic, payload, retained, props):
+            return topic == state and (payload_json(payload)["data"]["crisp"] or {}).get("name") == "locked"
+        _, p, _, _ = c.wait_for("a state message with CRISP locked", locked_state, start=mark)
+        contract.validate(state, p)
+        ans = command(c, gw.topic("controllers", "sim1", "cmd"),
+                      {"id": "no", "operation": "crisp", "args": {}, "token": TOKENS["operator"]}, reply)
+        check(ans["type"] == "error" and ans["problem"]["status"] == 409, f"sim1 has no CRISP: {ans}")
+        contract.validate(reply, json.dumps(ans))
+    finally:
+        c.close()
+        gw.proc.send_signal(signal.SIGTERM)
+        gw.proc.wait(timeout=WAIT)
+        broker.stop()
+
+
 def test_commands_v311(gw, broker, contract):
     reply = "clients/v311/replies"
     c = Client(broker.port, "v311-client", v5=False)
@@ -1259,6 +1295,7 @@ def main():
             broker_x, contract)
         run("TLS with a test CA", test_tls, fx, args.gateway, contract)
         run("the README's ACL: only the scheduler commands", test_acl, fx, args.gateway, args.readme)
+        run("CRISP and autofocus commands, CRISP in the state", test_focus, fx, args.gateway, contract)
         if contract.doc:
             print(f"{contract.checked} payloads validated against asyncapi.yaml")
     except Exception as e:  # noqa: BLE001

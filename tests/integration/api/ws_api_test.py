@@ -409,6 +409,41 @@ def test_error_log(port):
           f"the state's error_log {log}")
 
 
+def test_crisp_state_events(port):
+    # sim4 has CRISP: a lock is watched like a move, its state changes come as state events.
+    c = WsClient(port, TOKENS["operator"], "operator")
+    ack = c.request({"op": "subscribe", "id": "s", "topics": ["controllers/sim4/state"]})
+    check(ack["type"] == "subscribed", f"ack {ack}")
+    a = c.request({"op": "command", "id": "af", "controller": "sim4", "operation": "autofocus"})
+    check(a["type"] == "result" and abs(a["result"]["z_um"] - 150) < 0.1, f"autofocus: {a}")
+    names = []  # the CRISP state names of the state events, in order
+
+    def note(m):
+        if is_event("controllers/sim4/state")(m) and m["data"]["crisp"]:
+            if not names or names[-1] != m["data"]["crisp"]["name"]:
+                names.append(m["data"]["crisp"]["name"])
+        return False
+
+    def command(id, args):
+        # Events that come before the answer are noted too.
+        c.send({"op": "command", "id": id, "controller": "sim4", "operation": "crisp", "args": args})
+        return c.wait_for(lambda m: note(m) or (m.get("type") in ("result", "error") and m.get("id") == id),
+                          f"the answer to {id}")
+
+    a = command("lk", {"action": "lock"})
+    check(a["type"] == "result" and a["result"]["crisp"]["name"] == "trying_to_lock", f"lock: {a}")
+    def wait_name(name, timeout=WAIT):
+        if names[-1:] != [name]:
+            c.wait_for(lambda m: note(m) or names[-1:] == [name], f"a state event: {name}", timeout)
+
+    wait_name("locked", 10)
+    a = command("off", {"action": "off"})
+    check(a["type"] == "result" and a["result"]["crisp"]["name"] == "idle", f"off: {a}")
+    wait_name("idle")
+    check(names[-3:] == ["trying_to_lock", "locked", "idle"], f"CRISP states in the events: {names}")
+    c.close()
+
+
 def test_resume(port):
     topic = "controllers/sim3/position"
     c = WsClient(port, TOKENS["operator"], "resume1")
@@ -696,7 +731,7 @@ def main():
             "controllers": [{"id": "ext1", "port": ext1.link, "baud": 115200, "poll_ms": 50,
                              "command_timeout_ms": 1000},
                             {"id": "ext2", "port": ext2.link, "report_port": ext2.report_link, "baud": 115200}],
-            "simulate": {"count": 3, "time_scale": 1, "directory": os.path.join(fx.tmp, "sim")},
+            "simulate": {"count": 4, "time_scale": 1, "directory": os.path.join(fx.tmp, "sim")},
             "auth": auth_tokens(),
             "logging": {"level": "info"},
         }
@@ -711,6 +746,7 @@ def main():
         run("subscribe with wildcards, events while a move runs", test_subscribe_and_move, port)
         run("commands over the WebSocket", test_commands, port)
         run("the controller's error log: a clamped move comes as code 35", test_error_log, port)
+        run("CRISP state changes come as state events", test_crisp_state_events, port)
         run("resume: replay and gap", test_resume, port)
         run("reports: every frame in order; resume replays the rest", test_reports_stream, port, control2)
         run("batched connection: batch messages, same events, none lost", test_batched_reports, port, control2)

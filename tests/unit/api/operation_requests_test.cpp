@@ -114,7 +114,8 @@ TEST_F(operation_requests_test, unknown_operation_is_not_found) {
     EXPECT_EQ(out.error->status, 404u);
     EXPECT_FALSE(is_operation("fly"));
     EXPECT_TRUE(is_operation("led"));
-    EXPECT_EQ(operation_names().size(), 10u);
+    EXPECT_EQ(operation_names().size(), 12u);
+    EXPECT_TRUE(is_operation("crisp") && is_operation("autofocus"));
     EXPECT_EQ(required_role("command"), gw::role::admin);
     EXPECT_EQ(required_role("move"), gw::role::operator_);
 }

@@ -42,9 +42,9 @@ TEST(config, empty_object_gives_the_safe_defaults) {
     EXPECT_TRUE(c->shutdown.halt_on_exit);
 }
 
-TEST(config, embedded_default_simulates_three_controllers) {
+TEST(config, embedded_default_simulates_one_controller_of_each_preset) {
     const auto c = default_config();
-    EXPECT_EQ(c.simulate.count, 3u);
+    EXPECT_EQ(c.simulate.count, 4u);  // full, plain, planar, crisp
     EXPECT_TRUE(c.controllers.empty());
     EXPECT_EQ(c.http.listen_address, "127.0.0.1");
     EXPECT_TRUE(validate_config(c).empty());

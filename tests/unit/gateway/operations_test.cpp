@@ -221,6 +221,68 @@ TEST(operations, dac_and_led_need_their_modules) {
     check(led_request{10, 'Q'}, planar, fails(kind::invalid_value, "channel"));
 }
 
+// The wire lines of a CRISP plan, writes then reads; the refusal's message when refused.
+std::string crisp_lines(const crisp_request& r, const controller_snapshot& s) {
+    const auto p = plan(r, s);
+    if (!p) return "refused: " + p.error().message;
+    std::string out;
+    for (const auto* list : {&p->writes, &p->reads})
+        for (const auto& c : *list)
+            out += c.wire;
+    return out;
+}
+
+crisp_request crisp_with(crisp_request::action what, std::optional<double> offset = {}, bool save = false,
+                         bool wait = false, std::chrono::milliseconds timeout = default_wait_timeout) {
+    crisp_request r;
+    r.what = what;
+    r.lock_offset = offset;
+    r.save = save;
+    r.wait = wait;
+    r.wait_timeout = timeout;
+    return r;
+}
+
+TEST(operations, crisp_plans_writes_in_order_then_every_reading) {
+    auto crisp = connected("crisp");
+    using action = crisp_request::action;
+    const std::string reads = "LK X?\rLK Y?\rLK T?\rLK Z?\rEXTRA Y?\r";  // version 9.50
+    EXPECT_EQ(crisp_lines(crisp_request{}, crisp), reads);
+    EXPECT_EQ(crisp_lines(crisp_with(action::lock, -20.5, true, true), crisp),
+              "LK Z=-20.5\rLK F=83\rSS Z\r" + reads);
+    EXPECT_EQ(crisp_lines(crisp_with(action::unlock), crisp), "LK F=85\r" + reads);
+    EXPECT_EQ(crisp_lines(crisp_with(action::off), crisp), "LK F=79\r" + reads);
+    crisp.identity->version = "9.53";
+    EXPECT_EQ(crisp_lines(crisp_request{}, crisp), "LK X?\rLK Y?\rLK T?\rLK Z?\rEX Y?\r");
+
+    const auto refused = [&](const crisp_request& r, const controller_snapshot& s, kind k,
+                             const std::string& field) {
+        const auto p = plan(r, s);
+        ASSERT_FALSE(p);
+        EXPECT_EQ(p.error().kind, k) << p.error().message;
+        EXPECT_EQ(p.error().field, field) << p.error().message;
+    };
+    refused(crisp_request{}, connected("full"), kind::missing_module, "crisp");
+    refused(crisp_with(action::none, 40000), crisp, kind::invalid_value, "lock_offset");
+    refused(crisp_with(action::none, nan), crisp, kind::invalid_value, "lock_offset");
+    refused(crisp_with(action::unlock, {}, false, true), crisp, kind::invalid_value, "wait");
+    refused(crisp_with(action::lock, {}, false, true, 0ms), crisp, kind::invalid_value, "timeout_ms");
+    auto away = crisp;
+    away.state = connection_state::disconnected;
+    refused(crisp_request{}, away, kind::not_connected, "");
+}
+
+TEST(operations, autofocus_needs_its_module_and_a_z_axis) {
+    check(autofocus_request{}, connected("crisp"), wire("AF\r"));
+    check(autofocus_request{}, connected("planar"), fails(kind::missing_module, "autofocus"));
+    autofocus_request instant;
+    instant.wait_timeout = 0ms;
+    check(instant, connected("crisp"), fails(kind::invalid_value, "timeout_ms"));
+    auto xy = connected("crisp");
+    xy.identity->build.motor_axes = "XY";
+    check(autofocus_request{}, xy, fails(kind::invalid_value));
+}
+
 TEST(operations, missing_module_message_names_the_module_and_build) {
     auto planned = plan(dac_request{5}, connected("plain"));
     ASSERT_FALSE(planned);
