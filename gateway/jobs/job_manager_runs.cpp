@@ -81,8 +81,10 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
         failure = std::string("internal error: ") + x.what();
     }
     if (!e) {
+        // The run put its settings back itself. Cleared before the end is announced, so that whoever
+        // sees "succeeded" also finds nothing left to restore.
+        store_restore_commands(id, {});
         set_state(*job, job_state::succeeded, "");
-        store_restore_commands(id, {});  // the run put its settings back itself
         release(controller, id);
     } else if (cancelled) {
         set_state(*job, job_state::cancelled, "cancelled");

@@ -93,9 +93,9 @@ def main():
     fx = Fixture("gw-readme-")
     try:
         port = free_port()
-        # ./scripts/run's gateway: three simulated controllers in real time, no config file.
+        # ./scripts/run's gateway: the embedded default (four simulated controllers in real time).
         log = open(os.path.join(fx.tmp, "gateway.log"), "w")
-        proc = subprocess.Popen([gateway, "--simulate", "3", "--port", str(port), "--storage",
+        proc = subprocess.Popen([gateway, "--port", str(port), "--storage",
                                  os.path.join(fx.tmp, "store"), "--sim-dir", os.path.join(fx.tmp, "sims")],
                                 stdout=log, stderr=subprocess.STDOUT)
         fx.procs.append(proc)
