@@ -147,7 +147,7 @@ class controller_registry {
     // CRISP: the request's writes, then the read-out (and with wait, the end of a lock attempt).
     template <typename Token>
     auto async_crisp(std::string id, crisp_request r, std::string request_id, Token&& token) {
-        return initiate<crisp_result>(&controller_registry::run_crisp, std::move(id), std::move(r),
+        return initiate<crisp_result>(&controller_registry::run_crisp, std::move(id), r,
                                       std::move(request_id), std::forward<Token>(token));
     }
     // AUTOFOCUS: a focus scan, waited for; the result is where Z stopped.
@@ -184,6 +184,8 @@ class controller_registry {
     void run_raw(std::string id, raw_command_request r, std::string request_id,
                  handler<raw_command_result> h);
     // focus_runs.cpp
+    template <typename T, typename Request, typename Run>
+    void run_steps(std::string id, const Request& r, std::string request_id, handler<T> h, Run run);
     void run_crisp(std::string id, crisp_request r, std::string request_id, handler<crisp_result> h);
     void run_autofocus(std::string id, autofocus_request r, std::string request_id,
                        handler<autofocus_result> h);

@@ -127,7 +127,7 @@ void spawn_run(const net::any_io_executor& ex, net::awaitable<T> body, Done done
                 co_return f.error;
             }
         },
-        [done = std::move(done)](std::exception_ptr e, operation_result<T> r) mutable {
+        [done = std::move(done)](const std::exception_ptr& e, operation_result<T> r) mutable {
             if (e) r = make_error(operation_error_kind::internal, "the operation ended unexpectedly");
             done(std::move(r));
         });
@@ -135,39 +135,33 @@ void spawn_run(const net::any_io_executor& ex, net::awaitable<T> body, Done done
 
 }  // namespace
 
-void controller_registry::run_crisp(std::string id, crisp_request r, std::string request_id,
-                                    handler<crisp_result> h) {
-    auto finish = [this, id, request_id](handler<crisp_result> h, operation_result<crisp_result> res) {
+// A request checked against the snapshot (plan()), then `run` as a coroutine with what plan() made.
+template <typename T, typename Request, typename Run>
+void controller_registry::run_steps(std::string id, const Request& r, std::string request_id, handler<T> h,
+                                    Run run) {
+    auto finish = [this, id, request_id](handler<T> h, operation_result<T> res) {
         if (!res) note_failure(res.error(), id, request_id);
         net::post(executor_, net::append(std::move(h), std::move(res)));
     };
     auto t = find(id);
     if (!t) return finish(std::move(h), t.error());
-    auto p = plan(r, t->snapshot);
-    if (!p) return finish(std::move(h), p.error());
-    run_context ctx{t->controller, id, request_id, options_.arrival_poll};
-    spawn_run<crisp_result>(executor_, run_crisp_plan(std::move(ctx), std::move(*p), r),
-                            [finish, h = std::move(h)](operation_result<crisp_result> res) mutable {
-                                finish(std::move(h), std::move(res));
-                            });
+    auto planned = plan(r, t->snapshot);
+    if (!planned) return finish(std::move(h), planned.error());
+    run_context ctx{t->controller, std::move(id), std::move(request_id), options_.arrival_poll};
+    spawn_run<T>(executor_, run(std::move(ctx), std::move(*planned), r),
+                 [finish, h = std::move(h)](operation_result<T> res) mutable {
+                     finish(std::move(h), std::move(res));
+                 });
+}
+
+void controller_registry::run_crisp(std::string id, crisp_request r, std::string request_id,
+                                    handler<crisp_result> h) {
+    run_steps<crisp_result>(std::move(id), r, std::move(request_id), std::move(h), &run_crisp_plan);
 }
 
 void controller_registry::run_autofocus(std::string id, autofocus_request r, std::string request_id,
                                         handler<autofocus_result> h) {
-    auto finish = [this, id, request_id](handler<autofocus_result> h,
-                                         operation_result<autofocus_result> res) {
-        if (!res) note_failure(res.error(), id, request_id);
-        net::post(executor_, net::append(std::move(h), std::move(res)));
-    };
-    auto t = find(id);
-    if (!t) return finish(std::move(h), t.error());
-    auto start = plan(r, t->snapshot);
-    if (!start) return finish(std::move(h), start.error());
-    run_context ctx{t->controller, id, request_id, options_.arrival_poll};
-    spawn_run<autofocus_result>(executor_, run_autofocus_scan(std::move(ctx), std::move(*start), r),
-                                [finish, h = std::move(h)](operation_result<autofocus_result> res) mutable {
-                                    finish(std::move(h), std::move(res));
-                                });
+    run_steps<autofocus_result>(std::move(id), r, std::move(request_id), std::move(h), &run_autofocus_scan);
 }
 
 }  // namespace gw
