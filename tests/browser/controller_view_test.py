@@ -10,7 +10,9 @@ moves the stage (REST agrees); go-to moves to the position and the XY marker fol
 and LED controls, sim2 neither, and setting the LED from the page changes it (the controller's own
 answer to LED X?); sim4 shows CRISP and autofocus controls (sim1 not): a focus scan from the page
 shows where Z ended, a lock shows locked (from the state events) with the readings; TTL IN0 mode set from the page, then a pulse train: the page counts every report
-frame (equal to the pulses sent) at 500 frames/s while drawing a decimated few, and stays responsive
+frame (equal to the pulses sent) at 500 frames/s while drawing a decimated few, and stays responsive;
+triggers faster than the report port can carry: the frames the controller dropped (its error log)
+are shown lost in the controller, equal to the simulator's count
 (longest main-thread task and the worst gap between animation frames are printed and bounded);
 TTL events of ext2 (IN0 mode 5 set from the page) are marked on its chart;
 a lease taken, renewed and released from the page, a page move while holding it works while a REST
@@ -268,6 +270,27 @@ async def test_reports(b, port, ext1, rate):
     check(perf["worstFrameGap"] < 500, f"the page stalled: {perf}")
 
 
+async def test_lost_in_the_controller(b, port, ext1):
+    """Triggers every 0.5 ms of simulated time while a frame takes about 1.6 ms to go out (IN0 mode 1, set by
+    test_reports): the controller drops most of them (error 87), and the page tells the frames lost in
+    the controller apart, with the simulator's own count."""
+    await open_view(b, port, "ext1")
+    await b.wait_for("the report line", f"!{view('ext1')}.querySelector('.report-stats').hidden")
+    frames_before = await frames(b)
+    before = json.loads(ext1.control("state"))
+    n = 40
+    check(ext1.control(f"pulse {n} 2000") == "ok", "pulse train")  # 0.5 ms apart in simulated time
+    stats = f"{view('ext1')}.querySelector('.report-stats').textContent"
+    await b.wait_for("frames lost in the controller on the page", f"/ in the controller/.test({stats})", timeout=30)
+    after = json.loads(ext1.control("state"))
+    sent = after["reports_sent"] - before["reports_sent"]
+    dropped = after["reports_dropped"] - before["reports_dropped"]
+    check(sent + dropped == n and dropped > 0, f"the simulator sent {sent} and dropped {dropped} of {n}")
+    await b.wait_for(f"{dropped} lost in the controller", f"{stats}.includes('{dropped} in the controller')")
+    got = await frames(b)
+    check(got - frames_before == sent, f"the page counted {got - frames_before} frames; the controller sent {sent}")
+
+
 async def test_ttl_marks(b, port, ext2):
     """A plain build in IN0 mode 5 (set from the page): a TTL edge starts serial position reports
     (every RT X = 200 ms of simulated time), the next stops them; each is a controllers/<id>/ttl
@@ -432,6 +455,7 @@ async def main_async(args, fx):
         await run("CRISP and autofocus from the page", test_focus_controls, b, port)
         await run("report frames (500/s; 100/s under ASan): every one counted, a few drawn, the page responsive",
                   test_reports, b, port, ext1, args.report_rate)
+        await run("frames the controller could not send are counted apart", test_lost_in_the_controller, b, port, ext1)
         await run("TTL events marked on the chart", test_ttl_marks, b, port, ext2)
         if args.screenshot_dir:
             os.makedirs(args.screenshot_dir, exist_ok=True)
