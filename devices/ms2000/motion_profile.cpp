@@ -60,6 +60,13 @@ double approach_leg_mm(double distance_mm, double backlash_mm, double overshoot_
     return std::max(backlash, std::max(overshoot_mm, 0.0));
 }
 
+double approach_leg_within_mm(double distance_mm, double leg_mm, double target_mm, double lower_mm,
+                              double upper_mm) {
+    if (distance_mm == 0 || !(leg_mm > 0)) return 0;
+    const double room = distance_mm < 0 ? target_mm - lower_mm : upper_mm - target_mm;
+    return std::clamp(room, 0.0, leg_mm);
+}
+
 double move_with_approach_s(double distance_mm, double leg_mm, double speed_mm_s, double ramp_ms) {
     const double out = std::abs(distance_mm) + leg_mm;
     return move_time_s(out, speed_mm_s, ramp_ms) +

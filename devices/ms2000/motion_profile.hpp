@@ -57,6 +57,12 @@ double settle_after_move_ms(double distance_mm, double settle_ms);
 // reading: the protocol reference (§3.2) gives none.
 double approach_leg_mm(double distance_mm, double backlash_mm, double overshoot_mm);
 
+// The leg of a move of `distance_mm` to `target_mm` shortened to the room left beyond the target in
+// the direction of travel, between `lower_mm` and `upper_mm` (where motion ends: the soft limits or
+// the limit switches). A move that ends at a limit has no leg: the stage cannot run past it.
+double approach_leg_within_mm(double distance_mm, double leg_mm, double target_mm, double lower_mm,
+                              double upper_mm);
+
 // Motion time (settle excluded) of a point-to-point move with its approach leg: out past the target
 // and back.
 double move_with_approach_s(double distance_mm, double leg_mm, double speed_mm_s, double ramp_ms);

@@ -73,6 +73,12 @@ bool sets_ttl_mode(const ms2000::command& cmd) {
     return cmd.verb == "TTL" && cmd.wire.find('=') != std::string::npos;
 }
 
+bool sets_soft_limit(const ms2000::command& cmd) {
+    const bool limit_verb =
+        cmd.verb == "SL" || cmd.verb == "SETLOW" || cmd.verb == "SU" || cmd.verb == "SETUP";
+    return limit_verb && cmd.wire.find('=') != std::string::npos;
+}
+
 }  // namespace
 
 controller::controller(const net::any_io_executor& ex, controller_settings settings,
@@ -426,6 +432,7 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
         return pump();
     }
     if (!ec && !done.job.internal && sets_ttl_mode(done.job.cmd)) refresh_ttl_modes();
+    if (!ec && !done.job.internal && sets_soft_limit(done.job.cmd)) refresh_soft_limits();
     // Whoever asked "/" (a waited move, a job), its answer is the newest word on motion: the snapshot
     // must not go on saying "moving" after a move's waiter was told it stopped.
     if (!ec && !done.job.poll && reply && reply->what == ms2000::reply::kind::status) {
@@ -839,6 +846,18 @@ void controller::refresh_ttl_modes() {
     // part of it, and whoever restores them later must see what the controller really has.
     enqueue_internal(ms2000::query("TTL", "XY"), "refresh", [this](error_code ec, const ms2000::reply& r) {
         if (!ec) apply_ttl_modes(snapshot_, r);
+    });
+}
+
+void controller::refresh_soft_limits() {
+    // Read back, as the TTL modes are: the controller refuses an upper limit below the lower one, and
+    // jobs check their targets against these.
+    const auto axes = motor_axes();
+    enqueue_internal(ms2000::query("SL", axes), "refresh", [this](error_code ec, const ms2000::reply& r) {
+        if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::lower_limit_mm);
+    });
+    enqueue_internal(ms2000::query("SU", axes), "refresh", [this](error_code ec, const ms2000::reply& r) {
+        if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::upper_limit_mm);
     });
 }
 

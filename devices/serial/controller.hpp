@@ -166,6 +166,7 @@ class controller : public std::enable_shared_from_this<controller> {
     void identify();
     void on_identified();
     void refresh_ttl_modes();
+    void refresh_soft_limits();  // SL/SU after a client set one
     void arm_poll_timer();
     bool poll_round_wanted() const;  // see controller_settings::idle_poll_interval
     std::optional<pending> next_poll_command();

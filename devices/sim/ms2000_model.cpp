@@ -365,7 +365,14 @@ void ms2000_model::start_move(axis& a, double target_mm, sim_time now, bool comm
         target_mm = lower;
         log_error(35);
     }
-    // Targets are quantised to encoder counts (doc §3.1, MOVREL).
+    start_move_between(a, target_mm, lower, upper, now, commanded, speed_override);
+}
+
+void ms2000_model::start_move_between(axis& a, double target_mm, double lower_mm, double upper_mm,
+                                      sim_time now, bool commanded, double speed_override) {
+    // Targets are quantised to encoder counts (doc §3.1, MOVREL); the room for the approach leg is
+    // measured from the target asked for, so that rounding inside a count adds no leg.
+    const double asked_mm = target_mm;
     const double counts = screw_.counts_per_mm;
     target_mm = std::round(target_mm * counts) / counts;
     const double from = a.motion.position_mm(now);
@@ -375,11 +382,15 @@ void ms2000_model::start_move(axis& a, double target_mm, sim_time now, bool comm
     const double default_pc = screw_.encoder_nm / 1e6;
     const double pc = std::max(a.params["PCROS"], 1e-9);
     const double settle = ms2000::settle_ms(screw_.settle_ms, default_pc, pc);
-    // Point-to-point moves approach their target past it with BACKLASH / OVERSHOOT; moves at a given
-    // speed (scan lines, retraces) do not.
-    const double leg = speed_override > 0 ? 0
-                                          : ms2000::approach_leg_mm(target_mm - from, a.params["BACKLASH"],
-                                                                    a.params["OVERSHOOT"]);
+    // Point-to-point moves approach their target past it with BACKLASH / OVERSHOOT, as far as the
+    // travel allows; moves at a given speed (scan lines, retraces) do not.
+    const double distance = target_mm - from;
+    const double leg =
+        speed_override > 0
+            ? 0
+            : ms2000::approach_leg_within_mm(
+                  distance, ms2000::approach_leg_mm(distance, a.params["BACKLASH"], a.params["OVERSHOOT"]),
+                  asked_mm, lower_mm, upper_mm);
     a.motion = axis_motion(from, target_mm, speed, a.params["ACCEL"], settle, now, leg);
     a.commanded = commanded;
 }
@@ -477,12 +488,14 @@ std::string ms2000_model::cmd_home(const command_line& cmd, sim_time now) {
     if (which.empty())
         for (auto& a : axes_)
             which.push_back(&a);
-    // HOME drives towards the HM position; the default lies far beyond travel, so the stage stops at
-    // the upper soft limit (no limit error for HOME).
-    for (auto* a : which) {
-        const double target = std::clamp(a->params["SETHOME"], a->params["SETLOW"], a->params["SETUP"]);
-        start_move(*a, target, now);
-    }
+    // HOME drives towards the HM position regardless of the soft limits: the default HM lies far
+    // beyond travel, so the stage runs until a limit switch stops it, which is how a stage finds its
+    // reference (our reading of the HOME and SETHOME pages, doc §3.1). Reaching the switch is HOME's
+    // purpose, so no limit error is logged.
+    const double switch_mm = config_.limit_switch_mm;
+    for (auto* a : which)
+        start_move_between(*a, std::clamp(a->params["SETHOME"], -switch_mm, switch_mm), -switch_mm, switch_mm,
+                           now, true, 0);
     return ack();
 }
 

@@ -143,8 +143,12 @@ class ms2000_model {
     axis* find_axis(char letter);
     const axis* find_axis(char letter) const;
     double units_per_mm(const axis& a) const;
+    // A move to `target_mm`, clamped to the soft limits (34/35 logged when it had to be).
     void start_move(axis& a, double target_mm, sim_time now, bool commanded = true,
                     double speed_override = 0);
+    // A move to `target_mm` inside [lower_mm, upper_mm] (its approach leg included), no clamping.
+    void start_move_between(axis& a, double target_mm, double lower_mm, double upper_mm, sim_time now,
+                            bool commanded, double speed_override);
     void stop_all(sim_time now);
     bool commanded_busy(sim_time now) const;
     sim_time motion_done_at() const;  // when every axis is settled

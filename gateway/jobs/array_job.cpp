@@ -211,9 +211,10 @@ operation_result<job_plan> plan_array(const nlohmann::json& json_spec, const pla
         }
         const auto t = target_of(a1, spec, visits[i]);
         step.target = position_um{{'X', t.first}, {'Y', t.second}};
-        step.estimated_s = ctx.motion.move_seconds({{'X', (t.first - from.first) / 1000.0},
-                                                    {'Y', (t.second - from.second) / 1000.0}}) +
-                           dwell_s;
+        step.estimated_s =
+            ctx.motion.move_seconds({{'X', (t.first - from.first) / 1000.0, t.first / 1000.0},
+                                     {'Y', (t.second - from.second) / 1000.0, t.second / 1000.0}}) +
+            dwell_s;
         step.waits_for_trigger = i > first && spec.advance != advance_source::timer;
         plan.estimated_s += step.estimated_s;
         plan.bounds.include(*step.target);

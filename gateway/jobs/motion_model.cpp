@@ -54,12 +54,17 @@ double motion_model::travel_seconds(char axis_letter, double mm, double speed_mm
     return devices::ms2000::move_time_s(mm, speed_mm_s, axis(axis_letter).ramp_ms);
 }
 
-double motion_model::axis_move_seconds(char axis_letter, double mm, double speed_mm_s) const {
+double motion_model::axis_move_seconds(char axis_letter, double mm, double speed_mm_s,
+                                       std::optional<double> target_mm) const {
     if (mm == 0) return 0;
     const auto& p = axis(axis_letter);
     const double v = speed_mm_s > 0 ? speed_mm_s : p.speed_mm_s;
-    const double leg =
-        speed_mm_s > 0 ? 0 : devices::ms2000::approach_leg_mm(mm, p.backlash_mm, p.overshoot_mm);
+    double leg = speed_mm_s > 0 ? 0 : devices::ms2000::approach_leg_mm(mm, p.backlash_mm, p.overshoot_mm);
+    if (leg > 0 && target_mm) {
+        constexpr double unlimited = 1e9;
+        leg = devices::ms2000::approach_leg_within_mm(
+            mm, leg, *target_mm, p.lower_limit_mm.value_or(-unlimited), p.upper_limit_mm.value_or(unlimited));
+    }
     return devices::ms2000::move_with_approach_s(mm, leg, v, p.ramp_ms) +
            devices::ms2000::settle_after_move_ms(mm, p.settle_ms) / 1000.0;
 }
@@ -67,7 +72,7 @@ double motion_model::axis_move_seconds(char axis_letter, double mm, double speed
 double motion_model::move_seconds(const std::vector<axis_delta_mm>& deltas) const {
     double slowest = 0;
     for (const auto& d : deltas)
-        slowest = std::max(slowest, axis_move_seconds(d.axis, d.millimetres));
+        slowest = std::max(slowest, axis_move_seconds(d.axis, d.millimetres, 0, d.target_mm));
     return slowest;
 }
 

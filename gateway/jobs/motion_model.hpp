@@ -23,11 +23,15 @@ struct axis_motion_params {
     double max_speed_mm_s = 6.8;  // the lead screw's top speed (SCAN moves to a line start at it)
     double backlash_mm = 0;       // BACKLASH (B X?): a move down runs this far past and comes back
     double overshoot_mm = 0;      // OVERSHOOT (OS X?): every move runs this far past and comes back
+    // Where the travel ends (SL X?, SU X?): the leg of a move that ends near them is shorter.
+    std::optional<double> lower_limit_mm;
+    std::optional<double> upper_limit_mm;
 };
 
 struct axis_delta_mm {
     char axis = 'X';
-    double millimetres = 0;  // signed distance
+    double millimetres = 0;           // signed distance
+    std::optional<double> target_mm;  // where the move ends, when known: cuts the leg at a limit
 };
 
 // One row of the lead-screw table, as the motion model needs it.
@@ -76,7 +80,9 @@ class motion_model {
     // controller stays busy for (a SCAN line, retrace or start move at a given speed). A move at its
     // own SPEED is a point-to-point move and includes the BACKLASH / OVERSHOOT leg, as the controller
     // (and the simulator) runs it; one at a given speed does not.
-    double axis_move_seconds(char axis, double mm, double speed_mm_s = 0) const;
+    // With `target_mm`, the leg is cut to the room left before the axis's soft limit.
+    double axis_move_seconds(char axis, double mm, double speed_mm_s = 0,
+                             std::optional<double> target_mm = std::nullopt) const;
 
   private:
     std::map<char, axis_motion_params> axes_;

@@ -51,6 +51,7 @@ struct probe_state {
     std::function<void(motion_model)> done;
     std::string axes;                                           // hardware order
     std::map<char, std::optional<double>> counts;               // CNTS from the snapshot
+    std::map<char, std::optional<double>> lower, upper;         // SL, SU from the snapshot
     std::map<char, std::optional<double>> speed, ramp, pc;      // S, AC, PC answers
     std::map<char, std::optional<double>> backlash, overshoot;  // B, OS answers (unset: none)
     std::map<char, double> pc_resolution;                       // half the last printed digit of PC
@@ -112,6 +113,8 @@ void finish(const std::shared_ptr<probe_state>& s) {
         auto params = axis_params_for(*screw, speed, ramp, pc);
         params.backlash_mm = s->backlash[a].value_or(0);
         params.overshoot_mm = s->overshoot[a].value_or(0);
+        params.lower_limit_mm = s->lower[a];
+        params.upper_limit_mm = s->upper[a];
         model.set_axis(a, params);
     }
     if (s->baud) {
@@ -131,6 +134,8 @@ void async_read_motion_model(controller_registry& registry, const std::string& c
         for (const auto& a : snap->axes) {
             s->axes.push_back(a.axis);
             s->counts[a.axis] = a.counts_per_mm;
+            s->lower[a.axis] = a.lower_limit_mm;
+            s->upper[a.axis] = a.upper_limit_mm;
         }
     } else {
         s->axes = "XYZ";  // the queries will fail and say why; the model gets the default axes

@@ -210,7 +210,8 @@ operation_result<job_plan> plan_planar_correction(const json& spec, const plan_c
             if (at) {
                 std::vector<axis_delta_mm> deltas;
                 for (const char axis : xyz)
-                    deltas.push_back({axis, (p.given->at(axis) - at->at(axis)) / 1000.0});
+                    deltas.push_back(
+                        {axis, (p.given->at(axis) - at->at(axis)) / 1000.0, p.given->at(axis) / 1000.0});
                 step.estimated_s = ctx.motion.move_seconds(deltas);
             }
             at = *p.given;

@@ -179,7 +179,7 @@ operation_result<job_plan> plan_ring_buffer(const nlohmann::json& json, const pl
             std::vector<axis_delta_mm> d;
             for (const auto& [axis, um] : to)
                 if (auto it = from.find(axis); it != from.end())
-                    d.push_back({axis, (um - it->second) / 1000.0});
+                    d.push_back({axis, (um - it->second) / 1000.0, um / 1000.0});
             plan_step step;
             step.name = step_name(spec, tour, k);
             step.target = to;

@@ -200,8 +200,9 @@ operation_result<job_plan> plan_scan(const nlohmann::json& json, const plan_cont
         std::vector<axis_delta_mm> d;
         const auto* fa = s.axis(f);
         const auto* sa = s.axis(w);
-        if (fa && fa->position_um) d.push_back({f, g.fast_begin(0) - *fa->position_um / 1000.0});
-        if (sa && sa->position_um) d.push_back({w, g.slow_at(0) - *sa->position_um / 1000.0});
+        if (fa && fa->position_um)
+            d.push_back({f, g.fast_begin(0) - *fa->position_um / 1000.0, g.fast_begin(0)});
+        if (sa && sa->position_um) d.push_back({w, g.slow_at(0) - *sa->position_um / 1000.0, g.slow_at(0)});
         approach_s = ctx.motion.move_seconds(d);
     }
     plan.steps.reserve(static_cast<std::size_t>(g.lines));

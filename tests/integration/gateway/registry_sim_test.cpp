@@ -312,6 +312,36 @@ TEST_F(registry_sim_test, wait_timeout_is_reported_as_timeout) {
     EXPECT_TRUE(halted);
 }
 
+TEST_F(registry_sim_test, a_raw_soft_limit_command_refreshes_the_limits_jobs_check_against) {
+    add_sim("p1", "plain");
+    start();
+    const auto limit = [&](char axis,
+                           std::optional<double> devices::axis_state::*which) -> std::optional<double> {
+        const auto s = registry_->get("p1");
+        if (!s) return std::nullopt;
+        for (const auto& a : s->axes)
+            if (a.axis == axis) return a.*which;
+        return std::nullopt;
+    };
+    ASSERT_TRUE(wait_until([&] { return limit('X', &devices::axis_state::lower_limit_mm).has_value(); }));
+    EXPECT_DOUBLE_EQ(*limit('X', &devices::axis_state::lower_limit_mm), -110);
+    auto set = await(
+        registry_->async_raw_command("p1", raw_command_request{"SL X=-30 Y=-40"}, "sl", net::use_future));
+    ASSERT_TRUE(set) << set.error().message;
+    EXPECT_TRUE(wait_until([&] {
+        return limit('X', &devices::axis_state::lower_limit_mm) == -30.0 &&
+               limit('Y', &devices::axis_state::lower_limit_mm) == -40.0;
+    })) << "the snapshot kept the limits read at identification";
+    // The long name, and SU; a refused value (SU below SL) leaves what the controller has.
+    set = await(registry_->async_raw_command("p1", raw_command_request{"SETUP X=55"}, "su", net::use_future));
+    ASSERT_TRUE(set) << set.error().message;
+    EXPECT_TRUE(wait_until([&] { return limit('X', &devices::axis_state::upper_limit_mm) == 55.0; }));
+    set = await(registry_->async_raw_command("p1", raw_command_request{"SU Y=-50"}, "su2", net::use_future));
+    ASSERT_TRUE(set) << set.error().message;
+    EXPECT_EQ(set->reply.what, devices::ms2000::reply::kind::error) << set->raw_reply;
+    EXPECT_EQ(limit('Y', &devices::axis_state::upper_limit_mm), 110.0);
+}
+
 TEST_F(registry_sim_test, raw_command_round_trip) {
     add_sim("p1", "plain");
     start();

@@ -127,6 +127,25 @@ class motion_probe_test : public ::testing::Test {
 
     nlohmann::json state() const { return nlohmann::json::parse(sim_->state_json()); }
 
+    // The snapshot's soft limits are read back after a command sets one: wait until they are the
+    // simulator's.
+    bool limits_in_the_snapshot() const {
+        const auto deadline = std::chrono::steady_clock::now() + 10s;
+        while (std::chrono::steady_clock::now() < deadline) {
+            const auto sim = state();
+            const auto s = registry_->get("m1");
+            bool same = s.has_value();
+            for (const auto& a : s ? s->axes : std::vector<devices::axis_state>{}) {
+                const auto& expected = sim["axes"][std::string(1, a.axis)];
+                same = same && a.lower_limit_mm == expected["lower_limit"].get<double>() &&
+                       a.upper_limit_mm == expected["upper_limit"].get<double>();
+            }
+            if (same) return true;
+            std::this_thread::sleep_for(10ms);
+        }
+        return false;
+    }
+
     std::string dir_;
     io_thread sim_io_;
     io_thread gw_io_;
@@ -218,18 +237,22 @@ TEST_F(motion_probe_test, estimate_agrees_with_the_simulated_busy_time) {
         // The probe reads B and OS: a move down runs past its target and back.
         {"backlash_down", {"PC X=0.000022", "B X=0.4 Y=0.4"}, {{'X', 2000}, {'Y', -28000}}},
         {"overshoot", {"B X=0 Y=0", "OS X=0.2"}, {{'X', 9000}}},
+        // A move's leg ends at the soft limit: 0.15 mm of the 0.4 just above it, none onto it.
+        {"backlash_near_the_lower_limit", {"B Y=0.4", "SL Y=-30"}, {{'Y', -29850}}},
+        {"backlash_onto_the_lower_limit", {}, {{'Y', -30000}}},
     };
     for (const auto& row : table) {
         SCOPED_TRACE(row.name);
         for (const auto& s : row.settings)
             EXPECT_EQ(raw(s), ":A") << s;
+        ASSERT_TRUE(limits_in_the_snapshot());
         const auto m = probe();
         ASSERT_TRUE(m);
         const auto before = state();
         std::vector<axis_delta_mm> deltas;
         for (const auto& t : row.targets) {
             const double from_units = before["axes"][std::string(1, t.axis)]["position"].get<double>();
-            deltas.push_back({t.axis, (t.micrometres * 10 - from_units) / 10000.0});
+            deltas.push_back({t.axis, (t.micrometres * 10 - from_units) / 10000.0, t.micrometres / 1000.0});
         }
         const double estimate_s = m->move_seconds(deltas);
 

@@ -147,6 +147,7 @@ struct agreement_row {
     std::vector<axis_delta_mm> deltas;
     std::optional<double> speed, ramp, pc;  // what the settings set on X and Y
     double backlash = 0, overshoot = 0;     // likewise
+    std::optional<double> lower, upper;     // SL / SU on X and Y
 };
 
 const agreement_row agreement_table[] = {
@@ -181,6 +182,30 @@ const agreement_row agreement_table[] = {
      {},
      0.02,
      0.3},
+    // Near the end of travel the leg is cut to the room left: 0.2 mm above SL, then none at SU.
+    {"backlash_near_the_lower_limit",
+     'B',
+     {"B X=0.5 Y=0.5", "SL X=-9.2 Y=-9.2"},
+     "M X=-90000",
+     {{'X', -9.0, -9.0}},
+     {},
+     {},
+     {},
+     0.5,
+     0,
+     -9.2},
+    {"overshoot_onto_the_upper_limit",
+     'B',
+     {"OS X=0.3 Y=0.3", "SU X=9 Y=9"},
+     "M X=90000 Y=20000",
+     {{'X', 9.0, 9.0}, {'Y', 2.0, 2.0}},
+     {},
+     {},
+     {},
+     0,
+     0.3,
+     {},
+     9.0},
 };
 
 class motion_model_agreement : public ::testing::TestWithParam<agreement_row> {};
@@ -204,6 +229,8 @@ TEST_P(motion_model_agreement, with_the_simulator_model) {
         auto p = axis_params_for(*screw, row.speed, row.ramp, row.pc);
         p.backlash_mm = row.backlash;
         p.overshoot_mm = row.overshoot;
+        p.lower_limit_mm = row.lower;
+        p.upper_limit_mm = row.upper;
         m.set_axis(a, p);
     }
     EXPECT_NEAR(m.move_seconds(row.deltas), simulated_s, 5e-6) << row.move;

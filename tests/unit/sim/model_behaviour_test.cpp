@@ -158,13 +158,79 @@ TEST(model_motion, here_zero_and_negative_unit_multiplier) {
     EXPECT_EQ(send(m, "W X", done), ":A 10000.1 \r\n");
 }
 
-TEST(model_motion, home_runs_to_the_upper_limit_and_is_busy) {
-    ms2000_model m(config_for("plain", 'D'));
-    send(m, "SU X=5", sim_time{0});
+TEST(model_motion, home_runs_past_the_soft_limit_to_the_upper_switch_and_is_busy) {
+    ms2000_model m(config_for("plain", 'D'));  // switches at +-125 mm
+    EXPECT_EQ(send(m, "SU X=5", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "HM X?", sim_time{0}), ":A X=1000.000 \r\n");  // the default: far beyond travel
     EXPECT_EQ(send(m, "! X", sim_time{0}), ":A\r\n");
     EXPECT_EQ(send(m, "/", milliseconds(10)), "B\r\n");
+    EXPECT_EQ(send(m, "RS X+", milliseconds(10)), ":A B\r\n");  // a commanded move
     const auto done = run_to_completion(m);
-    EXPECT_NEAR(m.position_mm('X', done), 5, 1e-4);
+    EXPECT_NEAR(m.position_mm('X', done), 125, 1e-4) << "HOME ends at the switch, not at SU";
+    EXPECT_EQ(send(m, "RS X-", done), ":A U\r\n");
+    EXPECT_EQ(send(m, "RS X", done), ":A 74 \r\n");  // bit 6: the upper switch is closed
+    EXPECT_EQ(send(m, "DU Y", done), ":A \r\n") << "reaching the switch is HOME's purpose, not an error";
+    // Y was not named: it stayed.
+    EXPECT_NEAR(m.position_mm('Y', done), 0, 1e-9);
+}
+
+TEST(model_motion, home_stops_at_a_home_position_set_within_travel_or_at_the_lower_switch) {
+    ms2000_model m(config_for("plain", 'D'));
+    send(m, "M X=30000", sim_time{0});
+    auto t = run_to_completion(m);
+    EXPECT_EQ(send(m, "HM X+", t), ":A\r\n");  // here (3 mm) becomes home
+    EXPECT_EQ(send(m, "HM X?", t), ":A X=3.000 \r\n");
+    send(m, "M X=-20000", t);
+    t = run_to_completion(m);
+    send(m, "!", t);  // every axis; Y's home is the default, beyond the upper switch
+    t = run_to_completion(m);
+    EXPECT_NEAR(m.position_mm('X', t), 3, 1e-4);
+    EXPECT_NEAR(m.position_mm('Y', t), 125, 1e-4);
+    EXPECT_EQ(send(m, "HM X=-1000", t), ":A\r\n");  // home beyond the lower end
+    send(m, "! X", t);
+    t = run_to_completion(m);
+    EXPECT_NEAR(m.position_mm('X', t), -125, 1e-4);
+    EXPECT_EQ(send(m, "RS X-", t), ":A L\r\n");
+    EXPECT_EQ(send(m, "HM X-", t), ":A\r\n");  // back to the default
+    EXPECT_EQ(send(m, "HM X?", t), ":A X=1000.000 \r\n");
+}
+
+TEST(model_motion, halt_stops_a_home_run_like_any_commanded_move) {
+    ms2000_model m(config_for("plain", 'D'));
+    send(m, "! X", sim_time{0});
+    EXPECT_EQ(send(m, "\\", milliseconds(500)), ":N-21\r\n");
+    const double stopped = m.position_mm('X', milliseconds(501));
+    EXPECT_GT(stopped, 0.1);
+    EXPECT_LT(stopped, 125);
+    EXPECT_EQ(send(m, "/", milliseconds(501)), "N\r\n");
+}
+
+TEST(model_motion, the_approach_leg_stops_at_the_limit_a_move_ends_on) {
+    // Backlash 0.5 mm: a move down to 0.2 mm above the lower soft limit runs only those 0.2 mm past
+    // its target; a move down to the limit itself runs no leg at all.
+    ms2000_model m(config_for("plain"));
+    EXPECT_EQ(send(m, "B X=0.5", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(send(m, "SL X=-10", sim_time{0}), ":A\r\n");
+    send(m, "M X=-98000", sim_time{0});
+    auto t = run_to_completion(m);
+    double lowest = 0;
+    for (auto at = sim_time{0}; at <= t; at += sim_time{100})
+        lowest = std::min(lowest, m.position_mm('X', at));
+    EXPECT_NEAR(lowest, -10, 1e-3) << "the leg ran past the soft limit";
+    EXPECT_NEAR(m.position_mm('X', t), -9.8, 1e-4);
+    EXPECT_EQ(send(m, "DU Y", t), ":A \r\n");
+
+    send(m, "M X=0", t);
+    const auto up = run_to_completion(m);
+    ms2000_model plain(config_for("plain"));  // the same move with no backlash at all
+    send(plain, "SL X=-10", sim_time{0});
+    send(plain, "M X=-100000", sim_time{0});
+    const auto plain_done = run_to_completion(plain);
+    send(m, "M X=-100000", up);
+    const auto down = run_to_completion(m);
+    EXPECT_EQ(down - up, plain_done) << "a move that ends on the limit has no leg";
+    for (auto at = up; at <= down; at += sim_time{100})
+        ASSERT_GE(m.position_mm('X', at), -10 - 1e-9);
 }
 
 TEST(model_ring_buffer, load_step_and_overflow) {
