@@ -29,6 +29,10 @@ struct axis_motion_params {
 };
 
 struct axis_delta_mm {
+    axis_delta_mm() = default;
+    axis_delta_mm(char a, double mm, std::optional<double> target = std::nullopt)
+        : axis(a), millimetres(mm), target_mm(target) {}
+
     char axis = 'X';
     double millimetres = 0;           // signed distance
     std::optional<double> target_mm;  // where the move ends, when known: cuts the leg at a limit

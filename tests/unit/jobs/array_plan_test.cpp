@@ -38,7 +38,7 @@ devices::controller_snapshot snapshot(const std::string& preset, double x_um = 1
 }
 
 plan_context context(const std::string& preset) {
-    return plan_context{snapshot(preset), motion_model{}};
+    return plan_context{snapshot(preset), motion_model{}, {}};
 }
 
 TEST(ArraySpec, Errors) {

@@ -21,7 +21,9 @@ TEST_P(crisp_state_reply, reads_the_state_letter) {
     const auto& c = GetParam();
     const auto r = accept_reply(crisp_state_query(), c.line);
     ASSERT_EQ(r.has_value(), c.answer) << c.line;
-    if (r) EXPECT_EQ(crisp_state_of(*r), c.state) << c.line;
+    if (r) {
+        EXPECT_EQ(crisp_state_of(*r), c.state) << c.line;
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -46,7 +48,9 @@ TEST_P(crisp_reading_reply, reads_one_number_in_either_form) {
     const auto& c = GetParam();
     const auto r = accept_reply(raw_command(c.command).value(), c.line);
     ASSERT_EQ(r.has_value(), c.answer) << c.command << " / " << c.line;
-    if (r) EXPECT_EQ(single_reading(*r), c.value) << c.command << " / " << c.line;
+    if (r) {
+        EXPECT_EQ(single_reading(*r), c.value) << c.command << " / " << c.line;
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(table, crisp_reading_reply,
