@@ -17,7 +17,7 @@ target once per round) and the table gives the median over rounds of each figure
 gateway's own cost shows). Issue 16's goals: REST median at most 1.3x and WebSocket at most 1.2x
 ser2net's; with default polling the p99 at most 10 % over polling off.
 
-  scripts/build && bench/setup && /usr/bin/python3 bench/roundtrip_vs_ser2net.py [--rounds 3] [--count 3000]
+  scripts/build && bench/setup && /usr/bin/python3 bench/roundtrip_vs_ser2net.py [--rounds 5] [--count 5000]
 """
 
 import argparse
@@ -160,8 +160,8 @@ def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--gateway", default=os.path.join(ROOT, "build", "gateway", "asi-gateway"))
     p.add_argument("--sim", default=os.path.join(ROOT, "build", "devices", "sim", "ms2000-sim"))
-    p.add_argument("--rounds", type=int, default=3)
-    p.add_argument("--count", type=int, default=3000)
+    p.add_argument("--rounds", type=int, default=5)
+    p.add_argument("--count", type=int, default=5000)
     p.add_argument("--baud", type=int, action="append", default=[], help="pace (repeatable; default 115200 and 4000000)")
     p.add_argument("--results", default="", help="append the tables to this file (e.g. bench/RESULTS.md)")
     args = p.parse_args()

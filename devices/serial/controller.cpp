@@ -133,12 +133,13 @@ void controller::get_snapshot(std::function<void(controller_snapshot)> handler) 
 // ---- commands ---------------------------------------------------------------------------------
 
 void controller::submit(ms2000::command cmd, std::string request_id, completion_handler handler) {
-    // Post to the strand: all state lives there.
-    net::post(strand_,
-              [self = shared_from_this(),
-               job = pending{std::move(cmd), std::move(request_id), std::move(handler), {}}]() mutable {
-                  self->on_submit(std::move(job));
-              });
+    // Onto the strand: all state lives there. Dispatched: on the strand's own thread it is taken at
+    // once (a queue hop less per command); on_submit never completes a handler inline.
+    net::dispatch(strand_,
+                  [self = shared_from_this(),
+                   job = pending{std::move(cmd), std::move(request_id), std::move(handler), {}}]() mutable {
+                      self->on_submit(std::move(job));
+                  });
 }
 
 void controller::on_submit(pending job) {
@@ -471,6 +472,7 @@ void controller::complete(pending& job, error_code ec, ms2000::reply reply) {
     } else if (job.user) {
         // A command the controller refused may have left a code in its error log (a job step too).
         if (ec == ms2000::error::controller_rejected) error_log_due_ = true;
+        last_user_answer_ = steady_clock::now();
         // Never call user code inline: post to the handler's associated executor (or our strand).
         net::post(strand_, net::append(std::move(job.user), ec, std::move(reply)));
     }
@@ -892,10 +894,19 @@ bool controller::poll_round_wanted() const {
            steady_clock::now() - last_poll_round_ >= settings_.idle_poll_interval;
 }
 
+bool controller::idle_round_yields() const {
+    // Only a round due to the idle pace: one that watches a move or follows a change goes at once.
+    if (snapshot_.busy || changed_since_poll_ || snapshot_.crisp_state == 'K') return false;
+    const auto now = steady_clock::now();
+    return now - last_user_answer_ < settings_.client_pause &&
+           now - last_poll_round_ < 2 * settings_.idle_poll_interval;
+}
+
 std::optional<controller::pending> controller::next_poll_command() {
     if (snapshot_.state != connection_state::connected) return std::nullopt;
     if (poll_step_ == poll_step::idle) {
-        if (!poll_due_) return std::nullopt;
+        // A yielding round stays due: the next tick, or the next answer, looks again.
+        if (!poll_due_ || idle_round_yields()) return std::nullopt;
         poll_due_ = false;
         poll_step_ = poll_step::status;
         last_poll_round_ = steady_clock::now();

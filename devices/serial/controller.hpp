@@ -169,6 +169,7 @@ class controller : public std::enable_shared_from_this<controller> {
     void refresh_soft_limits();  // SL/SU after a client set one
     void arm_poll_timer();
     bool poll_round_wanted() const;  // see controller_settings::idle_poll_interval
+    bool idle_round_yields() const;  // see controller_settings::client_pause
     std::optional<pending> next_poll_command();
     void on_poll_reply(poll_step step, std::size_t axis_index, boost::system::error_code ec,
                        const ms2000::reply& reply);
@@ -260,6 +261,7 @@ class controller : public std::enable_shared_from_this<controller> {
     // the stage (or change what a poll reads) ran since.
     std::chrono::steady_clock::time_point last_poll_round_;
     bool changed_since_poll_ = true;
+    std::chrono::steady_clock::time_point last_user_answer_{};  // a client's command last completed
     std::size_t poll_axis_ = 0;
     bool polled_busy_ = false;    // this round's answer to "/", applied with its positions
     bool crisp_refused_ = false;  // LK X? answered :N- on this connection: not polled again

@@ -19,6 +19,10 @@ struct controller_settings {
     // STATUS, queries), a round starts only this long after the previous one: a client's commands
     // then rarely wait behind a poll. Anything that may move the stage brings back poll_interval.
     std::chrono::milliseconds idle_poll_interval{500};
+    // Such an idle round also waits while a client keeps the line busy, its next command following
+    // the last answer within this pause, for at most another idle_poll_interval: a client's commands
+    // in a loop then wait behind a poll half as often.
+    std::chrono::milliseconds client_pause{5};
     // The controller's error log (DU Y) is read when it connects, when its report stream has gone
     // quiet after frames, after a move or a refused command, and at least this often; zero: only on
     // those occasions. All but the first ride the poll timer, so none while polling is off. Like polls,

@@ -324,8 +324,19 @@ template <typename T>
 void controller_registry::deliver(handler<T> h, operation_result<T> r, const std::string& id,
                                   const std::string& request_id) {
     if (!r) note_failure(r.error(), id, request_id);
-    // Through executor_, then on the handler's own associated executor if it has one.
+    // Through executor_, then on the handler's own associated executor if it has one. Posted: this
+    // may be the initiating call, which must not complete inline.
     net::post(executor_, net::append(std::move(h), std::move(r)));
+}
+
+template <typename T>
+void controller_registry::deliver_completion(handler<T> h, operation_result<T> r, const std::string& id,
+                                             const std::string& request_id) {
+    if (!r) note_failure(r.error(), id, request_id);
+    // The driver already posted its completion, so nothing of its own is on the stack: the handler
+    // runs at once when its executor allows (a round trip's queue hop, and a poll of the reactor,
+    // fewer), otherwise it is queued as above.
+    net::dispatch(executor_, net::append(std::move(h), std::move(r)));
 }
 
 void controller_registry::note_failure(const operation_error& e, const std::string& id,
@@ -356,16 +367,17 @@ void controller_registry::run_simple(std::string id, Request r, std::string requ
     auto cmd = plan(r, t->snapshot);
     if (!cmd) return deliver<operation_done>(std::move(h), cmd.error(), id, request_id);
     const auto started = steady_clock::now();
-    t->controller->async_command(
-        std::move(*cmd), request_id,
-        [this, h = std::move(h), id, request_id, started](boost::system::error_code ec,
-                                                          ms2000::reply reply) mutable {
-            if (ec)
-                deliver<operation_done>(std::move(h), from_driver_error(ec, reply.error_code, id), id,
-                                        request_id);
-            else
-                deliver<operation_done>(std::move(h), operation_done{since(started)}, id, request_id);
-        });
+    t->controller->async_command(std::move(*cmd), request_id,
+                                 [this, h = std::move(h), id, request_id, started](
+                                     boost::system::error_code ec, ms2000::reply reply) mutable {
+                                     if (ec)
+                                         deliver_completion<operation_done>(
+                                             std::move(h), from_driver_error(ec, reply.error_code, id), id,
+                                             request_id);
+                                     else
+                                         deliver_completion<operation_done>(
+                                             std::move(h), operation_done{since(started)}, id, request_id);
+                                 });
 }
 
 template void controller_registry::run_simple<halt_request>(std::string, halt_request, std::string,
@@ -422,13 +434,13 @@ void controller_registry::run_raw(std::string id, raw_command_request r, std::st
                                                           ms2000::reply reply) mutable {
             // ":N-<code>" is an answer: the expert sees it in the parsed reply.
             if (ec && ec != devices::ms2000::error::controller_rejected)
-                return deliver<raw_command_result>(std::move(h), from_driver_error(ec, reply.error_code, id),
-                                                   id, request_id);
+                return deliver_completion<raw_command_result>(
+                    std::move(h), from_driver_error(ec, reply.error_code, id), id, request_id);
             raw_command_result result;
             result.raw_reply = reply.raw;
             result.reply = std::move(reply);
             result.latency = since(started);
-            deliver<raw_command_result>(std::move(h), std::move(result), id, request_id);
+            deliver_completion<raw_command_result>(std::move(h), std::move(result), id, request_id);
         });
 }
 

@@ -199,6 +199,10 @@ class controller_registry {
 
     template <typename T>
     void deliver(handler<T> h, operation_result<T> r, const std::string& id, const std::string& request_id);
+    // From a driver's completion (not the initiating call): the handler may run at once.
+    template <typename T>
+    void deliver_completion(handler<T> h, operation_result<T> r, const std::string& id,
+                            const std::string& request_id);
     void note_failure(const operation_error& e, const std::string& id, const std::string& request_id);
 
     boost::asio::any_io_executor executor_;

@@ -27,7 +27,10 @@ class drv_recording_observer : public devices::controller_observer {
         record([&] { error_logs.push_back(e); });
     }
     void on_trace(const devices::command_trace& t) override {
-        record([&] { traces.push_back(t); });
+        record([&] {
+            traces.push_back(t);
+            trace_times.push_back(std::chrono::steady_clock::now());
+        });
     }
     void on_link_fault(const devices::link_fault& f) override {
         record([&] { faults.push_back(f.what); });
@@ -62,6 +65,7 @@ class drv_recording_observer : public devices::controller_observer {
     std::vector<devices::ttl_event> ttls;
     std::vector<devices::error_log_event> error_logs;
     std::vector<devices::command_trace> traces;
+    std::vector<std::chrono::steady_clock::time_point> trace_times;  // when each trace arrived
     std::vector<devices::link_fault::kind> faults;
 
   private:

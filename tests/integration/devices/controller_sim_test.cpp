@@ -202,6 +202,59 @@ TEST_F(controller_sim_test, polls_rest_while_the_stage_is_idle_and_clients_only_
     EXPECT_GT(c.observer->latest().positions_read, idle_read);
 }
 
+// The poll rounds (their first command, "/") seen while `client` runs: the times between them.
+template <typename Client>
+std::vector<std::chrono::milliseconds> round_spacing_while(test::drv_recording_observer& o, Client client) {
+    const auto first = o.locked([&] { return o.traces.size(); });
+    client();
+    std::vector<std::chrono::steady_clock::time_point> rounds;
+    o.locked([&] {
+        for (std::size_t i = first; i < o.traces.size(); ++i)
+            if (o.traces[i].request_id == "poll" && o.traces[i].wire.starts_with("/"))
+                rounds.push_back(o.trace_times[i]);
+    });
+    std::vector<std::chrono::milliseconds> spacing;
+    for (std::size_t i = 1; i < rounds.size(); ++i)
+        spacing.push_back(std::chrono::duration_cast<std::chrono::milliseconds>(rounds[i] - rounds[i - 1]));
+    return spacing;
+}
+
+TEST_F(controller_sim_test, idle_rounds_yield_to_a_client_in_a_loop_but_at_most_twice_the_idle_interval) {
+    // Every answer counts as a busy client here (a pause of 10 s): idle rounds then come only at the
+    // limit, twice the idle interval apart, however the loop's own timing goes.
+    auto c = make("plain", 4, 10ms, [](controller_settings& s) {
+        s.idle_poll_interval = 150ms;
+        s.client_pause = 10s;
+    });
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+    ASSERT_TRUE(c.observer->wait([&] { return !c.observer->snapshots.back().busy; }));
+    std::this_thread::sleep_for(200ms);
+    const auto spacing = round_spacing_while(*c.observer, [&] {
+        const auto end = std::chrono::steady_clock::now() + 1600ms;
+        while (std::chrono::steady_clock::now() < end)
+            ASSERT_FALSE(c.call(ms2000::where("X")).first);
+    });
+    ASSERT_GE(spacing.size(), 2u) << "the snapshot went stale while the client read";
+    for (const auto gap : spacing)
+        EXPECT_GE(gap, 300ms - 30ms) << "an idle round went between a client's commands";
+}
+
+TEST_F(controller_sim_test, idle_rounds_keep_their_pace_when_a_client_pauses_between_commands) {
+    auto c = make("plain", 4, 10ms, [](controller_settings& s) { s.idle_poll_interval = 150ms; });
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+    ASSERT_TRUE(c.observer->wait([&] { return !c.observer->snapshots.back().busy; }));
+    std::this_thread::sleep_for(200ms);
+    // 30 ms between commands is longer than the default client pause (5 ms): rounds every 150 ms.
+    const auto spacing = round_spacing_while(*c.observer, [&] {
+        const auto end = std::chrono::steady_clock::now() + 1500ms;
+        while (std::chrono::steady_clock::now() < end) {
+            ASSERT_FALSE(c.call(ms2000::where("X")).first);
+            std::this_thread::sleep_for(30ms);
+        }
+    });
+    EXPECT_GE(spacing.size(), 6u) << "rounds waited for a client that was pausing";
+}
+
 TEST_F(controller_sim_test, unplug_fails_commands_then_replug_reconnects_and_reidentifies) {
     auto c = make("plain", 4);
     ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
