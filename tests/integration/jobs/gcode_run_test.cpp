@@ -359,10 +359,22 @@ TEST_F(gcode_run_test, a_crash_while_unplugged_gets_the_output_low_once_the_cont
     EXPECT_EQ(ttl_out("sim1"), 1);  // unreachable meanwhile
     sims_.at("sim1")->replug();
     ASSERT_TRUE(wait_until([&] { return ttl_out("sim1") == 0; }, 30s)) << "TTL still on after the replug";
-    std::size_t lows = 0;
-    for (const auto& [rid, wire] : all_commands())
-        if (rid == safe_output_request_id(id) && wire == "TTL Y=0") ++lows;
-    EXPECT_EQ(lows, 1u);
+    // The simulator switches the output as it reads the command; the gateway records the command when
+    // its answer is back, and only then sends the job's restore (SPEED): wait for both before counting.
+    const auto lows = [&] {
+        std::size_t n = 0;
+        for (const auto& [rid, wire] : all_commands())
+            if (rid == safe_output_request_id(id) && wire == "TTL Y=0") ++n;
+        return n;
+    };
+    ASSERT_TRUE(wait_until(
+        [&] {
+            return lows() >= 1 &&
+                   std::abs(sim_state("sim1")["axes"]["X"]["speed"].get<double>() - 5.5) < 1e-6;
+        },
+        30s))
+        << "the output's command or the speed restore never came";
+    EXPECT_EQ(lows(), 1u);
     EXPECT_EQ(job(id)->state, job_state::interrupted);
 }
 
