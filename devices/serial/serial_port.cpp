@@ -58,14 +58,10 @@ void serial_port::close() {
 
 std::size_t serial_port::flush_input() {
     if (!stream_.is_open()) return 0;
-    // The flush only when something waits: it is a second system call on every command, and a byte
-    // that arrives after the count is still caught before the command goes out (the reply guard
-    // waits for it to be read, and it is then a line nobody asked for).
     int pending = 0;
-    if (::ioctl(stream_.native_handle(), FIONREAD, &pending) != 0) pending = 1;  // unknown: flush
-    if (pending <= 0) return 0;
+    if (::ioctl(stream_.native_handle(), FIONREAD, &pending) != 0) pending = 0;
     ::tcflush(stream_.native_handle(), TCIFLUSH);
-    return static_cast<std::size_t>(pending);
+    return pending > 0 ? static_cast<std::size_t>(pending) : 0;
 }
 
 bool serial_port::node_exists(const std::string& path) {
