@@ -58,6 +58,8 @@ void serial_port::close() {
 
 std::size_t serial_port::flush_input() {
     if (!stream_.is_open()) return 0;
+    // Flushed even when FIONREAD counts nothing: bytes still in the tty's flip buffer (a pty's, a
+    // UART driver's) are not counted yet, but the flush drops them too.
     int pending = 0;
     if (::ioctl(stream_.native_handle(), FIONREAD, &pending) != 0) pending = 0;
     ::tcflush(stream_.native_handle(), TCIFLUSH);
