@@ -79,6 +79,12 @@ bool sets_soft_limit(const ms2000::command& cmd) {
     return limit_verb && cmd.wire.find('=') != std::string::npos;
 }
 
+// A round that watches a move (CRISP trying to lock ends by itself too) or follows a change: it goes
+// at the fast pace and never yields to a client.
+bool round_watches_change(const controller_snapshot& s, bool changed_since_poll) {
+    return s.busy || changed_since_poll || s.crisp_state == 'K';
+}
+
 }  // namespace
 
 controller::controller(const net::any_io_executor& ex, controller_settings settings,
@@ -889,14 +895,12 @@ void controller::arm_poll_timer() {
 }
 
 bool controller::poll_round_wanted() const {
-    // CRISP trying to lock ends by itself, in locked or in error: watched like a move.
-    return snapshot_.busy || changed_since_poll_ || snapshot_.crisp_state == 'K' ||
+    return round_watches_change(snapshot_, changed_since_poll_) ||
            steady_clock::now() - last_poll_round_ >= settings_.idle_poll_interval;
 }
 
 bool controller::idle_round_yields() const {
-    // Only a round due to the idle pace: one that watches a move or follows a change goes at once.
-    if (snapshot_.busy || changed_since_poll_ || snapshot_.crisp_state == 'K') return false;
+    if (round_watches_change(snapshot_, changed_since_poll_)) return false;
     const auto now = steady_clock::now();
     return now - last_user_answer_ < settings_.client_pause &&
            now - last_poll_round_ < 2 * settings_.idle_poll_interval;
