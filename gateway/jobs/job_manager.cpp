@@ -29,7 +29,8 @@ class core_observer final : public devices::controller_observer {
         c->controller_snapshot_changed(s);
     }
     void on_report(const devices::report_event& e) override {
-        if (auto c = core_.lock()) c->controller_ttl_edge(e.controller_id);
+        auto c = core_.lock();
+        if (c && c->counts_ttl_edges(e.controller_id)) c->controller_ttl_edge(e.controller_id);
     }
 
   private:

@@ -45,6 +45,7 @@
 #include "gateway/jobs/motion_probe.hpp"
 #include "gateway/jobs/restore_ledger.hpp"
 #include "gateway/jobs/safe_outputs.hpp"
+#include "gateway/jobs/ttl_edge_listeners.hpp"
 #include "gateway/leases/lease_manager.hpp"
 
 // g++ 12 reports a false -Wmismatched-new-delete at the end of some asio coroutines (the awaitable
@@ -136,6 +137,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // Connected and identified (the first time or again): sends what start() left pending for it.
     void controller_came_up(const std::string& controller);
     void controller_ttl_edge(const std::string& controller);
+    // Whether a run on the controller counts its report frames as TTL edges (any thread).
+    bool counts_ttl_edges(std::string_view controller) const { return ttl_listeners_.listening(controller); }
 
     // execution_host
     void on_step_started(live_job& job, std::size_t index) override;
@@ -247,7 +250,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // Strand only, except live_records_ (under records_mutex_) which get() reads.
     std::map<std::string, std::shared_ptr<live_job>> jobs_;  // not terminal
     job_lanes lanes_;
-    std::size_t running_ = 0;  // run() coroutines alive
+    ttl_edge_listeners ttl_listeners_;  // thread-safe: the controllers' strands read it
+    std::size_t running_ = 0;           // run() coroutines alive
     bool started_ = false;
     bool shutting_down_ = false;
     std::atomic<bool> abandoned_{false};

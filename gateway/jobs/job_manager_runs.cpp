@@ -39,6 +39,7 @@ void manager_core::launch(std::shared_ptr<live_job> job) {
     job->ttl_low_on_reconnect = false;  // the run owns the output again
     auto exec = std::make_shared<job_execution>(strand_, registry_, weak_from_this(), job, first);
     job->exec = exec;
+    ttl_listeners_.add(job->record.controller);
     job->record.progress.remaining_s = remaining_from(*job->plan, first);
     ++running_;
     set_state(*job, job_state::running, "");
@@ -54,6 +55,7 @@ void manager_core::launch(std::shared_ptr<live_job> job) {
 void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::exception_ptr e) {
     --running_;
     auto job = exec->live();
+    ttl_listeners_.remove(job->record.controller);
     if (job->exec == exec) job->exec.reset();
     if (abandoned_ || exec->abandoned() || job->stopping) return;  // a cancel in progress finishes it
     const auto controller = job->record.controller;
