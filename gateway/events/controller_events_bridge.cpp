@@ -65,7 +65,8 @@ void controller_events_bridge::on_snapshot(const devices::controller_snapshot& s
 }
 
 void controller_events_bridge::on_report(const devices::report_event& e) {
-    hub_->publish(controller_topic(e.controller_id, "reports"), report_json(e), known(e.system_time));
+    hub_->publish(controller_topic(e.controller_id, "reports"),
+                  std::make_shared<const std::string>(report_json_text(e)), known(e.system_time));
 }
 
 void controller_events_bridge::on_ttl(const devices::ttl_event& e) {

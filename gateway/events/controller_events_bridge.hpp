@@ -3,7 +3,7 @@
 //   every snapshot                      -> "controllers/<id>/state"    (state_json)
 //   a snapshot whose positions/busy differ from the last published ones
 //                                       -> "controllers/<id>/position" (position_json)
-//   every report_event                  -> "controllers/<id>/reports"  (report_json)
+//   every report_event                  -> "controllers/<id>/reports"  (report_json_text)
 //   every ttl_event                     -> "controllers/<id>/ttl"      (ttl_json)
 //   every error_log_event               -> "controllers/<id>/errors"   (error_log_json), and if it
 //                                          has 87s, "controllers/<id>/reports" (report_overrun_json)

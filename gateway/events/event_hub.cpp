@@ -348,7 +348,9 @@ void event_hub::on_publish(const std::string& topic, std::shared_ptr<const std::
     // settle() may evict (and so change the routes): by id from here on.
     for (auto id : ids)
         settle(id);
-    schedule_wake();
+    // Its deadlines scan every subscriber: looked at again only when this event can have added one (a
+    // rate-limited latest value, or a subscriber that just started to stall), not for every frame.
+    if (t.cls == topic_class::latest_value || stall_started_) schedule_wake();
 }
 
 const std::vector<event_hub::route>& event_hub::routes_of(const std::string& name, topic_state& t) {
@@ -520,7 +522,10 @@ void event_hub::settle(subscriber_id id) {
         return;
     }
     auto now = clock_.steady();
-    if (!s.stalled_since) s.stalled_since = now;
+    if (!s.stalled_since) {
+        s.stalled_since = now;
+        stall_started_ = true;
+    }
     if (now - *s.stalled_since > s.settings.max_stall)
         evict(id, "too slow: send queue full for more than " + millis(s.settings.max_stall), true);
 }
@@ -605,7 +610,9 @@ void event_hub::on_request_more(subscriber_id id) {
     it->second->in_flight = false;
     it->second->stalled_since.reset();  // it made progress
     settle(id);
-    schedule_wake();
+    // Only this subscriber's deadlines changed (a rate-limited value it may take now, a new stall):
+    // every client's acknowledgement must not scan every subscriber.
+    schedule_wake_for(id);
 }
 
 void event_hub::on_tick() {
@@ -620,24 +627,38 @@ void event_hub::on_tick() {
     schedule_wake();
 }
 
-void event_hub::schedule_wake() {
-    if (stopped_) return;
+std::optional<steady_clock::time_point> event_hub::next_deadline(const subscriber& s) const {
     std::optional<steady_clock::time_point> earliest;
     auto consider = [&](steady_clock::time_point t) {
         if (!earliest || t < *earliest) earliest = t;
     };
-    if (!retirements_.empty()) consider(retirements_.begin()->first);
-    for (auto& [id, s] : subscribers_) {
-        if (!s->in_flight)
-            for (auto& [topic, slot] : s->latest)
-                if (slot.pending && slot.next_allowed) consider(*slot.next_allowed);
-        if (s->stalled_since)
-            consider(*s->stalled_since + s->settings.max_stall + std::chrono::milliseconds(1));
-    }
-    if (!earliest) return;
-    if (wake_at_ && *wake_at_ <= *earliest) return;
-    wake_at_ = earliest;
-    auto delay = std::max(*earliest - clock_.steady(), steady_clock::duration::zero());
+    if (!s.in_flight)
+        for (const auto& [topic, slot] : s.latest)
+            if (slot.pending && slot.next_allowed) consider(*slot.next_allowed);
+    if (s.stalled_since) consider(*s.stalled_since + s.settings.max_stall + std::chrono::milliseconds(1));
+    return earliest;
+}
+
+void event_hub::schedule_wake() {
+    stall_started_ = false;
+    if (stopped_) return;
+    std::optional<steady_clock::time_point> earliest;
+    if (!retirements_.empty()) earliest = retirements_.begin()->first;
+    for (const auto& [id, s] : subscribers_)
+        if (auto due = next_deadline(*s); due && (!earliest || *due < *earliest)) earliest = due;
+    arm_wake(earliest);
+}
+
+void event_hub::schedule_wake_for(subscriber_id id) {
+    if (stopped_) return;
+    if (auto it = subscribers_.find(id); it != subscribers_.end()) arm_wake(next_deadline(*it->second));
+}
+
+void event_hub::arm_wake(std::optional<steady_clock::time_point> at) {
+    if (!at) return;
+    if (wake_at_ && *wake_at_ <= *at) return;
+    wake_at_ = at;
+    auto delay = std::max(*at - clock_.steady(), steady_clock::duration::zero());
     wake_timer_.expires_after(delay);
     wake_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
         if (auto self = weak.lock()) self->on_wake(ec);

@@ -226,7 +226,11 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     void pump(subscriber& s);
     void settle(subscriber_id id);  // pump, then evict if it is too slow or its sink is gone
     void evict(subscriber_id id, std::string reason, bool count);
+    // Arms the wake timer for the earliest deadline: retirements, stalls, rate-limited latest values.
     void schedule_wake();
+    void schedule_wake_for(subscriber_id id);  // when only this subscriber's deadlines changed
+    std::optional<std::chrono::steady_clock::time_point> next_deadline(const subscriber& s) const;
+    void arm_wake(std::optional<std::chrono::steady_clock::time_point> at);
     void on_wake(boost::system::error_code ec);
 
     boost::asio::strand<boost::asio::any_io_executor> strand_;
@@ -234,6 +238,7 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     event_clock clock_;
     boost::asio::steady_timer wake_timer_;
     std::optional<std::chrono::steady_clock::time_point> wake_at_;
+    bool stall_started_ = false;  // a subscriber began to stall since the last schedule_wake()
     std::uint64_t epoch_ = 0;
     bool stopped_ = false;
     std::map<std::string, topic_state> topics_;

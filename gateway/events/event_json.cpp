@@ -9,6 +9,7 @@
 #include "devices/ms2000/crisp.hpp"
 #include "devices/ms2000/error.hpp"
 #include "devices/ms2000/error_log.hpp"
+#include "gateway/common/json_text.hpp"
 #include "gateway/common/timestamp.hpp"
 
 namespace gw {
@@ -35,6 +36,27 @@ nlohmann::json or_null(const std::optional<T>& v) {
 
 nlohmann::json time_or_null(const std::optional<std::chrono::system_clock::time_point>& t) {
     return t ? nlohmann::json(format_timestamp(*t)) : nlohmann::json(nullptr);
+}
+
+template <typename Integer>
+void append_integer(std::string& out, Integer value) {
+    char digits[24];
+    const auto [end, ec] = std::to_chars(std::begin(digits), std::end(digits), value);
+    out.append(digits, end);
+}
+
+// The shortest text that reads back as the same double, with ".0" on a whole number (as nlohmann
+// writes it: a client's parser keeps it a float). Not finite: null, as nlohmann writes it.
+void append_double(std::string& out, double value) {
+    if (!std::isfinite(value)) {
+        out += "null";
+        return;
+    }
+    char digits[32];
+    const auto [end, ec] = std::to_chars(std::begin(digits), std::end(digits), value);
+    const std::string_view text(digits, static_cast<std::size_t>(end - digits));
+    out += text;
+    if (text.find_first_of(".e") == std::string_view::npos) out += ".0";
 }
 
 std::string axis_name(char letter) {
@@ -164,17 +186,35 @@ nlohmann::json position_json(const devices::controller_snapshot& s) {
     return {{"id", s.id}, {"busy", s.busy}, {"axes", std::move(axes)}};
 }
 
-nlohmann::json report_json(const devices::report_event& e) {
-    auto axes = nlohmann::json::array();
-    for (const auto& a : e.axes)
-        axes.push_back({{"axis", axis_name(a.letter)},
-                        {"counts", a.counts},
-                        {"position_um", um_or_null(a.position_um)}});
-    return {{"id", e.controller_id},
-            {"controller_seq", e.sequence},
-            {"time", format_timestamp(e.system_time)},
-            {"bytes_skipped", e.bytes_skipped},
-            {"axes", std::move(axes)}};
+std::string report_json_text(const devices::report_event& e) {
+    // Written directly, not through a DOM: every frame of every report stream comes here (500 frames/s
+    // per controller). Keys in the order nlohmann writes them (sorted), like every other event.
+    std::string out;
+    out.reserve(96 + e.controller_id.size() + e.axes.size() * 56);
+    out += R"({"axes":[)";
+    for (std::size_t i = 0; i < e.axes.size(); ++i) {
+        const auto& a = e.axes[i];
+        out += i == 0 ? R"({"axis":")" : R"(,{"axis":")";
+        out += std::isalpha(static_cast<unsigned char>(a.letter)) ? a.letter : '?';
+        out += R"(","counts":)";
+        append_integer(out, a.counts);
+        out += R"(,"position_um":)";
+        if (a.position_um)
+            append_double(out, round_um(*a.position_um));
+        else
+            out += "null";
+        out += '}';
+    }
+    out += R"(],"bytes_skipped":)";
+    append_integer(out, e.bytes_skipped);
+    out += R"(,"controller_seq":)";
+    append_integer(out, e.sequence);
+    out += R"(,"id":)";
+    out += to_json_text(e.controller_id);
+    out += R"(,"time":")";
+    out += format_timestamp(e.system_time);
+    out += R"("})";
+    return out;
 }
 
 nlohmann::json ttl_json(const devices::ttl_event& e) {

@@ -27,6 +27,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <string_view>
 
 #include <nlohmann/json.hpp>
@@ -42,7 +43,8 @@ nlohmann::json state_json(const devices::controller_snapshot& snapshot);
 nlohmann::json state_json(const devices::controller_snapshot& snapshot, nlohmann::json identity);
 nlohmann::json identity_json(const devices::controller_identity& identity);
 nlohmann::json position_json(const devices::controller_snapshot& snapshot);
-nlohmann::json report_json(const devices::report_event& event);
+// Text, not a DOM: built for every frame of every report stream.
+std::string report_json_text(const devices::report_event& event);
 nlohmann::json ttl_json(const devices::ttl_event& event);
 nlohmann::json error_log_json(const devices::error_log_event& event);
 // In the report stream (controllers/<id>/reports), after frames the controller itself could not send
