@@ -339,14 +339,13 @@ void event_hub::on_publish(const std::string& topic, std::shared_ptr<const std::
     add(counters_->published);
 
     const auto& routes = routes_of(topic, t);
-    std::vector<subscriber_id> ids;
-    ids.reserve(routes.size());
+    settle_ids_.clear();
     for (const auto& r : routes) {
         offer(*r.target, e, t, *r.via, *r.cursor);
-        ids.push_back(r.target->id);
+        if (needs_settling(*r.target)) settle_ids_.push_back(r.target->id);
     }
     // settle() may evict (and so change the routes): by id from here on.
-    for (auto id : ids)
+    for (auto id : settle_ids_)
         settle(id);
     // Its deadlines scan every subscriber: looked at again only when this event can have added one (a
     // rate-limited latest value, or a subscriber that just started to stall), not for every frame.
@@ -502,6 +501,13 @@ void event_hub::pump(subscriber& s) {
     s.delivered_at = clock_.steady();
     add(counters_->delivered, batch.size());
     sink->deliver(std::move(batch));
+}
+
+bool event_hub::needs_settling(const subscriber& s) const {
+    // Waiting for its acknowledgement with room in its queue and nothing lost: a new event changes
+    // nothing settle() looks at (most subscribers, most of the time, with a batch window).
+    return !s.in_flight || s.evict_reason || s.stalled_since || !s.gaps.empty() ||
+           s.queue.size() >= s.settings.queue_limit || s.sink.expired();
 }
 
 void event_hub::settle(subscriber_id id) {

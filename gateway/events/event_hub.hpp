@@ -224,7 +224,8 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     void fill_catch_up(subscriber& s);
     void flush_gaps(subscriber& s);
     void pump(subscriber& s);
-    void settle(subscriber_id id);  // pump, then evict if it is too slow or its sink is gone
+    void settle(subscriber_id id);                   // pump, then evict if it is too slow or its sink is gone
+    bool needs_settling(const subscriber& s) const;  // whether settle(s) could do anything now
     void evict(subscriber_id id, std::string reason, bool count);
     // Arms the wake timer for the earliest deadline: retirements, stalls, rate-limited latest values.
     void schedule_wake();
@@ -255,6 +256,7 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
     std::uint64_t retirements_done_ = 0;
     std::map<subscriber_id, std::unique_ptr<subscriber>> subscribers_;
     std::uint64_t publish_order_ = 0;
+    std::vector<subscriber_id> settle_ids_;  // on_publish's, kept to reuse its storage
     // Moves on whenever a subscriber or a subscription comes or goes: every topic's routes are stale.
     std::uint64_t routing_version_ = 1;
     std::uint64_t replay_bytes_ = 0;  // every topic's replay_bytes
