@@ -122,18 +122,33 @@ void controller_metrics::on_report(const devices::report_event& e) {
 }
 
 void controller_metrics::on_trace(const devices::command_trace& t) {
-    const metric_labels controller = {{"controller", t.controller_id}};
-    metrics_->increment("gw_controller_commands_total",
-                        {{"controller", t.controller_id}, {"origin", t.internal ? "internal" : "user"}});
     if (t.error) {
+        metrics_->increment("gw_controller_commands_total",
+                            {{"controller", t.controller_id}, {"origin", t.internal ? "internal" : "user"}});
         metrics_->increment("gw_controller_command_errors_total",
                             {{"controller", t.controller_id}, {"error", error_label(t.error)}});
         if (t.error == devices::ms2000::error::timeout)
-            metrics_->increment("gw_controller_command_timeouts_total", controller);
+            metrics_->increment("gw_controller_command_timeouts_total", {{"controller", t.controller_id}});
         return;
     }
-    metrics_->observe("gw_controller_command_duration_seconds", controller,
-                      std::chrono::duration<double>(t.latency).count());
+    metrics::handle commands, duration;
+    {
+        std::lock_guard lock(mutex_);
+        auto& st = state_[t.controller_id];
+        if (!st.command_duration) {
+            const auto& id = t.controller_id;
+            st.user_commands =
+                metrics_->find("gw_controller_commands_total", {{"controller", id}, {"origin", "user"}});
+            st.internal_commands =
+                metrics_->find("gw_controller_commands_total", {{"controller", id}, {"origin", "internal"}});
+            st.command_duration =
+                metrics_->find("gw_controller_command_duration_seconds", {{"controller", id}});
+        }
+        commands = t.internal ? st.internal_commands : st.user_commands;
+        duration = st.command_duration;
+    }
+    metrics_->increment(commands);
+    metrics_->observe(duration, std::chrono::duration<double>(t.latency).count());
 }
 
 void controller_metrics::on_error_log(const devices::error_log_event& e) {

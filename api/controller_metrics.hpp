@@ -34,6 +34,8 @@ class controller_metrics final : public devices::controller_observer {
         bool ever_connected = false;
         // Found at the first frame: a report stream updates them hundreds of times a second.
         metrics::handle report_frames, report_bytes_skipped;
+        // Found at the first successful command: every command updates them.
+        metrics::handle user_commands, internal_commands, command_duration;
     };
 
     std::shared_ptr<gw::metrics> metrics_;
