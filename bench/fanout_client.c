@@ -8,7 +8,8 @@
 // and its latency taken: the time it is read here minus its "time_ms" (the gateway's clock when the
 // frame's bytes arrived; one machine, one clock). Gap events add their "missed". At the end it prints
 // one line of "key value" pairs: clients, closed (connections the gateway ended), events (all
-// clients), min_events and max_events (per client), missed, p50_ms, p99_ms, max_ms.
+// clients), min_events and max_events (per client), min_accounted and max_accounted (per client:
+// events plus missed), missed, p50_ms, p99_ms, max_ms.
 #define _GNU_SOURCE
 #include <signal.h>
 #include <sys/epoll.h>
@@ -74,7 +75,11 @@ static void on_message(struct client *c, const char *p, size_t n) {
             if (tm) record_latency(strtod(tm + 10, NULL), t);
         } else if ((size_t)(end - q) >= 4 && memcmp(q, "gap\"", 4) == 0) {
             const char *m = memmem(q, (size_t)(end - q), "\"missed\":", 9);
-            if (m) missed_total += strtoull(m + 9, NULL, 10);
+            if (m) {
+                const uint64_t missed = strtoull(m + 9, NULL, 10);
+                missed_total += missed;
+                c->base.missed += missed;
+            }
         }
     }
 }

@@ -140,6 +140,7 @@ struct connection {
     int closed;  // by the server
     struct input_buffer in;
     uint64_t events;
+    uint64_t missed;  // what gap events told it missed
 };
 
 static inline struct connection *connection_at(void *clients, size_t size, int index) {
@@ -169,18 +170,24 @@ static inline void serve(int ep, void *clients, size_t size, int (*on_readable)(
     }
 }
 
-// "clients N closed C events E min_events A max_events B " (the start of the summary line).
+// "clients N closed C events E min_events A max_events B min_accounted X max_accounted Y " (the start
+// of the summary line). Accounted: a client's events plus what it was told it missed; with every
+// frame accounted for, the same for every client, and the number of frames published.
 static inline void print_counts(void *clients, size_t size, int count) {
-    uint64_t total = 0, min = UINT64_MAX, max = 0, closed = 0;
+    uint64_t total = 0, min = UINT64_MAX, max = 0, closed = 0, min_accounted = UINT64_MAX, max_accounted = 0;
     for (int i = 0; i < count; ++i) {
         const struct connection *c = connection_at(clients, size, i);
         total += c->events;
         if (c->events < min) min = c->events;
         if (c->events > max) max = c->events;
+        const uint64_t accounted = c->events + c->missed;
+        if (accounted < min_accounted) min_accounted = accounted;
+        if (accounted > max_accounted) max_accounted = accounted;
         closed += (uint64_t)c->closed;
     }
-    printf("clients %d closed %llu events %llu min_events %llu max_events %llu ", count, (unsigned long long)closed,
-           (unsigned long long)total, (unsigned long long)min, (unsigned long long)max);
+    printf("clients %d closed %llu events %llu min_events %llu max_events %llu min_accounted %llu max_accounted %llu ",
+           count, (unsigned long long)closed, (unsigned long long)total, (unsigned long long)min,
+           (unsigned long long)max, (unsigned long long)min_accounted, (unsigned long long)max_accounted);
 }
 
 // " p50_ms P p99_ms Q max_ms M" and the end of the summary line, then the timeline on stderr.
