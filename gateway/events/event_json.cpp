@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <iterator>
 #include <optional>
 #include <string>
 
@@ -195,7 +196,9 @@ std::string report_json_text(const devices::report_event& e) {
     for (std::size_t i = 0; i < e.axes.size(); ++i) {
         const auto& a = e.axes[i];
         out += i == 0 ? R"({"axis":")" : R"(,{"axis":")";
-        out += std::isalpha(static_cast<unsigned char>(a.letter)) ? a.letter : '?';
+        // A letter of the decoder's axis table; anything else would need escaping, and is no axis name.
+        const bool letter = (a.letter >= 'A' && a.letter <= 'Z') || (a.letter >= 'a' && a.letter <= 'z');
+        out += letter ? a.letter : '?';
         out += R"(","counts":)";
         append_integer(out, a.counts);
         out += R"(,"position_um":)";

@@ -78,9 +78,12 @@ TEST(report_json_text, keeps_the_key_order_and_number_forms_of_the_other_events)
 }
 
 TEST(report_json_text, escapes_what_a_json_string_cannot_hold) {
-    auto e = frame({});
+    auto e = frame({{'"', 1, std::nullopt}, {'\n', 2, std::nullopt}});
     e.controller_id = "a\"b\\c";
-    EXPECT_EQ(json::parse(gw::report_json_text(e))["id"], "a\"b\\c");
+    const auto j = json::parse(gw::report_json_text(e));
+    EXPECT_EQ(j["id"], "a\"b\\c");
+    EXPECT_EQ(j["axes"][0]["axis"], "?") << "no axis letter: not written as is";
+    EXPECT_EQ(j["axes"][1]["axis"], "?");
 }
 
 }  // namespace
