@@ -80,6 +80,17 @@ def build(workdir, name):
     return out
 
 
+def wait_for_report_ports(gw, timeout=120):
+    deadline = time.monotonic() + timeout
+    while True:
+        status, body = gw.request("GET", "/api/v1/controllers")
+        if status == 200 and all(c["report_port"] == "open" for c in body["controllers"]):
+            return
+        if time.monotonic() > deadline:
+            raise RuntimeError("the report ports did not open")
+        time.sleep(0.2)
+
+
 def read_line(proc, expected):
     line = proc.stdout.readline()
     if not line.startswith(expected):
@@ -123,14 +134,7 @@ def run(args, tmp):
         os.makedirs(gw_dir)
         gw = Gateway(args.gateway, gw_dir, config)
         gw.wait_ready()
-        deadline = time.monotonic() + 60
-        while True:
-            status, body = gw.request("GET", "/api/v1/controllers")
-            if status == 200 and all(c["report_port"] == "open" for c in body["controllers"]):
-                break
-            if time.monotonic() > deadline:
-                raise RuntimeError("the report ports did not open")
-            time.sleep(0.2)
+        wait_for_report_ports(gw)
         client = subprocess.Popen([client_bin, str(gw.port), str(args.clients), str(args.batch_ms),
                                    "controllers/+/reports"], stdout=subprocess.PIPE, text=True)
         read_line(client, "subscribed")

@@ -27,22 +27,12 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.a
 sys.path.insert(0, os.path.join(ROOT, "bench"))
 from bench_gateway import Gateway  # noqa: E402
 from bench_sim import Sim  # noqa: E402
-from fanout import build, metric_sum, pairs, read_line, stop_all  # noqa: E402
+from fanout import build, metric_sum, pairs, read_line, stop_all, wait_for_report_ports  # noqa: E402
 
 CONTROLLERS = 4
 RATE_HZ = 2000
 CLIENTS = 100
 SECONDS = 3
-
-
-def wait_for_report_ports(gw):
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        status, body = gw.request("GET", "/api/v1/controllers")
-        if status == 200 and all(c["report_port"] == "open" for c in body["controllers"]):
-            return
-        time.sleep(0.2)
-    raise RuntimeError("the report ports did not open")
 
 
 def wait_until_delivered(gw):
