@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <sys/ioctl.h>
+#include <unistd.h>
 #include <utility>
 
 #include <boost/asio/append.hpp>
 #include <boost/asio/bind_executor.hpp>
 #include <boost/asio/buffer.hpp>
+#include <boost/asio/dispatch.hpp>
 #include <boost/asio/post.hpp>
+#include <boost/asio/posix/descriptor_base.hpp>
 #include <boost/asio/write.hpp>
 #include <spdlog/spdlog.h>
 
@@ -212,9 +215,14 @@ void controller::start_in_flight(pending job) {
     framer_.reset();
     if (port_.flush_input() > 0 && sync_ == link_sync::in_step)
         mark_out_of_step(link_fault::kind::unexpected, "bytes nobody asked for");
-    net::post(strand_.get_inner_executor(), [self = shared_from_this(), sequence] {
-        net::post(self->strand_, [self, sequence] { self->do_write(sequence); });
-    });
+    // Every byte read so far has been handled (the port is read only here, on the strand: do_read),
+    // except the rest of the read being handled now, if that read's answer started this command: it
+    // is written once that rest is handled, as any line after an answer is nobody's.
+    if (handling_read_) {
+        write_after_read_ = sequence;
+        return;
+    }
+    do_write(sequence);
 }
 
 void controller::hold_back_in_flight() {
@@ -261,9 +269,15 @@ void controller::do_write(std::uint64_t sequence) {
     arm_command_timer(
         in_flight_->job.cmd.long_reply ? settings_.long_reply_timeout : settings_.command_timeout, sequence);
 
+    const auto& command = in_flight_->job.cmd.wire;
+    if (log_->should_log(spdlog::level::trace)) log_->trace("TX {}", escape_control(command));
+    // A command is a few bytes and the tty's output buffer is nearly always free: written at once, it
+    // costs no trip through the io_context's queue. Whatever the port does not take now (or an error)
+    // goes the asynchronous way.
+    auto written = ::write(port_.stream().native_handle(), command.data(), command.size());
+    if (written == static_cast<ssize_t>(command.size())) return on_write(sequence, {});
     // The buffer is shared with the handler: it outlives the command if the port is closed meanwhile.
-    auto wire = std::make_shared<std::string>(in_flight_->job.cmd.wire);
-    if (log_->should_log(spdlog::level::trace)) log_->trace("TX {}", escape_control(*wire));
+    auto wire = std::make_shared<std::string>(command.substr(written > 0 ? static_cast<std::size_t>(written) : 0));
     net::async_write(
         port_.stream(), net::buffer(*wire),
         net::bind_executor(strand_, [self = shared_from_this(), sequence, wire](error_code ec, std::size_t) {
@@ -479,8 +493,12 @@ void controller::complete(pending& job, error_code ec, ms2000::reply reply) {
         // A command the controller refused may have left a code in its error log (a job step too).
         if (ec == ms2000::error::controller_rejected) error_log_due_ = true;
         last_user_answer_ = steady_clock::now();
-        // Never call user code inline: post to the handler's associated executor (or our strand).
-        net::post(strand_, net::append(std::move(job.user), ec, std::move(reply)));
+        // Never call user code inline. An answer read by do_read is handed over when that read is
+        // done, as a posted handler would be but without the queue's round trip; otherwise posted.
+        if (handling_read_)
+            answered_in_read_.push_back({std::move(job.user), ec, std::move(reply)});
+        else
+            net::post(strand_, net::append(std::move(job.user), ec, std::move(reply)));
     }
 }
 
@@ -629,7 +647,10 @@ void controller::do_connect() {
     snapshot_.busy = false;
     publish_snapshot();
 
-    do_read(generation_);
+    // Read from the next turn on, as before any command: what the port holds now is stale anyway.
+    net::post(strand_, [self = shared_from_this(), generation = generation_] {
+        if (generation == self->generation_) self->do_read(generation);
+    });
     arm_presence_check();
     identify();
     pump();
@@ -747,16 +768,67 @@ void controller::arm_presence_check() {
 }
 
 void controller::do_read(std::uint64_t generation) {
-    port_.stream().async_read_some(
-        net::buffer(read_buffer_),
-        net::bind_executor(strand_, [self = shared_from_this(), generation](error_code ec, std::size_t n) {
-            self->on_read(generation, ec, n);
-        }));
+    // The port is read here, on the strand, not by async_read_some: a read that completed could wait
+    // in the io_context's queue while a command is written, and its stale bytes would then be taken
+    // for that command's answer. The readiness wait is armed before reading, so a byte that arrives
+    // after the last read wakes it, and one that arrived before is read now.
+    if (read_wait_generation_ != generation) {
+        read_wait_generation_ = generation;
+        port_.stream().async_wait(
+            net::posix::descriptor_base::wait_read,
+            net::bind_executor(strand_, [self = shared_from_this(), generation](error_code ec) {
+                if (generation != self->generation_) return;
+                self->read_wait_generation_ = 0;
+                if (ec) return self->disconnect(ec, "read");
+                self->do_read(generation);
+            }));
+    }
+    handling_read_ = true;
+    const bool drained = read_available(generation);
+    handling_read_ = false;
+    if (generation != generation_) {
+        write_after_read_.reset();  // the port closed: nothing to write
+        return hand_over_answers();
+    }
+    if (!drained) {
+        // A line that keeps talking must not hold the strand: the rest is read in a later turn.
+        net::post(strand_, [self = shared_from_this(), generation] {
+            if (generation == self->generation_) self->do_read(generation);
+        });
+    }
+    if (auto sequence = std::exchange(write_after_read_, std::nullopt)) do_write(*sequence);
+    hand_over_answers();
 }
 
-void controller::on_read(std::uint64_t generation, error_code ec, std::size_t bytes) {
-    if (generation != generation_) return;
-    if (ec) return disconnect(ec, "read");  // EOF, EIO (pty master closed), ENXIO (USB gone)
+void controller::hand_over_answers() {
+    // Nothing of this read is left on the stack: each handler runs as if it had been posted, on its
+    // own associated executor (dispatched: at once when that executor allows).
+    auto answers = std::move(answered_in_read_);
+    answered_in_read_.clear();
+    for (auto& a : answers)
+        net::dispatch(strand_, net::append(std::move(a.handler), a.ec, std::move(a.reply)));
+}
+
+bool controller::read_available(std::uint64_t generation) {
+    constexpr int reads_per_turn = 16;
+    for (int i = 0; i < reads_per_turn; ++i) {
+        const auto n = ::read(port_.stream().native_handle(), read_buffer_.data(), read_buffer_.size());
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return true;
+        if (n <= 0) {
+            disconnect(n == 0 ? error_code(net::error::eof) : error_code(errno, boost::system::system_category()),
+                       "read");
+            return true;
+        }
+        on_bytes(generation, static_cast<std::size_t>(n));
+        if (generation != generation_) return true;
+        // A tty's read returns all it holds, up to the buffer: a shorter read emptied it.
+        if (static_cast<std::size_t>(n) < read_buffer_.size()) return true;
+    }
+    return false;
+}
+
+void controller::on_bytes(std::uint64_t generation, std::size_t bytes) {
     last_read_ = steady_clock::now();
     if (snapshot_.state != connection_state::connected) {
         // What an attempt heard, for the verdict if it fails: silence, or another device (or baud rate).
@@ -776,8 +848,6 @@ void controller::on_read(std::uint64_t generation, error_code ec, std::size_t by
             if (generation != generation_) return;  // a handler closed the port
         }
     });
-    if (generation != generation_) return;
-    do_read(generation);
 }
 
 // ---- identification and polling ---------------------------------------------------------------

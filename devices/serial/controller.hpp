@@ -137,7 +137,9 @@ class controller : public std::enable_shared_from_this<controller> {
 
     // Main port I/O.
     void do_read(std::uint64_t generation);
-    void on_read(std::uint64_t generation, boost::system::error_code ec, std::size_t bytes);
+    bool read_available(std::uint64_t generation);  // false: more may wait (read again later)
+    void on_bytes(std::uint64_t generation, std::size_t bytes);
+    void hand_over_answers();
     void on_line(const std::string& line);
     void pump();
     std::optional<pending> take_next();
@@ -212,6 +214,15 @@ class controller : public std::enable_shared_from_this<controller> {
     serial_port port_;
     std::uint64_t generation_ = 0;  // bumped on every close, so old read handlers are ignored
     std::array<char, 512> read_buffer_{};
+    std::uint64_t read_wait_generation_ = 0;  // the generation whose readiness wait is armed; 0: none
+    bool handling_read_ = false;              // inside do_read: a command's write waits for its end
+    std::optional<std::uint64_t> write_after_read_;  // that command's sequence
+    struct answer {
+        completion_handler handler;
+        boost::system::error_code ec;
+        ms2000::reply reply;
+    };
+    std::vector<answer> answered_in_read_;  // user commands answered inside do_read, handed over at its end
     ms2000::line_framer framer_;
     std::vector<std::string> lines_;
 
