@@ -9,8 +9,8 @@
 #include <boost/asio/bind_executor.hpp>
 #include <boost/asio/buffer.hpp>
 #include <boost/asio/dispatch.hpp>
-#include <boost/asio/post.hpp>
 #include <boost/asio/posix/descriptor_base.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/asio/write.hpp>
 #include <spdlog/spdlog.h>
 
@@ -277,7 +277,8 @@ void controller::do_write(std::uint64_t sequence) {
     auto written = ::write(port_.stream().native_handle(), command.data(), command.size());
     if (written == static_cast<ssize_t>(command.size())) return on_write(sequence, {});
     // The buffer is shared with the handler: it outlives the command if the port is closed meanwhile.
-    auto wire = std::make_shared<std::string>(command.substr(written > 0 ? static_cast<std::size_t>(written) : 0));
+    auto wire =
+        std::make_shared<std::string>(command.substr(written > 0 ? static_cast<std::size_t>(written) : 0));
     net::async_write(
         port_.stream(), net::buffer(*wire),
         net::bind_executor(strand_, [self = shared_from_this(), sequence, wire](error_code ec, std::size_t) {
@@ -816,8 +817,9 @@ bool controller::read_available(std::uint64_t generation) {
         if (n < 0 && errno == EINTR) continue;
         if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return true;
         if (n <= 0) {
-            disconnect(n == 0 ? error_code(net::error::eof) : error_code(errno, boost::system::system_category()),
-                       "read");
+            disconnect(
+                n == 0 ? error_code(net::error::eof) : error_code(errno, boost::system::system_category()),
+                "read");
             return true;
         }
         on_bytes(generation, static_cast<std::size_t>(n));

@@ -214,8 +214,8 @@ class controller : public std::enable_shared_from_this<controller> {
     serial_port port_;
     std::uint64_t generation_ = 0;  // bumped on every close, so old read handlers are ignored
     std::array<char, 512> read_buffer_{};
-    std::uint64_t read_wait_generation_ = 0;  // the generation whose readiness wait is armed; 0: none
-    bool handling_read_ = false;              // inside do_read: a command's write waits for its end
+    std::uint64_t read_wait_generation_ = 0;         // the generation whose readiness wait is armed; 0: none
+    bool handling_read_ = false;                     // inside do_read: a command's write waits for its end
     std::optional<std::uint64_t> write_after_read_;  // that command's sequence
     struct answer {
         completion_handler handler;

@@ -213,6 +213,42 @@ TEST_F(controller_sync_test, a_halt_whose_answer_is_in_doubt_is_sent_again_once_
     EXPECT_EQ(fake_.commands(), expected);
 }
 
+TEST_F(controller_sync_test, a_line_read_with_an_answer_is_not_taken_for_the_next_commands_answer) {
+    // W X's answer and a stray line arrive in one read, with a HALT waiting behind W X. The HALT goes
+    // out only once the whole read is handled: the stray line finds no command and the HALT waits for
+    // its own answer (held back by the fake here) instead of taking the stray line for it.
+    start(settings());
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
+        if (c == "W X") return {":A 1.0 \r\n:A \r\n"};
+        return test::drv_pty_controller::default_reply(c);
+    });
+    fake_.clear_commands();
+    fake_.hold();
+    auto where = test::submit_command(*ctl_, ms2000::where("X"), "t");
+    ASSERT_TRUE(fake_.wait_deferred(1));
+    auto halt = test::submit_command(*ctl_, ms2000::halt(), "t");
+    std::promise<void> queued;  // the strand took the HALT before W X's answer is released
+    ctl_->get_snapshot([&](const controller_snapshot&) { queued.set_value(); });
+    ASSERT_EQ(queued.get_future().wait_for(5s), std::future_status::ready);
+    const auto unexpected_before = count_of(kind::unexpected);
+    fake_.hold_on("\\");
+    fake_.release();
+
+    const auto [ecw, rw] = test::await_command(std::move(where), 20s);
+    ASSERT_FALSE(ecw) << ecw.message();
+    EXPECT_EQ(rw.number(0), 1.0);
+    ASSERT_TRUE(fake_.wait_deferred(1));  // the HALT arrived; its answer is held
+    EXPECT_EQ(count_of(kind::unexpected), unexpected_before + 1) << "the stray line found no command";
+    EXPECT_EQ(halt.wait_for(200ms), std::future_status::timeout) << "the HALT took the stray line";
+    fake_.release();
+    EXPECT_FALSE(test::await_command(std::move(halt), 20s).first);
+    const std::vector<std::string> first{"W X", "\\"};
+    const auto commands = fake_.commands();
+    ASSERT_GE(commands.size(), 2u);
+    EXPECT_EQ(std::vector<std::string>(commands.begin(), commands.begin() + 2), first);
+}
+
 TEST_F(controller_sync_test, noise_during_identification_starts_it_over_instead_of_guessing_the_axes) {
     std::atomic<int> builds{0};
     fake_.set_responder([&](const std::string& c) -> std::vector<std::string> {
