@@ -118,6 +118,14 @@ void http_session::on_first_bytes(beast::error_code ec, std::size_t bytes) {
 }
 
 void http_session::do_read_header() {
+    // A header already read (with the first bytes of a keep-alive request) is parsed at once: Beast's
+    // read would parse the same bytes and then complete through the io_context's queue.
+    if (buffer_.size() > 0) {
+        beast::error_code ec;
+        const auto used = header_parser_->put(buffer_.data(), ec);  // the whole header or need_more
+        buffer_.consume(used);
+        if (ec != http::error::need_more) return on_header(ec, used);
+    }
     stream_.expires_after(ctx_->limits.header_timeout);
     http::async_read_header(stream_, buffer_, *header_parser_,
                             beast::bind_front_handler(&http_session::on_header, shared_from_this()));
@@ -193,7 +201,16 @@ void http_session::continue_then(Next next) {
 }
 
 void http_session::do_read_body() {
-    if (!parser_->is_done()) set_phase(connection_phase::reading_body);
+    // Likewise a body that is already in the buffer, or none at all.
+    if (!parser_->is_done() && buffer_.size() > 0) {
+        beast::error_code ec;
+        parser_->eager(true);
+        const auto used = parser_->put(buffer_.data(), ec);
+        buffer_.consume(used);
+        if (ec && ec != http::error::need_more) return on_read(ec, used);
+    }
+    if (parser_->is_done()) return on_read({}, 0);
+    set_phase(connection_phase::reading_body);
     http::async_read(stream_, buffer_, *parser_,
                      beast::bind_front_handler(&http_session::on_read, shared_from_this()));
 }
