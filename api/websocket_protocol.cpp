@@ -355,9 +355,15 @@ std::string ws_unsubscribed_message(const ws_unsubscribe& request) {
 }
 
 std::string call_result_message(const json& id, const json& result, bool replayed) {
-    json m{{"type", "result"}, {"id", id}, {"result", result}};
-    if (replayed) m["replayed"] = true;
-    return text(m);
+    // Written around the result's own text rather than copying the result into a new document: the
+    // same bytes (keys in the order a json object keeps them), one copy less on every call's answer.
+    std::string out = R"({"id":)";
+    out += text(id);
+    if (replayed) out += R"(,"replayed":true)";
+    out += R"(,"result":)";
+    out += text(result);
+    out += R"(,"type":"result"})";
+    return out;
 }
 
 std::string call_error_message(const json& id, const problem& error) {

@@ -302,6 +302,19 @@ TEST(websocket_protocol, result_wraps_the_rest_body) {
               (json{{"type", "result"}, {"id", 9}, {"result", result}}));
 }
 
+TEST(websocket_protocol, result_text_is_the_documents_text) {
+    // Written without a document of the whole message: byte for byte what the document would give.
+    const json result = {{"id", "sim1"}, {"reply", {{"raw", ":A 1.5 \u00e9"}}}, {"latency_us", 812}};
+    for (const json& id : {json(9), json("s-\u00fc")})
+        for (bool replayed : {false, true}) {
+            json whole{{"type", "result"}, {"id", id}, {"result", result}};
+            if (replayed) whole["replayed"] = true;
+            EXPECT_EQ(call_result_message(id, result, replayed),
+                      whole.dump(-1, ' ', false, json::error_handler_t::replace))
+                << id << " " << replayed;
+        }
+}
+
 TEST(websocket_protocol, error_carries_the_problem_body) {
     auto p =
         make_problem(make_error(operation_error_kind::missing_module, "sim2 has no DAC OUT module", "volts"));
