@@ -802,12 +802,18 @@ void controller::do_read(std::uint64_t generation) {
 }
 
 void controller::hand_over_answers() {
-    // Nothing of this read is left on the stack: each handler runs as if it had been posted, on its
-    // own associated executor (dispatched: at once when that executor allows).
+    // Nothing of this read is left on the stack: the first handler runs as if it had been posted, on
+    // its own associated executor (dispatched: at once when that executor allows). Any others (a
+    // disconnect fails every queued command) are posted first, so that a handler that throws cannot
+    // take the answers after it with it.
     auto answers = std::move(answered_in_read_);
     answered_in_read_.clear();
-    for (auto& a : answers)
-        net::dispatch(strand_, net::append(std::move(a.handler), a.ec, std::move(a.reply)));
+    if (answers.empty()) return;
+    for (std::size_t i = 1; i < answers.size(); ++i)
+        net::post(strand_,
+                  net::append(std::move(answers[i].handler), answers[i].ec, std::move(answers[i].reply)));
+    net::dispatch(strand_,
+                  net::append(std::move(answers[0].handler), answers[0].ec, std::move(answers[0].reply)));
 }
 
 bool controller::read_available(std::uint64_t generation) {
