@@ -222,7 +222,7 @@ void controller::start_in_flight(pending job) {
         write_after_read_ = sequence;
         return;
     }
-    do_write(sequence);
+    do_write(sequence, true);
 }
 
 void controller::hold_back_in_flight() {
@@ -240,7 +240,7 @@ void controller::hold_back_in_flight() {
     pump();
 }
 
-void controller::do_write(std::uint64_t sequence) {
+void controller::do_write(std::uint64_t sequence, bool input_just_flushed) {
     if (!in_flight_ || in_flight_->sequence != sequence || !port_.is_open()) return;
     // A stale line still queued when the command was taken put the link out of step: it waits.
     const auto& waiting = in_flight_->job;
@@ -254,7 +254,7 @@ void controller::do_write(std::uint64_t sequence) {
     // be read, so that such bytes land while nothing accepts them.
     const auto guard = char_time_ + char_time_ / 2;
     const auto quiet_for = steady_clock::now() - last_read_;
-    if (may_wait && (quiet_for < guard || bytes_waiting_in_port())) {
+    if (may_wait && (quiet_for < guard || (!input_just_flushed && bytes_waiting_in_port()))) {
         guard_timer_.expires_after(quiet_for < guard ? guard - quiet_for : guard);
         guard_timer_.async_wait([self = shared_from_this(), sequence](error_code ec) {
             if (!ec) self->do_write(sequence);
@@ -443,7 +443,7 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
 
     const auto latency =
         std::chrono::duration_cast<std::chrono::microseconds>(steady_clock::now() - done.started);
-    trace(done.job, latency, ec, reply, raw);
+    trace(done.job, latency, ec, raw);
 
     const bool unproven = ec == ms2000::error::unrecognized_reply || ec == ms2000::error::timeout;
     if (done.job.cmd.is_halt && unproven && !done.job.resent) {
@@ -509,7 +509,7 @@ void controller::fail_all(error_code ec) {
         trace(
             in_flight_->job,
             std::chrono::duration_cast<std::chrono::microseconds>(steady_clock::now() - in_flight_->started),
-            ec, std::nullopt, {});
+            ec, {});
         jobs.push_back(std::move(in_flight_->job));
         in_flight_.reset();
     }
@@ -1213,7 +1213,7 @@ void controller::note_error(int code, std::string name, std::string text) {
 }
 
 void controller::trace(const pending& job, std::chrono::microseconds latency, error_code ec,
-                       const std::optional<ms2000::reply>& reply, const std::string& raw) {
+                       const std::string& raw) {
     auto obs = observer_.lock();
     if (!obs) return;
     command_trace t;
@@ -1223,7 +1223,6 @@ void controller::trace(const pending& job, std::chrono::microseconds latency, er
     t.wire = escape_control(job.cmd.wire);
     t.raw_reply = escape_control(raw);
     t.error = ec;
-    t.reply = reply;
     t.latency = latency;
     try {
         obs->on_trace(t);

@@ -145,7 +145,9 @@ class controller : public std::enable_shared_from_this<controller> {
     std::optional<pending> take_next();
     void start_in_flight(pending job);
     void hold_back_in_flight();
-    void do_write(std::uint64_t sequence);
+    // `input_just_flushed`: the port's input was dropped a moment ago (start_in_flight): no byte can
+    // be waiting to be read yet, and asking the kernel again would only cost a system call.
+    void do_write(std::uint64_t sequence, bool input_just_flushed = false);
     bool bytes_waiting_in_port();
     void note_line_pace(std::size_t characters, std::chrono::steady_clock::duration round_trip);
     void on_write(std::uint64_t sequence, boost::system::error_code ec);
@@ -203,7 +205,7 @@ class controller : public std::enable_shared_from_this<controller> {
     void report_fault(link_fault::kind kind);
     void note_error(int code, std::string name, std::string text);
     void trace(const pending& job, std::chrono::microseconds latency, boost::system::error_code ec,
-               const std::optional<ms2000::reply>& reply, const std::string& raw);
+               const std::string& raw);
     void log_error(const char* what, boost::system::error_code ec);
 
     controller_settings settings_;

@@ -10,8 +10,6 @@
 
 #include <boost/system/error_code.hpp>
 
-#include "devices/ms2000/reply.hpp"
-
 namespace gw::devices {
 
 // One encoder report frame from the TTL_REPORT module's SERIAL OUT port (one TTL trigger).
@@ -60,7 +58,6 @@ struct command_trace {
     std::string wire;       // escaped: "W X Y Z\r"
     std::string raw_reply;  // escaped, empty if none arrived
     boost::system::error_code error;
-    std::optional<ms2000::reply> reply;    // when a reply was parsed
     std::chrono::microseconds latency{0};  // write start to completion
 };
 

@@ -32,6 +32,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "devices/ms2000/reply.hpp"
 #include "devices/serial/controller_events.hpp"
 #include "devices/serial/controller_snapshot.hpp"
 

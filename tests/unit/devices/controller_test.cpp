@@ -473,7 +473,6 @@ TEST_F(controller_test, traces_carry_request_id_wire_reply_and_latency) {
     EXPECT_EQ(t.raw_reply, ":A 100.0 -20.0 ");
     EXPECT_FALSE(t.internal);
     EXPECT_FALSE(t.error);
-    ASSERT_TRUE(t.reply.has_value());
     EXPECT_GE(t.latency.count(), 0);
 }
 
