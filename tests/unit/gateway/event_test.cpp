@@ -19,6 +19,8 @@ TEST(timestamp, iso8601_with_milliseconds) {
     EXPECT_EQ(gw::format_timestamp(at_ms(0)), "1970-01-01T00:00:00.000Z");
     EXPECT_EQ(gw::format_timestamp(at_ms(1795322740123)), "2026-11-22T04:45:40.123Z");
     EXPECT_EQ(gw::format_timestamp(at_ms(951782400999)), "2000-02-29T00:00:00.999Z");
+    EXPECT_EQ(gw::format_timestamp(at_ms(9223372036853)), "2262-04-11T23:47:16.853Z");
+    EXPECT_EQ(gw::format_timestamp(at_ms(-1)), "1969-12-31T23:59:59.999Z");
     // Truncated, not rounded: a time stamp never lies in the future.
     EXPECT_EQ(gw::format_timestamp(at_ms(951782400999) + microseconds(999)), "2000-02-29T00:00:00.999Z");
     EXPECT_EQ(gw::epoch_ms(at_ms(1795322740123) + microseconds(999)), 1795322740123);
