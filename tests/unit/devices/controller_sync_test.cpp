@@ -392,5 +392,36 @@ TEST_F(controller_sync_test, identical_acks_of_different_moves_are_each_their_ow
     EXPECT_EQ(count_of(kind::mismatch), 0u);
 }
 
+TEST_F(controller_sync_test, a_handler_that_throws_loses_none_of_the_answers_handed_over_with_its_own) {
+    // The I/O thread goes on after an exception, as the application's does (it logs and runs again).
+    std::atomic<int> thrown{0};
+    ctl_ = std::make_shared<controller>(io_.get_executor(), settings(), observer_);
+    thread_ = std::thread([&] {
+        for (;;) {
+            try {
+                io_.run();
+                return;
+            } catch (const std::runtime_error&) {
+                ++thrown;
+            }
+        }
+    });
+    ctl_->start();
+    ASSERT_TRUE(observer_->wait_state(connection_state::connected));
+    fake_.clear_commands();
+    fake_.hold();
+    // One command in flight and two queued behind it; the port then fails while it is read, so the
+    // three end in that one read and are handed over together, the throwing one first.
+    ctl_->async_command(raw("W X"), "throws",
+                        [](boost::system::error_code, ms2000::reply) { throw std::runtime_error("a bug"); });
+    auto second = test::submit_command(*ctl_, raw("W Y"), "second");
+    auto third = test::submit_command(*ctl_, raw("W Z"), "third");
+    ASSERT_TRUE(fake_.wait_for_commands(1));
+    fake_.unplug();
+    EXPECT_TRUE(test::await_command(std::move(second), 10s).first) << "the second command's end was lost";
+    EXPECT_TRUE(test::await_command(std::move(third), 10s).first) << "the third command's end was lost";
+    EXPECT_EQ(thrown.load(), 1);
+}
+
 }  // namespace
 }  // namespace gw::devices
