@@ -8,7 +8,8 @@
 // TTL_REPORT frame (X Y Z: AID 0x18..0x1A, a 32-bit little-endian count each, then CR; 16 bytes, see
 // devices/ms2000/report_frame.hpp) to every pty. SIGTERM stops and prints "written W refused R late L":
 // frames written, frames the pty did not take (its buffer full: nobody reads), and ticks that came
-// later than one period (the generator itself fell behind).
+// later than one period (the generator itself fell behind). The ptys then stay open until the process
+// is killed: closing a master hangs its slave up and discards what the gateway had not read yet.
 #define _GNU_SOURCE
 #include <errno.h>
 #include <fcntl.h>
@@ -91,5 +92,7 @@ int main(int argc, char **argv) {
     }
     printf("written %llu refused %llu late %llu\n", (unsigned long long)written, (unsigned long long)refused,
            (unsigned long long)ticker.late);
-    return 0;
+    fflush(stdout);
+    for (;;)
+        pause();
 }
