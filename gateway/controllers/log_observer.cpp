@@ -96,6 +96,8 @@ void log_observer::log_unreachable(const devices::controller_snapshot& s) {
 }
 
 void log_observer::on_report(const devices::report_event& e) {
+    // Frames come hundreds of times a second per controller: nothing is formatted unless it is logged.
+    if (!log_->should_log(spdlog::level::debug)) return;
     std::string axes;
     for (const auto& a : e.axes)
         axes += fmt::format(" {}={}", a.letter, a.counts);
