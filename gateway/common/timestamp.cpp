@@ -1,6 +1,6 @@
 #include "gateway/common/timestamp.hpp"
 
-#include <cstring>
+#include <string>
 
 namespace gw {
 
@@ -29,9 +29,9 @@ std::string format_timestamp(std::chrono::system_clock::time_point t) {
     // A system_clock time point (nanoseconds in 64 bits) lies within the years 1677..2262: always four
     // digits.
     const int year = static_cast<int>(ymd.year());
-    char buf[24];
     // Every event carries one or two of these: written digit by digit, not through printf's parser.
-    std::memcpy(buf, "0000-00-00T00:00:00.000Z", 24);
+    std::string out = "0000-00-00T00:00:00.000Z";
+    char* buf = out.data();
     put_digits(buf + 4, static_cast<unsigned>(year), 4);
     put_digits(buf + 7, static_cast<unsigned>(ymd.month()), 2);
     put_digits(buf + 10, static_cast<unsigned>(ymd.day()), 2);
@@ -39,7 +39,7 @@ std::string format_timestamp(std::chrono::system_clock::time_point t) {
     put_digits(buf + 16, static_cast<unsigned>(hms.minutes().count()), 2);
     put_digits(buf + 19, static_cast<unsigned>(hms.seconds().count()), 2);
     put_digits(buf + 23, static_cast<unsigned>(hms.subseconds().count()), 3);
-    return {buf, 24};
+    return out;
 }
 
 }  // namespace gw
