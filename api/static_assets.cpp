@@ -11,6 +11,11 @@ namespace {
 
 constexpr std::string_view dashboard_prefix = "/dashboard/";
 
+// "/dashboard" and "/dashboard/" name the page itself, which is served at "/".
+bool names_the_page_folder(std::string_view path) {
+    return path == "/dashboard" || path == dashboard_prefix;
+}
+
 // Only this origin; no inline script or style, no plugins, not framed. 'self' covers ws:/wss: to the
 // same host in CSP Level 3 browsers.
 constexpr std::string_view content_security_policy =
@@ -88,11 +93,12 @@ bool none_match_hits(std::string_view header, std::string_view etag) {
 }  // namespace
 
 bool is_static_asset_path(std::string_view path) {
-    return path == "/" || path.starts_with(dashboard_prefix);
+    return path == "/" || path == "/dashboard" || path.starts_with(dashboard_prefix);
 }
 
 std::string static_asset_route(std::string_view path) {
-    return path == "/" ? "/" : "/dashboard/{file}";
+    if (path == "/") return "/";
+    return names_the_page_folder(path) ? "/dashboard/" : "/dashboard/{file}";
 }
 
 string_response static_asset_response(const string_request& req, const std::string& request_id) {
@@ -106,6 +112,13 @@ string_response static_asset_response(const string_request& req, const std::stri
         return res;
     }
     const auto path = target_path(req.target());
+    if (names_the_page_folder(path)) {
+        string_response res{http::status::moved_permanently, req.version()};
+        set_common_headers(res, request_id, req.keep_alive(), "no-cache");
+        res.set(http::field::location, "/");
+        res.prepare_payload();
+        return res;
+    }
     const auto name = file_name_of(path);
     const auto* file = find_file(name);  // an exact name of the table: no path walks
     if (!file)

@@ -280,7 +280,10 @@ def test_dashboard_assets(c):
         c.problem(method, path, 405, "method-not-allowed")
         check(r.header("Allow") == "GET, HEAD", f"{method} {path} Allow {r.header('Allow')}")
     c.problem("GET", "/dashboard/nope.js", 404, "not-found")
-    c.problem("GET", "/dashboard/", 404, "not-found", validate=False)
+    # The page's folder names the page: a redirect to "/", where it is served.
+    for method, path in (("GET", "/dashboard/"), ("GET", "/dashboard"), ("HEAD", "/dashboard/")):
+        r = c.request(method, path, validate=path.endswith("/"))
+        check(r.status == 301 and r.header("Location") == "/", f"{method} {path}: {r.status} {r.header('Location')}")
     c.problem("GET", "/dashboard/sub/app.js", 404, "not-found", validate=False)
     c.problem("GET", "/dashboard/..%2Fapi", 404, "not-found")
     c.problem("GET", "/dashboard/vendor/", 404, "not-found", validate=False)
