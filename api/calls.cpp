@@ -7,6 +7,7 @@
 
 #include "api/auth.hpp"
 #include "api/gcode_requests.hpp"
+#include "api/halt_requests.hpp"
 #include "api/lease_requests.hpp"
 #include "api/operation_requests.hpp"
 
@@ -20,10 +21,22 @@ void deliver(api_context& ctx, api_handler done, api_outcome out) {
     boost::asio::post(ctx.executor, boost::asio::append(std::move(done), std::move(out)));
 }
 
+// An operation's handler that hands its outcome to `done`, on done's executor.
+operation_handler operation_outcome_to(api_context& ctx, api_handler done) {
+    auto ex = boost::asio::get_associated_executor(done, ctx.executor);
+    return boost::asio::bind_executor(ex, [done = std::move(done)](operation_outcome o) mutable {
+        api_outcome out;
+        out.error = std::move(o.error);
+        out.body = std::move(o.result);
+        std::move(done)(std::move(out));
+    });
+}
+
 }  // namespace
 
-gw::role role_for(const call& c) {
-    if (const auto* op = std::get_if<operation_call>(&c)) return required_role(op->operation);
+gw::role role_for(const call& c, gw::role halt_role) {
+    if (const auto* op = std::get_if<operation_call>(&c)) return required_role(op->operation, halt_role);
+    if (std::holds_alternative<halt_all_call>(c)) return halt_role;
     if (std::holds_alternative<job_get_call>(c) || std::holds_alternative<lease_get_call>(c) ||
         std::holds_alternative<gcode_check_call>(c))
         return gw::role::viewer;
@@ -33,22 +46,15 @@ gw::role role_for(const call& c) {
 }
 
 void dispatch_call(api_context& ctx, const caller& who, call c, api_handler done) {
-    const auto needed = role_for(c);
+    const auto needed = role_for(c, ctx.auth.halt_role);
     if (!has_role(auth_identity{who.name, who.role}, needed))
         return deliver(ctx, std::move(done),
                        failed(forbidden_problem(auth_identity{who.name, who.role}, needed), who.request_id));
 
-    if (auto* op = std::get_if<operation_call>(&c)) {
-        auto ex = boost::asio::get_associated_executor(done, ctx.executor);
-        return run_operation(
-            ctx, op->controller, op->operation, op->args, who.request_id, who.role, who.lease_id,
-            boost::asio::bind_executor(ex, [done = std::move(done)](operation_outcome o) mutable {
-                api_outcome out;
-                out.error = std::move(o.error);
-                out.body = std::move(o.result);
-                std::move(done)(std::move(out));
-            }));
-    }
+    if (auto* op = std::get_if<operation_call>(&c))
+        return run_operation(ctx, who, op->controller, op->operation, op->args,
+                             operation_outcome_to(ctx, std::move(done)));
+    if (std::holds_alternative<halt_all_call>(c)) return run_halt_all(ctx, who, operation_outcome_to(ctx, std::move(done)));
     if (auto* submit = std::get_if<job_submit_call>(&c)) {
         submit_options options;
         options.dry_run = submit->dry_run;

@@ -14,17 +14,11 @@
 #include <nlohmann/json.hpp>
 
 #include "api/api_context.hpp"
+#include "api/caller.hpp"
 #include "api/job_requests.hpp"
 #include "gateway/config/config.hpp"
 
 namespace gw::api {
-
-struct caller {
-    std::string name = "anonymous";  // the token's name
-    gw::role role = gw::role::viewer;
-    std::string request_id;
-    std::optional<std::string> lease_id;  // the lease the caller holds on the controller, if any
-};
 
 // A named operation on a controller (move, halt, ..., command): args is its JSON object (null: {}).
 struct operation_call {
@@ -72,12 +66,17 @@ struct gcode_check_call {
     nlohmann::json options;
 };
 
-using call = std::variant<operation_call, job_submit_call, job_action_call, job_get_call, lease_get_call,
-                          lease_take_call, lease_renew_call, lease_release_call, gcode_check_call>;
+// HALT ALL: every controller halted at once (api/halt_requests.hpp).
+struct halt_all_call {};
 
-// The role a call needs: viewer to read a job or a lease and to check a G-code program; admin for the
-// "command" operation and a forced lease release; operator for everything else.
-gw::role role_for(const call& c);
+using call = std::variant<operation_call, job_submit_call, job_action_call, job_get_call, lease_get_call,
+                          lease_take_call, lease_renew_call, lease_release_call, gcode_check_call,
+                          halt_all_call>;
+
+// The role a call needs: viewer to read a job or a lease and to check a G-code program; `halt_role`
+// (auth.halt_role) for a HALT; admin for the "command" operation and a forced lease release; operator
+// for everything else.
+gw::role role_for(const call& c, gw::role halt_role = gw::role::viewer);
 
 // Runs `c` for `who` and calls `done` once, on its associated executor (default ctx.executor), never
 // inline: 403 when the role is not enough, else the outcome of the operation or job call.

@@ -361,7 +361,8 @@ bool is_operation(std::string_view name) {
     return false;
 }
 
-gw::role required_role(std::string_view operation) {
+gw::role required_role(std::string_view operation, gw::role halt_role) {
+    if (operation == "halt") return halt_role;
     return operation == "command" ? gw::role::admin : gw::role::operator_;
 }
 
@@ -369,15 +370,10 @@ bool needs_lease(std::string_view operation) {
     return operation != "halt";
 }
 
-void run_operation(api_context& ctx, std::string_view controller_id, std::string_view operation,
-                   const json& body, std::string request_id, gw::role role, operation_handler handler) {
-    run_operation(ctx, controller_id, operation, body, std::move(request_id), role, std::nullopt,
-                  std::move(handler));
-}
-
-void run_operation(api_context& ctx, std::string_view controller_id, std::string_view operation,
-                   const json& body, std::string request_id, gw::role role,
-                   std::optional<std::string> lease_id, operation_handler handler) {
+void run_operation(api_context& ctx, const caller& who, std::string_view controller_id,
+                   std::string_view operation, const json& body, operation_handler handler) {
+    const std::string& request_id = who.request_id;
+    const auto& lease_id = who.lease_id;
     // Never inline: post through the handler's associated executor (default ctx.executor).
     auto finish_now = [&](problem p) {
         p.request_id = request_id;
@@ -387,10 +383,10 @@ void run_operation(api_context& ctx, std::string_view controller_id, std::string
         return finish_now(
             make_problem(http_error::not_found, "no operation \"" + std::string(operation) + "\""));
     }
-    if (static_cast<int>(role) < static_cast<int>(required_role(operation))) {
-        return finish_now(make_problem(http_error::forbidden,
-                                       std::string(operation) + " needs the " +
-                                           std::string(to_string(required_role(operation))) + " role"));
+    const auto needed = required_role(operation, ctx.auth.halt_role);
+    if (static_cast<int>(who.role) < static_cast<int>(needed)) {
+        return finish_now(make_problem(http_error::forbidden, std::string(operation) + " needs the " +
+                                                                  std::string(to_string(needed)) + " role"));
     }
     auto parsed = parse_request(operation, body);
     if (!parsed) return finish_now(make_problem(parsed.error()));
@@ -469,7 +465,7 @@ void run_operation(api_context& ctx, std::string_view controller_id, std::string
                     complete(res, done_json);
                 });
                 if constexpr (std::is_same_v<R, halt_request>)
-                    reg.async_halt(id, request_id, std::move(h));
+                    reg.async_emergency_halt(id, who.name, request_id, std::move(h));
                 else if constexpr (std::is_same_v<R, zero_request>)
                     reg.async_zero(id, request_id, std::move(h));
                 else if constexpr (std::is_same_v<R, home_request>)

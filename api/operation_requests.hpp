@@ -33,6 +33,7 @@
 #include <nlohmann/json.hpp>
 
 #include "api/api_context.hpp"
+#include "api/caller.hpp"
 #include "api/problem.hpp"
 #include "gateway/config/config.hpp"
 
@@ -48,21 +49,17 @@ using operation_handler = boost::asio::any_completion_handler<void(operation_out
 // "move", "halt", ..., "command", in the order of the REST paths.
 std::span<const std::string_view> operation_names();
 bool is_operation(std::string_view name);
-// operator for the typed operations, admin for "command".
-gw::role required_role(std::string_view operation);
+// `halt_role` (auth.halt_role) for halt, operator for the other typed operations, admin for "command".
+gw::role required_role(std::string_view operation, gw::role halt_role = gw::role::viewer);
 
 // Checks the role, parses `body` (a JSON object; null counts as {}), checks the lease, runs the
-// operation and calls `handler` once, on its associated executor (default: ctx.executor), never inline.
-// Leases (ctx.leases): while someone holds the controller, every operation but halt needs
-// `lease_id` to be that lease (409 leased otherwise). halt is never refused for a lease: stopping
-// the stage must always be possible.
-void run_operation(api_context& ctx, std::string_view controller_id, std::string_view operation,
-                   const nlohmann::json& body, std::string request_id, gw::role role,
-                   std::optional<std::string> lease_id, operation_handler handler);
-// The same without a lease id (refused while the controller is leased).
-void run_operation(api_context& ctx, std::string_view controller_id, std::string_view operation,
-                   const nlohmann::json& body, std::string request_id, gw::role role,
-                   operation_handler handler);
+// operation for `who` and calls `handler` once, on its associated executor (default: ctx.executor),
+// never inline. Leases (ctx.leases): while someone holds the controller, every operation but halt
+// needs who.lease_id to be that lease (409 leased otherwise). halt is never refused for a lease or
+// the controller's state: it is the emergency stop (controller_registry::async_emergency_halt, which
+// latches the controller as halted by who.name).
+void run_operation(api_context& ctx, const caller& who, std::string_view controller_id,
+                   std::string_view operation, const nlohmann::json& body, operation_handler handler);
 
 // Whether `operation` is subject to leases (every one but halt).
 bool needs_lease(std::string_view operation);

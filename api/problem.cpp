@@ -40,6 +40,10 @@ kind_info info(operation_error_kind k) {
             return {503, "Storage unavailable"};
         case unknown_file:
             return {404, "Unknown G-code file"};
+        case halted:
+            return {409, "Halted"};
+        case job_active:
+            return {409, "Job active"};
         case internal:
             break;
     }

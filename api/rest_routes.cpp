@@ -96,6 +96,12 @@ void operation(request_context& c, const std::string& name) {
     dispatch_call(*c.ctx, who, operation_call{c.params[0], name, std::move(*body)}, c.async_reply());
 }
 
+// POST /halt: HALT ALL (api/halt_requests.hpp); a body, if any, is ignored: nothing may stand in
+// the way of an emergency stop.
+void halt_all(request_context& c) {
+    dispatch_call(*c.ctx, caller{c.who->name, c.who->role, c.request_id, {}}, halt_all_call{}, c.async_reply());
+}
+
 // ---- leases ----
 
 void list_all_leases(request_context& c) {
@@ -213,6 +219,8 @@ std::vector<route> rest_routes() {
         {verb::get, v1 + "/whoami", gw::role::viewer, whoami},
         {verb::get, v1 + "/controllers", gw::role::viewer, list_controllers},
         {verb::get, v1 + "/controllers/{id}", gw::role::viewer, get_controller},
+        // The route lets every token holder in; dispatch_call checks auth.halt_role.
+        {verb::post, v1 + "/halt", gw::role::viewer, halt_all},
         {verb::get, v1 + "/leases", gw::role::viewer, list_all_leases},
         {verb::get, v1 + "/controllers/{id}/lease", gw::role::viewer, get_controller_lease},
         {verb::post, v1 + "/controllers/{id}/lease", gw::role::operator_, take_lease},

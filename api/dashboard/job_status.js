@@ -22,9 +22,10 @@ const WAITING_TEXT = {
   timer: "dwelling",
   controller: "waiting for the controller",
   storage: "waiting for storage",
+  halt: "halted: resume or submit to go on",
 };
 // Waits whose end nobody can predict: the countdown stops during them.
-const OPEN_ENDED_WAITS = new Set(["next", "ttl", "controller", "storage"]);
+const OPEN_ENDED_WAITS = new Set(["next", "ttl", "controller", "storage", "halt"]);
 
 export const waitingText = (w) => (w ? WAITING_TEXT[w] || `waiting for ${w}` : "");
 

@@ -71,6 +71,8 @@ class ms2000_category final : public boost::system::error_category {
                 return "controller disconnected";
             case error::cancelled:
                 return "cancelled";
+            case error::halted:
+                return "a HALT was sent after this command was decided";
         }
         return "unknown ms2000 error";
     }

@@ -35,6 +35,7 @@ enum class error {
     not_connected,        // the port is not open (yet, or any more)
     disconnected,         // the port went away while the command was in flight
     cancelled,            // the controller was stopped
+    halted,               // a guarded command whose caller's HALT count is stale: a HALT came after it
 };
 
 const boost::system::error_category& error_category() noexcept;

@@ -141,17 +141,26 @@ void controller::get_snapshot(std::function<void(controller_snapshot)> handler) 
 
 // ---- commands ---------------------------------------------------------------------------------
 
-void controller::submit(ms2000::command cmd, std::string request_id, completion_handler handler) {
+void controller::submit(ms2000::command cmd, std::string request_id, completion_handler handler,
+                        std::optional<std::uint64_t> halts_seen) {
+    pending job{std::move(cmd), std::move(request_id), std::move(handler), {}};
+    job.halts_seen = halts_seen;
     // Onto the strand: all state lives there. Dispatched: on the strand's own thread it is taken at
     // once (a queue hop less per command); on_submit never completes a handler inline.
-    net::dispatch(strand_,
-                  [self = shared_from_this(),
-                   job = pending{std::move(cmd), std::move(request_id), std::move(handler), {}}]() mutable {
-                      self->on_submit(std::move(job));
-                  });
+    net::dispatch(strand_, [self = shared_from_this(), job = std::move(job)]() mutable {
+        self->on_submit(std::move(job));
+    });
 }
 
 void controller::on_submit(pending job) {
+    if (job.cmd.is_halt) {
+        // Counted before anything can refuse it, and guarded commands still waiting are dropped: their
+        // callers decided on them before this HALT, and nothing of theirs may follow it.
+        halts_accepted_.fetch_add(1, std::memory_order_acq_rel);
+        drop_guarded_commands();
+    } else if (job.halts_seen && *job.halts_seen != halts_accepted()) {
+        return complete(job, ms2000::error::halted, {});
+    }
     if (stopped_) return complete(job, ms2000::error::cancelled, {});
     if (!port_.is_open()) return complete(job, ms2000::error::not_connected, {});
     if (job.cmd.is_halt) {
@@ -163,6 +172,20 @@ void controller::on_submit(pending job) {
         user_queue_.push_back(std::move(job));
     }
     pump();
+}
+
+void controller::drop_guarded_commands() {
+    std::deque<pending> kept;
+    std::vector<pending> dropped;
+    for (auto& job : user_queue_) {
+        if (job.halts_seen)
+            dropped.push_back(std::move(job));
+        else
+            kept.push_back(std::move(job));
+    }
+    user_queue_ = std::move(kept);
+    for (auto& job : dropped)
+        complete(job, ms2000::error::halted, {});
 }
 
 void controller::enqueue_internal(ms2000::command cmd, const char* tag, internal_handler handler) {

@@ -13,6 +13,7 @@
 // never pile up (at most one poll round, and user commands go ahead of the poll's next step).
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <deque>
@@ -83,6 +84,24 @@ class controller : public std::enable_shared_from_this<controller> {
             token, std::move(cmd), std::move(request_id));
     }
 
+    // As async_command, for a caller that must not act after a HALT it did not see (a job's run): the
+    // command fails with error::halted, never reaching the wire, when a HALT was accepted since the
+    // caller read halts_accepted() == `halts_seen`, whether the HALT came before the command or while
+    // it waited in the queue. Decided on the strand, so no command of such a caller follows a HALT.
+    template <typename CompletionToken>
+    auto async_guarded_command(ms2000::command cmd, std::string request_id, std::uint64_t halts_seen,
+                               CompletionToken&& token) {
+        return boost::asio::async_initiate<CompletionToken, completion_signature>(
+            [self = shared_from_this(), halts_seen](auto handler, ms2000::command c, std::string rid) {
+                self->submit(std::move(c), std::move(rid), completion_handler(std::move(handler)), halts_seen);
+            },
+            token, std::move(cmd), std::move(request_id));
+    }
+
+    // HALT commands this controller accepted (queued for the wire, or refused for a closed port: the
+    // intent to stop counts), since it was made. Any thread.
+    std::uint64_t halts_accepted() const { return halts_accepted_.load(std::memory_order_acquire); }
+
     // Delivers a copy of the current snapshot (from the strand) to `handler`, which runs on the strand.
     void get_snapshot(std::function<void(controller_snapshot)> handler);
 
@@ -98,6 +117,8 @@ class controller : public std::enable_shared_from_this<controller> {
         bool error_log = false;     // a read or clear of the error log (likewise: it waits for its turn)
         bool probe = false;         // the resynchronisation probe
         bool resent = false;        // a HALT sent again after the link was resynchronised
+        // async_guarded_command: the halts_accepted() its caller last saw.
+        std::optional<std::uint64_t> halts_seen;
     };
 
     struct in_flight {
@@ -121,8 +142,11 @@ class controller : public std::enable_shared_from_this<controller> {
     // must stay quiet once more (a second answer means the first was a late one).
     enum class link_sync : std::uint8_t { in_step, out_of_step, draining, probing, confirming };
 
-    void submit(ms2000::command cmd, std::string request_id, completion_handler handler);
+    void submit(ms2000::command cmd, std::string request_id, completion_handler handler,
+                std::optional<std::uint64_t> halts_seen = std::nullopt);
     void on_submit(pending job);
+    // A HALT was accepted: the guarded commands in the user queue fail with error::halted.
+    void drop_guarded_commands();
 
     // Connection life cycle.
     void do_connect();
@@ -266,6 +290,7 @@ class controller : public std::enable_shared_from_this<controller> {
     std::uint64_t quiet_round_ = 0;  // bumped on every quiet-window timer, so an old expiry is ignored
     std::chrono::steady_clock::time_point resync_started_;
     std::deque<pending> halts_;
+    std::atomic<std::uint64_t> halts_accepted_{0};  // written on the strand only
     std::deque<pending> internal_queue_;
     std::deque<pending> user_queue_;
     poll_step poll_step_ = poll_step::idle;

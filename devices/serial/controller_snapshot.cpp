@@ -55,7 +55,7 @@ bool same_content(const controller_snapshot& a, const controller_snapshot& b) {
            a.ttl_out0_mode == b.ttl_out0_mode && a.crisp_state == b.crisp_state &&
            a.last_error == b.last_error && a.report == b.report && a.error_log_recent == b.error_log_recent &&
            a.error_log_count == b.error_log_count && a.last_attempt == b.last_attempt &&
-           a.next_retry == b.next_retry;
+           a.next_retry == b.next_retry && a.halted == b.halted;
 }
 
 }  // namespace gw::devices

@@ -60,6 +60,16 @@ struct controller_error_info {
     bool operator==(const controller_error_info&) const = default;
 };
 
+// An emergency HALT latched by the gateway (gateway/controllers/controller_registry: never set by the
+// driver): who stopped the stage and when. Jobs on the controller send nothing more, and queued ones do
+// not start, until someone resumes or submits a job there.
+struct halt_latch {
+    std::string by;  // the caller's name ("ada", "anonymous", "mqtt:lab-3", "signal")
+    std::chrono::system_clock::time_point at;
+
+    bool operator==(const halt_latch&) const = default;
+};
+
 struct controller_snapshot {
     std::string id;
     connection_state state = connection_state::stopped;
@@ -87,6 +97,7 @@ struct controller_snapshot {
     // When the axes' positions were last read (W). A later change of the busy flags alone leaves it:
     // the positions are still those of that moment, not of `updated`.
     std::chrono::system_clock::time_point positions_read;
+    std::optional<halt_latch> halted;
 
     const axis_state* axis(char letter) const;
 };

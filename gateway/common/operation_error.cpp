@@ -34,6 +34,10 @@ std::string_view to_string(operation_error_kind kind) {
             return "storage_unavailable";
         case operation_error_kind::unknown_file:
             return "unknown_file";
+        case operation_error_kind::halted:
+            return "halted";
+        case operation_error_kind::job_active:
+            return "job_active";
         case operation_error_kind::internal:
             return "internal";
     }
@@ -60,6 +64,8 @@ operation_error from_driver_error(boost::system::error_code ec, int code, std::s
         case ms2000::error::disconnected:
         case ms2000::error::cancelled:
             return make_error(operation_error_kind::not_connected, who + ": " + ec.message());
+        case ms2000::error::halted:
+            return make_error(operation_error_kind::halted, who + ": a HALT was sent after this was decided");
         case ms2000::error::queue_full:
             return make_error(operation_error_kind::queue_full, who + ": too many commands waiting");
         case ms2000::error::invalid_argument:

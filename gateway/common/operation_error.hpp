@@ -25,6 +25,8 @@ enum class operation_error_kind : std::uint8_t {
     invalid_state,       // the job (or lease) is not in a state that allows this: cancel a finished job (409)
     storage_unavailable,  // the job store cannot be written or read: disk full, read-only file (503)
     unknown_file,         // no uploaded G-code file with that id (404)
+    halted,               // a HALT stopped it: a job's command after a HALT it did not see (409)
+    job_active,           // a job runs on (or holds) the controller; its lease holder alone may (409)
     internal,             // a bug or an unexpected condition (500)
 };
 

@@ -90,6 +90,9 @@ struct auth_token {
 
 struct auth_config {
     std::vector<auth_token> tokens;  // none: the service may only listen on loopback
+    // Who may HALT (every transport, HALT ALL too). Viewer by default: like a physical emergency stop,
+    // anyone who may watch a stage may stop it.
+    gw::role halt_role = role::viewer;
 };
 
 enum class log_level : std::uint8_t { trace, debug, info, warn, error, critical, off };

@@ -47,13 +47,31 @@ class controller_registry::store final : public devices::controller_observer {
         return it->second;
     }
 
+    // Sets or clears the controller's halt latch in its stored snapshot; false when it was so already.
+    // The observers hear of it with the next on_snapshot (controller_registry::republish).
+    bool set_latch(const std::string& id, std::optional<devices::halt_latch> latch) {
+        std::lock_guard lock(mutex_);
+        auto& stored = latches_[id];
+        if (stored.has_value() == latch.has_value()) return false;
+        stored = latch;
+        if (auto it = snapshots_.find(id); it != snapshots_.end()) it->second.halted = std::move(latch);
+        return true;
+    }
+
     void on_snapshot(const devices::controller_snapshot& s) override {
+        // The driver knows nothing of the latch: the registry's own is merged into what it publishes.
+        std::optional<devices::controller_snapshot> latched;
         {
             std::lock_guard lock(mutex_);
-            snapshots_[s.id] = s;
+            auto latch = latches_.find(s.id);
+            if (latch != latches_.end() && latch->second) {
+                latched = s;
+                latched->halted = latch->second;
+            }
+            snapshots_[s.id] = latched ? *latched : s;
         }
         for (const auto& o : live())
-            o->on_snapshot(s);
+            o->on_snapshot(latched ? *latched : s);
     }
     void on_report(const devices::report_event& e) override {
         for (const auto& o : live())
@@ -92,6 +110,7 @@ class controller_registry::store final : public devices::controller_observer {
 
     mutable std::mutex mutex_;
     std::map<std::string, devices::controller_snapshot> snapshots_;
+    std::map<std::string, std::optional<devices::halt_latch>> latches_;
     std::vector<std::weak_ptr<devices::controller_observer>> observers_;
 };
 
@@ -104,9 +123,18 @@ struct controller_registry::move_op : std::enable_shared_from_this<move_op> {
     std::string request_id;
     std::shared_ptr<devices::controller> ctl;
     std::string axes;  // hardware order
+    std::optional<std::uint64_t> halts_seen;  // move_request::halts_seen: every command guarded
     steady_clock::time_point deadline;
     net::steady_timer timer;
     std::optional<handler<move_result>> h;
+
+    template <typename Handler>
+    void send(ms2000::command cmd, Handler&& handler) {
+        if (halts_seen)
+            ctl->async_guarded_command(std::move(cmd), request_id, *halts_seen, std::forward<Handler>(handler));
+        else
+            ctl->async_command(std::move(cmd), request_id, std::forward<Handler>(handler));
+    }
 
     void finish(operation_result<move_result> r) {
         if (!h) return;
@@ -116,10 +144,9 @@ struct controller_registry::move_op : std::enable_shared_from_this<move_op> {
     }
 
     void check_status() {
-        ctl->async_command(ms2000::status(), request_id,
-                           [self = shared_from_this()](boost::system::error_code ec, ms2000::reply reply) {
-                               self->on_status(ec, reply);
-                           });
+        send(ms2000::status(), [self = shared_from_this()](boost::system::error_code ec, ms2000::reply reply) {
+            self->on_status(ec, reply);
+        });
     }
 
     void on_status(boost::system::error_code ec, const ms2000::reply& reply) {
@@ -133,10 +160,9 @@ struct controller_registry::move_op : std::enable_shared_from_this<move_op> {
     }
 
     void read_positions() {
-        ctl->async_command(ms2000::where(axes), request_id,
-                           [self = shared_from_this()](boost::system::error_code ec, ms2000::reply reply) {
-                               self->on_where(ec, reply);
-                           });
+        send(ms2000::where(axes), [self = shared_from_this()](boost::system::error_code ec, ms2000::reply reply) {
+            self->on_where(ec, reply);
+        });
     }
 
     void on_where(boost::system::error_code ec, const ms2000::reply& reply) {
@@ -397,6 +423,35 @@ template void controller_registry::run_simple<dac_request>(std::string, dac_requ
 template void controller_registry::run_simple<led_request>(std::string, led_request, std::string,
                                                            handler<operation_done>);
 
+void controller_registry::run_emergency_halt(std::string id, std::string by, std::string request_id,
+                                             handler<operation_done> h) {
+    if (!controllers_.contains(id))
+        return deliver<operation_done>(
+            std::move(h), make_error(operation_error_kind::unknown_controller, "no controller with id \"" + id + "\""),
+            id, request_id);
+    if (store_->set_latch(id, devices::halt_latch{by, std::chrono::system_clock::now()})) {
+        log_->warn("[{}] {}: HALT by {}: jobs there stay stopped until one is resumed or submitted", request_id,
+                   id, by);
+        republish(id);
+    }
+    run_simple<halt_request>(std::move(id), halt_request{}, std::move(request_id), std::move(h));
+}
+
+void controller_registry::release_halt_latch(const std::string& id) {
+    if (!controllers_.contains(id) || !store_->set_latch(id, std::nullopt)) return;
+    log_->info("{}: the HALT latch is released", id);
+    republish(id);
+}
+
+void controller_registry::republish(const std::string& id) {
+    controllers_.at(id)->get_snapshot([store = store_](devices::controller_snapshot s) { store->on_snapshot(s); });
+}
+
+std::uint64_t controller_registry::halts_accepted(const std::string& id) const {
+    auto it = controllers_.find(id);
+    return it == controllers_.end() ? 0 : it->second->halts_accepted();
+}
+
 void controller_registry::run_move(std::string id, move_request r, std::string request_id,
                                    handler<move_result> h) {
     auto t = find(id);
@@ -408,17 +463,16 @@ void controller_registry::run_move(std::string id, move_request r, std::string r
     op->request_id = request_id;
     op->ctl = t->controller;
     op->axes = hardware_order(r.axes, t->snapshot);
+    op->halts_seen = r.halts_seen;
     op->h.emplace(std::move(h));
     const bool wait = r.wait;
     const auto timeout = r.wait_timeout;
-    t->controller->async_command(std::move(*cmd), request_id,
-                                 [op, wait, timeout](boost::system::error_code ec, ms2000::reply reply) {
-                                     if (ec)
-                                         return op->finish(from_driver_error(ec, reply.error_code, op->id));
-                                     if (!wait) return op->finish(move_result{});
-                                     op->deadline = steady_clock::now() + timeout;
-                                     op->check_status();
-                                 });
+    op->send(std::move(*cmd), [op, wait, timeout](boost::system::error_code ec, ms2000::reply reply) {
+        if (ec) return op->finish(from_driver_error(ec, reply.error_code, op->id));
+        if (!wait) return op->finish(move_result{});
+        op->deadline = steady_clock::now() + timeout;
+        op->check_status();
+    });
 }
 
 void controller_registry::run_raw(std::string id, raw_command_request r, std::string request_id,
@@ -428,10 +482,8 @@ void controller_registry::run_raw(std::string id, raw_command_request r, std::st
     auto cmd = plan(r, t->snapshot);
     if (!cmd) return deliver<raw_command_result>(std::move(h), cmd.error(), id, request_id);
     const auto started = steady_clock::now();
-    t->controller->async_command(
-        std::move(*cmd), request_id,
-        [this, h = std::move(h), id, request_id, started](boost::system::error_code ec,
-                                                          ms2000::reply reply) mutable {
+    auto answered = [this, h = std::move(h), id, request_id, started](boost::system::error_code ec,
+                                                                      ms2000::reply reply) mutable {
             // ":N-<code>" is an answer: the expert sees it in the parsed reply.
             if (ec && ec != devices::ms2000::error::controller_rejected)
                 return deliver_completion<raw_command_result>(
@@ -441,7 +493,11 @@ void controller_registry::run_raw(std::string id, raw_command_request r, std::st
             result.reply = std::move(reply);
             result.latency = since(started);
             deliver_completion<raw_command_result>(std::move(h), std::move(result), id, request_id);
-        });
+    };
+    if (r.halts_seen)
+        t->controller->async_guarded_command(std::move(*cmd), request_id, *r.halts_seen, std::move(answered));
+    else
+        t->controller->async_command(std::move(*cmd), request_id, std::move(answered));
 }
 
 }  // namespace gw

@@ -104,11 +104,28 @@ class controller_registry {
         return initiate<move_result>(&controller_registry::run_move, std::move(id), std::move(r),
                                      std::move(request_id), std::forward<Token>(token));
     }
+    // HALT alone, for the gateway's own stops (a job's cancel, shutdown): nothing is latched.
     template <typename Token>
     auto async_halt(std::string id, std::string request_id, Token&& token) {
         return initiate<operation_done>(&controller_registry::run_simple<halt_request>, std::move(id),
                                         halt_request{}, std::move(request_id), std::forward<Token>(token));
     }
+    // The emergency stop of every transport: latches the controller as halted by `by` (its snapshot says
+    // so at once, devices::halt_latch; the job manager pauses its jobs and starts none), then sends
+    // HALT whenever the port is open. The latch is set before the HALT is counted (halts_accepted), so
+    // whoever reads the count and then finds no latch is guarded against this HALT.
+    template <typename Token>
+    auto async_emergency_halt(std::string id, std::string by, std::string request_id, Token&& token) {
+        return boost::asio::async_initiate<Token, void(operation_result<operation_done>)>(
+            [this](auto h, std::string id, std::string by, std::string rid) {
+                run_emergency_halt(std::move(id), std::move(by), std::move(rid), handler<operation_done>(std::move(h)));
+            },
+            token, std::move(id), std::move(by), std::move(request_id));
+    }
+    // Releases the latch (someone resumed or submitted a job there); nothing when there is none.
+    void release_halt_latch(const std::string& id);
+    // The controller's HALTs so far (devices::controller::halts_accepted); 0 for an unknown id.
+    std::uint64_t halts_accepted(const std::string& id) const;
     template <typename Token>
     auto async_home(std::string id, home_request r, std::string request_id, Token&& token) {
         return initiate<operation_done>(&controller_registry::run_simple<home_request>, std::move(id),
@@ -181,6 +198,9 @@ class controller_registry {
     template <typename Request>
     void run_simple(std::string id, Request r, std::string request_id, handler<operation_done> h);
     void run_move(std::string id, move_request r, std::string request_id, handler<move_result> h);
+    void run_emergency_halt(std::string id, std::string by, std::string request_id, handler<operation_done> h);
+    // Publishes the controller's current snapshot again (its latch changed), from its strand.
+    void republish(const std::string& id);
     void run_raw(std::string id, raw_command_request r, std::string request_id,
                  handler<raw_command_result> h);
     // focus_runs.cpp

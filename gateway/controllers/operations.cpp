@@ -139,8 +139,9 @@ operation_result<ms2000::command> plan(const move_request& r, const controller_s
         "axes");
 }
 
-operation_result<ms2000::command> plan(const halt_request&, const controller_snapshot& s) {
-    if (auto e = check_connected(s)) return *e;
+operation_result<ms2000::command> plan(const halt_request&, const controller_snapshot&) {
+    // Not even a connection is checked here: the stage must stop whenever the port is open, also
+    // before the controller is identified; the driver answers not_connected when it is closed.
     return ms2000::halt();
 }
 

@@ -38,6 +38,9 @@ struct move_request {
     std::vector<axis_value_um> axes;
     bool wait = false;  // complete only when the stage stopped (STATUS "N"), then read the positions
     std::chrono::milliseconds wait_timeout = default_wait_timeout;
+    // Set by a caller that must not act after a HALT it did not see (a job's run): the controller's
+    // halts_accepted() when it decided; the move, and its waits, fail with kind halted after a HALT.
+    std::optional<std::uint64_t> halts_seen;
 };
 
 struct move_result {
@@ -45,7 +48,7 @@ struct move_result {
     std::vector<axis_value_um> positions;  // when waited: "W <axes>" after the stage stopped
 };
 
-struct halt_request {};  // "\"
+struct halt_request {};  // "\": sent whenever the port is open, identified or not
 struct zero_request {};  // "Z": every axis's position becomes 0
 
 struct home_request {
@@ -112,6 +115,7 @@ struct autofocus_result {
 
 struct raw_command_request {  // one line typed by an expert: "W X Y"
     std::string command;
+    std::optional<std::uint64_t> halts_seen;  // as move_request::halts_seen
 };
 
 // What every operation without a richer answer returns.

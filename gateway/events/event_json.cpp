@@ -176,6 +176,8 @@ nlohmann::json state_json(const devices::controller_snapshot& s, nlohmann::json 
         {"report_port", std::string(devices::to_string(s.report))},
         {"last_attempt", time_or_null(s.last_attempt)},
         {"next_retry", time_or_null(s.next_retry)},
+        {"halted", s.halted ? nlohmann::json{{"by", s.halted->by}, {"at", format_timestamp(s.halted->at)}}
+                            : nlohmann::json(nullptr)},
         {"updated", format_timestamp(s.updated)}};
 }
 

@@ -25,12 +25,13 @@ constexpr std::array<std::pair<job_state, std::string_view>, 7> state_names{{
     {job_state::interrupted, "interrupted"},
 }};
 
-constexpr std::array<std::pair<job_wait, std::string_view>, 5> wait_names{{
+constexpr std::array<std::pair<job_wait, std::string_view>, 6> wait_names{{
     {job_wait::next, "next"},
     {job_wait::ttl, "ttl"},
     {job_wait::timer, "timer"},
     {job_wait::controller, "controller"},
     {job_wait::storage, "storage"},
+    {job_wait::halt, "halt"},
 }};
 
 template <typename Enum, std::size_t N>

@@ -40,8 +40,9 @@ enum class job_wait : std::uint8_t {
     timer,       // a planned dwell or delay of at least min_shown_timer (dwell_ms, delay_ms, G04)
     controller,  // its controller: held by another job (queued), or disconnected (paused)
     storage,     // the job store refuses its history (paused until it takes it again)
+    halt,        // its controller was halted (HALT): until someone resumes or submits a job there
 };
-std::string_view to_string(job_wait w);  // "next", "ttl", "timer", "controller", "storage"
+std::string_view to_string(job_wait w);  // "next", "ttl", "timer", "controller", "storage", "halt"
 // Every wait but a timer: when it ends cannot be predicted, so neither can the job's end.
 bool is_unbounded(job_wait w);
 

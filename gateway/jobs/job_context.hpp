@@ -3,7 +3,9 @@
 // scan_job.cpp, ...) and the job_manager that runs it (job_execution implements it).
 //
 // Every awaitable below throws job_cancelled once the job is cancelled (the manager has already sent
-// HALT and "TTL Y=0"), and job_failure when the controller refuses, times out or disconnects. A run()
+// HALT and "TTL Y=0"), job_halted once its controller was halted (no command of the run follows the
+// HALT: each is guarded by the HALT count the run started with, devices::controller::
+// async_guarded_command), and job_failure when the controller refuses, times out or disconnects. A run()
 // that returns normally means the job succeeded. run() must call checkpoint() before each step:
 // that is where pause takes effect ("stops after the current step") and where a paused job resumes.
 //
@@ -32,6 +34,14 @@ namespace gw::jobs {
 
 struct job_cancelled : std::exception {
     const char* what() const noexcept override { return "job cancelled"; }
+};
+
+// A HALT (any transport's emergency stop) stopped the run: the job pauses, keeps its controller and
+// sends nothing more until someone resumes it.
+struct job_halted : std::exception {
+    explicit job_halted(std::string who) : by(std::move(who)) {}
+    const char* what() const noexcept override { return "job halted"; }
+    std::string by;
 };
 
 struct job_failure : std::exception {

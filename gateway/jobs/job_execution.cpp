@@ -27,12 +27,13 @@ constexpr std::chrono::milliseconds idle_poll{
 
 job_execution::job_execution(strand_type strand, controller_registry& registry,
                              std::weak_ptr<execution_host> host, std::shared_ptr<live_job> job,
-                             std::size_t first_step)
+                             std::size_t first_step, std::uint64_t halts_seen)
     : strand_(strand),
       registry_(registry),
       host_(std::move(host)),
       job_(std::move(job)),
       first_step_(first_step),
+      halts_seen_(halts_seen),
       request_id_("job-" + job_->record.id),
       signal_(strand) {}
 
@@ -43,6 +44,7 @@ devices::controller_snapshot job_execution::snapshot() const {
 
 void job_execution::throw_if_stopped() const {
     if (cancelled_ || abandoned_) throw job_cancelled{};
+    if (halted_by_) throw job_halted(*halted_by_);
     if (failure_) throw job_failure(*failure_);
 }
 
@@ -61,7 +63,7 @@ net::awaitable<void> job_execution::checkpoint() {
     if (!pause_requested_) co_return;
     waiting_paused_ = true;
     if (auto h = host_.lock()) h->on_paused(*job_);
-    while (pause_requested_ && !cancelled_ && !abandoned_ && !failure_)
+    while (pause_requested_ && !cancelled_ && !abandoned_ && !failure_ && !halted_by_)
         co_await wait_until(steady_clock::time_point::max());
     waiting_paused_ = false;
     throw_if_stopped();
@@ -130,7 +132,7 @@ net::awaitable<devices::ms2000::reply> job_execution::command(std::string line) 
     throw_if_stopped();
     // Named arguments only: g++ 12 mishandles temporaries that live across a co_await.
     std::string controller = job_->record.controller;
-    raw_command_request request{line};
+    raw_command_request request{line, halts_seen_};
     std::string request_id = request_id_;
     auto r = co_await registry_.async_raw_command(std::move(controller), std::move(request),
                                                   std::move(request_id), net::use_awaitable);
@@ -151,6 +153,7 @@ net::awaitable<devices::ms2000::reply> job_execution::command(std::string line) 
 
 net::awaitable<move_result> job_execution::move(move_request request) {
     throw_if_stopped();
+    request.halts_seen = halts_seen_;
     std::string controller = job_->record.controller;
     std::string request_id = request_id_;
     auto r = co_await registry_.async_move(std::move(controller), std::move(request), std::move(request_id),
@@ -219,6 +222,12 @@ void job_execution::cancel() {
 void job_execution::fail(operation_error error) {
     if (failure_ || cancelled_) return;
     failure_ = std::move(error);
+    wake();
+}
+
+void job_execution::halt(std::string by) {
+    if (halted_by_ || cancelled_) return;
+    halted_by_ = std::move(by);
     wake();
 }
 

@@ -75,8 +75,10 @@ class job_execution final : public job_context, public std::enable_shared_from_t
   public:
     using strand_type = boost::asio::strand<boost::asio::any_io_executor>;
 
+    // `halts_seen`: the controller's HALT count read before the manager found it not halted; every
+    // command of the run is refused after a later HALT.
     job_execution(strand_type strand, controller_registry& registry, std::weak_ptr<execution_host> host,
-                  std::shared_ptr<live_job> job, std::size_t first_step);
+                  std::shared_ptr<live_job> job, std::size_t first_step, std::uint64_t halts_seen);
 
     // job_context
     const job_record& job() const override { return job_->record; }
@@ -103,6 +105,7 @@ class job_execution final : public job_context, public std::enable_shared_from_t
     // From the manager (strand).
     void cancel();                     // every await from now on throws job_cancelled
     void fail(operation_error error);  // ... throws job_failure (a disconnect); the first one wins
+    void halt(std::string by);         // ... throws job_halted: the controller was halted
     void request_pause();              // the next checkpoint() pauses
     void resume();                     // a paused checkpoint() returns
     void ttl_edge();
@@ -113,6 +116,7 @@ class job_execution final : public job_context, public std::enable_shared_from_t
     bool cancelled() const { return cancelled_; }
     bool abandoned() const { return abandoned_; }
     const std::optional<operation_error>& failure() const { return failure_; }
+    const std::optional<std::string>& halted_by() const { return halted_by_; }
     bool pause_requested() const override { return pause_requested_; }
     bool waiting_paused() const { return waiting_paused_; }
     const std::shared_ptr<live_job>& live() const { return job_; }
@@ -128,12 +132,14 @@ class job_execution final : public job_context, public std::enable_shared_from_t
     std::weak_ptr<execution_host> host_;
     std::shared_ptr<live_job> job_;
     std::size_t first_step_ = 0;
+    std::uint64_t halts_seen_ = 0;
     std::string request_id_;  // "job-<id>" on every serial command
     boost::asio::steady_timer signal_;
 
     bool cancelled_ = false;
     bool abandoned_ = false;
     std::optional<operation_error> failure_;
+    std::optional<std::string> halted_by_;
     bool pause_requested_ = false;
     bool waiting_paused_ = false;
     std::uint64_t ttl_pending_ = 0;

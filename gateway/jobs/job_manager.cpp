@@ -25,6 +25,15 @@ class core_observer final : public devices::controller_observer {
         if (!c) return;
         if (came_up) c->controller_came_up(s.id);
         if (came_back) c->controller_reconnected(s.id);
+        bool latch_changed = false;
+        {
+            std::lock_guard lock(mutex_);
+            auto [it, added] = halted_.try_emplace(s.id, false);
+            latch_changed = it->second != s.halted.has_value();
+            it->second = s.halted.has_value();
+        }
+        if (latch_changed)
+            c->controller_halt_latch_changed(s.id, s.halted ? std::optional(s.halted->by) : std::nullopt);
         if (s.state == devices::connection_state::connected) return;  // otherwise only departures matter
         c->controller_snapshot_changed(s);
     }
@@ -36,7 +45,8 @@ class core_observer final : public devices::controller_observer {
   private:
     std::weak_ptr<manager_core> core_;
     std::mutex mutex_;
-    std::map<std::string, bool> ready_;  // controller id -> connected and identified
+    std::map<std::string, bool> ready_;   // controller id -> connected and identified
+    std::map<std::string, bool> halted_;  // controller id -> its HALT latch is set
 };
 
 }  // namespace

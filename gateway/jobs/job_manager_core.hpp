@@ -137,6 +137,9 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // Connected and identified (the first time or again): sends what start() left pending for it.
     void controller_came_up(const std::string& controller);
     void controller_ttl_edge(const std::string& controller);
+    // The controller's HALT latch was set (`by`) or released (nullopt): a run there stops (job_halted)
+    // and nothing starts while it is set; once released the queue moves on.
+    void controller_halt_latch_changed(const std::string& controller, std::optional<std::string> by);
     // Whether a run on the controller counts its report frames as TTL edges (any thread).
     bool counts_ttl_edges(std::string_view controller) const { return ttl_listeners_.listening(controller); }
 
@@ -197,11 +200,23 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void publish(const job_record& job, const json& event);
 
     void dispatch(const std::string& controller);
+    // The controller's HALT latch is set (registry snapshot): no job may start there.
+    bool halt_latched(const std::string& controller) const {
+        auto s = registry_.get(controller);
+        return s && s->halted;
+    }
+    // Shows `halt` as what the queued jobs there (and a job a HALT paused) wait for while the latch is
+    // set, and takes it back once it is released.
+    void show_halt_waits(const std::string& controller);
     void launch(std::shared_ptr<live_job> job);
     void run_finished(std::shared_ptr<job_execution> exec, std::exception_ptr e);
     void release(const std::string& controller, const std::string& id);
     // HALT, "TTL Y=0", then the job's restore_if_stopped commands.
     net::awaitable<void> safe_stop(std::shared_ptr<live_job> job);
+    // After a HALT paused the job (the HALT is sent already): "TTL Y=0" when the job may have left the
+    // output high, then its restore_if_stopped commands (a TTL-triggered mode is put back, so later
+    // IN0 edges move nothing). What does not reach the controller is owed to it (add_recovery).
+    net::awaitable<void> secure_after_halt(std::shared_ptr<live_job> job);
     // The job's restore_if_stopped commands, newest first; failures are logged.
     net::awaitable<void> restore_settings(std::shared_ptr<live_job> job);
     // "TTL Y=0" for a job paused by a disconnect (a laser must not stay on): once connected again.

@@ -7,6 +7,8 @@ namespace gw::jobs {
 
 void manager_core::dispatch(const std::string& controller) {
     if (shutting_down_ || abandoned_) return;
+    show_halt_waits(controller);
+    if (halt_latched(controller)) return;
     const auto next = lanes_.take_next(controller, [this](const std::string& id) {
         auto it = jobs_.find(id);
         if (it == jobs_.end()) return false;
@@ -35,9 +37,21 @@ void manager_core::dispatch(const std::string& controller) {
 }
 
 void manager_core::launch(std::shared_ptr<live_job> job) {
+    const auto& controller = job->record.controller;
+    // The HALT count first, then the latch: a HALT latched after this check is counted after this
+    // read (the registry sets the latch before the driver counts the HALT), so it guards the run.
+    const auto halts_seen = registry_.halts_accepted(controller);
+    if (halt_latched(controller)) {
+        // Halted while it was being taken (or planned again): it waits at the front of its queue.
+        lanes_.release(controller, job->record.id);
+        lanes_.enqueue(controller, job->record.id, true);
+        job->queued_in_lane = true;
+        set_waiting(*job, job_wait::halt);
+        return;
+    }
     const auto first = std::min(job->record.progress.steps_done, job->plan->steps.size());
     job->ttl_low_on_reconnect = false;  // the run owns the output again
-    auto exec = std::make_shared<job_execution>(strand_, registry_, weak_from_this(), job, first);
+    auto exec = std::make_shared<job_execution>(strand_, registry_, weak_from_this(), job, first, halts_seen);
     job->exec = exec;
     ttl_listeners_.add(job->record.controller);
     job->record.progress.remaining_s = remaining_from(*job->plan, first);
@@ -69,12 +83,20 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
     std::string failure;
     bool disconnected = false;
     bool cancelled = false;
+    std::optional<std::string> halted_by = exec->halted_by();
     try {
         if (e) std::rethrow_exception(e);
     } catch (const job_cancelled&) {
         cancelled = true;
+    } catch (const job_halted& h) {
+        halted_by = h.by;
     } catch (const job_failure& f) {
         failure = describe(f.error);
+        // A command refused after a HALT: the latch (set before the HALT was counted) names who.
+        if (f.error.kind == kind::halted && !halted_by) {
+            auto s = registry_.get(controller);
+            halted_by = s && s->halted ? s->halted->by : std::string("a HALT");
+        }
         // The registry's observer may have seen the disconnect first (exec->failure()), or the command
         // failed first and the snapshot says so.
         disconnected = f.error.kind == kind::not_connected || exec->failure().has_value() ||
@@ -91,6 +113,14 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
     } else if (cancelled) {
         set_state(*job, job_state::cancelled, "cancelled");
         release(controller, id);
+    } else if (halted_by) {
+        // The job keeps the controller and sends nothing more: a resume re-approaches the step it
+        // stopped in, as after a disconnect. Its outputs and modules are made safe now.
+        set_state(*job, job_state::paused, "halted by " + *halted_by,
+                  halt_latched(controller) ? std::optional(job_wait::halt) : std::nullopt);
+        net::co_spawn(
+            strand_, [self = shared_from_this(), job]() -> net::awaitable<void> { co_await self->secure_after_halt(job); },
+            net::detached);
     } else if (disconnected) {
         // The job keeps the controller: resume continues from the last completed step, once it is back.
         set_state(*job, job_state::paused, "controller disconnected: " + failure,
@@ -138,6 +168,21 @@ net::awaitable<void> manager_core::safe_stop(std::shared_ptr<live_job> job) {
             r.emplace_back("TTL Y=0");
     }
     co_await restore_settings(std::move(job));
+}
+
+net::awaitable<void> manager_core::secure_after_halt(std::shared_ptr<live_job> job) {
+    const std::string controller = job->record.controller;
+    const std::string request_id = "job-" + job->record.id;
+    if (may_leave_ttl_output_high(job->record.type, job->record.spec)) {
+        const std::string ttl_failed = co_await ttl_output_low(controller, request_id);
+        auto& r = job->restore_commands;
+        if (!ttl_failed.empty() && std::find(r.begin(), r.end(), "TTL Y=0") == r.end()) r.emplace_back("TTL Y=0");
+    }
+    co_await restore_settings(job);
+    // Delivered, or owed to the controller (restores_): the resumed run starts from the settings as they
+    // were before the job, and puts back what is owed first (put_back_before_run).
+    job->restore_commands.clear();
+    log_->info("[{}] {}: job {} halted; outputs and settings made safe", request_id, controller, job->record.id);
 }
 
 net::awaitable<void> manager_core::restore_settings(std::shared_ptr<live_job> job) {
@@ -193,6 +238,31 @@ void manager_core::controller_reconnected(const std::string& controller) {
         if (!job->second->ttl_low_on_reconnect) return;
         self->ttl_low_after_disconnect(job->second);
     });
+}
+
+void manager_core::controller_halt_latch_changed(const std::string& controller, std::optional<std::string> by) {
+    net::post(strand_, [self = shared_from_this(), controller, by = std::move(by)] {
+        if (by) {
+            auto job = self->jobs_.find(self->lanes_.holder(controller));
+            if (job != self->jobs_.end() && job->second->exec) job->second->exec->halt(*by);
+        }
+        self->dispatch(controller);  // shows the waits; starts the next job once released
+    });
+}
+
+void manager_core::show_halt_waits(const std::string& controller) {
+    const bool latched = halt_latched(controller);
+    for (const auto& id : lanes_.queue(controller)) {
+        auto it = jobs_.find(id);
+        if (it == jobs_.end() || it->second->record.state != job_state::queued) continue;
+        const auto w = it->second->record.progress.waiting_for;
+        if (latched && w != job_wait::halt) set_waiting(*it->second, job_wait::halt);
+        if (!latched && w == job_wait::halt) set_waiting(*it->second, queue_wait(controller));
+    }
+    // A job a HALT paused (run_finished) waits for a resume alone once the latch is released.
+    if (auto it = jobs_.find(lanes_.holder(controller)); it != jobs_.end() && !latched &&
+                                                          it->second->record.progress.waiting_for == job_wait::halt)
+        set_waiting(*it->second, std::nullopt);
 }
 
 void manager_core::controller_ttl_edge(const std::string& controller) {

@@ -153,6 +153,8 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
     lanes_.enqueue(r.controller, rec.id);
     out.plan = std::move(*plan);
     deliver<submit_result>(std::move(h), std::move(out));
+    // A submission is someone's decision to move the stage again: it releases a HALT latch there.
+    registry_.release_halt_latch(r.controller);
     dispatch(r.controller);
 }
 

@@ -469,7 +469,11 @@ def test_auth(c):
     c.problem("GET", "/api/v1/controllers", 401, "unauthorized", token="not-a-token-0123456789")
     c.problem("GET", "/api/v1/controllers", 401, "unauthorized", headers={"Authorization": "Basic abc"})
     c.problem("GET", "/api/v1/metrics", 401, "unauthorized")
-    c.problem("POST", "/api/v1/controllers/sim1/halt", 403, "forbidden", token=TOKENS["viewer"])
+    c.problem("POST", "/api/v1/controllers/sim1/move", 403, "forbidden", body={"axes": {"X": 1}},
+              token=TOKENS["viewer"])
+    # The emergency stop is every token holder's (auth.halt_role, viewer by default).
+    r = c.request("POST", "/api/v1/controllers/sim1/halt", token=TOKENS["viewer"])
+    check(r.status == 200, f"a viewer may halt: {r.status} {r.body[:200]}")
     c.problem("POST", "/api/v1/controllers/sim1/command", 403, "forbidden", body={"command": "W X"},
               token=TOKENS["viewer"])
     r = c.request("GET", "/api/v1/controllers", token=TOKENS["admin"])

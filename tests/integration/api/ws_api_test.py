@@ -369,8 +369,11 @@ def test_commands(port):
                   f"{msg}: request id {a['problem'].get('request_id')}")
     op.close()
     viewer = WsClient(port, TOKENS["viewer"], "viewer")
-    a = viewer.request({"op": "command", "id": 7, "controller": "sim1", "operation": "halt"})
-    check(a["type"] == "error" and a["problem"]["status"] == 403, f"viewer halt: {a}")
+    a = viewer.request({"op": "command", "id": 7, "controller": "sim1", "operation": "move",
+                        "args": {"axes": {"X": 1}}})
+    check(a["type"] == "error" and a["problem"]["status"] == 403, f"viewer move: {a}")
+    a = viewer.request({"op": "command", "id": 8, "controller": "sim1", "operation": "halt"})
+    check(a["type"] == "result", f"a viewer may halt (auth.halt_role viewer by default): {a}")
     viewer.close()
     admin = WsClient(port, TOKENS["admin"], "admin")
     a = admin.request({"op": "command", "id": "raw", "controller": "sim1", "operation": "command",

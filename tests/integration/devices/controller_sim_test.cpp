@@ -168,6 +168,48 @@ TEST_F(controller_sim_test, a_stopped_move_is_shown_idle_only_with_the_position_
     }
 }
 
+// A job's run sends guarded commands (async_guarded_command): none may reach the controller after a
+// HALT its caller did not see, whether it was submitted after the HALT or waited in the queue before it.
+TEST_F(controller_sim_test, a_guarded_command_never_follows_a_halt_its_caller_did_not_see) {
+    auto c = make("plain", 4);
+    ASSERT_TRUE(c.observer->wait_state(connection_state::connected));
+    const auto simulated_x_um = [&] {
+        return nlohmann::json::parse(c.sim->state_json())["axes"]["X"]["position"].get<double>() / 10.0;
+    };
+    const auto guarded = [&](ms2000::command cmd, std::uint64_t seen) {
+        auto promise = std::make_shared<std::promise<result_pair>>();
+        auto future = promise->get_future();
+        c.ctl->async_guarded_command(std::move(cmd), "job", seen, [promise](error_code ec, ms2000::reply r) {
+            promise->set_value({ec, std::move(r)});
+        });
+        return future;
+    };
+    const auto move_to = [](double um) { return ms2000::move(std::vector<ms2000::axis_position>{{'X', um}}).value(); };
+
+    const auto seen = c.ctl->halts_accepted();
+    auto [ec, reply] = test::await_command(guarded(ms2000::where("X"), seen), 30s);
+    EXPECT_FALSE(ec) << "no HALT since: the guarded command goes through";
+
+    // Queued behind a slow one (WHERE in flight), then a HALT: the queued moves are dropped.
+    const double start_um = simulated_x_um();
+    auto first = guarded(ms2000::where("X"), seen);
+    auto second = guarded(move_to(start_um + 30000), seen);
+    auto third = guarded(move_to(start_um + 40000), seen);
+    auto halt = c.submit(ms2000::halt());
+    EXPECT_EQ(test::await_command(std::move(second), 30s).first, ms2000::error::halted);
+    EXPECT_EQ(test::await_command(std::move(third), 30s).first, ms2000::error::halted);
+    EXPECT_FALSE(test::await_command(std::move(halt), 30s).first);
+    test::await_command(std::move(first), 30s);  // in flight before the HALT: answered either way
+    EXPECT_EQ(c.ctl->halts_accepted(), seen + 1);
+
+    // After the HALT, with the count read before it: refused before the wire. With a fresh count: sent.
+    EXPECT_EQ(test::await_command(guarded(move_to(start_um + 50000), seen), 30s).first, ms2000::error::halted);
+    std::this_thread::sleep_for(300ms);
+    EXPECT_LT(std::abs(simulated_x_um() - start_um), 1.0) << "a move refused by its guard moved the stage";
+    EXPECT_FALSE(test::await_command(guarded(move_to(start_um + 100), c.ctl->halts_accepted()), 30s).first);
+    ASSERT_TRUE(c.observer->wait([&] { return std::abs(simulated_x_um() - (start_um + 100)) < 1.0; }, 20s));
+}
+
 TEST_F(controller_sim_test, polls_rest_while_the_stage_is_idle_and_clients_only_read) {
     // An idle interval longer than the test: only a command that may move the stage starts a round.
     auto c =

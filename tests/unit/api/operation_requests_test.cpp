@@ -22,7 +22,7 @@ class operation_requests_test : public ::testing::Test {
 
     operation_outcome run(std::string_view op, const json& body, gw::role role = gw::role::admin) {
         std::optional<operation_outcome> out;
-        run_operation(ctx_, "stage1", op, body, "rid-1", role,
+        run_operation(ctx_, caller{"ada", role, "rid-1", {}}, "stage1", op, body,
                       [&](operation_outcome o) { out = std::move(o); });
         EXPECT_FALSE(out) << "the handler must not run inline";
         io_.restart();
@@ -97,7 +97,7 @@ TEST_F(operation_requests_test, bodies_are_parsed_strictly) {
 }
 
 TEST_F(operation_requests_test, roles_are_checked_before_the_body) {
-    auto out = run("halt", json::object(), gw::role::viewer);
+    auto out = run("move", json{{"axes", {{"X", 1}}}}, gw::role::viewer);
     ASSERT_TRUE(out.error);
     EXPECT_EQ(out.error->status, 403u);
     out = run("command", json{{"command", "W X"}}, gw::role::operator_);
@@ -106,6 +106,17 @@ TEST_F(operation_requests_test, roles_are_checked_before_the_body) {
     out = run("halt", json::object(), gw::role::operator_);
     ASSERT_TRUE(out.error);
     EXPECT_EQ(out.error->status, 404u);  // allowed, and then: no such controller
+}
+
+TEST_F(operation_requests_test, halt_takes_the_configured_role_viewer_by_default) {
+    auto out = run("halt", json::object(), gw::role::viewer);
+    ASSERT_TRUE(out.error);
+    EXPECT_EQ(out.error->status, 404u);  // a viewer may stop a stage: allowed, then no such controller
+    ctx_.auth.halt_role = gw::role::operator_;
+    out = run("halt", json::object(), gw::role::viewer);
+    ASSERT_TRUE(out.error);
+    EXPECT_EQ(out.error->status, 403u);
+    EXPECT_NE(out.error->detail.find("operator"), std::string::npos) << out.error->detail;
 }
 
 TEST_F(operation_requests_test, unknown_operation_is_not_found) {

@@ -114,14 +114,14 @@ TEST(operations, soft_limits_are_only_checked_when_known) {
     check(move_request{move_request::mode::absolute, {{'X', 2e6}}}, s, fails(kind::invalid_value, "axes.X"));
 }
 
-TEST(operations, everything_needs_a_connected_identified_controller) {
+TEST(operations, everything_but_halt_needs_a_connected_identified_controller) {
     for (auto state :
          {connection_state::stopped, connection_state::disconnected, connection_state::identifying}) {
         auto s = connected("planar");
         s.state = state;
         SCOPED_TRACE(std::string(devices::to_string(state)));
         check(move_request{move_request::mode::absolute, {{'X', 1}}}, s, fails(kind::not_connected));
-        check(halt_request{}, s, fails(kind::not_connected));
+        check(halt_request{}, s, wire("\\\r"));  // the emergency stop: the driver alone decides
         check(home_request{}, s, fails(kind::not_connected));
         check(zero_request{}, s, fails(kind::not_connected));
         check(here_request{{{'X', 0}}}, s, fails(kind::not_connected));
@@ -132,8 +132,9 @@ TEST(operations, everything_needs_a_connected_identified_controller) {
         check(raw_command_request{"W X"}, s, fails(kind::not_connected));
     }
     auto s = connected("plain");
-    s.identity.reset();  // connected but not identified: cannot validate
-    check(halt_request{}, s, fails(kind::not_connected));
+    s.identity.reset();  // connected but not identified: cannot validate, but may always stop
+    check(home_request{}, s, fails(kind::not_connected));
+    check(halt_request{}, s, wire("\\\r"));
 }
 
 TEST(operations, halt_home_zero_here) {
