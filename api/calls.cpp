@@ -34,6 +34,11 @@ operation_handler operation_outcome_to(api_context& ctx, api_handler done) {
 
 }  // namespace
 
+bool is_emergency_stop(const call& c) {
+    if (const auto* op = std::get_if<operation_call>(&c)) return op->operation == "halt";
+    return std::holds_alternative<halt_all_call>(c);
+}
+
 gw::role role_for(const call& c, gw::role halt_role) {
     if (const auto* op = std::get_if<operation_call>(&c)) return required_role(op->operation, halt_role);
     if (std::holds_alternative<halt_all_call>(c)) return halt_role;

@@ -78,6 +78,9 @@ using call = std::variant<operation_call, job_submit_call, job_action_call, job_
 // for everything else.
 gw::role role_for(const call& c, gw::role halt_role = gw::role::viewer);
 
+// A HALT of one controller or HALT ALL: never refused for the gateway's own limits.
+bool is_emergency_stop(const call& c);
+
 // Runs `c` for `who` and calls `done` once, on its associated executor (default ctx.executor), never
 // inline: 403 when the role is not enough, else the outcome of the operation or job call.
 void dispatch_call(api_context& ctx, const caller& who, call c, api_handler done);

@@ -17,6 +17,9 @@ using nlohmann::json;
 
 void run_halt_all(api_context& ctx, const caller& who, operation_handler handler) {
     struct gathering {
+        // Constructed, never assigned: Boost 1.81's any_completion_handler move assignment wraps the
+        // handler in itself (it constructs from the lvalue) and recurses until the stack runs out.
+        explicit gathering(operation_handler h) : handler(std::move(h)) {}
         operation_handler handler;
         net::any_io_executor executor;
         std::vector<json> answers;  // in the registry's order
@@ -24,9 +27,8 @@ void run_halt_all(api_context& ctx, const caller& who, operation_handler handler
         json result;
     };
     const auto ids = ctx.registry.ids();
-    auto g = std::make_shared<gathering>();
+    auto g = std::make_shared<gathering>(std::move(handler));
     g->executor = ctx.executor;
-    g->handler = std::move(handler);
     g->answers.resize(ids.size());
     g->pending = ids.size();
     g->result = {{"operation", "halt_all"}, {"request_id", who.request_id}};

@@ -259,13 +259,19 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_client_json(co
     }
     auto op = msg.find("op");
     if (op == msg.end() || !op->is_string())
-        return invalid(id, "op", "\"op\" must be one of: subscribe, unsubscribe, command, job, gcode, ping");
+        return invalid(id, "op",
+                       "\"op\" must be one of: subscribe, unsubscribe, command, job, gcode, halt_all, ping");
     const auto& name = op->get_ref<const std::string&>();
     if (name == "subscribe") return parse_subscribe(msg, id);
     if (name == "unsubscribe") return parse_unsubscribe(msg, std::move(id));
     if (name == "command") return parse_command(msg, std::move(id));
     if (name == "job") return parse_job(msg, id);
     if (name == "gcode") return parse_gcode(msg, std::move(id));
+    if (name == "halt_all") {
+        if (auto unknown = find_unknown_field(msg, {"op", "id"})) return invalid(id, unknown->field, unknown->message);
+        if (id.is_null()) return invalid(id, "id", "\"id\" is required for halt_all (the answer carries it)");
+        return halt_all_message{std::move(id)};
+    }
     if (name == "ping") {
         if (auto unknown = find_unknown_field(msg, {"op", "id"}))
             return invalid(id, unknown->field, unknown->message);
@@ -273,7 +279,7 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_client_json(co
     }
     return invalid(id, "op",
                    "unknown op \"" + (is_printable_label(name) ? name : std::string("...")) +
-                       "\" (one of: subscribe, unsubscribe, command, job, gcode, ping)");
+                       "\" (one of: subscribe, unsubscribe, command, job, gcode, halt_all, ping)");
 }
 
 ws_protocol_error binary_frame_error() {

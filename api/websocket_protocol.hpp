@@ -14,6 +14,7 @@
 //    "lease":"l-...","idempotency_key":"plate-7","dry_run":false}
 //   {"op":"job","id":"s2","action":"cancel"|"pause"|"resume"|"next"|"get","job":"j-...","lease":"l-..."}
 //   {"op":"gcode","id":"g1","action":"check","file":"g-...","options":{"xyz_scale":0.5}}
+//   {"op":"halt_all","id":"h1"}   HALT ALL (api/halt_requests.hpp); role auth.halt_role
 //   {"op":"ping","id":3}
 // "lease" (also on "command"): the lease id, like the REST header Lease-Id; while a controller is
 // leased, commands (but halt), job submissions and job actions without its lease get 409 leased.
@@ -112,12 +113,17 @@ struct gcode_message {
     nlohmann::json options;  // an object, or null (validated when dispatched)
 };
 
+// HALT ALL.
+struct halt_all_message {
+    nlohmann::json id;  // never null
+};
+
 struct ws_ping {
     nlohmann::json id;
 };
 
-using ws_client_message =
-    std::variant<ws_subscribe, ws_unsubscribe, command_message, job_message, gcode_message, ws_ping>;
+using ws_client_message = std::variant<ws_subscribe, ws_unsubscribe, command_message, job_message,
+                                       gcode_message, halt_all_message, ws_ping>;
 
 // Why a client message was refused; `id` is the message's id when it had a valid one, else null.
 struct ws_protocol_error {

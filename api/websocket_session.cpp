@@ -160,8 +160,7 @@ void websocket_session::on_accept(beast::error_code ec) {
 }
 
 bool websocket_session::reading_blocked() const {
-    return answers_queued_ >= limits_.answer_queue_limit ||
-           commands_in_flight_ >= limits_.max_commands_in_flight;
+    return answers_queued_ >= limits_.answer_queue_limit;
 }
 
 void websocket_session::maybe_resume_reading() {
@@ -254,6 +253,9 @@ void websocket_session::handle_message(std::string_view text) {
                 count("gcode");
                 json id = m.id;
                 run_call(id, std::nullopt, to_call(std::move(m)));
+            } else if constexpr (std::is_same_v<T, halt_all_message>) {
+                count("halt_all");
+                run_call(m.id, std::nullopt, halt_all_call{});
             }
         },
         *parsed);
@@ -261,6 +263,18 @@ void websocket_session::handle_message(std::string_view text) {
 
 // The same dispatch as REST and MQTT: same roles, leases, validation and shapes.
 void websocket_session::run_call(const json& id, std::optional<std::string> lease, call c) {
+    if (is_emergency_stop(c) || commands_in_flight_ < limits_.max_commands_in_flight)
+        return start_call(id, std::move(lease), std::move(c));
+    if (commands_waiting_.size() >= limits_.max_commands_waiting)
+        return answer_error(id, make_problem(make_error(
+                                    operation_error_kind::queue_full,
+                                    "this connection has " + std::to_string(commands_in_flight_) + " commands running and " +
+                                        std::to_string(commands_waiting_.size()) +
+                                        " waiting; send more once some are answered (a HALT always runs)")));
+    commands_waiting_.push_back({id, std::move(lease), std::move(c)});
+}
+
+void websocket_session::start_call(const json& id, std::optional<std::string> lease, call c) {
     ++commands_in_flight_;
     caller who{who_.name, who_.role, ws_request_id(connection_, id), std::move(lease)};
     dispatch_call(*ctx_, who, std::move(c),
@@ -272,6 +286,11 @@ void websocket_session::run_call(const json& id, std::optional<std::string> leas
 void websocket_session::on_call_done(const json& id, api_outcome outcome) {
     --commands_in_flight_;
     if (phase_ != phase::open) return;
+    if (!commands_waiting_.empty() && commands_in_flight_ < limits_.max_commands_in_flight) {
+        auto next = std::move(commands_waiting_.front());
+        commands_waiting_.pop_front();
+        start_call(next.id, std::move(next.lease), std::move(next.c));
+    }
     if (outcome.error)
         answer_error(id, std::move(*outcome.error));
     else

@@ -58,7 +58,10 @@ struct websocket_limits {
     std::chrono::milliseconds write_timeout{30'000};         // one frame stuck longer: "too slow"
     std::chrono::milliseconds close_timeout{5'000};          // close handshake; then the socket is closed
     std::size_t answer_queue_limit = 32;                     // queued answers before reading pauses
-    std::size_t max_commands_in_flight = 16;                 // running commands before reading pauses
+    // Running commands; more wait in order (up to max_commands_waiting, then queue_full). Reading never
+    // pauses for commands, and a HALT never waits: it runs at once, ahead of those waiting.
+    std::size_t max_commands_in_flight = 16;
+    std::size_t max_commands_waiting = 64;
     std::size_t max_subscriptions = 64;                      // filters per connection
 };
 
@@ -101,6 +104,7 @@ class websocket_session final : public gw::event_sink,
     void answer_error(const nlohmann::json& id, problem p);
     // A command or job message: dispatched as a call (api/calls.hpp), answered with its outcome.
     void run_call(const nlohmann::json& id, std::optional<std::string> lease, call c);
+    void start_call(const nlohmann::json& id, std::optional<std::string> lease, call c);
     void on_call_done(const nlohmann::json& id, api_outcome outcome);
     void on_deliver(const std::vector<std::shared_ptr<const event>>& batch);
     void do_write();
@@ -130,6 +134,12 @@ class websocket_session final : public gw::event_sink,
     std::deque<frame> out_;
     std::size_t answers_queued_ = 0;
     std::size_t commands_in_flight_ = 0;
+    struct waiting_call {
+        nlohmann::json id;
+        std::optional<std::string> lease;
+        call c;
+    };
+    std::deque<waiting_call> commands_waiting_;  // over max_commands_in_flight, in arrival order
     std::set<std::string> filters_;
     bool reading_ = false;
     bool writing_ = false;

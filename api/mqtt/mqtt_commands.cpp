@@ -110,8 +110,11 @@ void mqtt_commands::run(mqtt_request& request, const auth_identity& who, const r
     } else if (auto* gcode = std::get_if<gcode_message>(&request.message)) {
         id = gcode->id;
         c = to_call(std::move(*gcode));
+    } else if (auto* halt = std::get_if<halt_all_message>(&request.message)) {
+        id = halt->id;
+        c = halt_all_call{};
     } else {
-        return;  // parse_mqtt_request only builds commands, jobs and G-code checks
+        return;  // parse_mqtt_request only builds commands, jobs, G-code checks and HALT ALL
     }
     ++in_flight_;
     dispatch_call(*ctx_, caller{who.name, who.role, request_id, std::move(lease)}, std::move(*c),

@@ -67,6 +67,8 @@ boost::system::result<mqtt_request, mqtt_request_error> parse_mqtt_request(const
     if (for_controller) {
         msg["op"] = "command";
         msg["controller"] = target.controller;
+    } else if (target.kind == mqtt_command_kind::halt_all) {
+        msg["op"] = "halt_all";
     } else {
         msg["op"] = target.kind == mqtt_command_kind::gcode_check ? "gcode" : "job";
         msg["action"] = std::string(to_string(target.kind));

@@ -40,7 +40,8 @@ bool is_id_level(std::string_view s) {
 std::string_view to_string(mqtt_command_kind k) {
     for (const auto& [kind, name] : job_commands)
         if (kind == k) return name;
-    return k == mqtt_command_kind::gcode_check ? "check" : "command";
+    if (k == mqtt_command_kind::gcode_check) return "check";
+    return k == mqtt_command_kind::halt_all ? "halt" : "command";
 }
 
 mqtt_topics::mqtt_topics(std::string prefix, std::string gateway_id)
@@ -75,12 +76,18 @@ std::string mqtt_topics::gcode_check() const {
     return base_ + "/gcode/check";
 }
 
+std::string mqtt_topics::halt_all() const {
+    return base_ + "/halt";
+}
+
 std::string mqtt_topics::command(const mqtt_command_target& target) const {
     switch (target.kind) {
         case mqtt_command_kind::controller:
             return controller(target.controller, "cmd");
         case mqtt_command_kind::gcode_check:
             return gcode_check();
+        case mqtt_command_kind::halt_all:
+            return halt_all();
         default:
             return job_command(target.kind);
     }
@@ -91,6 +98,7 @@ std::vector<std::string> mqtt_topics::command_filters() const {
     for (const auto& [kind, name] : job_commands)
         out.push_back(job_command(kind));
     out.push_back(gcode_check());
+    out.push_back(halt_all());
     return out;
 }
 
@@ -105,6 +113,7 @@ std::optional<mqtt_command_target> mqtt_topics::parse_command_topic(std::string_
             if (rest[1] == name) return mqtt_command_target{kind, {}};
     if (rest.size() == 2 && rest[0] == "gcode" && rest[1] == "check")
         return mqtt_command_target{mqtt_command_kind::gcode_check, {}};
+    if (rest.size() == 1 && rest[0] == "halt") return mqtt_command_target{mqtt_command_kind::halt_all, {}};
     return std::nullopt;
 }
 

@@ -11,6 +11,7 @@
 //   <prefix>/<gateway>/controllers/<id>/cmd
 //   <prefix>/<gateway>/jobs/submit | cancel | pause | resume | next
 //   <prefix>/<gateway>/gcode/check
+//   <prefix>/<gateway>/halt                           HALT ALL
 
 #include <optional>
 #include <string>
@@ -26,10 +27,12 @@ enum class mqtt_command_kind {
     job_pause,
     job_resume,
     job_next,
-    gcode_check
+    gcode_check,
+    halt_all
 };
 
-// "submit", "cancel", ... (the job action; "check" for gcode_check; "command" for controller).
+// "submit", "cancel", ... (the job action; "check" for gcode_check; "halt" for halt_all; "command" for
+// controller).
 std::string_view to_string(mqtt_command_kind k);
 
 struct mqtt_command_target {
@@ -52,6 +55,7 @@ class mqtt_topics {
     std::string job_state(std::string_view job_id) const;
     std::string job_command(mqtt_command_kind kind) const;  // "<base>/jobs/submit"...
     std::string gcode_check() const;                        // "<base>/gcode/check"
+    std::string halt_all() const;                           // "<base>/halt"
     // The topic a command for `target` comes on (one of the above, or controller(id, "cmd")).
     std::string command(const mqtt_command_target& target) const;
 

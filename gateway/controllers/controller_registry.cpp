@@ -47,12 +47,13 @@ class controller_registry::store final : public devices::controller_observer {
         return it->second;
     }
 
-    // Sets or clears the controller's halt latch in its stored snapshot; false when it was so already.
-    // The observers hear of it with the next on_snapshot (controller_registry::republish).
+    // Sets (a later HALT renews who and when) or clears the controller's halt latch in its stored
+    // snapshot; false when nothing changed. The observers hear of it with the next on_snapshot
+    // (controller_registry::republish).
     bool set_latch(const std::string& id, std::optional<devices::halt_latch> latch) {
         std::lock_guard lock(mutex_);
         auto& stored = latches_[id];
-        if (stored.has_value() == latch.has_value()) return false;
+        if (stored == latch) return false;
         stored = latch;
         if (auto it = snapshots_.find(id); it != snapshots_.end()) it->second.halted = std::move(latch);
         return true;
@@ -371,7 +372,8 @@ void controller_registry::note_failure(const operation_error& e, const std::stri
     const bool client_side = e.kind == operation_error_kind::invalid_value ||
                              e.kind == operation_error_kind::unknown_controller ||
                              e.kind == operation_error_kind::missing_module ||
-                             e.kind == operation_error_kind::busy || e.kind == operation_error_kind::leased;
+                             e.kind == operation_error_kind::busy || e.kind == operation_error_kind::leased ||
+                             e.kind == operation_error_kind::halted;
     if (client_side) {
         log_->debug("[{}] {}: refused ({}): {}", request_id, id, to_string(e.kind), e.message);
         return;

@@ -176,6 +176,9 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // Changes progress.waiting_for (and eta: unknown from the start of an unbounded wait, estimated again
     // at its end) and publishes it as a state event; nothing when it is the same.
     void set_waiting(live_job& job, std::optional<job_wait> what);
+    // The same for a job that is not running (queued, or paused holding its controller): the manager's
+    // own say about what it waits for, the halt latch.
+    void set_held_wait(live_job& job, std::optional<job_wait> what);
     // A job queued on `controller` now waits for it when another job holds it or is queued before it.
     std::optional<job_wait> queue_wait(const std::string& controller) const;
     // Stores the job's record (state, progress, a transition) and/or one of its events, in one

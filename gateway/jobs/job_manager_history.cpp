@@ -116,11 +116,15 @@ void manager_core::set_state(live_job& job, job_state s, std::string reason,
 }
 
 void manager_core::set_waiting(live_job& job, std::optional<job_wait> what) {
+    // A run reports its waits while running; once stopped, set_state has said what it waits for.
+    if (job.record.state != job_state::running && what != std::nullopt) return;
+    set_held_wait(job, what);
+}
+
+void manager_core::set_held_wait(live_job& job, std::optional<job_wait> what) {
     auto& r = job.record;
     auto& p = r.progress;
     if (abandoned_ || p.waiting_for == what) return;
-    // A run reports its waits while running; once stopped, set_state has said what it waits for.
-    if (r.state != job_state::running && what != std::nullopt) return;
     const auto now = job_clock::now();
     const bool was_unbounded = p.waiting_for && is_unbounded(*p.waiting_for);
     const bool unbounded = what && is_unbounded(*what);

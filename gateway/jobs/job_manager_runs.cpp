@@ -46,7 +46,7 @@ void manager_core::launch(std::shared_ptr<live_job> job) {
         lanes_.release(controller, job->record.id);
         lanes_.enqueue(controller, job->record.id, true);
         job->queued_in_lane = true;
-        set_waiting(*job, job_wait::halt);
+        set_held_wait(*job, job_wait::halt);
         return;
     }
     const auto first = std::min(job->record.progress.steps_done, job->plan->steps.size());
@@ -256,13 +256,13 @@ void manager_core::show_halt_waits(const std::string& controller) {
         auto it = jobs_.find(id);
         if (it == jobs_.end() || it->second->record.state != job_state::queued) continue;
         const auto w = it->second->record.progress.waiting_for;
-        if (latched && w != job_wait::halt) set_waiting(*it->second, job_wait::halt);
-        if (!latched && w == job_wait::halt) set_waiting(*it->second, queue_wait(controller));
+        if (latched && w != job_wait::halt) set_held_wait(*it->second, job_wait::halt);
+        if (!latched && w == job_wait::halt) set_held_wait(*it->second, queue_wait(controller));
     }
     // A job a HALT paused (run_finished) waits for a resume alone once the latch is released.
     if (auto it = jobs_.find(lanes_.holder(controller)); it != jobs_.end() && !latched &&
                                                           it->second->record.progress.waiting_for == job_wait::halt)
-        set_waiting(*it->second, std::nullopt);
+        set_held_wait(*it->second, std::nullopt);
 }
 
 void manager_core::controller_ttl_edge(const std::string& controller) {

@@ -1,0 +1,382 @@
+#!/usr/bin/python3
+"""HALT is the emergency stop (issue 31), end to end: the real asi-gateway, external ms2000-sims with
+control sockets (sim1 full build: ARRAY, SCAN, RING BUFFER, TTL; sim2 plain; sim3 planar correction),
+a real mosquitto, real HTTP, WebSocket and MQTT clients.
+
+For each kind of job, a HALT in the middle of it: the stage stops (the simulator's motion ends at
+most 100 ms of simulated time after the HALT was answered), no step follows it (steps and position
+stay put while nobody resumes), a TTL-triggered mode is disarmed (IN0 pulses move nothing), a G-code
+job's TTL output goes low, the job is paused with the reason "halted by <who>", the controller says
+who halted it, and a resume finishes the job. Queued jobs do not start while the controller is halted
+and a resume or a submission releases it. HALT ALL over REST, WebSocket and MQTT. A HALT is answered
+while the controller is still being identified.
+
+Run by ctest with Debian's /usr/bin/python3 (python3-paho-mqtt, python3-websockets not needed).
+Exit code 0 when every check passed; the failures are listed otherwise.
+"""
+
+import argparse
+import json
+import os
+import sys
+import time
+
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from gateway_fixture import TOKENS, Failure, Fixture, auth_tokens, check, free_port, run_main, wait_until  # noqa: E402
+from http_api_test import Client, Contract  # noqa: E402
+from mqtt_api_test import Broker, Client as MqttClient, command as mqtt_command  # noqa: E402
+from ws_api_test import WsClient  # noqa: E402
+
+OP = TOKENS["operator"]
+VIEW = TOKENS["viewer"]
+TIME_SCALE = 10
+JOB_WAIT = 180.0
+PREFIX = "halt-test"
+# Simulated milliseconds the stage may still move after the HALT was answered (deceleration, the
+# answer's own way back).
+STOP_WITHIN_SIM_US = 100_000
+
+
+def sim_state(sim):
+    return json.loads(sim.control("state"))
+
+
+def sim_xy(sim):
+    axes = sim_state(sim)["axes"]
+    return round(axes["X"]["position"]), round(axes["Y"]["position"])
+
+
+def submit(c, controller, type_, spec, status=201):
+    r = c.request("POST", "/api/v1/jobs", {"controller": controller, "type": type_, "spec": spec}, token=OP)
+    check(r.status == status, f"submit {type_} on {controller}: {r.status} {r.body[:400]}")
+    return r.json()["id"] if status == 201 else None
+
+
+def job(c, job_id):
+    r = c.request("GET", f"/api/v1/jobs/{job_id}", token=VIEW)
+    check(r.status == 200, f"GET job {job_id}: {r.status} {r.body[:300]}")
+    return r.json()
+
+
+def wait_job(c, job_id, what, pred, timeout=JOB_WAIT):
+    return wait_until(f"job {job_id}: {what}", lambda: (lambda j: j if pred(j) else None)(job(c, job_id)), timeout)
+
+
+def action(c, job_id, name, status=200):
+    r = c.request("POST", f"/api/v1/jobs/{job_id}/{name}", token=OP)
+    check(r.status == status, f"{name} {job_id}: expected {status}, got {r.status}: {r.body[:300]}")
+    return r
+
+
+def controller(c, cid):
+    r = c.request("GET", f"/api/v1/controllers/{cid}", token=VIEW)
+    check(r.status == 200, f"GET controller {cid}: {r.status}")
+    return r.json()
+
+
+def halt(c, cid, token=OP):
+    r = c.request("POST", f"/api/v1/controllers/{cid}/halt", token=token)
+    check(r.status == 200, f"halt {cid}: {r.status} {r.body[:300]}")
+
+
+def check_halted(c, sim, cid, job_id, who, halted_at_us):
+    """After a HALT answered when the simulator's clock read `halted_at_us`: the stage stopped at once,
+    the job is paused by it, and nothing moves or steps while nobody resumes."""
+    j = wait_job(c, job_id, "paused by the HALT", lambda j: j["state"] == "paused")
+    check(j["reason"] == f"halted by {who}", f"reason: {j['reason']!r}")
+    check(controller(c, cid)["halted"]["by"] == who, f"controller halted: {controller(c, cid)['halted']}")
+    wait_until(f"{cid} idle", lambda: not sim_state(sim)["busy"], 20)
+    state = sim_state(sim)
+    for name, axis in state["axes"].items():
+        check(axis["motion_end_us"] <= halted_at_us + STOP_WITHIN_SIM_US,
+              f"{cid} axis {name} moved until {axis['motion_end_us']} us, HALT answered at {halted_at_us} us")
+    check(not state["array"]["self_scan"] and not state["scan"]["running"] and not state["ring_buffer"]["autoplay"],
+          f"a firmware run still active: array {state['array']} scan {state['scan']}")
+    steps, where = j["progress"]["steps_done"], sim_xy(sim)
+    time.sleep(1.5)  # 15 s of simulated time
+    j = job(c, job_id)
+    check(j["state"] == "paused" and j["progress"]["steps_done"] == steps,
+          f"a step after the HALT: {steps} -> {j['progress']['steps_done']} ({j['state']})")
+    check(sim_xy(sim) == where, f"{cid} moved after the HALT: {where} -> {sim_xy(sim)}")
+    return j
+
+
+def halt_mid_run(c, sim, cid, job_id, started, who="operator1", token=OP):
+    """Waits until `started(job)`, HALTs, checks check_halted(); returns the paused job."""
+    wait_job(c, job_id, "under way", started)
+    halt(c, cid, token)
+    return check_halted(c, sim, cid, job_id, who, sim_state(sim)["time_us"])
+
+
+def resume_to_end(c, cid, job_id, drive=None):
+    """Resumes: the latch is released and the job ends well (`drive` makes a TTL/next job advance)."""
+    action(c, job_id, "resume")
+    check(controller(c, cid)["halted"] is None, "the resume released the HALT latch")
+    deadline = time.monotonic() + JOB_WAIT
+    while True:
+        j = job(c, job_id)
+        if j["state"] in ("succeeded", "failed", "cancelled"):
+            break
+        check(time.monotonic() < deadline, f"job {job_id} did not end after the resume: {j['state']}")
+        if drive:
+            drive(j)
+        time.sleep(0.2)
+    check(j["state"] == "succeeded", f"job {job_id} after the resume: {j['state']} ({j['reason']})")
+    return j
+
+
+# ---------------------------------------------------------------------------------------------
+# HALT during each kind of job
+
+
+def test_array_host(c, sims):
+    job_id = submit(c, "sim2", "array", {"grid": {"columns": 6, "rows": 1, "column_step_mm": 3, "row_step_mm": -1},
+                                         "a1": {"X": 0, "Y": 0}, "dwell_ms": 2000, "mode": "host"})
+    j = halt_mid_run(c, sims["sim2"], "sim2", job_id, lambda j: j["progress"]["steps_done"] >= 1)
+    check(j["progress"]["waiting_for"] == "halt", f"waiting_for: {j['progress']['waiting_for']}")
+    done = resume_to_end(c, "sim2", job_id)
+    check(done["progress"]["steps_done"] == 6, f"steps after the resume: {done['progress']}")
+
+
+def test_array_firmware_ttl(c, sims):
+    sim = sims["sim1"]
+    job_id = submit(c, "sim1", "array", {"grid": {"columns": 4, "rows": 1, "column_step_mm": 1, "row_step_mm": -1},
+                                         "a1": {"X": 0, "Y": 0}, "advance": "ttl", "mode": "firmware"})
+    wait_job(c, job_id, "waiting for a TTL edge", lambda j: j["progress"]["waiting_for"] == "ttl")
+    sim.control("pulse")
+    halt_mid_run(c, sim, "sim1", job_id, lambda j: j["progress"]["steps_done"] >= 1)
+    # The TTL-triggered mode is disarmed: an edge now moves nothing.
+    check(sim_state(sim)["ttl"]["in0_mode"] == 0, f"IN0 mode after the HALT: {sim_state(sim)['ttl']}")
+    where = sim_xy(sim)
+    sim.control("pulse")
+    time.sleep(1.0)
+    check(sim_xy(sim) == where, f"an IN0 edge moved the halted stage: {where} -> {sim_xy(sim)}")
+
+    def pulse_when_waiting(j):
+        if j["progress"]["waiting_for"] == "ttl":
+            sim.control("pulse")
+    resume_to_end(c, "sim1", job_id, pulse_when_waiting)
+
+
+def test_scan_firmware(c, sims):
+    job_id = submit(c, "sim1", "scan", {"fast_axis": "X", "slow_axis": "Y",
+                                        "fast": {"start_mm": 0.0, "stop_mm": 4.0, "encoder_divide": 24},
+                                        "slow": {"start_mm": 0.0, "stop_mm": 0.4, "lines": 8},
+                                        "pattern": "serpentine", "mode": "firmware", "speed_mm_s": 0.5})
+    halt_mid_run(c, sims["sim1"], "sim1", job_id, lambda j: j["progress"]["steps_done"] >= 1)
+    resume_to_end(c, "sim1", job_id)
+
+
+def test_ring_buffer_ttl(c, sims):
+    # sim3: the RING BUFFER module steps by itself on each IN0 edge (IN0 mode 1). On sim1's
+    # TTL_REPORT_INT build IN0 only latches reports and the tour would be host-driven.
+    sim = sims["sim3"]
+    job_id = submit(c, "sim3", "ring_buffer", {"positions": [{"X": 0, "Y": 0}, {"X": 1000, "Y": 500},
+                                                             {"X": 2000, "Y": 0}, {"X": 3000, "Y": 500}],
+                                               "axes": "XY", "trigger": "ttl"})
+    wait_until("IN0 armed for the ring buffer", lambda: sim_state(sim)["ttl"]["in0_mode"] == 1, 30)
+    sim.control("pulse")
+    halt_mid_run(c, sim, "sim3", job_id, lambda j: j["progress"]["steps_done"] >= 1)
+    check(sim_state(sim)["ttl"]["in0_mode"] == 0, f"IN0 mode after the HALT: {sim_state(sim)['ttl']}")
+    where = sim_xy(sim)
+    sim.control("pulse")
+    time.sleep(1.0)
+    check(sim_xy(sim) == where, f"an IN0 edge moved the halted stage: {where} -> {sim_xy(sim)}")
+
+    def pulse_when_armed(j):
+        if sim_state(sim)["ttl"]["in0_mode"] == 1 and not sim_state(sim)["busy"]:
+            sim.control("pulse")
+            time.sleep(0.3)
+    resume_to_end(c, "sim3", job_id, pulse_when_armed)
+
+
+def test_planar(c, sims):
+    job_id = submit(c, "sim3", "planar_correction",
+                    {"action": "set", "points": ["current", {"X": 20000, "Y": -20000, "Z": 10},
+                                                 {"X": -20000, "Y": -20000, "Z": -5}]})
+    halt_mid_run(c, sims["sim3"], "sim3", job_id, lambda j: j["progress"]["waiting_for"] == "next")
+
+    def next_when_waiting(j):
+        if j["progress"]["waiting_for"] == "next":
+            c.request("POST", f"/api/v1/jobs/{job_id}/next", token=OP)
+    resume_to_end(c, "sim3", job_id, next_when_waiting)
+
+
+def test_gcode_ttl(c, sims):
+    sim = sims["sim2"]
+    program = "G21 G90\nG00 X0 Y0\nM03\nG01 X20 F60\nY5\nX0\nM05\nG00 X0 Y0\n"
+    job_id = submit(c, "sim2", "gcode", {"program": program})
+    wait_until("the TTL output high", lambda: sim_state(sim)["ttl"]["out0_mode"] == 1, 60)
+    halt_mid_run(c, sim, "sim2", job_id, lambda j: j["state"] == "running")
+    wait_until("the TTL output low after the HALT", lambda: sim_state(sim)["ttl"]["out0_mode"] == 0, 20)
+    resume_to_end(c, "sim2", job_id)
+    check(sim_state(sim)["ttl"]["out0_mode"] == 0, "the TTL output low at the end")
+
+
+# ---------------------------------------------------------------------------------------------
+# The latch: queued jobs wait; a resume or a submission releases it
+
+
+def test_queued_jobs_wait(c, sims):
+    first = submit(c, "sim2", "array", {"grid": {"columns": 4, "rows": 1, "column_step_mm": 2, "row_step_mm": -1},
+                                        "a1": {"X": 0, "Y": 0}, "dwell_ms": 2000, "mode": "host"})
+    second = submit(c, "sim2", "array", {"grid": {"columns": 2, "rows": 1, "column_step_mm": 1, "row_step_mm": -1},
+                                         "a1": {"X": 0, "Y": 0}, "mode": "host"})
+    halt_mid_run(c, sims["sim2"], "sim2", first, lambda j: j["progress"]["steps_done"] >= 1)
+    action(c, first, "cancel")
+    wait_job(c, first, "cancelled", lambda j: j["state"] == "cancelled")
+    # The controller is still halted: the queued job does not start, and says why.
+    time.sleep(1.0)
+    j = wait_job(c, second, "waiting for the halt", lambda j: j["progress"]["waiting_for"] == "halt", 10)
+    check(j["state"] == "queued", f"a queued job started on a halted controller: {j['state']}")
+    check(controller(c, "sim2")["halted"] is not None, "the cancel released the latch")
+    # Resuming the queued job is the decision to go on.
+    action(c, second, "resume")
+    wait_job(c, second, "succeeded", lambda j: j["state"] == "succeeded")
+    check(controller(c, "sim2")["halted"] is None, "latch after the resume")
+    # A submission releases it too.
+    halt(c, "sim2")
+    check(controller(c, "sim2")["halted"]["by"] == "operator1", "halted again")
+    third = submit(c, "sim2", "array", {"grid": {"columns": 2, "rows": 1, "column_step_mm": 1, "row_step_mm": -1},
+                                        "a1": {"X": 0, "Y": 0}, "mode": "host"})
+    check(controller(c, "sim2")["halted"] is None, "latch after a submission")
+    wait_job(c, third, "succeeded", lambda j: j["state"] == "succeeded")
+
+
+def test_viewer_may_halt(c, sims):
+    job_id = submit(c, "sim2", "array", {"grid": {"columns": 4, "rows": 1, "column_step_mm": 2, "row_step_mm": -1},
+                                         "a1": {"X": 0, "Y": 0}, "dwell_ms": 2000, "mode": "host"})
+    halt_mid_run(c, sims["sim2"], "sim2", job_id, lambda j: j["progress"]["steps_done"] >= 1, "viewer1", VIEW)
+    action(c, job_id, "cancel")
+
+
+# ---------------------------------------------------------------------------------------------
+# HALT ALL
+
+
+def start_moves(c):
+    """A long move on every controller (a job would hold the controller; these are a client's own)."""
+    for cid in ("sim1", "sim2", "sim3"):
+        r = c.request("POST", f"/api/v1/controllers/{cid}/move", {"axes": {"X": 60000}}, token=OP)
+        check(r.status == 200, f"move {cid}: {r.status} {r.body[:200]}")
+    wait_until("every stage moving", lambda: all(controller(c, cid)["busy"] for cid in ("sim1", "sim2", "sim3")), 20)
+
+
+def check_all_halted(c, sims, answer, who):
+    check(answer["operation"] == "halt_all", f"answer: {answer}")
+    got = {a["id"]: a["halted"] for a in answer["controllers"]}
+    check(got == {"sim1": True, "sim2": True, "sim3": True}, f"HALT ALL answered {answer['controllers']}")
+    for cid, sim in sims.items():
+        wait_until(f"{cid} idle after HALT ALL", lambda: not sim_state(sim)["busy"], 20)
+        check(sim_xy(sim)[0] < 600000 - 1000, f"{cid} arrived although halted: {sim_xy(sim)}")
+        check(controller(c, cid)["halted"]["by"] == who, f"{cid}: {controller(c, cid)['halted']}")
+
+
+def back_home(c):
+    for cid in ("sim1", "sim2", "sim3"):
+        r = c.request("POST", f"/api/v1/controllers/{cid}/move", {"axes": {"X": 0, "Y": 0}, "wait": True}, token=OP)
+        check(r.status == 200, f"move {cid} home: {r.status}")
+
+
+def test_halt_all_rest(c, sims):
+    start_moves(c)
+    r = c.request("POST", "/api/v1/halt", token=VIEW)
+    check(r.status == 200, f"POST /api/v1/halt: {r.status} {r.body[:300]}")
+    check_all_halted(c, sims, r.json(), "viewer1")
+    back_home(c)
+
+
+def test_halt_all_ws(c, sims, port):
+    start_moves(c)
+    ws = WsClient(port, OP, "operator")
+    a = ws.request({"op": "halt_all", "id": "stop-everything"})
+    ws.close()
+    check(a["type"] == "result" and a["id"] == "stop-everything", f"answer: {a}")
+    check_all_halted(c, sims, a["result"], "operator1")
+    back_home(c)
+
+
+def test_halt_all_mqtt(c, sims, broker):
+    start_moves(c)
+    m = MqttClient(broker.port, "halt-test-client")
+    reply = "halt-test-clients/replies"
+    m.subscribe(reply)
+    a = mqtt_command(m, f"{PREFIX}/lab/halt", {"id": "m-halt", "token": OP}, reply)
+    m.close()
+    check(a["type"] == "result", f"answer: {a}")
+    check_all_halted(c, sims, a["result"], "operator1")
+    back_home(c)
+
+
+# ---------------------------------------------------------------------------------------------
+# HALT before the controller is identified
+
+
+def test_halt_before_identification(fx, args, contract):
+    sim = fx.start_sim(args.sim, "late", "plain", time_scale=TIME_SCALE)
+    sim.control("delay-next 3000")  # the first answer (to the identification) comes 3 s late
+    port = free_port()
+    config = {"http": {"listen_address": "127.0.0.1", "port": port}, "auth": auth_tokens(),
+              "storage": {"path": os.path.join(fx.tmp, "late-store")},
+              "controllers": [{"id": "late", "port": sim.link}]}
+    cfg = os.path.join(fx.tmp, "late.json")
+    with open(cfg, "w") as f:
+        json.dump(config, f)
+    with open(os.path.join(fx.tmp, "late.log"), "w") as log:
+        proc = __import__("subprocess").Popen([args.gateway, "--config", cfg], stdout=log, stderr=log)
+    fx.procs.append(proc)
+    c = Client(port, contract)
+    wait_until("late identifying", lambda: controller(c, "late")["state"] == "identifying", 30)
+    r = c.request("POST", "/api/v1/controllers/late/halt", token=OP)
+    check(r.status == 200, f"HALT while identifying: {r.status} {r.body[:300]}")
+    proc.terminate()
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("--gateway", required=True)
+    p.add_argument("--sim", required=True)
+    p.add_argument("--openapi", required=True)
+    p.add_argument("--only", default="", help="run only the checks whose name contains this")
+    args = p.parse_args()
+    with open(args.openapi) as f:
+        contract = Contract(f.read())
+    fx = Fixture("asi-halt-test-")
+    try:
+        sims = {"sim1": fx.start_sim(args.sim, "sim1", "full", time_scale=TIME_SCALE, report=True),
+                "sim2": fx.start_sim(args.sim, "sim2", "plain", time_scale=TIME_SCALE),
+                "sim3": fx.start_sim(args.sim, "sim3", "planar", time_scale=TIME_SCALE)}
+        broker = Broker(fx, "halt-broker")
+        broker.start()
+        port = free_port()
+        controllers = [{"id": "sim1", "port": sims["sim1"].link, "report_port": sims["sim1"].report_link},
+                       {"id": "sim2", "port": sims["sim2"].link}, {"id": "sim3", "port": sims["sim3"].link}]
+        fx.start_gateway(args.gateway, {
+            "http": {"listen_address": "127.0.0.1", "port": port}, "auth": auth_tokens(),
+            "controllers": controllers,
+            "mqtt": {"enabled": True, "brokers": [f"mqtt://127.0.0.1:{broker.port}"], "gateway_id": "lab",
+                     "topic_prefix": PREFIX, "commands": {"enabled": True}}})
+        c = Client(port, contract)
+        run = fx.run
+        fx.run = lambda name, *a: run(name, *a) if args.only in name else None
+        fx.run("HALT during a host-driven array job", test_array_host, c, sims)
+        fx.run("HALT during a firmware array advanced by TTL", test_array_firmware_ttl, c, sims)
+        fx.run("HALT during a firmware scan", test_scan_firmware, c, sims)
+        fx.run("HALT during a ring-buffer tour advanced by TTL", test_ring_buffer_ttl, c, sims)
+        fx.run("HALT during a planar correction", test_planar, c, sims)
+        fx.run("HALT during a G-code trace with TTL", test_gcode_ttl, c, sims)
+        fx.run("queued jobs wait for a resume or a submission", test_queued_jobs_wait, c, sims)
+        fx.run("a viewer may HALT", test_viewer_may_halt, c, sims)
+        fx.run("HALT ALL over REST", test_halt_all_rest, c, sims)
+        fx.run("HALT ALL over WebSocket", test_halt_all_ws, c, sims, port)
+        fx.run("HALT ALL over MQTT", test_halt_all_mqtt, c, sims, broker)
+        fx.run("HALT before identification", test_halt_before_identification, fx, args, contract)
+        fx.finish_log(80)
+        return fx.report()
+    finally:
+        fx.cleanup()
+
+
+if __name__ == "__main__":
+    run_main(main)
