@@ -32,8 +32,8 @@ class tracked_connection {
 
 class connection_permit {
   public:
-    connection_permit(std::shared_ptr<connection_table> table, std::uint64_t id)
-        : table_(std::move(table)), id_(id) {}
+    connection_permit(std::shared_ptr<connection_table> table, std::uint64_t id, bool halt_only = false)
+        : table_(std::move(table)), id_(id), halt_only_(halt_only) {}
     ~connection_permit();
 
     connection_permit(const connection_permit&) = delete;
@@ -41,10 +41,13 @@ class connection_permit {
 
     void track(std::weak_ptr<tracked_connection> c);
     void set_phase(connection_phase phase);
+    // A slot of the HALT reserve: the connection may send a HALT and nothing else.
+    bool halt_only() const { return halt_only_; }
 
   private:
     std::shared_ptr<connection_table> table_;  // shared: the listener may be gone before the last session
     std::uint64_t id_;
+    bool halt_only_ = false;
 };
 
 }  // namespace gw::api

@@ -15,25 +15,47 @@ connection_table::admission connection_table::admit(const net::ip::address& from
     if (auto it = per_address_open_.find(from); it != per_address_open_.end() && it->second >= per_address_) {
         a.refused = refusal::address_limit;
         a.detail = from.to_string() + " has " + std::to_string(it->second) +
-                   " connections open, the most one address may; try again later";
+                   " connections open, the most one address may; try again later (a HALT is still served)";
+        admit_for_halt(a, from, now);
         return a;
     }
     if (open_ >= settings_.max_connections) {
         auto victim = pick_victim(now);
         if (victim == entries_.end()) {
             a.refused = refusal::connection_limit;
-            a.detail = "the gateway has " + std::to_string(open_) + " connections open; try again later";
+            a.detail = "the gateway has " + std::to_string(open_) +
+                       " connections open; try again later (a HALT is still served)";
+            admit_for_halt(a, from, now);
             return a;
         }
         uncount(victim->second);
         a.shed = victim->second.connection;
     }
     const auto id = next_id_++;
-    entries_.emplace(id, entry{from, connection_phase::awaiting_header, now, true, {}});
+    entries_.emplace(id, entry{from, connection_phase::awaiting_header, now, true, false, {}});
     ++open_;
     ++per_address_open_[from];
     a.permit = std::make_shared<connection_permit>(shared_from_this(), id);
     return a;
+}
+
+void connection_table::admit_for_halt(admission& a, const net::ip::address& from, clock::time_point now) {
+    if (reserve_open_ >= settings_.halt_reserve) {
+        auto oldest = entries_.end();
+        for (auto it = entries_.begin(); it != entries_.end(); ++it)
+            if (it->second.halt_only && it->second.counted && it->second.phase == connection_phase::awaiting_header &&
+                (oldest == entries_.end() || it->second.since < oldest->second.since))
+                oldest = it;
+        if (oldest == entries_.end()) return;  // every reserve slot serves a HALT right now
+        uncount(oldest->second);               // its slot goes to the newcomer
+        a.shed = oldest->second.connection;
+    }
+    const auto id = next_id_++;
+    entry e{from, connection_phase::awaiting_header, now, true, true, {}};
+    entries_.emplace(id, std::move(e));
+    ++reserve_open_;
+    a.halt_only = true;
+    a.permit = std::make_shared<connection_permit>(shared_from_this(), id, true);
 }
 
 std::map<std::uint64_t, connection_table::entry>::iterator connection_table::pick_victim(
@@ -58,7 +80,7 @@ std::map<std::uint64_t, connection_table::entry>::iterator connection_table::pic
 }
 
 int connection_table::shed_rank(const entry& e, clock::time_point now) const {
-    if (!e.counted) return -1;
+    if (!e.counted || e.halt_only) return -1;
     const bool patience_over = now - e.since >= settings_.patience;
     switch (e.phase) {
         case connection_phase::awaiting_header:
@@ -76,6 +98,10 @@ int connection_table::shed_rank(const entry& e, clock::time_point now) const {
 void connection_table::uncount(entry& e) {
     if (!e.counted) return;
     e.counted = false;
+    if (e.halt_only) {
+        --reserve_open_;
+        return;
+    }
     --open_;
     auto it = per_address_open_.find(e.address);
     if (--it->second == 0) per_address_open_.erase(it);

@@ -10,6 +10,10 @@
 // that sends its request at once. Connections being served (a request handled, a WebSocket) are
 // never shed, and neither are a client between two requests or a body that came in less than
 // `patience`.
+// A HALT is never refused for want of a slot: a newcomer the limits would refuse gets one of
+// `halt_reserve` slots kept apart (its permit is halt_only) where it may send a HALT, and nothing
+// else (the session answers anything else 503 too-many-connections). When those are taken too, the
+// one that has waited longest for its header is shed for it.
 //
 //   auto table = std::make_shared<connection_table>(connection_table::settings{256, 64, 5s});
 //   auto a = table->admit(remote_address);   // a.permit null: refused (a.refusal says why)
@@ -40,6 +44,7 @@ class connection_table : public std::enable_shared_from_this<connection_table> {
         std::size_t max_connections = 256;
         std::size_t max_per_address = 64;
         std::chrono::milliseconds patience{5000};  // idleness or body reading that may be shed
+        std::size_t halt_reserve = 8;              // slots beyond the limits, for a HALT alone
     };
 
     enum class refusal : std::uint8_t { none, connection_limit, address_limit };
@@ -49,6 +54,7 @@ class connection_table : public std::enable_shared_from_this<connection_table> {
         refusal refused = refusal::none;
         std::string detail;                      // why, for the 503 problem
         std::weak_ptr<tracked_connection> shed;  // the connection shed to make room: call shed()
+        bool halt_only = false;                  // a reserve slot: `refused` and `detail` say why
     };
 
     explicit connection_table(settings s);
@@ -68,6 +74,7 @@ class connection_table : public std::enable_shared_from_this<connection_table> {
         connection_phase phase = connection_phase::awaiting_header;
         clock::time_point since;
         bool counted = true;  // false once shed: its slot went to the newcomer
+        bool halt_only = false;  // a reserve slot: never counted, never shed for a normal slot
         std::weak_ptr<tracked_connection> connection;
     };
 
@@ -79,12 +86,16 @@ class connection_table : public std::enable_shared_from_this<connection_table> {
     // 0 sheds first; -1: not now.
     int shed_rank(const entry& e, clock::time_point now) const;
     void uncount(entry& e);
+    // A reserve slot for a connection the limits refuse (`a` says why), shedding the reserve's oldest
+    // connection still waiting for its header when all are taken. Called with mutex_ held.
+    void admit_for_halt(admission& a, const net::ip::address& from, clock::time_point now);
 
     settings settings_;
     std::size_t per_address_;
     mutable std::mutex mutex_;
     std::uint64_t next_id_ = 1;
-    std::size_t open_ = 0;  // counted entries
+    std::size_t open_ = 0;          // counted entries
+    std::size_t reserve_open_ = 0;  // halt_only entries
     std::map<std::uint64_t, entry> entries_;
     std::map<net::ip::address, std::size_t> per_address_open_;
 };

@@ -15,6 +15,16 @@ namespace gw::api {
 namespace net = boost::asio;
 using nlohmann::json;
 
+bool is_halt_target(std::string_view path) {
+    if (path == "/api/v1/halt") return true;
+    constexpr std::string_view prefix = "/api/v1/controllers/";
+    constexpr std::string_view suffix = "/halt";
+    if (!path.starts_with(prefix) || !path.ends_with(suffix) || path.size() <= prefix.size() + suffix.size())
+        return false;
+    const auto id = path.substr(prefix.size(), path.size() - prefix.size() - suffix.size());
+    return id.find('/') == std::string_view::npos;
+}
+
 void run_halt_all(api_context& ctx, const caller& who, operation_handler handler) {
     struct gathering {
         // Constructed, never assigned: Boost 1.81's any_completion_handler move assignment wraps the

@@ -8,11 +8,17 @@
 //      {"id":"sim2","halted":false,"problem":{...not-connected...}}]}
 // A controller that could not be reached does not fail the call: the answer says which.
 
+#include <string_view>
+
 #include "api/api_context.hpp"
 #include "api/caller.hpp"
 #include "api/operation_requests.hpp"
 
 namespace gw::api {
+
+// The REST paths of a HALT: /api/v1/halt and /api/v1/controllers/<id>/halt (the HTTP session serves
+// them from their header, before any limit on bodies or connections applies).
+bool is_halt_target(std::string_view path);
 
 // Calls `handler` once, on its associated executor (default: ctx.executor), never inline, after every
 // controller answered (or failed). The role (auth.halt_role) is checked by the caller (dispatch_call).

@@ -5,6 +5,7 @@
 #include "api/auth.hpp"
 #include "api/gcode_requests.hpp"
 #include "api/gcode_worker.hpp"
+#include "api/halt_requests.hpp"
 #include "api/request_id.hpp"
 #include "api/websocket_protocol.hpp"
 #include "api/websocket_session.hpp"
@@ -144,6 +145,13 @@ void http_session::on_header(beast::error_code ec, std::size_t) {
     request_id_ = request_id_of(header);
     method_ = std::string(header.method_string());
     stream_.expires_after(ctx_->limits.read_timeout);  // the body's deadline
+    const bool has_body = !header_parser_->is_done();
+
+    // The emergency stop first: nothing below (limits, uploads, the body budget) may stand in its way.
+    if (header.method() == http::verb::post && is_halt_target(target_path(header.target())))
+        return serve_halt(header, has_body);
+    if (!refusal_.empty())  // a HALT reserve slot: the limits refused this connection for anything else
+        return refuse(make_problem(http_error::too_many_connections, refusal_), header, "unmatched");
 
     body_limit_ =
         gcode_body_limit(*ctx_, header.method(), header.target()).value_or(ctx_->limits.max_body_bytes);
@@ -152,8 +160,6 @@ void http_session::on_header(beast::error_code ec, std::size_t) {
         answer_read_error(http::error::body_limit, header);
         return;
     }
-    const bool has_body = !header_parser_->is_done();
-
     // A G-code program: decided from the header, streamed to the store.
     auto program = admit_gcode_program(ctx_, header, request_id_);
     if (program.refusal) {
@@ -348,6 +354,15 @@ void http_session::drop_upload() {
     // Its temporary file is removed on the upload thread: deleting tens of megabytes can take a while.
     if (intake_) ctx_->gcode_thread->post_io([intake = std::move(intake_)] {});
     intake_.reset();
+}
+
+void http_session::serve_halt(const http::request_header<>& header, bool body_follows) {
+    string_request req(header);
+    if (body_follows || !refusal_.empty()) req.keep_alive(false);  // its body stays unread; a reserve slot goes
+    header_parser_.reset();
+    stream_.expires_never();
+    handle_request(ctx_, std::move(req), request_id_, stream_.get_executor(),
+                   beast::bind_front_handler(&http_session::on_handled, shared_from_this()));
 }
 
 void http_session::on_handled(routed_response r) {

@@ -62,6 +62,9 @@ class http_session : public std::enable_shared_from_this<http_session>, public t
     // A client mistake found while reading (limits, unparseable): answered, then the connection closes.
     bool answer_read_error(beast::error_code ec, const http::request_header<>& header);
     void refuse(problem p, const http::request_header<>& header, std::string route);
+    // A HALT (one controller, or all), served from its header alone: before any body limit, upload or
+    // body budget, and on a HALT reserve slot. A body it carries is not read: the connection closes.
+    void serve_halt(const http::request_header<>& header, bool body_follows);
     void on_handled(routed_response r);
     void do_write(string_response res, std::string route, bool close_after);
     void on_write(bool close_after, beast::error_code ec, std::size_t bytes);

@@ -86,17 +86,18 @@ void listener::start(session_socket socket) {
     if (remote_ec) return;  // gone already
     auto a = connections_->admit(remote.address());
     if (auto victim = a.shed.lock()) victim->shed();
-    if (!a.permit) {
+    if (a.refused != connection_table::refusal::none)
         ctx_->metrics->increment(
             "gw_http_connections_refused_total",
             {{"reason", a.refused == connection_table::refusal::address_limit ? "address" : "limit"}});
-        return refuse(std::move(socket), std::move(a.detail));
-    }
+    if (!a.permit) return refuse(std::move(socket), std::move(a.detail));
     // Every answer and event is written whole: Nagle's algorithm would only hold a small write back
     // behind an unacknowledged one (up to the client's delayed ACK, about 40 ms).
     beast::error_code nodelay_ec;
     socket.set_option(net::ip::tcp::no_delay(true), nodelay_ec);
-    auto session = std::make_shared<http_session>(std::move(socket), ctx_, a.permit, bodies_);
+    // A HALT reserve slot (a.halt_only): the session serves a HALT, anything else gets a.detail in a 503.
+    auto session = std::make_shared<http_session>(std::move(socket), ctx_, a.permit, bodies_,
+                                                  a.halt_only ? std::move(a.detail) : std::string());
     a.permit->track(session);
     session->run();
 }

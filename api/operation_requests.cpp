@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cmath>
+#include <fmt/format.h>
 #include <utility>
 #include <variant>
 
@@ -15,6 +16,7 @@
 #include "devices/ms2000/error.hpp"
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/controllers/operations.hpp"
+#include "gateway/jobs/job_manager.hpp"
 #include "gateway/events/event_json.hpp"
 #include "gateway/leases/lease_manager.hpp"
 
@@ -345,6 +347,32 @@ json crisp_reading_json(const crisp_result& c) {
             {"snr", or_null(c.snr)}};
 }
 
+// Whether a request may change what a job holding the controller relies on: everything but HALT, a
+// CRISP read-out ({} only reads) and a raw command that only reads (devices::ms2000::only_reads).
+bool may_change_controller(const any_request& r) {
+    if (std::holds_alternative<halt_request>(r)) return false;
+    if (const auto* crisp = std::get_if<crisp_request>(&r))
+        return crisp->what != crisp_request::action::none || crisp->lock_offset || crisp->save;
+    if (const auto* raw = std::get_if<raw_command_request>(&r)) {
+        auto cmd = devices::ms2000::raw_command(raw->command);
+        return !cmd || !devices::ms2000::only_reads(*cmd);
+    }
+    return true;
+}
+
+// 409 job-active unless no job holds the controller, or the caller holds the lease the job runs under.
+std::optional<problem> job_hold_refusal(api_context& ctx, const std::string& controller,
+                                        const std::optional<std::string>& lease_id) {
+    if (!ctx.jobs) return std::nullopt;
+    auto hold = ctx.jobs->holding(controller);
+    if (!hold || (lease_id && hold->lease_id == lease_id)) return std::nullopt;
+    return make_problem(make_error(
+        operation_error_kind::job_active,
+        fmt::format("job {} is {} on {}: only the holder of the lease it runs under may change the controller "
+                    "now; reads and HALT are open to all (pause or cancel the job first)",
+                    hold->job_id, jobs::to_string(hold->state), controller)));
+}
+
 json base_result(std::string_view id, std::string_view op, const std::string& request_id) {
     return {{"id", id}, {"operation", op}, {"request_id", request_id}};
 }
@@ -395,6 +423,9 @@ void run_operation(api_context& ctx, const caller& who, std::string_view control
             std::string(controller_id), lease_id ? std::optional<std::string_view>(*lease_id) : std::nullopt);
         if (!allowed) return finish_now(make_problem(allowed.error()));
     }
+    if (may_change_controller(*parsed))
+        if (auto refused = job_hold_refusal(ctx, std::string(controller_id), lease_id))
+            return finish_now(std::move(*refused));
 
     // The registry completes on its executor; from there the handler is dispatched to its own.
     auto shared = std::make_shared<operation_handler>(std::move(handler));

@@ -19,6 +19,7 @@
 #include "devices/ms2000/error_log.hpp"
 #include "devices/ms2000/reply_check.hpp"
 #include "devices/serial/connection_problem.hpp"
+#include "devices/serial/emergency_halt.hpp"
 #include "devices/serial/escape.hpp"
 #include "devices/serial/snapshot_update.hpp"
 
@@ -651,6 +652,10 @@ void controller::do_connect() {
         log_->debug("cannot open port {}: {}", settings_.port, ec.message());
         return set_unreachable(problem_of_open_error(settings_.port, ec));
     }
+    // Should the process die, its fatal-signal handler halts the stage through this port.
+    if (!port_.halt_on_crash())
+        log_->warn("port {}: more than {} ports open: a crash would not halt this stage", settings_.port,
+                   emergency_halt::max_ports);
     ++generation_;
     char_time_ = configured_char_time(settings_.baud);  // another device may be on the port now
     attempt_bytes_ = 0;

@@ -7,6 +7,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include "devices/serial/emergency_halt.hpp"
 #include "devices/serial/port_lock.hpp"
 #include "devices/serial/tty_mode.hpp"
 
@@ -47,13 +48,25 @@ boost::system::error_code serial_port::open(const std::string& path, unsigned ba
 
     boost::system::error_code ec;
     stream_.assign(fd, ec);
-    if (ec) ::close(fd);
+    if (ec) {
+        ::close(fd);
+        return ec;
+    }
     return ec;
+}
+
+bool serial_port::halt_on_crash() {
+    if (!stream_.is_open() || in_crash_table_) return in_crash_table_;
+    in_crash_table_ = emergency_halt::add_port(stream_.native_handle());
+    return in_crash_table_;
 }
 
 void serial_port::close() {
     boost::system::error_code ignored;
-    if (stream_.is_open()) stream_.close(ignored);
+    if (!stream_.is_open()) return;
+    if (in_crash_table_) emergency_halt::remove_port(stream_.native_handle());  // before the number is free
+    in_crash_table_ = false;
+    stream_.close(ignored);
 }
 
 std::size_t serial_port::flush_input() {

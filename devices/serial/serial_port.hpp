@@ -18,6 +18,9 @@ namespace gw::devices {
 class serial_port {
   public:
     explicit serial_port(const boost::asio::any_io_executor& ex) : stream_(ex) {}
+    ~serial_port() { close(); }
+    serial_port(const serial_port&) = delete;
+    serial_port& operator=(const serial_port&) = delete;
 
     // Opens `path` at `baud` (9600 .. 115200, also 230400). Closes a previous descriptor first.
     // Takes an exclusive advisory lock (port_lock.hpp) before touching any setting.
@@ -25,6 +28,9 @@ class serial_port {
     // invalid_argument for an unsupported baud rate.
     boost::system::error_code open(const std::string& path, unsigned baud);
     void close();
+    // A controller's command port: if the process dies, a fatal-signal handler writes HALT here
+    // (emergency_halt.hpp) until the port is closed. False when the crash table is full.
+    bool halt_on_crash();
     bool is_open() const { return stream_.is_open(); }
 
     // Drops bytes received by the kernel but not read yet (tcflush TCIFLUSH); returns how many there
@@ -45,6 +51,7 @@ class serial_port {
     boost::asio::posix::stream_descriptor stream_;
     dev_t device_ = 0;
     ino_t inode_ = 0;
+    bool in_crash_table_ = false;
 };
 
 }  // namespace gw::devices

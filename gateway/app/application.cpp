@@ -11,6 +11,7 @@
 
 #include "api/mqtt/mqtt_bridge.hpp"
 #include "api/server.hpp"
+#include "gateway/app/crash_halt.hpp"
 #include "gateway/app/startup_summary.hpp"
 #include "gateway/common/metrics.hpp"
 #include "gateway/config/logging.hpp"
@@ -73,6 +74,8 @@ int application::run() {
 }
 
 bool application::start() {
+    // Before any port is opened: a crash from here on halts the stages (crash_halt.hpp).
+    install_crash_halt();
     const auto& config = launch_.config;
     if (config.controllers.empty() && config.simulate.count == 0)
         log_->warn("no controllers configured: give --simulate N, --serial ID=PATH or a config file");

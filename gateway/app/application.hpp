@@ -85,7 +85,9 @@ class application {
     std::shared_ptr<jobs::job_manager> jobs_;
     std::unique_ptr<api::server> http_;
     std::shared_ptr<api::mqtt_bridge> mqtt_;
-    boost::asio::signal_set signals_{ioc_, SIGINT, SIGTERM};
+    // A controlled stop (HALT to the stages it was moving, jobs interrupted, the store closed). SIGHUP
+    // too: a closed terminal or session must not leave a stage moving.
+    boost::asio::signal_set signals_{ioc_, SIGINT, SIGTERM, SIGHUP};
 
     // After shutdown, run() ends when the last handler has run; the watchdog (a thread, not a timer on
     // ioc_, which would itself keep run() going) stops it if something lingers.

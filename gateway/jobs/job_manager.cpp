@@ -116,6 +116,10 @@ operation_result<job_record> job_manager::get(const std::string& id) const {
     return impl_->core->get(id);
 }
 
+std::optional<job_hold> job_manager::holding(const std::string& controller) const {
+    return impl_->core->holds().find(controller);
+}
+
 operation_result<job_page> job_manager::list(const job_filter& filter) const {
     return impl_->core->list(filter);
 }

@@ -39,6 +39,7 @@
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_plan.hpp"
 #include "gateway/jobs/job_query.hpp"
+#include "gateway/jobs/job_holds.hpp"
 #include "gateway/leases/lease_manager.hpp"
 
 namespace gw {
@@ -133,6 +134,8 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
     void async_submit(submit_request request, handler<submit_result> h);
 
     operation_result<job_record> get(const std::string& id) const;
+    // The job that holds `controller` (running or paused there) and its lease; any thread.
+    std::optional<job_hold> holding(const std::string& controller) const;
     operation_result<job_page> list(const job_filter& filter) const;
     // The stored events of a job, oldest first (history survives restarts).
     operation_result<std::vector<nlohmann::json>> events(const std::string& id, std::size_t limit) const;

@@ -158,9 +158,13 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
         const bool holds_controller = self->lanes_.holder(controller) == a.job_id;
         // A resume that goes ahead is someone's decision to move the stage again: it releases a HALT
         // latch there (a queued job's resume does only that: the queue moves on).
-        auto release_latch = [&] { self->registry_.release_halt_latch(controller); };
+        // The resumer's lease (if any) is the one whose holder may operate the controller from now on.
+        auto go_on = [&] {
+            self->registry_.release_halt_latch(controller);
+            job->lease_id = a.lease_id;
+        };
         if (st == job_state::queued && job->queued_in_lane && self->halt_latched(controller)) {
-            release_latch();
+            go_on();
             self->dispatch(controller);
             return self->deliver<job_record>(std::move(h), job->record);
         }
@@ -170,7 +174,7 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
         }
         if (st == job_state::queued && !job->queued_in_lane && !holds_controller) {
             // Kept from before a restart (restart_queued off): queue it now.
-            release_latch();
+            go_on();
             job->queued_in_lane = true;
             self->lanes_.enqueue(controller, a.job_id);
             self->dispatch(controller);
@@ -189,14 +193,14 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
                                          fmt::format("{} is not connected; resume once it is", controller)));
         if (st == job_state::paused && job->exec && job->exec->waiting_paused()) {
             // Its run() waits at a checkpoint: it continues where it stopped.
-            release_latch();
+            go_on();
             self->set_state(*job, job_state::queued, "");
             self->set_state(*job, job_state::running, "");
             job->exec->resume();
             return self->deliver<job_record>(std::move(h), job->record);
         }
         // A job that kept the controller while paused (a disconnect, a HALT) goes first.
-        release_latch();
+        go_on();
         self->set_state(*job, job_state::queued, "",
                         holds_controller ? std::nullopt : self->queue_wait(controller));
         job->queued_in_lane = true;

@@ -35,6 +35,7 @@
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/events/event_hub.hpp"
 #include "gateway/jobs/job_execution.hpp"
+#include "gateway/jobs/job_holds.hpp"
 #include "gateway/jobs/job_journal.hpp"
 #include "gateway/jobs/job_json.hpp"
 #include "gateway/jobs/job_kinds.hpp"
@@ -127,6 +128,7 @@ class manager_core final : public execution_host, public std::enable_shared_from
                        job_manager::handler<lease> h);
 
     operation_result<job_record> get(const std::string& id) const;
+    const job_holds& holds() const { return holds_; }
     operation_result<job_page> list(const job_filter& f) const;
     operation_result<std::vector<json>> events(const std::string& id, std::size_t limit) const;
 
@@ -269,6 +271,7 @@ class manager_core final : public execution_host, public std::enable_shared_from
     std::map<std::string, std::shared_ptr<live_job>> jobs_;  // not terminal
     job_lanes lanes_;
     ttl_edge_listeners ttl_listeners_;  // thread-safe: the controllers' strands read it
+    job_holds holds_;                   // thread-safe: api/ reads it for every operation
     std::size_t running_ = 0;           // run() coroutines alive
     bool started_ = false;
     bool shutting_down_ = false;

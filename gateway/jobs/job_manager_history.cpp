@@ -105,6 +105,10 @@ void manager_core::set_state(live_job& job, job_state s, std::string reason,
     if (s == job_state::running && !r.started) r.started = now;
     if (is_terminal(s)) r.finished = now;
     if (s == job_state::succeeded) r.progress.remaining_s = 0.0;
+    if (s == job_state::running || s == job_state::paused)
+        holds_.hold(r.controller, job_hold{r.id, s, job.lease_id});
+    else
+        holds_.release(r.controller, r.id);
     r.progress.waiting_for = waiting;
     estimate_end(r, now);
     const auto event = state_event(r, now);

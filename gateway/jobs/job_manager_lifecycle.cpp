@@ -29,6 +29,8 @@ void manager_core::start() {
             self->set_state(*job, job_state::interrupted, "gateway restarted");
             owed_restore rec;
             rec.job_id = job->record.id;
+            // The stage may still be moving: HALT before anything else reaches the controller.
+            rec.halt = true;
             // A laser must never stay on: the crashed gateway could not switch the output off.
             rec.ttl_low = may_leave_ttl_output_high(job->record.type, job->record.spec);
             // Nor may the settings the run changed stay changed (an IN0 mode that still steps the stage).
@@ -38,8 +40,7 @@ void manager_core::start() {
             else
                 self->log_->error("restart recovery: job {}: cannot read its restore commands: {}",
                                   job->record.id, stored.error().message);
-            if (rec.ttl_low || !rec.restore.empty())
-                self->add_recovery(job->record.controller, std::move(rec));
+            self->add_recovery(job->record.controller, std::move(rec));
         }
         std::vector<std::string> reachable;
         for (const auto& controller : self->restores_.controllers_owed())

@@ -60,7 +60,7 @@ net::awaitable<void> manager_core::put_back_before_run(std::shared_ptr<live_job>
     for (const auto& c : job->restore_commands)
         if (std::find(owed.restore.begin(), owed.restore.end(), c) == owed.restore.end())
             owed.restore.push_back(c);
-    if (!owed.ttl_low && owed.restore.empty()) co_return;
+    if (owed.empty()) co_return;
     // The job owns the list now: stored under it before the earlier job's row goes (a crash between
     // the two leaves both, and start() sends both).
     job->restore_commands = owed.restore;
@@ -110,7 +110,7 @@ void manager_core::send_recovery(const std::string& controller) {
             // Added while this one was being sent (a job that failed meanwhile): sent next.
             const bool more = self->restores_.owes(controller);
             // What did not reach the controller waits for its next connect, or for the next run on it.
-            if (left.ttl_low || !left.restore.empty()) self->add_recovery(controller, std::move(left), true);
+            if (!left.empty()) self->add_recovery(controller, std::move(left), true);
             if (more && self->controller_connected(controller)) self->send_recovery(controller);
         },
         net::detached);
@@ -121,6 +121,22 @@ net::awaitable<std::pair<owed_restore, std::optional<operation_error>>> manager_
     owed_restore left;
     left.job_id = owed.job_id;
     std::optional<operation_error> error;
+    if (owed.halt) {
+        // Before anything else: the stage may still be moving where the gateway went down.
+        std::string halt_controller = controller;
+        std::string halt_request_id = request_id;
+        auto halted = co_await registry_.async_halt(std::move(halt_controller), std::move(halt_request_id),
+                                                    net::use_awaitable);
+        if (!halted) {
+            log_->warn("[{}] {}: HALT for job {} failed: {}", request_id, controller, owed.job_id,
+                       halted.error().message);
+            left.halt = true;
+            error = halted.error();
+            co_return std::pair{std::move(owed), std::move(error)};  // nothing else before the HALT
+        }
+        log_->info("[{}] {}: job {} was running when the gateway went down: HALT sent first", request_id,
+                   controller, owed.job_id);
+    }
     if (owed.ttl_low) {
         const std::string ttl_failed = co_await ttl_output_low(controller, request_id);
         if (!ttl_failed.empty()) {

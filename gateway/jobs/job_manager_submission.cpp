@@ -142,6 +142,7 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
     job->record = rec;
     job->plan = *plan;
     job->queued_in_lane = true;
+    job->lease_id = r.lease_id;
     jobs_[rec.id] = job;
     {
         std::lock_guard lock(records_mutex_);

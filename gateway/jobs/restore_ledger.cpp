@@ -8,6 +8,7 @@ namespace gw::jobs {
 owed_restore merge(const owed_restore& older, const owed_restore& newer) {
     owed_restore both;
     both.job_id = newer.job_id;
+    both.halt = older.halt || newer.halt;
     both.ttl_low = older.ttl_low || newer.ttl_low;
     both.restore = older.restore;
     for (const auto& c : newer.restore)

@@ -19,12 +19,13 @@ struct owed_restore {
     std::string job_id;                // the job the commands are stored under
     bool ttl_low = false;              // "TTL Y=0" is owed
     std::vector<std::string> restore;  // registration order; sent newest first
-    bool empty() const { return !ttl_low && restore.empty(); }
+    bool halt = false;                 // HALT before all: the job was running there when the gateway went down
+    bool empty() const { return !halt && !ttl_low && restore.empty(); }
 };
 
 // Two debts on one controller as one: the older's commands first, then those of the newer it lacks, so
 // that sent newest first a setting both changed ends at the older's value (the one from before either
-// run); "TTL Y=0" when either owes it; kept under the newer job (pure).
+// run); HALT and "TTL Y=0" when either owes them; kept under the newer job (pure).
 owed_restore merge(const owed_restore& older, const owed_restore& newer);
 
 class restore_ledger {

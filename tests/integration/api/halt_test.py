@@ -18,7 +18,11 @@ Exit code 0 when every check passed; the failures are listed otherwise.
 import argparse
 import json
 import os
+import signal
+import socket
+import subprocess
 import sys
+import threading
 import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree
@@ -252,6 +256,65 @@ def test_viewer_may_halt(c, sims):
 
 
 # ---------------------------------------------------------------------------------------------
+# A job holds its controller
+
+
+ADMIN = TOKENS["admin"]
+CHANGES = [("move", {"axes": {"X": 5}}), ("here", {"axes": {"X": 0}}), ("zero", {}), ("home", {"axes": ["Z"]}),
+           ("speed", {"axes": {"X": 1}}), ("ttl", {"in0_mode": 0}), ("command", {"command": "S X=1"})]
+
+
+def next_array(c, lease=None):
+    headers = {"Lease-Id": lease} if lease else None
+    r = c.request("POST", "/api/v1/jobs", {"controller": "sim2", "type": "array", "spec": {
+        "grid": {"columns": 3, "rows": 1, "column_step_mm": 0.5, "row_step_mm": -0.5},
+        "a1": {"X": 0, "Y": 0}, "advance": "next", "mode": "host"}}, token=OP, headers=headers)
+    check(r.status == 201, f"submit: {r.status} {r.body[:300]}")
+    job_id = r.json()["id"]
+    wait_job(c, job_id, "waiting for next", lambda j: j["progress"]["waiting_for"] == "next")
+    return job_id
+
+
+def test_job_holds_its_controller(c, sims):
+    job_id = next_array(c)
+    base = "/api/v1/controllers/sim2"
+    for op, body in CHANGES:
+        p = c.problem("POST", f"{base}/{op}", 409, "job-active", body=body, token=ADMIN)
+        check(job_id in p["detail"], f"{op}: the problem does not name the job: {p['detail']}")
+    # Reads and HALT are everyone's.
+    r = c.request("POST", f"{base}/command", {"command": "W X Y"}, token=ADMIN)
+    check(r.status == 200, f"a raw read during the job: {r.status} {r.body[:200]}")
+    check(c.request("GET", base, token=VIEW).status == 200, "GET the controller during the job")
+    halt(c, "sim2")
+    wait_job(c, job_id, "paused by the HALT", lambda j: j["state"] == "paused")
+    c.problem("POST", f"{base}/move", 409, "job-active", body={"axes": {"X": 5}}, token=ADMIN)  # paused: still held
+    action(c, job_id, "cancel")
+    wait_job(c, job_id, "cancelled", lambda j: j["state"] == "cancelled")
+    r = c.request("POST", f"{base}/move", {"axes": {"X": 5}, "wait": True}, token=OP)
+    check(r.status == 200, f"a move once the job ended: {r.status} {r.body[:200]}")
+
+
+def test_the_lease_holder_keeps_control(c, sims):
+    base = "/api/v1/controllers/sim2"
+    r = c.request("POST", base + "/lease", {"ttl_s": 120, "holder": "acquisition"}, token=OP)
+    check(r.status in (200, 201), f"take the lease: {r.status} {r.body[:200]}")
+    lease = r.json()["lease_id"]
+    held = {"Lease-Id": lease}
+    try:
+        job_id = next_array(c, lease)
+        for op, body in CHANGES:
+            if op == "command":
+                continue  # admin only
+            r = c.request("POST", f"{base}/{op}", body, token=OP, headers=held)
+            check(r.status == 200, f"{op} by the job's lease holder: {r.status} {r.body[:200]}")
+        c.problem("POST", f"{base}/move", 409, "leased", body={"axes": {"X": 5}}, token=OP)
+        c.request("POST", f"/api/v1/jobs/{job_id}/cancel", token=OP, headers=held)
+        wait_job(c, job_id, "cancelled", lambda j: j["state"] == "cancelled")
+    finally:
+        c.request("DELETE", base + "/lease", token=OP, headers=held)
+
+
+# ---------------------------------------------------------------------------------------------
 # HALT ALL
 
 
@@ -324,13 +387,186 @@ def test_halt_before_identification(fx, args, contract):
     with open(cfg, "w") as f:
         json.dump(config, f)
     with open(os.path.join(fx.tmp, "late.log"), "w") as log:
-        proc = __import__("subprocess").Popen([args.gateway, "--config", cfg], stdout=log, stderr=log)
+        proc = subprocess.Popen([args.gateway, "--config", cfg], stdout=log, stderr=log)
     fx.procs.append(proc)
     c = Client(port, contract)
     wait_until("late identifying", lambda: controller(c, "late")["state"] == "identifying", 30)
     r = c.request("POST", "/api/v1/controllers/late/halt", token=OP)
     check(r.status == 200, f"HALT while identifying: {r.status} {r.body[:300]}")
     proc.terminate()
+
+
+# ---------------------------------------------------------------------------------------------
+# Never refused for the gateway's own reasons
+
+
+def raw_request(port, head, body=b""):
+    """One raw HTTP/1.1 request on its own connection: (status, the socket still open)."""
+    s = socket.create_connection(("127.0.0.1", port), timeout=30)
+    s.sendall(head.encode() + body)
+    data = b""
+    while b"\r\n\r\n" not in data:
+        chunk = s.recv(4096)
+        if not chunk:
+            break
+        data += chunk
+    return (int(data.split(b" ", 2)[1]) if data else None), s
+
+
+def test_halt_beside_an_exhausted_body_budget(c, port):
+    # An unauthenticated client declares a body as large as every body together may be (64 MiB) and
+    # sends a few bytes of it: its reservation holds the whole budget while it trickles.
+    hog = socket.create_connection(("127.0.0.1", port), timeout=30)
+    hog.sendall(b"POST /api/v1/gcode/no-such-route HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                b"Content-Length: 67108864\r\n\r\n{")
+    try:
+        def budget_gone():
+            r = c.request("POST", "/api/v1/controllers/sim2/move", {"axes": {"X": 10}}, token=OP)
+            return r.status == 503 and r.json()["type"].endswith("/body-budget-exhausted")
+        wait_until("the body budget exhausted", budget_gone, 10)
+        for path in ("/api/v1/controllers/sim2/halt", "/api/v1/halt"):
+            r = c.request("POST", path, {}, token=OP)  # with a body: it is not read
+            check(r.status == 200, f"POST {path} with the budget exhausted: {r.status} {r.body[:200]}")
+        # A HALT that declares a body of its own as large: answered from its header.
+        status, s = raw_request(port, "POST /api/v1/controllers/sim2/halt HTTP/1.1\r\nHost: x\r\n"
+                                      f"Authorization: Bearer {OP}\r\nContent-Type: application/json\r\n"
+                                      "Content-Length: 67108864\r\n\r\n", b"{}")
+        s.close()
+        check(status == 200, f"a HALT declaring a 64 MiB body: {status}")
+    finally:
+        hog.close()
+
+
+def test_halt_with_every_connection_slot_taken(fx, args):
+    g = SoloGateway(fx, args, "crowded")
+    g.start({"limits": {"max_connections": 8, "max_connections_per_address": 8}})
+    clients = []
+    try:
+        # 7 WebSockets (an address may hold 7/8 of the slots): the next connection is refused...
+        for i in range(7):
+            clients.append(WsClient(g.port, VIEW, f"viewer{i}"))
+        r = g.c.request("GET", "/api/v1/controllers", token=VIEW, validate=False)
+        check(r.status == 503 and r.json()["type"].endswith("/too-many-connections"), f"a GET: {r.status}")
+        # ... but not a HALT, nor HALT ALL, however many come.
+        for _ in range(3):
+            for path in ("/api/v1/controllers/crowded/halt", "/api/v1/halt"):
+                r = g.c.request("POST", path, token=VIEW)
+                check(r.status == 200, f"POST {path} with every slot taken: {r.status} {r.body[:200]}")
+    finally:
+        for ws in clients:
+            ws.close()
+    check(controller_of(g, "crowded")["halted"]["by"] == "viewer1", "the HALT latched the controller")
+
+
+def controller_of(g, cid):
+    return wait_until(f"GET {cid}", lambda: (lambda r: r.json() if r.status == 200 else None)(
+        g.c.request("GET", f"/api/v1/controllers/{cid}", token=VIEW)), 20)
+
+
+def test_halt_while_gcode_is_uploaded_and_planned(c):
+    # A large program (about 6 MB) uploaded and planned while HALTs are sent.
+    program = "G21 G90\n" + "".join(f"G01 X{i % 50} Y{(i * 7) % 50} F600\n" for i in range(300000))
+    errors = []
+
+    def upload_and_plan():
+        try:
+            r = c.request("POST", "/api/v1/gcode/files?name=big.ngc", token=OP, raw_body=program.encode(),
+                          headers={"Content-Type": "text/plain"}, validate=False)
+            if r.status != 201:
+                errors.append(f"upload {r.status}")
+                return
+            fid = r.json()["id"]
+            c.request("POST", f"/api/v1/gcode/files/{fid}/plan?moves=false", token=OP, validate=False)
+        except Exception as e:  # noqa: BLE001
+            errors.append(repr(e))
+    t = threading.Thread(target=upload_and_plan)
+    t.start()
+    halts = 0
+    while t.is_alive():
+        r = c.request("POST", "/api/v1/controllers/sim2/halt", token=OP)
+        check(r.status == 200, f"a HALT during the upload or plan: {r.status} {r.body[:200]}")
+        halts += 1
+        time.sleep(0.05)
+    t.join()
+    check(not errors, f"the upload and plan: {errors}")
+    check(halts >= 2, f"only {halts} HALT(s) went out during the upload and the plan")
+
+
+# ---------------------------------------------------------------------------------------------
+# When the gateway dies: a crash, a hang-up, a kill -9 and the restart after it
+
+
+class SoloGateway:
+    """A gateway of its own on one simulator at real speed (time scale 1): long moves to stop."""
+
+    def __init__(self, fx, args, name):
+        self.fx, self.args, self.name = fx, args, name
+        self.sim = fx.start_sim(args.sim, name, "plain", time_scale=1)
+        self.port = free_port()
+        self.store = os.path.join(fx.tmp, name + "-store")
+        self.proc = None
+
+    def start(self, http_extra=None):
+        config = {"http": {"listen_address": "127.0.0.1", "port": self.port, **(http_extra or {})}, "auth": auth_tokens(),
+                  "storage": {"path": self.store}, "controllers": [{"id": self.name, "port": self.sim.link}]}
+        cfg = os.path.join(self.fx.tmp, self.name + ".json")
+        with open(cfg, "w") as f:
+            json.dump(config, f)
+        self.log = os.path.join(self.fx.tmp, self.name + ".log")
+        with open(self.log, "a") as log:
+            self.proc = subprocess.Popen([self.args.gateway, "--config", cfg], stdout=log, stderr=log)
+        self.fx.procs.append(self.proc)
+        self.c = Client(self.port, self.args.contract)
+        wait_until(f"{self.name} ready", lambda: self.c.request("GET", "/api/v1/ready", validate=False).status == 200, 30)
+
+    def x(self):
+        return sim_state(self.sim)["axes"]["X"]["position"] / 10  # tenths of a micrometre
+
+    def moving(self):
+        return sim_state(self.sim)["busy"]
+
+
+def test_crash_halts(fx, args, signal_number, name):
+    g = SoloGateway(fx, args, name)
+    g.start()
+    r = g.c.request("POST", f"/api/v1/controllers/{name}/move", {"axes": {"X": 100000}}, token=OP)
+    check(r.status == 200, f"move: {r.status} {r.body[:200]}")
+    wait_until("the stage moving", g.moving, 10)
+    os.kill(g.proc.pid, signal_number)
+    code = g.proc.wait(timeout=30)
+    wait_until("the stage stopped after the gateway died", lambda: not g.moving(), 5)
+    check(g.x() < 90000, f"the stage went on to X={g.x()} um")
+    return code
+
+
+def test_hangup_halts(fx, args):
+    code = test_crash_halts(fx, args, signal.SIGHUP, "hup")
+    check(code == 0, f"SIGHUP: a controlled stop with exit code 0, got {code}")
+
+
+def test_fatal_signals_halt(fx, args):
+    for n, s in ((1, signal.SIGSEGV), (2, signal.SIGABRT)):
+        code = test_crash_halts(fx, args, s, f"crash{n}")
+        check(code == -s, f"killed by signal {s}: exit {code}")
+
+
+def test_restart_halts_first(fx, args):
+    g = SoloGateway(fx, args, "reborn")
+    g.start()
+    job_id = submit(g.c, "reborn", "array", {"grid": {"columns": 2, "rows": 1, "column_step_mm": 90, "row_step_mm": -1},
+                                             "a1": {"X": -45000, "Y": 0}, "mode": "host"})
+    wait_until("the stage moving to the first well", g.moving, 20)
+    g.proc.kill()  # SIGKILL: no handler runs, the stage keeps moving
+    g.proc.wait(timeout=30)
+    time.sleep(0.3)
+    check(g.moving(), "the stage stopped although nothing halted it")
+    g.start()
+    wait_until("the stage halted by the restarted gateway", lambda: not g.moving(), 10)
+    check(g.x() > -44000, f"the stage reached the well at X={g.x()} um: not halted")
+    j = job(g.c, job_id)
+    check(j["state"] == "interrupted", f"the job after the restart: {j['state']}")
+    with open(g.log) as f:
+        check("HALT sent first" in f.read(), "the log does not say the HALT went first")
 
 
 def main():
@@ -342,6 +578,7 @@ def main():
     args = p.parse_args()
     with open(args.openapi) as f:
         contract = Contract(f.read())
+    args.contract = contract
     fx = Fixture("asi-halt-test-")
     try:
         sims = {"sim1": fx.start_sim(args.sim, "sim1", "full", time_scale=TIME_SCALE, report=True),
@@ -368,10 +605,20 @@ def main():
         fx.run("HALT during a G-code trace with TTL", test_gcode_ttl, c, sims)
         fx.run("queued jobs wait for a resume or a submission", test_queued_jobs_wait, c, sims)
         fx.run("a viewer may HALT", test_viewer_may_halt, c, sims)
+        fx.run("a job holds its controller: changes refused (job-active), reads and HALT not",
+               test_job_holds_its_controller, c, sims)
+        fx.run("the lease holder that submitted a job keeps control", test_the_lease_holder_keeps_control, c, sims)
         fx.run("HALT ALL over REST", test_halt_all_rest, c, sims)
         fx.run("HALT ALL over WebSocket", test_halt_all_ws, c, sims, port)
         fx.run("HALT ALL over MQTT", test_halt_all_mqtt, c, sims, broker)
         fx.run("HALT before identification", test_halt_before_identification, fx, args, contract)
+        fx.run("HALT beside an exhausted body budget", test_halt_beside_an_exhausted_body_budget, c, port)
+        fx.run("HALT with every connection slot taken", test_halt_with_every_connection_slot_taken, fx, args)
+        fx.run("HALT while a large G-code program is uploaded and planned",
+               test_halt_while_gcode_is_uploaded_and_planned, c)
+        fx.run("SIGHUP stops with a HALT", test_hangup_halts, fx, args)
+        fx.run("a crash (SIGSEGV, SIGABRT) halts the moving stage", test_fatal_signals_halt, fx, args)
+        fx.run("after a kill -9, the restart sends HALT first", test_restart_halts_first, fx, args)
         fx.finish_log(80)
         return fx.report()
     finally:

@@ -19,8 +19,14 @@ net::ip::address addr(const char* text) {
 }
 
 std::shared_ptr<connection_table> table(std::size_t max, std::size_t per_address,
-                                        std::chrono::milliseconds patience = 5s) {
-    return std::make_shared<connection_table>(connection_table::settings{max, per_address, patience});
+                                        std::chrono::milliseconds patience = 5s, std::size_t halt_reserve = 8) {
+    return std::make_shared<connection_table>(
+        connection_table::settings{max, per_address, patience, halt_reserve});
+}
+
+// A normal slot: not refused (a refused newcomer may still get a HALT reserve slot).
+bool admitted(const connection_table::admission& a) {
+    return a.permit && !a.halt_only;
 }
 
 TEST(connection_table, counts_permits_until_they_are_destroyed) {
@@ -39,12 +45,12 @@ TEST(connection_table, one_address_is_refused_beyond_its_share) {
     for (int i = 0; i < 3; ++i)
         held.push_back(t->admit(addr("10.0.0.1")).permit);
     auto over = t->admit(addr("10.0.0.1"));
-    EXPECT_FALSE(over.permit);
+    EXPECT_FALSE(admitted(over));
     EXPECT_EQ(over.refused, connection_table::refusal::address_limit);
     EXPECT_NE(over.detail.find("10.0.0.1"), std::string::npos) << over.detail;
-    EXPECT_TRUE(t->admit(addr("10.0.0.2")).permit);  // another address still gets in
+    EXPECT_TRUE(admitted(t->admit(addr("10.0.0.2"))));  // another address still gets in
     held.pop_back();
-    EXPECT_TRUE(t->admit(addr("10.0.0.1")).permit);  // and a freed slot is the address's again
+    EXPECT_TRUE(admitted(t->admit(addr("10.0.0.1"))));  // and a freed slot is the address's again
 }
 
 TEST(connection_table, an_address_never_gets_every_slot) {
@@ -103,11 +109,11 @@ TEST(connection_table, served_and_freshly_idle_connections_are_not_shed) {
     a.permit->set_phase(connection_phase::serving);
     b.permit->set_phase(connection_phase::idle);
     auto c = t->admit(addr("10.0.0.3"));
-    EXPECT_FALSE(c.permit);
+    EXPECT_FALSE(admitted(c));
     EXPECT_EQ(c.refused, connection_table::refusal::connection_limit);
     // Idle for longer than the grace: it may go.
     auto later = t->admit(addr("10.0.0.3"), connection_table::clock::now() + 6s);
-    EXPECT_TRUE(later.permit);
+    EXPECT_TRUE(admitted(later));
 }
 
 TEST(connection_table, a_slow_body_is_shed_after_the_waiting_and_only_once_patience_is_over) {
@@ -128,13 +134,56 @@ TEST(connection_table, a_slow_body_is_shed_after_the_waiting_and_only_once_patie
     auto first = t->admit(addr("10.0.0.9"), now + 1s);
     EXPECT_EQ(first.shed.lock(), c_header);
     first.permit->set_phase(connection_phase::serving);
-    EXPECT_FALSE(t->admit(addr("10.0.0.9"), now + 2s).permit);
+    EXPECT_FALSE(admitted(t->admit(addr("10.0.0.9"), now + 2s)));
     // Past patience: the idle connection before the body.
     auto second = t->admit(addr("10.0.0.8"), now + 6s);
     EXPECT_EQ(second.shed.lock(), c_idle);
     second.permit->set_phase(connection_phase::serving);
     auto third = t->admit(addr("10.0.0.7"), now + 6s);
     EXPECT_EQ(third.shed.lock(), c_body);
+}
+
+TEST(connection_table, a_newcomer_the_limits_refuse_gets_a_halt_reserve_slot_outside_the_count) {
+    auto t = table(2, 2, 5s, 2);
+    auto a = t->admit(addr("10.0.0.1"));
+    auto b = t->admit(addr("10.0.0.2"));
+    a.permit->set_phase(connection_phase::serving);  // WebSockets: never shed
+    b.permit->set_phase(connection_phase::serving);
+    auto c = t->admit(addr("10.0.0.3"));
+    ASSERT_TRUE(c.permit);
+    EXPECT_TRUE(c.halt_only);
+    EXPECT_TRUE(c.permit->halt_only());
+    EXPECT_EQ(c.refused, connection_table::refusal::connection_limit);
+    EXPECT_NE(c.detail.find("HALT"), std::string::npos) << c.detail;
+    EXPECT_EQ(t->open(), 2u);  // the reserve does not count
+    // The reserve is full: the one that waited longest for its header makes room.
+    auto c_conn = std::make_shared<recording_connection>();
+    c.permit->track(c_conn);
+    const auto now = connection_table::clock::now();
+    auto d = t->admit(addr("10.0.0.4"), now + 1s);
+    auto d_conn = std::make_shared<recording_connection>();
+    d.permit->track(d_conn);
+    auto e = t->admit(addr("10.0.0.5"), now + 2s);
+    EXPECT_TRUE(e.halt_only);
+    EXPECT_EQ(e.shed.lock(), c_conn);
+    // A reserve slot serving its HALT is never shed: with both serving, a newcomer gets nothing.
+    d.permit->set_phase(connection_phase::serving);
+    e.permit->set_phase(connection_phase::serving);
+    auto f = t->admit(addr("10.0.0.6"), now + 3s);
+    EXPECT_FALSE(f.permit);
+    // A freed reserve slot is there for the next one.
+    e.permit.reset();
+    EXPECT_TRUE(t->admit(addr("10.0.0.6"), now + 4s).halt_only);
+}
+
+TEST(connection_table, an_address_over_its_share_gets_a_halt_reserve_slot_too) {
+    auto t = table(100, 1);
+    auto a = t->admit(addr("10.0.0.1"));
+    auto over = t->admit(addr("10.0.0.1"));
+    ASSERT_TRUE(over.permit);
+    EXPECT_TRUE(over.halt_only);
+    EXPECT_EQ(over.refused, connection_table::refusal::address_limit);
+    EXPECT_EQ(t->open(), 1u);
 }
 
 TEST(connection_table, close_all_closes_every_tracked_connection) {
