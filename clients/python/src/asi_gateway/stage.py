@@ -6,7 +6,8 @@ from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 from urllib.parse import quote
 
-from .models import ControllerState, MoveResult, OperationResult
+from .models import ControllerState, LeaseInfo, MoveResult, OperationResult
+from .problems import NotFound, UnknownController
 from .transport import Transport
 
 if TYPE_CHECKING:
@@ -115,6 +116,20 @@ class AsyncStage:
         from .leases import AsyncLease
 
         return AsyncLease(self, self._transport, ttl_s=ttl_s, holder=holder, renew_every_s=renew_every_s)
+
+    async def lease_info(self) -> LeaseInfo | None:
+        """Who holds this controller's lease and until when (never its id); None when free."""
+        try:
+            return LeaseInfo.from_json(await self._transport.json("GET", self.path + "/lease"))
+        except UnknownController:
+            raise
+        except NotFound:  # the controller exists and nobody holds it
+            return None
+
+    async def force_release_lease(self) -> None:
+        """Admin only: ends whoever's lease this controller has (its holder's next renewal is
+        refused, and its block raises LeaseLost)."""
+        await self._transport.request("DELETE", self.path + "/lease", params={"force": True})
 
     # ---- the request --------------------------------------------------------------------------
 

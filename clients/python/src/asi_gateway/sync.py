@@ -205,6 +205,12 @@ class Stage:
     def halt(self) -> OperationResult:
         return self._runner.run(self.aio.halt())
 
+    def lease_info(self) -> LeaseInfo | None:
+        return self._runner.run(self.aio.lease_info())
+
+    def force_release_lease(self) -> None:
+        self._runner.run(self.aio.force_release_lease())
+
     def lease(self, *, ttl_s: int = 60, holder: str | None = None, renew_every_s: float | None = None) -> Lease:
         """`with stage.lease(ttl_s=30):` ... (see AsyncLease); renews in the background."""
         return Lease(self._runner, self.aio.lease(ttl_s=ttl_s, holder=holder, renew_every_s=renew_every_s))
