@@ -1,18 +1,21 @@
 """A TCP proxy on loopback whose live connections can be cut, to drop a client's WebSocket the
 way a network does (the gateway and the client each see their socket close) while new
-connections still get through. Runs its own event loop in a thread, so sync and async tests use
-it alike."""
+connections still get through. With a server SSL context it also terminates TLS in front of the
+plain-HTTP gateway, for the TLS tests. Runs its own event loop in a thread, so sync and async
+tests use it alike."""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import ssl
 import threading
 
 
 class CuttableProxy:
-    def __init__(self, target_port: int) -> None:
+    def __init__(self, target_port: int, tls: ssl.SSLContext | None = None) -> None:
         self.target_port = target_port
+        self.tls = tls
         self.port = 0
         self.cuts = 0
         self._loop = asyncio.new_event_loop()
@@ -25,11 +28,11 @@ class CuttableProxy:
 
     @property
     def url(self) -> str:
-        return f"http://127.0.0.1:{self.port}"
+        return f"{'https' if self.tls else 'http'}://127.0.0.1:{self.port}"
 
     def _run(self) -> None:
         asyncio.set_event_loop(self._loop)
-        server = self._loop.run_until_complete(asyncio.start_server(self._serve, "127.0.0.1", 0))
+        server = self._loop.run_until_complete(asyncio.start_server(self._serve, "127.0.0.1", 0, ssl=self.tls))
         self.port = server.sockets[0].getsockname()[1]
         self._ready.set()
         self._loop.run_forever()
