@@ -116,12 +116,12 @@ class AsyncGateway:
         """
         controllers = await self.list_controllers()
         outcomes = await asyncio.gather(*(self.stage(c.id).halt() for c in controllers), return_exceptions=True)
-        results: dict[str, OperationResult | BaseException] = {
-            c.id: o for c, o in zip(controllers, outcomes, strict=True)
-        }
-        if any(isinstance(o, BaseException) for o in outcomes):
-            if any(isinstance(o, BaseException) and not isinstance(o, Exception) for o in outcomes):
-                raise next(o for o in outcomes if isinstance(o, BaseException))  # cancelled: pass it on
+        results = {c.id: o for c, o in zip(controllers, outcomes, strict=True)}
+        failures = [o for o in outcomes if isinstance(o, BaseException)]
+        for failure in failures:
+            if not isinstance(failure, Exception):  # a cancellation (Ctrl-C): pass it on as it is
+                raise failure
+        if failures:
             raise HaltIncomplete(results)
         return {cid: o for cid, o in results.items() if isinstance(o, OperationResult)}
 

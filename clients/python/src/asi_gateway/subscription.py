@@ -195,12 +195,8 @@ class Subscription:
                 max_size=None,
             )
         except websockets.InvalidStatus as e:
-            body = e.response.body or b""
-            with contextlib.suppress(ValueError):
-                problem = json.loads(body)
-                if isinstance(problem, dict) and "type" in problem:
-                    raise problem_from_body(problem) from e
-            raise GatewayError(f"the WebSocket upgrade was refused: {e}") from e
+            # The upgrade was answered with an error: its problem+json body says which.
+            raise _refusal(e) from e
         except (TimeoutError, OSError, websockets.InvalidHandshake) as e:
             raise GatewayUnreachable(f"WebSocket {self._transport.websocket_url()}: {e!r}") from e
         try:
@@ -250,6 +246,16 @@ class Subscription:
         if ws is not None:
             with contextlib.suppress(Exception):
                 await ws.close()
+
+
+def _refusal(error: websockets.InvalidStatus) -> GatewayError:
+    try:
+        body = json.loads(error.response.body or b"")
+    except ValueError:
+        body = None
+    if isinstance(body, dict) and "type" in body:
+        return problem_from_body(body)
+    return GatewayError(f"the WebSocket upgrade was refused: {error}")
 
 
 def _unbatch(message: JsonObject) -> list[JsonObject]:
