@@ -26,6 +26,11 @@ def test_lease_renews_past_its_ttl_and_is_released(gateway: RunningGateway, oper
             assert refused.value.status == 409
             result = stage.move({"X": 100}, wait=True)
             assert result.arrived()
+            # Every handle and every job submission of this client on sim2 carries the lease.
+            assert operator.stage("sim2").move({"X": 150}, wait=True).arrived()
+            spec = {"grid": {"columns": 2, "rows": 1, "column_step_mm": 0.1, "row_step_mm": 0.1}, "a1": "current"}
+            job = operator.jobs.submit("sim2", "array", {**spec, "mode": "host"})
+            assert operator.jobs.wait(job.id, timeout_s=120).state == "succeeded"
         assert other.stage("sim2").lease_info() is None
         assert other.stage("sim2").move({"X": 0}, wait=True).arrived()
 

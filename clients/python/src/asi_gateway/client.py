@@ -8,6 +8,7 @@ from typing import Any
 
 from .gcode import AsyncGcode
 from .jobs import AsyncJobs
+from .leases import AsyncLease
 from .models import ControllerState, LeaseInfo, OperationResult
 from .problems import HaltIncomplete
 from .stage import AsyncStage
@@ -36,7 +37,8 @@ class AsyncGateway:
         timeout_s: float = 30.0,
     ) -> None:
         self.transport = Transport(url, token=token, verify=verify, ca_file=ca_file, timeout=timeout_s)
-        self.jobs = AsyncJobs(self.transport)
+        self._stages: dict[str, AsyncStage] = {}
+        self.jobs = AsyncJobs(self.transport, self._lease_held_on)
         self.gcode = AsyncGcode(self.transport, self.jobs)
 
     @property
@@ -76,8 +78,16 @@ class AsyncGateway:
         return await self.stage(controller_id).state()
 
     def stage(self, controller_id: str) -> AsyncStage:
-        """The handle for one controller's operations (no I/O until used)."""
-        return AsyncStage(self.transport, controller_id)
+        """The handle for one controller's operations (no I/O until used). The same object for the
+        same id, so a lease taken through one handle covers every call of this client on that
+        controller."""
+        if controller_id not in self._stages:
+            self._stages[controller_id] = AsyncStage(self.transport, controller_id)
+        return self._stages[controller_id]
+
+    def _lease_held_on(self, controller_id: str) -> AsyncLease | None:
+        stage = self._stages.get(controller_id)
+        return stage.lease_in_use if stage is not None else None
 
     async def wait_connected(
         self, controller_ids: str | Iterable[str] | None = None, *, timeout_s: float = 60.0

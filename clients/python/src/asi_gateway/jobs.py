@@ -30,8 +30,13 @@ def lease_header(lease: LeaseArg) -> dict[str, str]:
 
 
 class AsyncJobs:
-    def __init__(self, transport: Transport) -> None:
+    def __init__(
+        self, transport: Transport, lease_held_on: Callable[[str], AsyncLease | None] = lambda _: None
+    ) -> None:
         self._transport = transport
+        # The lease block this client has open on a controller, if any: a submission carries it
+        # without being told.
+        self._lease_held_on = lease_held_on
 
     async def submit(
         self,
@@ -43,8 +48,9 @@ class AsyncJobs:
         idempotency_key: str | None = None,
     ) -> Job:
         """Validates, plans, stores and queues a job. The same `idempotency_key` again returns the
-        first job instead of a second one."""
-        headers = lease_header(lease)
+        first job instead of a second one. `lease` defaults to this client's open lease block
+        on the controller."""
+        headers = lease_header(lease if lease is not None else self._lease_held_on(controller))
         if idempotency_key is not None:
             headers["Idempotency-Key"] = idempotency_key
         body = {"controller": controller, "type": type, "spec": dict(spec)}
@@ -53,8 +59,9 @@ class AsyncJobs:
     async def dry_run(self, controller: str, type: str, spec: Mapping[str, Any], *, lease: LeaseArg = None) -> JobPlan:
         """Plans only: the serial commands, the estimate and the bounds; nothing moves or is stored."""
         body = {"controller": controller, "type": type, "spec": dict(spec)}
+        held = lease if lease is not None else self._lease_held_on(controller)
         answer = await self._transport.json(
-            "POST", "/jobs", json=body, params={"dry_run": True}, headers=lease_header(lease)
+            "POST", "/jobs", json=body, params={"dry_run": True}, headers=lease_header(held)
         )
         return JobPlan.from_json(answer)
 

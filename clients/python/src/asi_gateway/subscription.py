@@ -193,6 +193,8 @@ class Subscription:
                 ssl=ssl_context,
                 open_timeout=self._transport.timeout,
                 max_size=None,
+                # Room for bursts (report streams) before reading stops and the gateway counts gaps.
+                max_queue=1024,
             )
         except websockets.InvalidStatus as e:
             # The upgrade was answered with an error: its problem+json body says which.
