@@ -50,7 +50,7 @@ def test_errors_exit_1_with_the_problem(gateway: RunningGateway) -> None:
     assert "404 Unknown controller" in done.stderr
     assert json.loads(done.stderr.splitlines()[-1])["type"].endswith("/unknown-controller")
     assert run(gateway, "move", "sim1", "X1").returncode != 0  # a bad command line
-    viewer = run(gateway, "halt", "sim1", token=TOKENS["viewer"])
+    viewer = run(gateway, "move", "sim1", "X=1", token=TOKENS["viewer"])
     assert viewer.returncode == 1 and "403" in viewer.stderr
 
 
