@@ -65,6 +65,7 @@ EXPECTED = {
     3: "free again: True",
     4: "line 2, column 1",
     5: "succeeded",
+    6: "well B1: X=0.0 Y=-500.0",
 }
 
 
