@@ -20,7 +20,8 @@ from ophyd_async.core import init_devices
 from ophyd_async.sim import PatternGenerator, SimPointDetector
 
 from asi_gateway import AsyncGateway, Gateway, Leased
-from asi_gateway.bluesky import GatewayAxis, GatewayJobFlyer, GatewayXYStage, MoveStoppedShort, PositionFeed
+from asi_gateway.bluesky import GatewayAxis, GatewayJobFlyer, GatewayXYStage, MoveStoppedShort
+from asi_gateway.positions import PositionFeed
 
 TOLERANCE_UM = 1.0
 

@@ -27,7 +27,6 @@ there): give them an AsyncGateway that nothing else uses from another loop.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import time
 from collections.abc import AsyncIterator, Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -54,9 +53,9 @@ from ophyd_async.core import StandardReadableFormat as Format
 
 from .client import AsyncGateway
 from .models import Job, JsonObject
+from .positions import PositionFeed
 from .problems import GatewayError
 from .stage import AsyncStage
-from .subscription import Event, Subscription
 
 # A move whose length the device cannot know in advance gets this long before the gateway gives up.
 DEFAULT_MOVE_TIMEOUT_S = 300.0
@@ -66,54 +65,6 @@ READBACK_CATCH_UP_S = 2.0
 
 class MoveStoppedShort(GatewayError):
     """A waited move ended away from its target: a HALT (from anyone) or a limit stopped it."""
-
-
-class PositionFeed:
-    """One controller's positions, pushed from its WebSocket topic into the axes' readbacks.
-
-    Started once however many axes share it; the first values come from the controller's state,
-    so the readbacks are right as soon as the devices are connected."""
-
-    def __init__(self, gateway: AsyncGateway, controller: str) -> None:
-        self.gateway = gateway
-        self.controller = controller
-        self._setters: dict[str, Callable[[float], None]] = {}
-        self._subscription: Subscription | None = None
-        self._task: asyncio.Task[None] | None = None
-        self._lock = asyncio.Lock()
-
-    def add(self, axis: str, setter: Callable[[float], None]) -> None:
-        self._setters[axis] = setter
-
-    async def start(self) -> None:
-        async with self._lock:
-            if self._task is not None and not self._task.done():
-                return
-            state = await self.gateway.get_controller(self.controller)
-            self._apply(state.positions)
-            subscription = self.gateway.subscribe(f"controllers/{self.controller}/position")
-            await subscription.__aenter__()
-            self._subscription = subscription
-            self._task = asyncio.create_task(self._follow(subscription), name=f"positions-{self.controller}")
-
-    async def _follow(self, subscription: Subscription) -> None:
-        async for message in subscription:
-            if isinstance(message, Event):
-                self._apply({a["axis"]: a["position_um"] for a in message.data["axes"]})
-
-    def _apply(self, positions: Mapping[str, float | None]) -> None:
-        for axis, um in positions.items():
-            setter = self._setters.get(axis)
-            if setter is not None and um is not None:
-                setter(float(um))
-
-    async def stop(self) -> None:
-        if self._task is not None:
-            self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._task
-        if self._subscription is not None:
-            await self._subscription.close()
 
 
 class _FeedConnector(DeviceConnector):
@@ -190,8 +141,12 @@ class GatewayAxis(StandardReadable, StandardMovable[float]):
             self.readback, self._set_readback = soft_signal_r_and_setter(float, 0.0, units="um", precision=2)
         self.setpoint = soft_signal_rw(float, 0.0, units="um", precision=2)
         self.feed = feed if feed is not None else PositionFeed(gateway, controller)
-        self.feed.add(self.axis, self._set_readback)
+        self.feed.add_listener(self._on_position)
         super().__init__(name=name, connector=_FeedConnector(self.feed))
+
+    def _on_position(self, axis: str, um: float) -> None:
+        if axis == self.axis:
+            self._set_readback(um)
 
     @cached_property
     def movable_logic(self) -> _GatewayMoveLogic:
