@@ -101,6 +101,16 @@ class Gateway:
         finally:
             self._runner.stop()
 
+    def run_async(self, coroutine: Coroutine[Any, Any, T]) -> T:
+        """Runs a coroutine (of `gw.aio`, or one using it) on the client's event loop and waits
+        for its result: for mixing the two interfaces."""
+        return self._runner.run(coroutine)
+
+    def start_async(self, coroutine: Coroutine[Any, Any, T]) -> Future[T]:
+        """Starts a coroutine on the client's event loop and returns at once; the future has its
+        result (a waited move in the background, say)."""
+        return asyncio.run_coroutine_threadsafe(coroutine, self._runner.loop)
+
     def health(self) -> dict[str, Any]:
         return self._runner.run(self.aio.health())
 
