@@ -66,6 +66,7 @@ EXPECTED = {
     4: "line 2, column 1",
     5: "succeeded",
     6: "well B1: X=0.0 Y=-500.0",
+    7: "at X=1000 Y=-500",
 }
 
 
