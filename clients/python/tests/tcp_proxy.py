@@ -63,7 +63,7 @@ class CuttableProxy:
         async def cut_all() -> int:
             writers = list(self._writers)
             for w in writers:
-                w.transport.abort()
+                _abort(w)
             self._writers.clear()
             return len(writers)
 
@@ -74,7 +74,7 @@ class CuttableProxy:
     def close(self) -> None:
         async def shutdown() -> None:
             for w in list(self._writers):
-                w.transport.abort()
+                _abort(w)
             tasks = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
             for t in tasks:
                 t.cancel()
@@ -83,3 +83,11 @@ class CuttableProxy:
         asyncio.run_coroutine_threadsafe(shutdown(), self._loop).result(30)
         self._loop.call_soon_threadsafe(self._loop.stop)
         self._thread.join(10)
+
+
+def _abort(writer: asyncio.StreamWriter) -> None:
+    """Closes a connection at once. An SSL transport already closing has lost its socket, and
+    Python 3.11's abort() then fails inside asyncio: leave those alone."""
+    if not writer.transport.is_closing():
+        with contextlib.suppress(AttributeError):
+            writer.transport.abort()

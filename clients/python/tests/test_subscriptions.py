@@ -85,7 +85,7 @@ def test_gap_from_the_gateway_is_reported(operator: Gateway) -> None:
         last = 0
         while True:
             try:
-                message = sub.next(timeout_s=2.0)
+                message = sub.next(timeout_s=1.5)
             except TimeoutError:
                 break  # idle: no more position events
             assert isinstance(message, Event)

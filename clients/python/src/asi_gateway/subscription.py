@@ -28,7 +28,7 @@ from typing import Any
 import websockets
 from websockets.asyncio.client import ClientConnection, connect
 
-from .problems import GatewayError, GatewayUnreachable, problem_from_body
+from .problems import GatewayError, GatewayUnreachable, Unavailable, problem_from_body
 from .transport import Transport
 
 JsonObject = dict[str, Any]
@@ -236,7 +236,7 @@ class Subscription:
                 await self._connect()
                 self.reconnects += 1
                 return
-            except GatewayUnreachable:
+            except (GatewayUnreachable, Unavailable):  # down, restarting, or full for the moment
                 if self._give_up_after_s is not None and loop.time() - started > self._give_up_after_s:
                     raise
             await asyncio.sleep(wait)

@@ -81,7 +81,11 @@ class Gateway:
         async def make() -> AsyncGateway:
             return AsyncGateway(url, token=token, verify=verify, ca_file=ca_file, timeout_s=timeout_s)
 
-        self.aio = self._runner.run(make())  # the asyncio client underneath, for mixed use
+        try:
+            self.aio = self._runner.run(make())  # the asyncio client underneath, for mixed use
+        except BaseException:
+            self._runner.stop()
+            raise
         self.jobs = Jobs(self._runner, self.aio.jobs)
         self.gcode = Gcode(self._runner, self.aio.gcode)
 
