@@ -8,7 +8,7 @@ import logging
 from typing import TYPE_CHECKING
 
 from .models import LeaseGrant
-from .problems import GatewayUnreachable, InvalidState, LeaseLost, Problem
+from .problems import GatewayError, GatewayUnreachable, InvalidState, LeaseLost, Problem
 from .transport import Transport
 
 if TYPE_CHECKING:
@@ -70,13 +70,21 @@ class AsyncLease:
             with contextlib.suppress(asyncio.CancelledError):
                 await self._renewer
         self.stage.lease_in_use = None
-        if self.lost is None:
-            with contextlib.suppress(InvalidState):  # expired just now: nothing left to release
-                await self._transport.request(
-                    "DELETE", self.stage.path + "/lease", headers={"Lease-Id": self.lease_id or ""}
-                )
-        elif exc_type is None:
-            raise self.lost
+        if self.lost is not None:
+            if exc_type is None:
+                raise self.lost
+            return
+        try:
+            await self._transport.request(
+                "DELETE", self.stage.path + "/lease", headers={"Lease-Id": self.lease_id or ""}
+            )
+        except InvalidState:
+            pass  # it expired just now: nothing left to release
+        except GatewayError as e:
+            if exc_type is None:
+                raise
+            # The block's own exception matters more; the lease expires by itself.
+            log.warning("%s: could not release the lease: %s", self.stage.id, e)
 
     def raise_if_lost(self) -> None:
         if self.lost is not None:

@@ -184,10 +184,23 @@ class Subscription:
         return message
 
     async def _connect(self) -> None:
+        """Opens a connection and subscribes on it, resuming every topic seen so far."""
+        ws = await self._open()
+        try:
+            self._pending = await self._subscribe(ws)
+        except (websockets.ConnectionClosed, OSError) as e:
+            await ws.close()
+            raise GatewayUnreachable(f"the WebSocket closed while subscribing: {e!r}") from e
+        except BaseException:
+            await ws.close()
+            raise
+        self._ws = ws
+
+    async def _open(self) -> ClientConnection:
         query = f"?batch_ms={self._batch_ms}" if self._batch_ms is not None else ""
         ssl_context: ssl.SSLContext | None = self._transport.ssl_context
         try:
-            ws = await connect(
+            return await connect(
                 self._transport.websocket_url(query),
                 additional_headers=self._transport.auth_headers(),
                 ssl=ssl_context,
@@ -201,30 +214,28 @@ class Subscription:
             raise _refusal(e) from e
         except (TimeoutError, OSError, websockets.InvalidHandshake) as e:
             raise GatewayUnreachable(f"WebSocket {self._transport.websocket_url()}: {e!r}") from e
-        try:
-            self.hello = json.loads(await ws.recv())
-            request_id = f"sub-{next(self._ids)}"
-            request: JsonObject = {"op": "subscribe", "id": request_id, "topics": self.topics}
-            resume = {t: s for t, s in self.last_seq.items() if t not in self._retired}
-            if resume:
-                request["resume"] = resume
-            if self._max_rate_hz is not None:
-                request["max_rate_hz"] = self._max_rate_hz
-            await ws.send(json.dumps(request))
-            # Events may come before the answer (a latest-value topic's current value): keep them.
-            early: list[JsonObject] = []
-            while True:
-                answer = json.loads(await ws.recv())
-                if answer.get("id") == request_id and answer.get("type") in ("subscribed", "error"):
-                    break
-                early.extend(_unbatch(answer))
-            if answer["type"] == "error":
-                raise problem_from_body(answer["problem"])
-        except BaseException:
-            await ws.close()
-            raise
-        self._ws = ws
-        self._pending = early
+
+    async def _subscribe(self, ws: ClientConnection) -> list[JsonObject]:
+        """Reads the hello, subscribes, and returns the events that came before the answer (a
+        latest-value topic's current value may)."""
+        self.hello = json.loads(await ws.recv())
+        request_id = f"sub-{next(self._ids)}"
+        request: JsonObject = {"op": "subscribe", "id": request_id, "topics": self.topics}
+        resume = {t: s for t, s in self.last_seq.items() if t not in self._retired}
+        if resume:
+            request["resume"] = resume
+        if self._max_rate_hz is not None:
+            request["max_rate_hz"] = self._max_rate_hz
+        await ws.send(json.dumps(request))
+        early: list[JsonObject] = []
+        while True:
+            answer = json.loads(await ws.recv())
+            if answer.get("id") == request_id and answer.get("type") in ("subscribed", "error"):
+                break
+            early.extend(_unbatch(answer))
+        if answer["type"] == "error":
+            raise problem_from_body(answer["problem"])
+        return early
 
     async def _connect_again(self) -> None:
         """Reconnects with backoff until it works (or `give_up_after_s` passed)."""
