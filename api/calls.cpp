@@ -59,7 +59,8 @@ void dispatch_call(api_context& ctx, const caller& who, call c, api_handler done
     if (auto* op = std::get_if<operation_call>(&c))
         return run_operation(ctx, who, op->controller, op->operation, op->args,
                              operation_outcome_to(ctx, std::move(done)));
-    if (std::holds_alternative<halt_all_call>(c)) return run_halt_all(ctx, who, operation_outcome_to(ctx, std::move(done)));
+    if (std::holds_alternative<halt_all_call>(c))
+        return run_halt_all(ctx, who, operation_outcome_to(ctx, std::move(done)));
     if (auto* submit = std::get_if<job_submit_call>(&c)) {
         submit_options options;
         options.dry_run = submit->dry_run;

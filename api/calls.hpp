@@ -69,9 +69,9 @@ struct gcode_check_call {
 // HALT ALL: every controller halted at once (api/halt_requests.hpp).
 struct halt_all_call {};
 
-using call = std::variant<operation_call, job_submit_call, job_action_call, job_get_call, lease_get_call,
-                          lease_take_call, lease_renew_call, lease_release_call, gcode_check_call,
-                          halt_all_call>;
+using call =
+    std::variant<operation_call, job_submit_call, job_action_call, job_get_call, lease_get_call,
+                 lease_take_call, lease_renew_call, lease_release_call, gcode_check_call, halt_all_call>;
 
 // The role a call needs: viewer to read a job or a lease and to check a G-code program; `halt_role`
 // (auth.halt_role) for a HALT; admin for the "command" operation and a forced lease release; operator

@@ -43,7 +43,8 @@ void connection_table::admit_for_halt(admission& a, const net::ip::address& from
     if (reserve_open_ >= settings_.halt_reserve) {
         auto oldest = entries_.end();
         for (auto it = entries_.begin(); it != entries_.end(); ++it)
-            if (it->second.halt_only && it->second.counted && it->second.phase == connection_phase::awaiting_header &&
+            if (it->second.halt_only && it->second.counted &&
+                it->second.phase == connection_phase::awaiting_header &&
                 (oldest == entries_.end() || it->second.since < oldest->second.since))
                 oldest = it;
         if (oldest == entries_.end()) return;  // every reserve slot serves a HALT right now

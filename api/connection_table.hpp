@@ -73,7 +73,7 @@ class connection_table : public std::enable_shared_from_this<connection_table> {
         net::ip::address address;
         connection_phase phase = connection_phase::awaiting_header;
         clock::time_point since;
-        bool counted = true;  // false once shed: its slot went to the newcomer
+        bool counted = true;     // false once shed: its slot went to the newcomer
         bool halt_only = false;  // a reserve slot: never counted, never shed for a normal slot
         std::weak_ptr<tracked_connection> connection;
     };

@@ -45,7 +45,8 @@ void run_halt_all(api_context& ctx, const caller& who, operation_handler handler
     auto finish = [g] {
         g->result["controllers"] = std::move(g->answers);
         // Through ctx.executor, then the handler's own associated executor if it has one.
-        net::post(g->executor, net::append(std::move(g->handler), operation_outcome{{}, std::move(g->result)}));
+        net::post(g->executor,
+                  net::append(std::move(g->handler), operation_outcome{{}, std::move(g->result)}));
     };
     if (ids.empty()) return net::post(ctx.executor, finish);
     // Every HALT goes out at once; the answers are gathered on one strand.
@@ -53,16 +54,17 @@ void run_halt_all(api_context& ctx, const caller& who, operation_handler handler
     for (std::size_t i = 0; i < ids.size(); ++i) {
         ctx.registry.async_emergency_halt(
             ids[i], who.name, who.request_id,
-            net::bind_executor(strand, [g, i, id = ids[i], finish](const operation_result<operation_done>& r) {
-                if (r) {
-                    g->answers[i] = {{"id", id}, {"halted", true}, {"latency_us", r->latency.count()}};
-                } else {
-                    auto p = make_problem(r.error());
-                    p.request_id = g->result["request_id"].get<std::string>();
-                    g->answers[i] = {{"id", id}, {"halted", false}, {"problem", p.to_json()}};
-                }
-                if (--g->pending == 0) finish();
-            }));
+            net::bind_executor(
+                strand, [g, i, id = ids[i], finish](const operation_result<operation_done>& r) {
+                    if (r) {
+                        g->answers[i] = {{"id", id}, {"halted", true}, {"latency_us", r->latency.count()}};
+                    } else {
+                        auto p = make_problem(r.error());
+                        p.request_id = g->result["request_id"].get<std::string>();
+                        g->answers[i] = {{"id", id}, {"halted", false}, {"problem", p.to_json()}};
+                    }
+                    if (--g->pending == 0) finish();
+                }));
     }
 }
 

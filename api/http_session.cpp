@@ -15,6 +15,10 @@ namespace gw::api {
 
 namespace {
 
+// A connection on a HALT reserve slot (the limits refused it) sends its request at once or is answered
+// 503: a HALT comes right after the connection, and a silent one must not keep the slot.
+constexpr std::chrono::milliseconds reserve_header_timeout{1000};
+
 // A streamed G-code body passes through this much memory at a time.
 constexpr std::size_t upload_chunk_bytes = std::size_t{64} * 1024;
 
@@ -84,6 +88,16 @@ void http_session::on_run() {
         auto p = make_problem(http_error::too_many_connections, refusal_);
         return do_write(problem_response(std::move(p), 11, false, "/", request_id_), "unmatched", true);
     }
+    if (!refusal_.empty()) {
+        // A HALT reserve slot: a request that has not come within reserve_header_timeout is not a HALT.
+        reserve_timer_.emplace(stream_.get_executor(), reserve_header_timeout);
+        reserve_timer_->async_wait([self = shared_from_this()](beast::error_code ec) {
+            if (ec || self->phase_ != connection_phase::awaiting_header) return;
+            self->reserve_expired_ = true;
+            beast::error_code ignored;
+            self->stream_.socket().cancel(ignored);
+        });
+    }
     do_read();
 }
 
@@ -137,7 +151,10 @@ void http_session::on_header(beast::error_code ec, std::size_t) {
     if (ec == http::error::end_of_stream) return do_close();
     started_ = std::chrono::steady_clock::now();
     const auto& header = header_parser_->get();
+    if (reserve_timer_) reserve_timer_->cancel();
     if (ec) {
+        if (reserve_expired_ && ec == net::error::operation_aborted)  // a reserve slot's silent client
+            return refuse(make_problem(http_error::too_many_connections, refusal_), header, "unmatched");
         if (answer_read_error(ec, header)) return;
         return fail(ec, "read header");
     }
@@ -358,7 +375,8 @@ void http_session::drop_upload() {
 
 void http_session::serve_halt(const http::request_header<>& header, bool body_follows) {
     string_request req(header);
-    if (body_follows || !refusal_.empty()) req.keep_alive(false);  // its body stays unread; a reserve slot goes
+    if (body_follows || !refusal_.empty())
+        req.keep_alive(false);  // its body stays unread; a reserve slot goes
     header_parser_.reset();
     stream_.expires_never();
     handle_request(ctx_, std::move(req), request_id_, stream_.get_executor(),

@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include <boost/asio/steady_timer.hpp>
+
 #include "api/api_context.hpp"
 #include "api/body_budget.hpp"
 #include "api/connection_permit.hpp"
@@ -79,7 +81,9 @@ class http_session : public std::enable_shared_from_this<http_session>, public t
     std::shared_ptr<api_context> ctx_;
     std::shared_ptr<connection_permit> permit_;
     std::shared_ptr<body_budget> bodies_;
-    std::string refusal_;  // not empty: the limits refused this connection
+    std::string refusal_;  // not empty: the limits refused this connection (a HALT reserve slot)
+    std::optional<boost::asio::steady_timer> reserve_timer_;  // a reserve slot's wait for its request
+    bool reserve_expired_ = false;
     bool first_request_ = true;
     connection_phase phase_ = connection_phase::awaiting_header;  // serving: never shed
     std::optional<http::request_parser<http::empty_body>> header_parser_;

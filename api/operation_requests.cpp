@@ -16,8 +16,8 @@
 #include "devices/ms2000/error.hpp"
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/controllers/operations.hpp"
-#include "gateway/jobs/job_manager.hpp"
 #include "gateway/events/event_json.hpp"
+#include "gateway/jobs/job_manager.hpp"
 #include "gateway/leases/lease_manager.hpp"
 
 namespace gw::api {
@@ -368,9 +368,10 @@ std::optional<problem> job_hold_refusal(api_context& ctx, const std::string& con
     if (!hold || (lease_id && hold->lease_id == lease_id)) return std::nullopt;
     return make_problem(make_error(
         operation_error_kind::job_active,
-        fmt::format("job {} is {} on {}: only the holder of the lease it runs under may change the controller "
-                    "now; reads and HALT are open to all (pause or cancel the job first)",
-                    hold->job_id, jobs::to_string(hold->state), controller)));
+        fmt::format(
+            "job {} is {} on {}: only the holder of the lease it runs under may change the controller "
+            "now; reads and HALT are open to all (pause or cancel the job first)",
+            hold->job_id, jobs::to_string(hold->state), controller)));
 }
 
 json base_result(std::string_view id, std::string_view op, const std::string& request_id) {

@@ -99,7 +99,8 @@ void operation(request_context& c, const std::string& name) {
 // POST /halt: HALT ALL (api/halt_requests.hpp); a body, if any, is ignored: nothing may stand in
 // the way of an emergency stop.
 void halt_all(request_context& c) {
-    dispatch_call(*c.ctx, caller{c.who->name, c.who->role, c.request_id, {}}, halt_all_call{}, c.async_reply());
+    dispatch_call(*c.ctx, caller{c.who->name, c.who->role, c.request_id, {}}, halt_all_call{},
+                  c.async_reply());
 }
 
 // ---- leases ----

@@ -268,7 +268,8 @@ boost::system::result<ws_client_message, ws_protocol_error> parse_client_json(co
     if (name == "job") return parse_job(msg, id);
     if (name == "gcode") return parse_gcode(msg, std::move(id));
     if (name == "halt_all") {
-        if (auto unknown = find_unknown_field(msg, {"op", "id"})) return invalid(id, unknown->field, unknown->message);
+        if (auto unknown = find_unknown_field(msg, {"op", "id"}))
+            return invalid(id, unknown->field, unknown->message);
         if (id.is_null()) return invalid(id, "id", "\"id\" is required for halt_all (the answer carries it)");
         return halt_all_message{std::move(id)};
     }

@@ -268,8 +268,8 @@ void websocket_session::run_call(const json& id, std::optional<std::string> leas
     if (commands_waiting_.size() >= limits_.max_commands_waiting)
         return answer_error(id, make_problem(make_error(
                                     operation_error_kind::queue_full,
-                                    "this connection has " + std::to_string(commands_in_flight_) + " commands running and " +
-                                        std::to_string(commands_waiting_.size()) +
+                                    "this connection has " + std::to_string(commands_in_flight_) +
+                                        " commands running and " + std::to_string(commands_waiting_.size()) +
                                         " waiting; send more once some are answered (a HALT always runs)")));
     commands_waiting_.push_back({id, std::move(lease), std::move(c)});
 }

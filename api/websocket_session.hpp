@@ -62,7 +62,7 @@ struct websocket_limits {
     // pauses for commands, and a HALT never waits: it runs at once, ahead of those waiting.
     std::size_t max_commands_in_flight = 16;
     std::size_t max_commands_waiting = 64;
-    std::size_t max_subscriptions = 64;                      // filters per connection
+    std::size_t max_subscriptions = 64;  // filters per connection
 };
 
 // From http.limits: max_websocket_message_bytes; read_timeout is the write timeout, twice it the

@@ -87,6 +87,8 @@ export const listControllers = () => request("GET", "/api/v1/controllers");
 export const controller = (id) => request("GET", `/api/v1/controllers/${enc(id)}`);
 export const operation = (id, name, args = {}) => request("POST", `/api/v1/controllers/${enc(id)}/${name}`, args);
 export const halt = (id) => operation(id, "halt");
+// HALT ALL: every controller at once; the answer lists each ({id, halted, problem}).
+export const haltAll = () => request("POST", "/api/v1/halt");
 export const moveRelative = (id, axes) => operation(id, "move", { axes, mode: "relative" });
 export const moveAbsolute = (id, axes) => operation(id, "move", { axes, mode: "absolute" });
 

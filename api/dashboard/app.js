@@ -67,12 +67,17 @@ async function start() {
   }
 }
 
+// One request halts every controller at once (POST /api/v1/halt); the answer says which it reached.
 async function haltAll() {
-  const ids = [...store.controllers.keys()];
-  const results = await Promise.allSettled(ids.map((id) => api.halt(id)));
-  const failed = results.map((r, i) => (r.status === "rejected" ? `${ids[i]}: ${r.reason.message}` : null))
-    .filter(Boolean);
-  $("halt-all-error").textContent = failed.length ? `halt failed for ${failed.join("; ")}` : "";
+  $("halt-all-error").textContent = "";
+  try {
+    const answer = await api.haltAll();
+    const failed = answer.controllers.filter((c) => !c.halted)
+      .map((c) => `${c.id}: ${c.problem?.detail || "not reached"}`);
+    $("halt-all-error").textContent = failed.length ? `halt failed for ${failed.join("; ")}` : "";
+  } catch (e) {
+    $("halt-all-error").textContent = `HALT ALL: ${e.message}`;
+  }
 }
 
 api.whenUnauthorized(() => askForToken(api.token() ? "that token was refused" : ""));

@@ -1,10 +1,12 @@
 // The controller view (#/controller/<id>): the controller's state, build and modules, a big HALT, its
 // lease; the position of every axis; a live XY map with trail and soft limits; a live chart of the
 // positions (10 Hz) and, where the controller has a report port, of its encoder report frames (every
-// frame counted, a few drawn), with TTL events marked; the motion and module controls.
+// frame counted, a few drawn), with TTL events marked; the motion and module controls. While a job
+// holds the controller (running or paused there), the controls are disabled and say why: only the
+// lease it runs under may change the controller then (409 job-active); HALT always works.
 
 import * as api from "./api.js";
-import { el, errorText, formatUm, showConnectionState } from "./dom.js";
+import { el, errorText, formatUm, haltedText, showConnectionState } from "./dom.js";
 import { LeasePanel } from "./lease_panel.js";
 import { ModuleControls } from "./module_controls.js";
 import { MotionControls } from "./motion_controls.js";
@@ -14,6 +16,7 @@ import { axisColour, TimeChart } from "./time_chart.js";
 import { XYPlot } from "./xy_plot.js";
 
 const CHART_WINDOW_S = 30;
+const HOLD_POLL_MS = 2000;  // how often the view asks which job holds the controller
 const REPORT_DRAW_INTERVAL_S = 0.02;  // at most 50 report frames a second are drawn; all are counted
 const seconds = (iso) => Date.parse(iso) / 1000;
 
@@ -21,6 +24,9 @@ class ControllerView {
   constructor(id) {
     this.id = id;
     this.state = null;
+    this.hold = null;  // the job that holds the controller (setHold)
+    this.unmounted = false;
+    this.holdTimer = null;
     this.axesKey = null;
     this.chartKey = null;
     this.axisRows = new Map();
@@ -43,6 +49,11 @@ class ControllerView {
     this.halt = el("button", { class: "halt halt-big", type: "button", "data-halt": this.id, title: "stop every axis now (works even when leased)" }, "HALT");
     this.halt.addEventListener("click", () => this.haltNow());
     this.haltError = el("div", { class: "op-error", role: "alert" });
+    this.haltedLine = el("div", { class: "halted-line", hidden: true, role: "status" });
+    this.holdLine = el("div", { class: "hold-line", hidden: true, role: "status" });
+    // Disabled together while a job holds the controller (and this page does not hold its lease).
+    this.motionSet = el("fieldset", { class: "held-controls" }, this.motion.root);
+    this.modulesSet = el("fieldset", { class: "held-controls" }, this.modules.root);
     this.identity = el("div", { class: "meta" }, "not identified yet");
     this.lastError = el("div", { class: "last-error", hidden: true });
     this.hint = el("div", { class: "hint", hidden: true });
@@ -57,14 +68,14 @@ class ControllerView {
                             el("h2", {}, el("a", { href: "#/" }, "Controllers"), " / ", this.id), this.badge),
                          this.identity),
                       this.halt),
-                   this.haltError, this.lastError, this.hint, this.lease.root,
+                   this.haltError, this.haltedLine, this.holdLine, this.lastError, this.hint, this.lease.root,
                    el("div", { class: "ctl-grid" },
                       el("section", { class: "panel panel-position" }, el("h3", {}, "Position"), this.axesTable, this.busy, this.xy.root),
                       el("section", { class: "panel panel-chart" },
                          el("div", { class: "chart-head" }, el("h3", {}, `Last ${CHART_WINDOW_S} s`), this.chartNote),
                          this.reportLine, this.chart.root),
-                      el("section", { class: "panel panel-motion" }, el("h3", {}, "Motion"), this.motion.root),
-                      el("section", { class: "panel panel-modules" }, el("h3", {}, "Modules"), this.modules.root)));
+                      el("section", { class: "panel panel-motion" }, el("h3", {}, "Motion"), this.motionSet),
+                      el("section", { class: "panel panel-modules" }, el("h3", {}, "Modules"), this.modulesSet)));
   }
 
   async haltNow() {
@@ -76,10 +87,40 @@ class ControllerView {
     }
   }
 
+  // The job that holds the controller (a Job: running or paused here), or null.
+  setHold(job) {
+    this.hold = job;
+    this.root.dataset.heldBy = job ? job.id : "";
+    this.holdLine.hidden = !job;
+    const blocked = Boolean(job) && !this.lease.mine;
+    this.motionSet.disabled = blocked;
+    this.modulesSet.disabled = blocked;
+    if (!job) return this.holdLine.replaceChildren();
+    this.holdLine.replaceChildren(
+      el("a", { href: `#/jobs/${encodeURIComponent(job.id)}` }, `${job.type} job`), ` is ${job.state} here: `,
+      this.lease.mine
+        ? "this page holds the lease it runs under, so its controls stay open."
+        : "moves and settings belong to it until it ends (or to the holder of its lease); HALT works always.");
+  }
+
+  async pollHold() {
+    try {
+      const [running, paused] = await Promise.all(
+        ["running", "paused"].map((state) => api.listJobs({ controller: this.id, state, limit: 1 })));
+      this.setHold(running.jobs[0] || paused.jobs[0] || null);
+    } catch {
+      // the live banner says when the gateway is away; the last answer stands
+    }
+    if (!this.unmounted) this.holdTimer = setTimeout(() => this.pollHold(), HOLD_POLL_MS);
+  }
+
   // A ControllerState (REST or a state event).
   setState(s) {
     this.state = s;
     showConnectionState(this.root, this.badge, s.state);
+    this.haltedLine.hidden = !s.halted;
+    this.haltedLine.textContent = haltedText(s.halted);
+    this.root.dataset.halted = s.halted ? "yes" : "no";
     const err = s.last_error;
     const down = s.state !== "connected";
     this.lastError.hidden = !down || !err;
@@ -193,6 +234,7 @@ class ControllerView {
     if (known?.position) this.setPositions(known.position.axes, known.position.busy, known.position.time);
     const entry = store.leases.get(this.id);
     if (entry) this.lease.show(entry.lease, entry.error, Boolean(api.heldLeases()[this.id]));
+    this.pollHold();
     this.stops.push(
       store.on("controller", ({ id, controller, what }) => {
         if (id !== this.id) return;
@@ -200,7 +242,9 @@ class ControllerView {
         else if (what === "position") this.setPositions(controller.position.axes, controller.position.busy, controller.position.time);
       }),
       store.on("lease", ({ id, lease, error, mine }) => {
-        if (id === this.id) this.lease.show(lease, error, mine);
+        if (id !== this.id) return;
+        this.lease.show(lease, error, mine);
+        this.setHold(this.hold);  // whether the controls open for this page's lease
       }),
       store.follow(`controllers/${this.id}/ttl`, (msg) => this.onTtl(msg)),
     );
@@ -218,6 +262,8 @@ class ControllerView {
   }
 
   unmount() {
+    this.unmounted = true;
+    clearTimeout(this.holdTimer);
     for (const stop of this.stops) stop();
     this.reportStop?.();
     clearInterval(this.statsTimer);

@@ -47,3 +47,11 @@ export function formatDuration(seconds) {
 
 // The text of an error for a person: an ApiError's detail, or the message.
 export const errorText = (e) => e?.message || String(e);
+
+// "halted by ada at 14:02:11": a controller's halt latch (ControllerState.halted), or "" when none.
+export function haltedText(halted) {
+  if (!halted) return "";
+  const at = new Date(halted.at);
+  const time = Number.isNaN(at.getTime()) ? halted.at : at.toLocaleTimeString();
+  return `HALTED by ${halted.by} at ${time}: its jobs wait until someone resumes or submits one`;
+}

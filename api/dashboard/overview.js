@@ -5,7 +5,7 @@
 // card greys them out when they are not live (feed down or controller not connected).
 
 import * as api from "./api.js";
-import { el, formatDuration, formatUm, showConnectionState } from "./dom.js";
+import { el, formatDuration, formatUm, haltedText, showConnectionState } from "./dom.js";
 
 const STEPS_UM = [1, 10, 100, 1000, 10000];
 
@@ -24,6 +24,7 @@ export class ControllerCard {
     this.haltButton = el("button", { class: "halt", type: "button", "data-halt": this.id }, "HALT");
     this.haltButton.addEventListener("click", () => this.halt());
     this.lastError = el("div", { class: "last-error", hidden: true });
+    this.haltedLine = el("div", { class: "halted-line", hidden: true, role: "status" });
     this.identity = el("div", { class: "meta" });
     this.modules = el("div", { class: "meta" });
     this.axesTable = el("table", { class: "axes" });
@@ -37,7 +38,7 @@ export class ControllerCard {
     this.opError = el("div", { class: "op-error" });
     this.root = el("section", { class: "card offline", "data-controller": this.id },
                    el("div", { class: "card-head" }, el("h2", {}, el("a", { href: `#/controller/${encodeURIComponent(this.id)}` }, this.id)), this.stateBadge, this.haltButton),
-                   this.lastError, this.identity, this.modules, this.axesTable, this.status, this.leaseLine,
+                   this.haltedLine, this.lastError, this.identity, this.modules, this.axesTable, this.status, this.leaseLine,
                    this.jobLine, this.reportLine, this.jog, this.opError,
                    el("a", { class: "card-open", href: `#/controller/${encodeURIComponent(this.id)}`, "data-open": this.id },
                       "Open controller view →"));
@@ -103,6 +104,9 @@ export class ControllerCard {
     const err = s.last_error;
     this.lastError.hidden = s.state === "connected" || !err;
     this.lastError.textContent = err ? `${err.text || err.name} (${err.time})` : "";
+    this.haltedLine.hidden = !s.halted;
+    this.haltedLine.textContent = haltedText(s.halted);
+    this.root.dataset.halted = s.halted ? "yes" : "no";
     const id = s.identity;
     this.identity.textContent = id ? `build ${id.build}, firmware ${id.version}, axes ${id.motor_axes}` : "not identified";
     this.modules.textContent = id ? `modules: ${id.modules.length ? id.modules.join(", ") : "none"}` : "";
@@ -127,6 +131,11 @@ export class ControllerCard {
   setJob(job) {
     this.jobLine.hidden = !job;
     this.root.dataset.job = job ? job.id : "";
+    // The job holds the controller: its moves are the job's (409 job-active); HALT stays.
+    for (const b of this.jog.querySelectorAll("button")) {
+      b.disabled = Boolean(job);
+      b.title = job ? "a job runs here: open the controller view" : "";
+    }
     if (!job) return this.jobLine.replaceChildren();
     const p = job.progress || {};
     const percent = Math.max(0, Math.min(100, p.percent ?? 0));

@@ -93,7 +93,8 @@ class controller : public std::enable_shared_from_this<controller> {
                                CompletionToken&& token) {
         return boost::asio::async_initiate<CompletionToken, completion_signature>(
             [self = shared_from_this(), halts_seen](auto handler, ms2000::command c, std::string rid) {
-                self->submit(std::move(c), std::move(rid), completion_handler(std::move(handler)), halts_seen);
+                self->submit(std::move(c), std::move(rid), completion_handler(std::move(handler)),
+                             halts_seen);
             },
             token, std::move(cmd), std::move(request_id));
     }

@@ -209,7 +209,8 @@ void read_auth(const json& j, auth_config& out) {
     object_reader r(j, "auth", {"tokens", "halt_role"});
     if (auto* v = r.get("halt_role"))
         out.halt_role = read_enum<role>(
-            *v, r.path("halt_role"), {{"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}});
+            *v, r.path("halt_role"),
+            {{"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}});
     auto* tokens = r.get("tokens");
     if (!tokens) return;
     if (!tokens->is_array()) fail("auth.tokens", "must be an array");

@@ -123,7 +123,7 @@ struct controller_registry::move_op : std::enable_shared_from_this<move_op> {
     std::string id;
     std::string request_id;
     std::shared_ptr<devices::controller> ctl;
-    std::string axes;  // hardware order
+    std::string axes;                         // hardware order
     std::optional<std::uint64_t> halts_seen;  // move_request::halts_seen: every command guarded
     steady_clock::time_point deadline;
     net::steady_timer timer;
@@ -132,7 +132,8 @@ struct controller_registry::move_op : std::enable_shared_from_this<move_op> {
     template <typename Handler>
     void send(ms2000::command cmd, Handler&& handler) {
         if (halts_seen)
-            ctl->async_guarded_command(std::move(cmd), request_id, *halts_seen, std::forward<Handler>(handler));
+            ctl->async_guarded_command(std::move(cmd), request_id, *halts_seen,
+                                       std::forward<Handler>(handler));
         else
             ctl->async_command(std::move(cmd), request_id, std::forward<Handler>(handler));
     }
@@ -145,9 +146,10 @@ struct controller_registry::move_op : std::enable_shared_from_this<move_op> {
     }
 
     void check_status() {
-        send(ms2000::status(), [self = shared_from_this()](boost::system::error_code ec, ms2000::reply reply) {
-            self->on_status(ec, reply);
-        });
+        send(ms2000::status(),
+             [self = shared_from_this()](boost::system::error_code ec, ms2000::reply reply) {
+                 self->on_status(ec, reply);
+             });
     }
 
     void on_status(boost::system::error_code ec, const ms2000::reply& reply) {
@@ -161,9 +163,10 @@ struct controller_registry::move_op : std::enable_shared_from_this<move_op> {
     }
 
     void read_positions() {
-        send(ms2000::where(axes), [self = shared_from_this()](boost::system::error_code ec, ms2000::reply reply) {
-            self->on_where(ec, reply);
-        });
+        send(ms2000::where(axes),
+             [self = shared_from_this()](boost::system::error_code ec, ms2000::reply reply) {
+                 self->on_where(ec, reply);
+             });
     }
 
     void on_where(boost::system::error_code ec, const ms2000::reply& reply) {
@@ -369,11 +372,10 @@ void controller_registry::deliver_completion(handler<T> h, operation_result<T> r
 void controller_registry::note_failure(const operation_error& e, const std::string& id,
                                        const std::string& request_id) {
     // Refusals are the client's business; failures of the controller are ours, but may repeat a lot.
-    const bool client_side = e.kind == operation_error_kind::invalid_value ||
-                             e.kind == operation_error_kind::unknown_controller ||
-                             e.kind == operation_error_kind::missing_module ||
-                             e.kind == operation_error_kind::busy || e.kind == operation_error_kind::leased ||
-                             e.kind == operation_error_kind::halted;
+    const bool client_side =
+        e.kind == operation_error_kind::invalid_value || e.kind == operation_error_kind::unknown_controller ||
+        e.kind == operation_error_kind::missing_module || e.kind == operation_error_kind::busy ||
+        e.kind == operation_error_kind::leased || e.kind == operation_error_kind::halted;
     if (client_side) {
         log_->debug("[{}] {}: refused ({}): {}", request_id, id, to_string(e.kind), e.message);
         return;
@@ -429,11 +431,12 @@ void controller_registry::run_emergency_halt(std::string id, std::string by, std
                                              handler<operation_done> h) {
     if (!controllers_.contains(id))
         return deliver<operation_done>(
-            std::move(h), make_error(operation_error_kind::unknown_controller, "no controller with id \"" + id + "\""),
-            id, request_id);
+            std::move(h),
+            make_error(operation_error_kind::unknown_controller, "no controller with id \"" + id + "\""), id,
+            request_id);
     if (store_->set_latch(id, devices::halt_latch{by, std::chrono::system_clock::now()})) {
-        log_->warn("[{}] {}: HALT by {}: jobs there stay stopped until one is resumed or submitted", request_id,
-                   id, by);
+        log_->warn("[{}] {}: HALT by {}: jobs there stay stopped until one is resumed or submitted",
+                   request_id, id, by);
         republish(id);
     }
     run_simple<halt_request>(std::move(id), halt_request{}, std::move(request_id), std::move(h));
@@ -446,7 +449,8 @@ void controller_registry::release_halt_latch(const std::string& id) {
 }
 
 void controller_registry::republish(const std::string& id) {
-    controllers_.at(id)->get_snapshot([store = store_](devices::controller_snapshot s) { store->on_snapshot(s); });
+    controllers_.at(id)->get_snapshot(
+        [store = store_](devices::controller_snapshot s) { store->on_snapshot(s); });
 }
 
 std::uint64_t controller_registry::halts_accepted(const std::string& id) const {
@@ -486,15 +490,15 @@ void controller_registry::run_raw(std::string id, raw_command_request r, std::st
     const auto started = steady_clock::now();
     auto answered = [this, h = std::move(h), id, request_id, started](boost::system::error_code ec,
                                                                       ms2000::reply reply) mutable {
-            // ":N-<code>" is an answer: the expert sees it in the parsed reply.
-            if (ec && ec != devices::ms2000::error::controller_rejected)
-                return deliver_completion<raw_command_result>(
-                    std::move(h), from_driver_error(ec, reply.error_code, id), id, request_id);
-            raw_command_result result;
-            result.raw_reply = reply.raw;
-            result.reply = std::move(reply);
-            result.latency = since(started);
-            deliver_completion<raw_command_result>(std::move(h), std::move(result), id, request_id);
+        // ":N-<code>" is an answer: the expert sees it in the parsed reply.
+        if (ec && ec != devices::ms2000::error::controller_rejected)
+            return deliver_completion<raw_command_result>(
+                std::move(h), from_driver_error(ec, reply.error_code, id), id, request_id);
+        raw_command_result result;
+        result.raw_reply = reply.raw;
+        result.reply = std::move(reply);
+        result.latency = since(started);
+        deliver_completion<raw_command_result>(std::move(h), std::move(result), id, request_id);
     };
     if (r.halts_seen)
         t->controller->async_guarded_command(std::move(*cmd), request_id, *r.halts_seen, std::move(answered));

@@ -118,7 +118,8 @@ class controller_registry {
     auto async_emergency_halt(std::string id, std::string by, std::string request_id, Token&& token) {
         return boost::asio::async_initiate<Token, void(operation_result<operation_done>)>(
             [this](auto h, std::string id, std::string by, std::string rid) {
-                run_emergency_halt(std::move(id), std::move(by), std::move(rid), handler<operation_done>(std::move(h)));
+                run_emergency_halt(std::move(id), std::move(by), std::move(rid),
+                                   handler<operation_done>(std::move(h)));
             },
             token, std::move(id), std::move(by), std::move(request_id));
     }
@@ -198,7 +199,8 @@ class controller_registry {
     template <typename Request>
     void run_simple(std::string id, Request r, std::string request_id, handler<operation_done> h);
     void run_move(std::string id, move_request r, std::string request_id, handler<move_result> h);
-    void run_emergency_halt(std::string id, std::string by, std::string request_id, handler<operation_done> h);
+    void run_emergency_halt(std::string id, std::string by, std::string request_id,
+                            handler<operation_done> h);
     // Publishes the controller's current snapshot again (its latch changed), from its strand.
     void republish(const std::string& id);
     void run_raw(std::string id, raw_command_request r, std::string request_id,

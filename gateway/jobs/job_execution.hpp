@@ -44,7 +44,7 @@ struct live_job {
     // The lease it was submitted (or last resumed) under: its holder may still operate the controller
     // while the job holds it (job_holds).
     std::optional<std::string> lease_id;
-    bool stopping = false;                // a cancel is sending HALT / TTL Y=0: the job keeps the controller
+    bool stopping = false;  // a cancel is sending HALT / TTL Y=0: the job keeps the controller
     // job_context::restore_if_stopped, registration order. What a run left changed (a disconnect
     // ended it) stays here: the next run puts it back before it starts.
     std::vector<std::string> restore_commands;

@@ -9,7 +9,8 @@ void job_holds::hold(const std::string& controller, job_hold job) {
 
 void job_holds::release(const std::string& controller, const std::string& job_id) {
     std::lock_guard lock(mutex_);
-    if (auto it = holds_.find(controller); it != holds_.end() && it->second.job_id == job_id) holds_.erase(it);
+    if (auto it = holds_.find(controller); it != holds_.end() && it->second.job_id == job_id)
+        holds_.erase(it);
 }
 
 std::optional<job_hold> job_holds::find(const std::string& controller) const {

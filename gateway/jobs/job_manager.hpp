@@ -37,9 +37,9 @@
 
 #include "gateway/common/operation_error.hpp"
 #include "gateway/jobs/job.hpp"
+#include "gateway/jobs/job_holds.hpp"
 #include "gateway/jobs/job_plan.hpp"
 #include "gateway/jobs/job_query.hpp"
-#include "gateway/jobs/job_holds.hpp"
 #include "gateway/leases/lease_manager.hpp"
 
 namespace gw {

@@ -119,7 +119,10 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
         set_state(*job, job_state::paused, "halted by " + *halted_by,
                   halt_latched(controller) ? std::optional(job_wait::halt) : std::nullopt);
         net::co_spawn(
-            strand_, [self = shared_from_this(), job]() -> net::awaitable<void> { co_await self->secure_after_halt(job); },
+            strand_,
+            [self = shared_from_this(), job]() -> net::awaitable<void> {
+                co_await self->secure_after_halt(job);
+            },
             net::detached);
     } else if (disconnected) {
         // The job keeps the controller: resume continues from the last completed step, once it is back.
@@ -176,13 +179,15 @@ net::awaitable<void> manager_core::secure_after_halt(std::shared_ptr<live_job> j
     if (may_leave_ttl_output_high(job->record.type, job->record.spec)) {
         const std::string ttl_failed = co_await ttl_output_low(controller, request_id);
         auto& r = job->restore_commands;
-        if (!ttl_failed.empty() && std::find(r.begin(), r.end(), "TTL Y=0") == r.end()) r.emplace_back("TTL Y=0");
+        if (!ttl_failed.empty() && std::find(r.begin(), r.end(), "TTL Y=0") == r.end())
+            r.emplace_back("TTL Y=0");
     }
     co_await restore_settings(job);
     // Delivered, or owed to the controller (restores_): the resumed run starts from the settings as they
     // were before the job, and puts back what is owed first (put_back_before_run).
     job->restore_commands.clear();
-    log_->info("[{}] {}: job {} halted; outputs and settings made safe", request_id, controller, job->record.id);
+    log_->info("[{}] {}: job {} halted; outputs and settings made safe", request_id, controller,
+               job->record.id);
 }
 
 net::awaitable<void> manager_core::restore_settings(std::shared_ptr<live_job> job) {
@@ -240,7 +245,8 @@ void manager_core::controller_reconnected(const std::string& controller) {
     });
 }
 
-void manager_core::controller_halt_latch_changed(const std::string& controller, std::optional<std::string> by) {
+void manager_core::controller_halt_latch_changed(const std::string& controller,
+                                                 std::optional<std::string> by) {
     net::post(strand_, [self = shared_from_this(), controller, by = std::move(by)] {
         if (by) {
             auto job = self->jobs_.find(self->lanes_.holder(controller));
@@ -260,8 +266,8 @@ void manager_core::show_halt_waits(const std::string& controller) {
         if (!latched && w == job_wait::halt) set_held_wait(*it->second, queue_wait(controller));
     }
     // A job a HALT paused (run_finished) waits for a resume alone once the latch is released.
-    if (auto it = jobs_.find(lanes_.holder(controller)); it != jobs_.end() && !latched &&
-                                                          it->second->record.progress.waiting_for == job_wait::halt)
+    if (auto it = jobs_.find(lanes_.holder(controller));
+        it != jobs_.end() && !latched && it->second->record.progress.waiting_for == job_wait::halt)
         set_held_wait(*it->second, std::nullopt);
 }
 

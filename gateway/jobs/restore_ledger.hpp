@@ -19,7 +19,7 @@ struct owed_restore {
     std::string job_id;                // the job the commands are stored under
     bool ttl_low = false;              // "TTL Y=0" is owed
     std::vector<std::string> restore;  // registration order; sent newest first
-    bool halt = false;                 // HALT before all: the job was running there when the gateway went down
+    bool halt = false;  // HALT before all: the job was running there when the gateway went down
     bool empty() const { return !halt && !ttl_low && restore.empty(); }
 };
 

@@ -18,7 +18,9 @@ TTL events of ext2 (IN0 mode 5 set from the page) are marked on its chart;
 a lease taken, renewed and released from the page, a page move while holding it works while a REST
 move without it gets 409, HALT on the leased controller stops a move; a controller leased by someone
 else shows the 409 'leased' next to the control; the overview card shows the running job, the report
-count and a link to the view; no console errors except those the API causes by design.
+count and a link to the view; while a job holds a controller its view names the job and disables
+the motion and module controls (HALT stays), and shows who halted it; no console errors except
+those the API causes by design.
 With --screenshot-dir, writes controller.png (the ext1 view with the chart running).
 
 Run by ctest with Debian's /usr/bin/python3 (python3-websockets). Skipped (exit 77) without chromium.
@@ -421,6 +423,32 @@ async def test_overview_card(b, port, ext1):
                      timeout=15)
 
 
+async def test_job_holds_the_controls(b, port):
+    """While a job holds sim2, its view says so and the motion controls are disabled (REST gives
+    job-active); the view shows the HALT latch; once the job ends, the controls are back."""
+    status, job = rest(port, "POST", "/api/v1/jobs",
+                       {"controller": "sim2", "type": "array",
+                        "spec": {"plate": "6", "a1": {"X": 0, "Y": 0}, "advance": "next", "mode": "host"}})
+    check(status == 201, f"submit: {status} {job}")
+    try:
+        await open_view(b, port, "sim2")
+        line = await b.wait_for("the job named on the view", f"{view('sim2')}.dataset.heldBy === '{job['id']}' && "
+                                f"{view('sim2')}.querySelector('.hold-line').textContent")
+        check("array job" in line and "HALT works" in line, f"hold line {line!r}")
+        disabled = await b.evaluate(f"[...{view('sim2')}.querySelectorAll('fieldset.held-controls')].map(f => f.disabled)")
+        check(disabled == [True, True], f"the motion and module controls while held: disabled {disabled}")
+        status, body = rest(port, "POST", "/api/v1/controllers/sim2/move", {"axes": {"X": 10}})
+        check(status == 409 and body["type"].endswith("/job-active"), f"a REST move: {status} {body}")
+        await b.click(f"[data-controller-view=sim2] [data-halt=sim2]")
+        text = await b.wait_for("the view shows the HALT", f"{view('sim2')}.dataset.halted === 'yes' && "
+                                f"{view('sim2')}.querySelector('.halted-line').textContent")
+        check(text.startswith("HALTED by "), f"halted line {text!r}")
+    finally:
+        rest(port, "POST", f"/api/v1/jobs/{job['id']}/cancel", {})
+    await b.wait_for("the controls back once the job ended", f"{view('sim2')}.dataset.heldBy === '' && "
+                     f"[...{view('sim2')}.querySelectorAll('fieldset.held-controls')].every(f => !f.disabled)", timeout=15)
+
+
 def unexpected_console(entries):
     return browser_checks.unexpected_console(entries, lease_404, whoami_404)
 
@@ -465,6 +493,8 @@ async def main_async(args, fx):
         await run("a controller leased by someone else: the 409 next to the control", test_leased_by_other, b, port,
                   expected=r"status of 409")
         await run("overview card: running job, report count, link to the view", test_overview_card, b, port, ext1)
+        await run("a job holds the controller: the view says so and disables the controls; HALT shows",
+                  test_job_holds_the_controls, b, port, expected=r"status of 409")
         # the console entries the API causes on purpose (the 409s and 422 the checks provoke) are left out
         checks.console_check(unexpected_console([e for i, e in enumerate(b.console) if i not in checks.by_design]))
         print(f"browser checks took {time.monotonic() - started:.1f} s")

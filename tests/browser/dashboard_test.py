@@ -5,14 +5,14 @@ Protocol by cdp.py) against the real asi-gateway: three simulated controllers in
 
 Checks: the overview shows every controller connected with its positions; a REST move of sim1 shows
 on the page; a jog click moves sim2 (the REST state agrees); a HALT click stops a long move (the
-halt reaches the gateway: its request counter and the stage stopping short), and HALT ALL stops two
-moves and halts all four; an unplugged ext1 shows
+halt reaches the gateway: its request counter and the stage stopping short; the card says who halted
+it), and HALT ALL (one POST /api/v1/halt) stops two moves and shows all four halted; an unplugged ext1 shows
 as disconnected with its error (within 2 s of the unplug), and connected again after replug; a gateway restart shows the banner
 and greys the values, then the page reconnects by itself and resumes its topics from the last
 sequence numbers it saw; with tokens, the page asks for one, refuses a wrong one, works with a viewer
-token and shows the 403 of its HALT; no console errors other than the ones the
+token whose HALT stops the stage; no console errors other than the ones the
 API causes by design (GET .../lease answers 404 when free; what is refused while the gateway is
-down; the 401s and the viewer's 403 of the token check). With --screenshot, writes a PNG of the overview.
+down; the 401s of the token check). With --screenshot, writes a PNG of the overview.
 
 Run by ctest with Debian's /usr/bin/python3 (python3-websockets). Skipped (exit 77) without chromium.
 """
@@ -52,9 +52,9 @@ def page_position(controller, axis):
             f"td.pos[data-axis={axis}]'); return e ? parseFloat(e.textContent) : null; }})()")
 
 
-def halt_count(port):
+def halt_count(port, route="/api/v1/controllers/{id}/halt"):
     status, text = http_request(port, "GET", "/api/v1/metrics", token=None)
-    m = re.search(r'gw_http_requests_total\{[^}]*route="/api/v1/controllers/\{id\}/halt"[^}]*status="200"[^}]*\} '
+    m = re.search(r'gw_http_requests_total\{[^}]*route="' + re.escape(route) + r'"[^}]*status="200"[^}]*\} '
                   r'([0-9.e+]+)', text)
     return float(m.group(1)) if m else 0.0
 
@@ -111,10 +111,14 @@ async def test_halt_click(b, port):
     await b.wait_for("the page shows where it stopped", f"Math.abs({page_position('sim3', 'Y')} - {y}) < 1")
     err = await b.evaluate("document.querySelector('[data-controller=sim3] .op-error').textContent")
     check(err == "", f"halt error on the page: {err}")
+    # The card says who halted it, until a job is submitted or resumed there.
+    text = await b.wait_for("sim3 shown halted", "document.querySelector('[data-controller=sim3]').dataset.halted "
+                            "=== 'yes' && document.querySelector('[data-controller=sim3] .halted-line').textContent")
+    check(text.startswith("HALTED by "), f"the halted line: {text!r}")
 
 
 async def test_halt_all(b, port):
-    halts = halt_count(port)
+    halts = halt_count(port, "/api/v1/halt")
     for c in ("sim1", "sim2"):
         status, body = rest(port, "POST", f"/api/v1/controllers/{c}/speed", {"axes": {"Y": 0.5}})
         check(status == 200, f"speed {c}: {status} {body}")
@@ -123,8 +127,11 @@ async def test_halt_all(b, port):
     await b.wait_for("sim1 and sim2 busy on the page", "['sim1', 'sim2'].every(id => document.querySelector("
                      "`[data-controller=${id}]`).dataset.busy === 'yes')")
     await b.click("#halt-all")
-    await asyncio.to_thread(wait_until, "four halts counted by the gateway",
-                            lambda: halt_count(port) >= halts + len(IDS))
+    # One request halts them all (POST /api/v1/halt), and every card says so.
+    await asyncio.to_thread(wait_until, "HALT ALL counted by the gateway",
+                            lambda: halt_count(port, "/api/v1/halt") >= halts + 1)
+    await b.wait_for("every card shown halted", f"{json.dumps(IDS)}.every(id => document.querySelector("
+                     "`[data-controller=${id}]`).dataset.halted === 'yes')")
     for c in ("sim1", "sim2"):
         await asyncio.to_thread(wait_until, f"{c} stopped",
                                 lambda: rest(port, "GET", f"/api/v1/controllers/{c}")[1]["busy"] is False)
@@ -172,7 +179,7 @@ async def test_restart(b, fx, gateway, config, port):
 
 async def test_tokens(b, fx, gateway):
     """A gateway with tokens: the page asks for one, says when it is refused, then works with a viewer
-    token (REST and the WebSocket's access_token); a HALT with a viewer token shows the 403; the viewer
+    token (REST and the WebSocket's access_token); a viewer's HALT stops the stage (auth.halt_role); the viewer
     sees no operator controls (the jog pad), an operator's token shows them."""
     port = free_port()
     config = {
@@ -201,10 +208,14 @@ async def test_tokens(b, fx, gateway):
     check(not await b.evaluate(form_shown), "the token form is still shown")
     stored = await b.evaluate("sessionStorage.getItem('asi-gateway.token')")
     check(stored == TOKENS["viewer"], f"sessionStorage holds {stored!r}")
+    # The emergency stop is every token holder's (auth.halt_role viewer by default).
     await b.click("[data-halt=sim1]")
-    err = await b.wait_for("the 403 of a viewer's halt",
-                           "document.querySelector('[data-controller=sim1] .op-error').textContent")
-    check(err.startswith("halt: ") and "operator" in err, f"viewer halt shows {err!r}")
+    text = await b.wait_for("sim1 halted by the viewer", "document.querySelector('[data-controller=sim1]')"
+                            ".dataset.halted === 'yes' && document.querySelector('[data-controller=sim1] "
+                            ".halted-line').textContent")
+    check("by viewer1" in text, f"the halted line: {text!r}")
+    err = await b.evaluate("document.querySelector('[data-controller=sim1] .op-error').textContent")
+    check(err == "", f"a viewer's halt shows {err!r}")
     # The role hides what it may not do: a viewer sees no jog pad, and says who it is.
     role = await b.wait_for("the viewer's role on the page", "document.body.dataset.role !== 'unknown' && "
                             "document.body.dataset.role")

@@ -184,7 +184,9 @@ TEST_F(controller_sim_test, a_guarded_command_never_follows_a_halt_its_caller_di
         });
         return future;
     };
-    const auto move_to = [](double um) { return ms2000::move(std::vector<ms2000::axis_position>{{'X', um}}).value(); };
+    const auto move_to = [](double um) {
+        return ms2000::move(std::vector<ms2000::axis_position>{{'X', um}}).value();
+    };
 
     const auto seen = c.ctl->halts_accepted();
     auto [ec, reply] = test::await_command(guarded(ms2000::where("X"), seen), 30s);
@@ -203,7 +205,8 @@ TEST_F(controller_sim_test, a_guarded_command_never_follows_a_halt_its_caller_di
     EXPECT_EQ(c.ctl->halts_accepted(), seen + 1);
 
     // After the HALT, with the count read before it: refused before the wire. With a fresh count: sent.
-    EXPECT_EQ(test::await_command(guarded(move_to(start_um + 50000), seen), 30s).first, ms2000::error::halted);
+    EXPECT_EQ(test::await_command(guarded(move_to(start_um + 50000), seen), 30s).first,
+              ms2000::error::halted);
     std::this_thread::sleep_for(300ms);
     EXPECT_LT(std::abs(simulated_x_um() - start_um), 1.0) << "a move refused by its guard moved the stage";
     EXPECT_FALSE(test::await_command(guarded(move_to(start_um + 100), c.ctl->halts_accepted()), 30s).first);

@@ -19,7 +19,8 @@ net::ip::address addr(const char* text) {
 }
 
 std::shared_ptr<connection_table> table(std::size_t max, std::size_t per_address,
-                                        std::chrono::milliseconds patience = 5s, std::size_t halt_reserve = 8) {
+                                        std::chrono::milliseconds patience = 5s,
+                                        std::size_t halt_reserve = 8) {
     return std::make_shared<connection_table>(
         connection_table::settings{max, per_address, patience, halt_reserve});
 }

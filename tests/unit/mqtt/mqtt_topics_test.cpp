@@ -22,8 +22,11 @@ TEST(mqtt_topics, builders) {
               (std::vector<std::string>{"lab/asi/pc-3/controllers/+/cmd", "lab/asi/pc-3/jobs/submit",
                                         "lab/asi/pc-3/jobs/cancel", "lab/asi/pc-3/jobs/pause",
                                         "lab/asi/pc-3/jobs/resume", "lab/asi/pc-3/jobs/next",
-                                        "lab/asi/pc-3/gcode/check"}));
+                                        "lab/asi/pc-3/gcode/check", "lab/asi/pc-3/halt"}));
     EXPECT_EQ(t.command({mqtt_command_kind::gcode_check, {}}), "lab/asi/pc-3/gcode/check");
+    EXPECT_EQ(t.command({mqtt_command_kind::halt_all, {}}), "lab/asi/pc-3/halt");
+    EXPECT_EQ(t.parse_command_topic("lab/asi/pc-3/halt")->kind, mqtt_command_kind::halt_all);
+    EXPECT_FALSE(t.parse_command_topic("lab/asi/pc-3/halt/now"));
     EXPECT_EQ(t.command({mqtt_command_kind::job_pause, {}}), "lab/asi/pc-3/jobs/pause");
     EXPECT_EQ(t.command({mqtt_command_kind::controller, "sim2"}), "lab/asi/pc-3/controllers/sim2/cmd");
 }

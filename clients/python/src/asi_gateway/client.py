@@ -10,7 +10,7 @@ from .gcode import AsyncGcode
 from .jobs import AsyncJobs
 from .leases import AsyncLease
 from .models import ControllerState, LeaseInfo, OperationResult
-from .problems import HaltIncomplete
+from .problems import HaltIncomplete, Problem, problem_from_body
 from .stage import AsyncStage
 from .subscription import Subscription
 from .transport import Transport
@@ -116,24 +116,20 @@ class AsyncGateway:
         return [LeaseInfo.from_json(x) for x in answer["leases"]]
 
     async def halt_all(self) -> dict[str, OperationResult]:
-        """HALT on every controller the gateway has.
-
-        The gateway has no single HALT ALL endpoint yet (`POST /api/v1/halt` is not in
-        openapi.yaml), so this asks for the controller list and sends every controller its own
-        HALT, all at once rather than one after the other so the last does not wait for the
-        first. Every controller is tried even when some fail; then HaltIncomplete is raised with
-        each one's outcome. This method is the one place to switch to the endpoint once it exists.
-        """
-        controllers = await self.list_controllers()
-        outcomes = await asyncio.gather(*(self.stage(c.id).halt() for c in controllers), return_exceptions=True)
-        results = {c.id: o for c, o in zip(controllers, outcomes, strict=True)}
-        failures = [o for o in outcomes if isinstance(o, BaseException)]
-        for failure in failures:
-            if not isinstance(failure, Exception):  # a cancellation (Ctrl-C): pass it on as it is
-                raise failure
-        if failures:
+        """HALT on every controller the gateway has, in one request (`POST /api/v1/halt`): the
+        gateway halts them all at once and latches each as halted by this client's token. When a
+        controller could not be reached, HaltIncomplete is raised with each one's outcome (its
+        OperationResult, or the Problem that says why not)."""
+        answer = await self.transport.json("POST", "/halt")
+        results: dict[str, OperationResult | Problem] = {}
+        for c in answer["controllers"]:
+            if c["halted"]:
+                results[c["id"]] = OperationResult(c["id"], "halt", answer["request_id"], c["latency_us"], raw=c)
+            else:
+                results[c["id"]] = problem_from_body(c["problem"])
+        if any(isinstance(r, Problem) for r in results.values()):
             raise HaltIncomplete(results)
-        return {cid: o for cid, o in results.items() if isinstance(o, OperationResult)}
+        return {cid: r for cid, r in results.items() if isinstance(r, OperationResult)}
 
     # ---- events -------------------------------------------------------------------------------
 

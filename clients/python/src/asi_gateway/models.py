@@ -76,6 +76,7 @@ class ControllerState:
     report_port: str
     last_attempt: str | None
     next_retry: str | None
+    halted: JsonObject | None  # {"by", "at"}: a HALT latched it (jobs there wait); None when not
     updated: str
     raw: JsonObject = field(default_factory=dict, repr=False, compare=False)
 
@@ -95,6 +96,7 @@ class ControllerState:
             report_port=d["report_port"],
             last_attempt=d["last_attempt"],
             next_retry=d["next_retry"],
+            halted=d["halted"],
             updated=d["updated"],
             raw=d,
         )

@@ -171,6 +171,19 @@ class Leased(Conflict):
     problem_type = PROBLEM_BASE + "leased"
 
 
+class JobActive(Conflict):
+    """409: a job runs on (or is paused holding) the controller; only the holder of the lease it runs
+    under may change the controller (the detail names the job). Reads and HALT are open to all."""
+
+    problem_type = PROBLEM_BASE + "job-active"
+
+
+class Halted(Conflict):
+    """409: a HALT stopped it (the gateway's own refusal of a job's command after a HALT)."""
+
+    problem_type = PROBLEM_BASE + "halted"
+
+
 class NotConnected(Unavailable):
     problem_type = PROBLEM_BASE + "not-connected"
 
