@@ -83,7 +83,11 @@ void mqtt_commands::handle(const mqtt_message_in& in) {
     problem auth_error;
     auto who = authenticate_token(ctx_->auth, request.token, auth_error);
     if (!who) return answer_error(to, request.id, std::move(auth_error), in.topic);
-    if (in_flight_ >= max_in_flight_) {
+    // The bound on commands running at once never holds back a HALT.
+    const auto* command = std::get_if<command_message>(&request.message);
+    const bool halt = std::holds_alternative<halt_all_message>(request.message) ||
+                      (command && command->operation == "halt");
+    if (in_flight_ >= max_in_flight_ && !halt) {
         auto p = make_problem(make_error(
             operation_error_kind::queue_full,
             "too many MQTT commands running (" + std::to_string(max_in_flight_) + "); try again later"));
