@@ -16,12 +16,14 @@ import pytest
 from gateway_process import free_port, wait_until
 
 README = Path(__file__).resolve().parents[1] / "README.md"
+TOP_README = Path(__file__).resolve().parents[3] / "README.md"  # the gateway's "From Python" section
 MARKER = "<!-- run by tests/test_readme.py -->"
+TOP_MARKER = "<!-- run by clients/python/tests/test_readme.py -->"
 DEFAULT_URL = "http://127.0.0.1:8080"
 
 
-def examples() -> list[str]:
-    blocks = re.findall(re.escape(MARKER) + r"\n```python\n(.*?)```", README.read_text(), re.DOTALL)
+def examples(readme: Path = README, marker: str = MARKER) -> list[str]:
+    blocks = re.findall(re.escape(marker) + r"\n```python\n(.*?)```", readme.read_text(), re.DOTALL)
     return [str(b) for b in blocks]
 
 
@@ -70,18 +72,34 @@ EXPECTED = {
 }
 
 
-@pytest.mark.parametrize("index", range(len(examples())))
-def test_readme_example_runs_verbatim(default_gateway: str, index: int) -> None:
-    code = examples()[index]
+def run_example(code: str, url: str) -> subprocess.CompletedProcess[str]:
     assert DEFAULT_URL in code
-    done = subprocess.run(
-        [sys.executable, "-c", code.replace(DEFAULT_URL, default_gateway)],
+    return subprocess.run(
+        [sys.executable, "-c", code.replace(DEFAULT_URL, url)],
         capture_output=True,
         text=True,
         timeout=240,
         check=False,
     )
+
+
+@pytest.mark.parametrize("index", range(len(examples())))
+def test_readme_example_runs_verbatim(default_gateway: str, index: int) -> None:
+    code = examples()[index]
+    done = run_example(code, default_gateway)
     assert done.returncode == 0, f"example {index} failed:\n{code}\n{done.stdout}\n{done.stderr}"
     assert done.stdout.strip()
     if index in EXPECTED:
         assert EXPECTED[index] in done.stdout, done.stdout
+
+
+def test_the_gateway_readme_has_its_python_examples() -> None:
+    assert len(examples(TOP_README, TOP_MARKER)) == 3  # a plain script, a Bluesky plan, a pymmcore-plus acquisition
+
+
+@pytest.mark.parametrize("index", range(len(examples(TOP_README, TOP_MARKER))))
+def test_gateway_readme_example_runs_verbatim(default_gateway: str, index: int) -> None:
+    code = examples(TOP_README, TOP_MARKER)[index]
+    done = run_example(code, default_gateway)
+    assert done.returncode == 0, f"README example {index} failed:\n{code}\n{done.stdout}\n{done.stderr}"
+    assert done.stdout.strip()
