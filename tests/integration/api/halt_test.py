@@ -143,6 +143,15 @@ def test_array_host(c, sims):
     check(done["progress"]["steps_done"] == 6, f"steps after the resume: {done['progress']}")
 
 
+def check_edges_move_nothing(sim):
+    """The TTL-triggered mode a halted job armed is put back: an IN0 edge now moves nothing."""
+    check(sim_state(sim)["ttl"]["in0_mode"] == 0, f"IN0 mode after the HALT: {sim_state(sim)['ttl']}")
+    where = sim_xy(sim)
+    sim.control("pulse")
+    time.sleep(1.0)
+    check(sim_xy(sim) == where, f"an IN0 edge moved the halted stage: {where} -> {sim_xy(sim)}")
+
+
 def test_array_firmware_ttl(c, sims):
     sim = sims["sim1"]
     job_id = submit(c, "sim1", "array", {"grid": {"columns": 4, "rows": 1, "column_step_mm": 1, "row_step_mm": -1},
@@ -150,12 +159,7 @@ def test_array_firmware_ttl(c, sims):
     wait_job(c, job_id, "waiting for a TTL edge", lambda j: j["progress"]["waiting_for"] == "ttl")
     sim.control("pulse")
     halt_mid_run(c, sim, "sim1", job_id, lambda j: j["progress"]["steps_done"] >= 1)
-    # The TTL-triggered mode is disarmed: an edge now moves nothing.
-    check(sim_state(sim)["ttl"]["in0_mode"] == 0, f"IN0 mode after the HALT: {sim_state(sim)['ttl']}")
-    where = sim_xy(sim)
-    sim.control("pulse")
-    time.sleep(1.0)
-    check(sim_xy(sim) == where, f"an IN0 edge moved the halted stage: {where} -> {sim_xy(sim)}")
+    check_edges_move_nothing(sim)
 
     def pulse_when_waiting(j):
         if j["progress"]["waiting_for"] == "ttl":
@@ -182,11 +186,7 @@ def test_ring_buffer_ttl(c, sims):
     wait_until("IN0 armed for the ring buffer", lambda: sim_state(sim)["ttl"]["in0_mode"] == 1, 30)
     sim.control("pulse")
     halt_mid_run(c, sim, "sim3", job_id, lambda j: j["progress"]["steps_done"] >= 1)
-    check(sim_state(sim)["ttl"]["in0_mode"] == 0, f"IN0 mode after the HALT: {sim_state(sim)['ttl']}")
-    where = sim_xy(sim)
-    sim.control("pulse")
-    time.sleep(1.0)
-    check(sim_xy(sim) == where, f"an IN0 edge moved the halted stage: {where} -> {sim_xy(sim)}")
+    check_edges_move_nothing(sim)
 
     def pulse_when_armed(j):
         if sim_state(sim)["ttl"]["in0_mode"] == 1 and not sim_state(sim)["busy"]:
