@@ -8,6 +8,7 @@
 
 #include <boost/asio/any_io_executor.hpp>
 
+#include "api/browser_guard.hpp"
 #include "gateway/config/config.hpp"
 
 namespace spdlog {
@@ -50,6 +51,8 @@ struct api_context {
     std::shared_ptr<const controller_state_texts> state_texts;
     // Batch messages shared by the WebSocket sessions that get the same events; null: one per session.
     std::shared_ptr<batch_text_cache> batch_texts;
+    // What a browser page of another site may not do (api/browser_guard.hpp).
+    browser_rules browser;
 };
 
 }  // namespace gw::api

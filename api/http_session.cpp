@@ -31,6 +31,22 @@ std::string request_id_of(const http::request_header<>& header) {
     return request_id_for(it == header.end() ? std::string_view{} : std::string_view(it->value()));
 }
 
+// The method's metric label from a closed set: an invented method would add a series per spelling.
+std::string method_label(http::verb method) {
+    switch (method) {
+        case http::verb::get:
+        case http::verb::head:
+        case http::verb::post:
+        case http::verb::put:
+        case http::verb::delete_:
+        case http::verb::patch:
+        case http::verb::options:
+            return std::string(http::to_string(method));
+        default:
+            return "other";
+    }
+}
+
 }  // namespace
 
 http_session::http_session(session_socket&& socket, std::shared_ptr<api_context> ctx,
@@ -160,7 +176,7 @@ void http_session::on_header(beast::error_code ec, std::size_t) {
     }
     set_phase(connection_phase::serving);
     request_id_ = request_id_of(header);
-    method_ = std::string(header.method_string());
+    method_ = method_label(header.method());
     stream_.expires_after(ctx_->limits.read_timeout);  // the body's deadline
     const bool has_body = !header_parser_->is_done();
 
@@ -243,7 +259,7 @@ bool http_session::answer_read_error(beast::error_code ec, const http::request_h
         return false;
     // A client mistake: answer it, then close (the rest of the stream cannot be trusted).
     request_id_ = request_id_of(header);
-    method_ = std::string(header.method_string());
+    method_ = method_label(header.method());
     problem p = ec == http::error::body_limit
                     ? make_problem(http_error::payload_too_large,
                                    "the body is larger than " + std::to_string(body_limit_) + " bytes")
@@ -288,6 +304,8 @@ void http_session::on_read(beast::error_code ec, std::size_t) {
             p.instance = std::string(websocket_path);
             return do_write(problem_response(std::move(p), req, request_id_), "/api/v1/ws", true);
         }
+        if (auto refused = browser_refusal(req, ctx_->browser, true))
+            return do_write(problem_response(std::move(*refused), req, request_id_), "/api/v1/ws", true);
         problem p;
         std::optional<auth_identity> who;
         auto query_token = access_token_parameter(req.target());

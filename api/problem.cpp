@@ -75,6 +75,12 @@ kind_info info(http_error e) {
             return {503, "Too many connections"};
         case body_budget_exhausted:
             return {503, "Request body budget exhausted"};
+        case cross_origin:
+            return {403, "Cross-origin request"};
+        case unsupported_media_type:
+            return {415, "Unsupported media type"};
+        case misdirected_request:
+            return {421, "Misdirected request"};
     }
     return {500, "Internal error"};
 }
@@ -106,6 +112,12 @@ std::string_view to_string(http_error e) {
             return "too_many_connections";
         case body_budget_exhausted:
             return "body_budget_exhausted";
+        case cross_origin:
+            return "cross_origin";
+        case unsupported_media_type:
+            return "unsupported_media_type";
+        case misdirected_request:
+            return "misdirected_request";
     }
     return "internal";
 }

@@ -24,17 +24,20 @@ inline constexpr std::string_view problem_content_type = "application/problem+js
 
 // Errors the HTTP layer itself detects (no controller involved).
 enum class http_error : std::uint8_t {
-    malformed_json,         // 400: the body is not JSON, or not a JSON object
-    bad_request,            // 400: an unparseable request line/header
-    unauthorized,           // 401: no or an unknown bearer token
-    forbidden,              // 403: the token's role is too low
-    not_found,              // 404: no such route
-    method_not_allowed,     // 405: the route exists, the method does not
-    payload_too_large,      // 413: body over http.limits.max_body_bytes
-    header_too_large,       // 431: headers over http.limits.max_header_bytes
-    not_implemented,        // 501
-    too_many_connections,   // 503: over http.limits.max_connections (or the per-address share)
-    body_budget_exhausted,  // 503: the bodies held in memory would exceed http.limits.max_buffered_body_mb
+    malformed_json,          // 400: the body is not JSON, or not a JSON object
+    bad_request,             // 400: an unparseable request line/header
+    unauthorized,            // 401: no or an unknown bearer token
+    forbidden,               // 403: the token's role is too low
+    not_found,               // 404: no such route
+    method_not_allowed,      // 405: the route exists, the method does not
+    payload_too_large,       // 413: body over http.limits.max_body_bytes
+    header_too_large,        // 431: headers over http.limits.max_header_bytes
+    not_implemented,         // 501
+    too_many_connections,    // 503: over http.limits.max_connections (or the per-address share)
+    body_budget_exhausted,   // 503: the bodies held in memory would exceed http.limits.max_buffered_body_mb
+    cross_origin,            // 403: a browser page of another origin asked to change something
+    unsupported_media_type,  // 415: a JSON body without Content-Type: application/json
+    misdirected_request,     // 421: without tokens, a Host that is not loopback (DNS rebinding)
 };
 
 std::string_view to_string(http_error e);  // "malformed_json"

@@ -60,6 +60,14 @@ std::optional<query_params> request_context::query_with(std::initializer_list<st
 std::optional<nlohmann::json> request_context::json_body() {
     nlohmann::json body;
     if (req.body().empty()) return body;
+    // A page of another site can post a form or text/plain without asking first; JSON it cannot.
+    const std::string_view type = req[http::field::content_type];
+    const auto media = type.substr(0, type.find(';'));
+    if (!beast::iequals(beast::string_view(media.data(), media.size()), "application/json")) {
+        fail(make_problem(http_error::unsupported_media_type,
+                          "a JSON body needs Content-Type: application/json (curl: --json '{...}')"));
+        return std::nullopt;
+    }
     body = nlohmann::json::parse(req.body(), nullptr, false);
     if (body.is_discarded()) {
         fail(make_problem(http_error::malformed_json, "the request body is not valid JSON"));

@@ -85,6 +85,7 @@ void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& re
     const std::string path(target_path(req.target()));
     request_context c{ctx, std::move(req), std::move(request_id), std::move(session_executor),
                       std::move(done)};
+    if (auto refused = browser_refusal(c.req, ctx->browser, false)) return c.fail(std::move(*refused));
     if (is_static_asset_path(path)) {  // the dashboard, api/static_assets.hpp
         c.route = static_asset_route(path);
         return c.reply(static_asset_response(c.req, c.request_id));

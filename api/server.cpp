@@ -37,7 +37,9 @@ server::server(const io_executor& executor, const gateway_config& config, contro
           api_context{executor, registry, std::move(hub), std::move(metrics), config.http.limits, config.auth,
                       get_logger("api"), std::move(jobs), std::move(leases), make_gcode_store(config),
                       std::make_shared<api::gcode_worker>(), std::make_shared<api::port_scan_worker>(),
-                      std::move(state_texts), std::make_shared<batch_text_cache>()})) {
+                      std::move(state_texts), std::make_shared<batch_text_cache>(),
+                      browser_rules{config.http.allowed_origins, config.http.allowed_hosts,
+                                    config.auth.tokens.empty()}})) {
     // main holds the storage lock by now: no other gateway uploads into this store.
     if (auto stale = ctx_->gcode_files->remove_stale_temporaries())
         ctx_->log->info("removed {} unfinished G-code uploads from {}", stale,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <functional>
 #include <initializer_list>
 #include <limits>
 #include <ostream>
@@ -85,6 +86,40 @@ std::string read_string(const json& j, const std::string& path, bool allow_empty
     return s;
 }
 
+// An array of strings, each checked by `valid` (which says what is wrong, or nothing).
+std::vector<std::string> read_string_list(const json& j, const std::string& path,
+                                          const std::function<std::string(std::string_view)>& valid) {
+    if (!j.is_array()) fail(path, "must be an array of strings");
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < j.size(); ++i) {
+        const auto item_path = path + "[" + std::to_string(i) + "]";
+        auto s = read_string(j[i], item_path);
+        if (auto why = valid(s); !why.empty()) fail(item_path, why);
+        out.push_back(std::move(s));
+    }
+    return out;
+}
+
+// "http(s)://host[:port]", as a browser sends it in Origin: no path, no trailing slash.
+std::vector<std::string> read_allowed_origins(const json& j, const std::string& path) {
+    return read_string_list(j, path, [](std::string_view o) -> std::string {
+        const bool scheme = o.starts_with("http://") || o.starts_with("https://");
+        const auto rest = o.substr(o.find("//") == std::string_view::npos ? 0 : o.find("//") + 2);
+        if (!scheme || rest.empty() || rest.find('/') != std::string_view::npos)
+            return "must be an origin such as \"https://lab.example:8443\" (scheme, host, port; no path)";
+        return {};
+    });
+}
+
+// Host names without a port ("gateway.lab.example").
+std::vector<std::string> read_allowed_hosts(const json& j, const std::string& path) {
+    return read_string_list(j, path, [](std::string_view h) -> std::string {
+        if (h.find_first_of(":/ []") != std::string_view::npos)
+            return "must be a host name without a port, such as \"gateway.lab.example\"";
+        return {};
+    });
+}
+
 bool read_bool(const json& j, const std::string& path) {
     if (!j.is_boolean()) fail(path, "must be true or false");
     return j.get<bool>();
@@ -124,7 +159,10 @@ bool valid_logger_name(std::string_view name) {
 }
 
 void read_http(const json& j, http_config& out) {
-    object_reader r(j, "http", {"listen_address", "port", "limits"});
+    object_reader r(j, "http", {"listen_address", "port", "limits", "allowed_origins", "allowed_hosts"});
+    if (auto* v = r.get("allowed_origins"))
+        out.allowed_origins = read_allowed_origins(*v, r.path("allowed_origins"));
+    if (auto* v = r.get("allowed_hosts")) out.allowed_hosts = read_allowed_hosts(*v, r.path("allowed_hosts"));
     if (auto* v = r.get("listen_address")) {
         out.listen_address = read_string(*v, r.path("listen_address"));
         boost::system::error_code ec;

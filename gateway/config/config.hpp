@@ -45,6 +45,10 @@ struct http_config {
     std::string listen_address = "127.0.0.1";
     std::uint16_t port = 8080;  // 0 = any free port (tests)
     http_limits limits;
+    // Browser pages of other origins that may change things ("https://lab.example:8443"), besides
+    // the gateway's own; and host names a gateway without tokens answers to, besides loopback.
+    std::vector<std::string> allowed_origins;
+    std::vector<std::string> allowed_hosts;
 };
 
 struct simulate_config {

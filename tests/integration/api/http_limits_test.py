@@ -184,7 +184,8 @@ def send_head(port, method, path, token, length, expect=True, source="127.0.0.1"
     s.settimeout(WAIT)
     s.connect(("127.0.0.1", port))
     head = f"{method} {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: {length}\r\n"
-    head += "Content-Type: text/plain\r\n"
+    # G-code programs are text; every other body is JSON.
+    head += f"Content-Type: {'text/plain' if '/gcode' in path else 'application/json'}\r\n"
     if token:
         head += f"Authorization: Bearer {token}\r\n"
     if expect:

@@ -47,9 +47,10 @@ class Closed(Exception):
         self.reason = reason
 
 
-def upgrade(port, token=None, rcvbuf=None, query=""):
+def upgrade(port, token=None, rcvbuf=None, query="", extra_headers=()):
     """A connected socket after a successful upgrade to /api/v1/ws, plus any bytes read past it.
-    `query` ("?access_token=...") is appended to the target."""
+    `query` ("?access_token=...") is appended to the target; `extra_headers` ("Origin: ...") replace
+    the default of the same name."""
     s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     if rcvbuf:
         s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
@@ -66,6 +67,8 @@ def upgrade(port, token=None, rcvbuf=None, query=""):
     ]
     if token:
         headers.append(f"Authorization: Bearer {token}")
+    names = {h.split(":", 1)[0].lower() for h in extra_headers}
+    headers = [h for h in headers if h.split(":", 1)[0].lower() not in names] + list(extra_headers)
     s.sendall(("\r\n".join(headers) + "\r\n\r\n").encode())
     data = b""
     while b"\r\n\r\n" not in data:
@@ -108,8 +111,8 @@ def frame(opcode, payload, fin=True):
 
 
 class WsClient:
-    def __init__(self, port, token=None, name="client", query=""):
-        r = upgrade(port, token, query=query)
+    def __init__(self, port, token=None, name="client", query="", extra_headers=()):
+        r = upgrade(port, token, query=query, extra_headers=extra_headers)
         if isinstance(r[0], int):
             raise Failure(f"{name}: upgrade refused with {r[0]}: {r[1]!r}")
         self.sock, self.buf = r

@@ -112,7 +112,8 @@ class motion_probe_test : public ::testing::Test {
     }
 
     std::string raw(const std::string& line) {
-        auto f = registry_->async_raw_command("m1", raw_command_request{line}, "test-raw", net::use_future);
+        auto f = registry_->async_raw_command("m1", raw_command_request{line, std::nullopt}, "test-raw",
+                                              net::use_future);
         if (f.wait_for(60s) != std::future_status::ready) {
             ADD_FAILURE() << line << ": no completion";
             return {};

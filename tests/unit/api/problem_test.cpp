@@ -64,6 +64,9 @@ TEST(problem, every_http_error_has_its_status_and_type) {
         {http_error::not_implemented, 501, "https://asi-gateway.dev/problems/not-implemented"},
         {http_error::too_many_connections, 503, "https://asi-gateway.dev/problems/too-many-connections"},
         {http_error::body_budget_exhausted, 503, "https://asi-gateway.dev/problems/body-budget-exhausted"},
+        {http_error::cross_origin, 403, "https://asi-gateway.dev/problems/cross-origin"},
+        {http_error::unsupported_media_type, 415, "https://asi-gateway.dev/problems/unsupported-media-type"},
+        {http_error::misdirected_request, 421, "https://asi-gateway.dev/problems/misdirected-request"},
     };
     for (const auto& c : cases) {
         auto p = make_problem(c.error, "d");

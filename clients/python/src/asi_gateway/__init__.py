@@ -39,6 +39,7 @@ from .problems import (
     Conflict,
     ControllerError,
     ControllerTimeout,
+    CrossOrigin,
     Forbidden,
     GatewayError,
     GatewayUnreachable,
@@ -57,6 +58,7 @@ from .problems import (
     LeaseLost,
     MalformedJson,
     MethodNotAllowed,
+    MisdirectedRequest,
     MissingModule,
     NotConnected,
     NotFound,
@@ -74,6 +76,7 @@ from .problems import (
     UnknownController,
     UnknownFile,
     UnknownJob,
+    UnsupportedMediaType,
 )
 from .stage import AsyncStage
 from .subscription import Event, Gap, Message, Retired, Subscription
@@ -96,6 +99,7 @@ __all__ = [
     "ControllerError",
     "ControllerState",
     "ControllerTimeout",
+    "CrossOrigin",
     "Event",
     "Forbidden",
     "Gap",
@@ -129,6 +133,7 @@ __all__ = [
     "MalformedJson",
     "Message",
     "MethodNotAllowed",
+    "MisdirectedRequest",
     "MissingModule",
     "MoveResult",
     "NotConnected",
@@ -152,4 +157,5 @@ __all__ = [
     "UnknownController",
     "UnknownFile",
     "UnknownJob",
+    "UnsupportedMediaType",
 ]

@@ -113,6 +113,24 @@ class Forbidden(Problem):
     problem_type = PROBLEM_BASE + "forbidden"
 
 
+class CrossOrigin(Forbidden):
+    """403: a browser page of another origin asked to change something (its Origin header)."""
+
+    problem_type = PROBLEM_BASE + "cross-origin"
+
+
+class UnsupportedMediaType(Problem):
+    """415: a JSON body without Content-Type: application/json."""
+
+    problem_type = PROBLEM_BASE + "unsupported-media-type"
+
+
+class MisdirectedRequest(Problem):
+    """421: a gateway without tokens answers only to a loopback Host (or http.allowed_hosts)."""
+
+    problem_type = PROBLEM_BASE + "misdirected-request"
+
+
 class MethodNotAllowed(Problem):
     problem_type = PROBLEM_BASE + "method-not-allowed"
 
