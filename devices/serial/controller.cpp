@@ -95,8 +95,8 @@ controller::controller(const net::any_io_executor& ex, controller_settings setti
                        std::weak_ptr<controller_observer> observer)
     : settings_(std::move(settings)),
       strand_(net::make_strand(ex)),
-      observer_(std::move(observer)),
       log_(make_logger("ms2000." + settings_.id)),
+      outlet_(settings_.id, snapshot_, *log_, std::move(observer)),
       port_(strand_),
       command_timer_(strand_),
       resync_timer_(strand_),
@@ -120,7 +120,7 @@ void controller::start() {
         self->stopped_ = false;
         self->backoff_ = self->settings_.reconnect_min;
         self->snapshot_.state = connection_state::connecting;
-        self->publish_snapshot();
+        self->outlet_.publish_snapshot();
         self->do_connect();
     });
 }
@@ -131,7 +131,7 @@ void controller::stop() {
 
 void controller::set_observer(std::weak_ptr<controller_observer> observer) {
     net::post(strand_, [self = shared_from_this(), observer = std::move(observer)]() mutable {
-        self->observer_ = std::move(observer);
+        self->outlet_.set_observer(std::move(observer));
     });
 }
 
@@ -350,7 +350,7 @@ void controller::on_timeout(std::uint64_t sequence) {
     // Before the controller is identified, the unreachable state (and the gateway's log of it) says
     // what these timeouts mean; each one is only detail.
     if (snapshot_.state == connection_state::connected)
-        log_error("command timed out", ms2000::error::timeout);
+        outlet_.log_error("command timed out", ms2000::error::timeout);
     else
         log_->debug("command \"{}\" timed out", escape_control(in_flight_->job.cmd.wire));
     // Its reply may still come, and would then be taken for the next command's.
@@ -377,7 +377,7 @@ void controller::on_line(const std::string& line) {
             const char letter = i < axes.size() ? axes[i] : '?';
             event.axes.push_back({letter, report->positions[i] / 10.0});
         }
-        notify("ttl", [&](controller_observer& o) { o.on_ttl(event); });
+        outlet_.ttl(event);
         return;
     }
 
@@ -474,7 +474,7 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
         // The HALT reached the controller; send it again once the link is in step, for a proven answer.
         done.job.resent = true;
         halts_.push_front(std::move(done.job));
-        publish_snapshot();
+        outlet_.publish_snapshot();
         return pump();
     }
     if (!ec && !done.job.internal && sets_ttl_mode(done.job.cmd)) refresh_ttl_modes();
@@ -507,7 +507,7 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
         result.raw = raw;
     }
     complete(done.job, ec, std::move(result));
-    publish_snapshot();
+    outlet_.publish_snapshot();
     pump();
 }
 
@@ -549,7 +549,7 @@ void controller::fail_all(error_code ec) {
 // ---- resynchronisation ------------------------------------------------------------------------
 
 void controller::mark_out_of_step(link_fault::kind kind, const char* why) {
-    report_fault(kind);
+    outlet_.fault(kind);
     if (sync_ == link_sync::draining || sync_ == link_sync::confirming) {
         line_noise_ = true;
         return;
@@ -596,7 +596,7 @@ void controller::on_quiet_window() {
     // A second answer after the probe's means the first was a late reply to an earlier V.
     if (noisy) return retry_resync("more bytes followed the probe's answer");
     sync_ = link_sync::in_step;
-    report_fault(link_fault::kind::resynced);
+    outlet_.fault(link_fault::kind::resynced);
     log_->info(
         "link back in step after {} ms",
         std::chrono::duration_cast<std::chrono::milliseconds>(steady_clock::now() - resync_started_).count());
@@ -632,7 +632,7 @@ void controller::retry_resync(const char* why) {
         log_->debug("resynchronisation: {}; trying again", why);
         return start_drain();
     }
-    report_fault(link_fault::kind::resync_failed);
+    outlet_.fault(link_fault::kind::resync_failed);
     disconnect(ms2000::error::unrecognized_reply, "resynchronisation failed");
 }
 
@@ -674,7 +674,7 @@ void controller::do_connect() {
     snapshot_.identity.reset();
     snapshot_.axes.clear();
     snapshot_.busy = false;
-    publish_snapshot();
+    outlet_.publish_snapshot();
 
     // Read from the next turn on, as before any command: what the port holds now is stale anyway.
     net::post(strand_, [self = shared_from_this(), generation = generation_] {
@@ -690,7 +690,7 @@ void controller::set_unreachable(const connection_problem& problem) {
     snapshot_.last_error =
         controller_error_info{0, problem.name, problem.text, problem.hint, system_clock::now()};
     schedule_reconnect();
-    publish_snapshot();
+    outlet_.publish_snapshot();
 }
 
 void controller::schedule_reconnect() {
@@ -759,7 +759,7 @@ void controller::disconnect(error_code ec, const char* what) {
     snapshot_.state = connection_state::disconnected;
     note_error(0, "disconnected", std::string(what) + ": " + ec.message());
     schedule_reconnect();
-    publish_snapshot();
+    outlet_.publish_snapshot();
 }
 
 void controller::do_stop() {
@@ -779,7 +779,7 @@ void controller::do_stop() {
     snapshot_.busy = false;
     snapshot_.next_retry.reset();
     log_->info("stopped");
-    publish_snapshot();
+    outlet_.publish_snapshot();
 }
 
 void controller::arm_presence_check() {
@@ -876,7 +876,7 @@ void controller::on_bytes(std::uint64_t generation, std::size_t bytes) {
     guarded("reading the port", [&] {
         lines_.clear();
         if (auto framing = framer_.feed(std::string_view(read_buffer_.data(), bytes), lines_)) {
-            log_error("framing", framing);
+            outlet_.log_error("framing", framing);
             mark_out_of_step(link_fault::kind::noise, "an overlong line");
         }
         for (const auto& line : lines_) {
@@ -984,7 +984,7 @@ void controller::on_identified() {
     open_report_port();
     poll_due_ = settings_.poll_interval.count() > 0;
     arm_poll_timer();
-    publish_snapshot();
+    outlet_.publish_snapshot();
 }
 
 void controller::arm_poll_timer() {
@@ -1064,7 +1064,7 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
         // Give up this round; the next tick starts a new one (at once: nothing fresh was read).
         poll_step_ = poll_step::idle;
         changed_since_poll_ = true;
-        if (!aborted(ec)) log_error("poll", ec);
+        if (!aborted(ec)) outlet_.log_error("poll", ec);
         return;
     }
     switch (step) {
@@ -1112,7 +1112,7 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
 void controller::open_report_port() {
     if (settings_.report_port.empty() || report_port_.is_open()) return;
     if (auto ec = report_port_.open(settings_.report_port, settings_.baud)) {
-        log_error("cannot open report port", ec);
+        outlet_.log_error("cannot open report port", ec);
         snapshot_.report = report_port_state::closed;
         return;
     }
@@ -1120,7 +1120,7 @@ void controller::open_report_port() {
     snapshot_.report = report_port_state::open;
     log_->info("report port {} open", settings_.report_port);
     do_report_read(++report_generation_);
-    publish_snapshot();
+    outlet_.publish_snapshot();
 }
 
 void controller::close_report_port() {
@@ -1140,9 +1140,9 @@ void controller::do_report_read(std::uint64_t generation) {
 void controller::on_report_read(std::uint64_t generation, error_code ec, std::size_t bytes) {
     if (generation != report_generation_) return;
     if (ec) {
-        log_error("report port read", ec);
+        outlet_.log_error("report port read", ec);
         close_report_port();
-        publish_snapshot();
+        outlet_.publish_snapshot();
         return;
     }
     guarded("reading the report port", [&] { on_report_bytes(bytes); });
@@ -1173,40 +1173,11 @@ void controller::on_report_bytes(std::size_t bytes) {
             event.axes.push_back(a);
         }
         if (log_->should_log(spdlog::level::trace)) log_->trace("report #{}", event.sequence);
-        notify("report", [&](controller_observer& o) { o.on_report(event); });
+        outlet_.report(event);
     }
 }
 
 // ---- events -----------------------------------------------------------------------------------
-
-void controller::publish_snapshot() {
-    if (published_ && same_content(*published_, snapshot_)) return;
-    if (!published_ || published_->state != snapshot_.state)
-        log_->info("state {}", to_string(snapshot_.state));
-    snapshot_.updated = system_clock::now();
-    published_ = snapshot_;
-    notify("snapshot", [&](controller_observer& o) { o.on_snapshot(snapshot_); });
-}
-
-void controller::publish_error_log(const error_log_event& event) {
-    notify("error_log", [&](controller_observer& o) { o.on_error_log(event); });
-}
-
-template <typename Notify>
-void controller::notify(const char* what, Notify&& call) {
-    auto obs = observer_.lock();
-    if (!obs) return;
-    try {
-        call(*obs);
-    } catch (const std::exception& e) {
-        // An observer's fault stays with the event it failed on: the link is not to blame.
-        std::uint64_t suppressed = 0;
-        if (error_limiter_.allow(steady_clock::now(), suppressed))
-            log_->error("observer failed on {} event: {} ({} similar suppressed)", what, e.what(),
-                        suppressed);
-        report_fault(link_fault::kind::contained);
-    }
-}
 
 template <typename Body>
 void controller::guarded(const char* where, Body&& body) {
@@ -1218,21 +1189,8 @@ void controller::guarded(const char* where, Body&& body) {
 }
 
 void controller::contain(const char* where, const std::exception& e) {
-    // Whatever this controller's input did, it ends here: logged, counted, and the connection reset so
-    // that no half-updated state is used. The other controllers never see it.
-    log_->error("{}: {}; resetting the connection", where, e.what());
-    report_fault(link_fault::kind::contained);
+    outlet_.contained(where, e);
     disconnect(make_error_code(boost::system::errc::io_error), where);
-}
-
-void controller::report_fault(link_fault::kind kind) {
-    auto obs = observer_.lock();
-    if (!obs) return;
-    try {
-        obs->on_link_fault(link_fault{settings_.id, kind});
-    } catch (const std::exception& e) {
-        log_->error("observer failed on link fault: {}", e.what());
-    }
 }
 
 void controller::note_error(int code, std::string name, std::string text) {
@@ -1242,31 +1200,7 @@ void controller::note_error(int code, std::string name, std::string text) {
 
 void controller::trace(const pending& job, std::chrono::microseconds latency, error_code ec,
                        const std::string& raw) {
-    auto obs = observer_.lock();
-    if (!obs) return;
-    command_trace t;
-    t.controller_id = settings_.id;
-    t.request_id = job.request_id;
-    t.internal = static_cast<bool>(job.internal);
-    t.wire = escape_control(job.cmd.wire);
-    t.raw_reply = escape_control(raw);
-    t.error = ec;
-    t.latency = latency;
-    try {
-        obs->on_trace(t);
-    } catch (const std::exception& e) {
-        log_->error("observer failed on trace: {}", e.what());
-        report_fault(link_fault::kind::contained);
-    }
-}
-
-void controller::log_error(const char* what, error_code ec) {
-    std::uint64_t suppressed = 0;
-    if (!error_limiter_.allow(steady_clock::now(), suppressed)) return;
-    if (suppressed > 0)
-        log_->error("{}: {} ({} similar messages suppressed)", what, ec.message(), suppressed);
-    else
-        log_->error("{}: {}", what, ec.message());
+    outlet_.trace(job.request_id, static_cast<bool>(job.internal), job.cmd.wire, raw, ec, latency);
 }
 
 }  // namespace gw::devices

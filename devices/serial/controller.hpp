@@ -39,6 +39,7 @@
 #include "devices/serial/controller_observer.hpp"
 #include "devices/serial/controller_settings.hpp"
 #include "devices/serial/controller_snapshot.hpp"
+#include "devices/serial/event_outlet.hpp"
 #include "devices/serial/log_limiter.hpp"
 #include "devices/serial/serial_port.hpp"
 
@@ -220,23 +221,18 @@ class controller : public std::enable_shared_from_this<controller> {
     void close_report_port();
 
     // Events.
-    void publish_snapshot();
-    void publish_error_log(const error_log_event& event);
-    template <typename Notify>
-    void notify(const char* what, Notify&& call);
     template <typename Body>
     void guarded(const char* where, Body&& body);
     void contain(const char* where, const std::exception& e);
-    void report_fault(link_fault::kind kind);
     void note_error(int code, std::string name, std::string text);
     void trace(const pending& job, std::chrono::microseconds latency, boost::system::error_code ec,
                const std::string& raw);
-    void log_error(const char* what, boost::system::error_code ec);
 
     controller_settings settings_;
     boost::asio::strand<boost::asio::any_io_executor> strand_;
-    std::weak_ptr<controller_observer> observer_;
     std::shared_ptr<spdlog::logger> log_;
+    controller_snapshot snapshot_;
+    event_outlet outlet_;
 
     serial_port port_;
     std::uint64_t generation_ = 0;  // bumped on every close, so old read handlers are ignored
@@ -324,9 +320,6 @@ class controller : public std::enable_shared_from_this<controller> {
     std::uint64_t report_sequence_ = 0;
     std::uint64_t ttl_sequence_ = 0;
 
-    controller_snapshot snapshot_;
-    std::optional<controller_snapshot> published_;
-    log_limiter error_limiter_;
     log_limiter sync_limiter_;
     std::uint64_t stale_lines_ = 0;
     bool stopped_ = false;

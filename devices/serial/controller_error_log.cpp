@@ -104,8 +104,8 @@ void controller::on_error_log_read(error_code ec, const ms2000::reply& r) {
         snapshot_.error_log_count += fresh.size();
         log_->warn("error log: {} new code(s), the newest {} ({})", fresh.size(), fresh.back(),
                    ms2000::error_log_name(fresh.back()));
-        publish_error_log(error_log_event{settings_.id, fresh, system_clock::now()});
-        publish_snapshot();
+        outlet_.error_log(error_log_event{settings_.id, fresh, system_clock::now()});
+        outlet_.publish_snapshot();
     }
     if (!codes->empty() && error_log_clear_is_safe(codes->size())) error_log_clear_due_ = true;
 }
