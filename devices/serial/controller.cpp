@@ -50,13 +50,6 @@ steady_clock::duration configured_char_time(unsigned baud) {
     return std::chrono::microseconds(10'000'000 / std::max(baud, 1u));
 }
 
-// Errors that mean "the command never got an answer because the port or the controller went away";
-// the driver's own continuations stop there.
-bool aborted(error_code ec) {
-    return ec == ms2000::error::disconnected || ec == ms2000::error::cancelled ||
-           ec == ms2000::error::not_connected;
-}
-
 // A failure of one identification step: the controller refused the command (an older firmware
 // without it), or something else (timeout, a reply that did not fit) that calls for starting over.
 bool identify_failed(error_code ec) {
@@ -106,6 +99,7 @@ controller::controller(const net::any_io_executor& ex, controller_settings setti
       guard_timer_(strand_),
       char_time_(configured_char_time(settings_.baud)),
       backoff_(settings_.reconnect_min),
+      queue_(settings_.queue_limit),
       report_port_(strand_) {
     snapshot_.id = settings_.id;
     snapshot_.port = settings_.port;
@@ -144,8 +138,10 @@ void controller::get_snapshot(std::function<void(controller_snapshot)> handler) 
 
 void controller::submit(ms2000::command cmd, std::string request_id, completion_handler handler,
                         std::optional<std::uint64_t> halts_seen) {
-    pending job{std::move(cmd), std::move(request_id), std::move(handler), {}};
-    job.halts_seen = halts_seen;
+    pending job{.cmd = std::move(cmd),
+                .request_id = std::move(request_id),
+                .user = std::move(handler),
+                .halts_seen = halts_seen};
     // Onto the strand: all state lives there. Dispatched: on the strand's own thread it is taken at
     // once (a queue hop less per command); on_submit never completes a handler inline.
     net::dispatch(strand_, [self = shared_from_this(), job = std::move(job)]() mutable {
@@ -157,52 +153,25 @@ void controller::on_submit(pending job) {
     if (job.cmd.is_halt) {
         // Counted before anything can refuse it, and guarded commands still waiting are dropped: their
         // callers decided on them before this HALT, and nothing of theirs may follow it.
-        halts_accepted_.fetch_add(1, std::memory_order_acq_rel);
-        drop_guarded_commands();
-    } else if (job.halts_seen && *job.halts_seen != halts_accepted()) {
+        for (auto& dropped : queue_.accept_halt())
+            complete(dropped, ms2000::error::halted, {});
+    } else if (queue_.missed_halt(job)) {
         return complete(job, ms2000::error::halted, {});
     }
     if (stopped_) return complete(job, ms2000::error::cancelled, {});
     if (!port_.is_open()) return complete(job, ms2000::error::not_connected, {});
-    if (job.cmd.is_halt) {
-        if (halts_.size() >= settings_.queue_limit) return complete(job, ms2000::error::queue_full, {});
-        halts_.push_back(std::move(job));
-    } else if (user_queue_.size() >= settings_.queue_limit) {
-        return complete(job, ms2000::error::queue_full, {});
-    } else {
-        user_queue_.push_back(std::move(job));
-    }
+    if (!queue_.push(job)) return complete(job, ms2000::error::queue_full, {});
     pump();
 }
 
-void controller::drop_guarded_commands() {
-    std::deque<pending> kept;
-    std::vector<pending> dropped;
-    for (auto& job : user_queue_) {
-        if (job.halts_seen)
-            dropped.push_back(std::move(job));
-        else
-            kept.push_back(std::move(job));
-    }
-    user_queue_ = std::move(kept);
-    for (auto& job : dropped)
-        complete(job, ms2000::error::halted, {});
-}
-
 void controller::enqueue_internal(ms2000::command cmd, const char* tag, internal_handler handler) {
-    internal_queue_.push_back(pending{std::move(cmd), tag, {}, std::move(handler)});
+    queue_.push_internal(pending{.cmd = std::move(cmd), .request_id = tag, .internal = std::move(handler)});
 }
 
 std::optional<controller::pending> controller::take_next() {
     // HALT first, then the driver's identification, then user commands, then the error log's next
     // step, then the poll's.
-    for (auto* queue : {&halts_, &internal_queue_, &user_queue_}) {
-        if (!queue->empty()) {
-            auto job = std::move(queue->front());
-            queue->pop_front();
-            return job;
-        }
-    }
+    if (auto job = queue_.pop()) return job;
     if (auto job = next_error_log_command()) return job;
     return next_poll_command();
 }
@@ -215,7 +184,7 @@ void controller::pump() {
     if (sync_ != link_sync::in_step) {
         // A HALT does not wait for the link: the stage must stop. If its answer cannot be proven its
         // own, it is sent once more after the resynchronisation (a second HALT is harmless).
-        const bool halt_now = !halts_.empty() && !halts_.front().resent && sync_ != link_sync::probing;
+        const bool halt_now = queue_.unsent_halt_waiting() && sync_ != link_sync::probing;
         if (!halt_now) {
             if (sync_ == link_sync::out_of_step) start_drain();
             return;
@@ -252,15 +221,10 @@ void controller::start_in_flight(pending job) {
 void controller::hold_back_in_flight() {
     auto job = std::move(in_flight_->job);
     in_flight_.reset();
-    if (job.poll) {
-        poll_step_ = poll_step::idle;  // the next tick starts a new round
-    } else if (job.error_log) {
-        retry_error_log_step();  // after the user commands, not ahead of them in the internal queue
-    } else if (job.internal) {
-        internal_queue_.push_front(std::move(job));
-    } else {
-        user_queue_.push_front(std::move(job));
-    }
+    if (job.held_back)
+        job.held_back();  // background work is offered again in its turn, after the clients' commands
+    else
+        queue_.push_front(std::move(job));
     pump();
 }
 
@@ -473,7 +437,7 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
     if (done.job.cmd.is_halt && unproven && !done.job.resent) {
         // The HALT reached the controller; send it again once the link is in step, for a proven answer.
         done.job.resent = true;
-        halts_.push_front(std::move(done.job));
+        queue_.push_front(std::move(done.job));
         outlet_.publish_snapshot();
         return pump();
     }
@@ -481,7 +445,7 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
     if (!ec && !done.job.internal && sets_soft_limit(done.job.cmd)) refresh_soft_limits();
     // Whoever asked "/" (a waited move, a job), its answer is the newest word on motion: the snapshot
     // must not go on saying "moving" after a move's waiter was told it stopped.
-    if (!ec && !done.job.poll && reply && reply->what == ms2000::reply::kind::status) {
+    if (!ec && !done.job.internal && reply && reply->what == ms2000::reply::kind::status) {
         if (snapshot_.busy && !reply->busy) {
             changed_since_poll_ = true;
             poll_due_ = settings_.poll_interval.count() > 0;  // read where it stopped now, not next tick
@@ -489,7 +453,7 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
         note_busy(reply->busy);
     }
     // It may have started a move or changed a setting: the next poll tick starts a round.
-    if (!done.job.poll && !done.job.internal && !ms2000::only_reads(done.job.cmd)) changed_since_poll_ = true;
+    if (!done.job.internal && !ms2000::only_reads(done.job.cmd)) changed_since_poll_ = true;
 
     if (ec && !done.job.internal) {
         if (ec == ms2000::error::controller_rejected && reply) {
@@ -537,11 +501,8 @@ void controller::fail_all(error_code ec) {
         jobs.push_back(std::move(in_flight_->job));
         in_flight_.reset();
     }
-    for (auto* queue : {&halts_, &internal_queue_, &user_queue_}) {
-        for (auto& job : *queue)
-            jobs.push_back(std::move(job));
-        queue->clear();
-    }
+    for (auto& job : queue_.take_all())
+        jobs.push_back(std::move(job));
     for (auto& job : jobs)
         complete(job, ec, {});
 }
@@ -607,17 +568,18 @@ void controller::send_probe() {
     // V is harmless and its answer ("Version: USB-9.52") has a shape no other command's reply has.
     sync_ = link_sync::probing;
     line_noise_ = false;
-    pending probe{
-        ms2000::version(),
-        "resync",
-        {},
-        [this, self = shared_from_this()](error_code ec, const ms2000::reply& r) { on_probe_reply(ec, r); }};
+    pending probe;
+    probe.cmd = ms2000::version();
+    probe.request_id = "resync";
+    probe.internal = [this, self = shared_from_this()](error_code ec, const ms2000::reply& r) {
+        on_probe_reply(ec, r);
+    };
     probe.probe = true;
     start_in_flight(std::move(probe));
 }
 
 void controller::on_probe_reply(error_code ec, const ms2000::reply&) {
-    if (aborted(ec)) return;
+    if (command_aborted(ec)) return;
     if (ec || line_noise_)
         return retry_resync(ec ? "the probe got no fitting answer" : "noise around the probe");
     sync_ = link_sync::confirming;
@@ -905,13 +867,13 @@ void controller::identify() {
     snapshot_.crisp_state.reset();
     // reply: ":A Version: USB-9.52 "
     enqueue_internal(ms2000::version(), "identify", [this, self](error_code ec, const ms2000::reply& r) {
-        if (aborted(ec)) return;
+        if (command_aborted(ec)) return;
         if (identify_failed(ec)) return disconnect(ec, "identify (V)");
         apply_version(snapshot_, r);
     });
     // reply: "STD_XYZ\rMotor Axes: X Y Z\r...\r\n"
     enqueue_internal(ms2000::build_x(), "identify", [this, self](error_code ec, const ms2000::reply& r) {
-        if (aborted(ec) || !snapshot_.identity) return;
+        if (command_aborted(ec) || !snapshot_.identity) return;
         if (identify_failed(ec)) return disconnect(ec, "identify (BU X)");
         // Firmware without BU X: the smallest MS-2000, an XY stage.
         if (!apply_build(snapshot_, ec ? nullptr : &r)) log_->warn("no motor axes from BU X, assuming XY");
@@ -920,26 +882,26 @@ void controller::identify() {
         // reply: ":A X=10000.000000 Y=10000.000000"
         enqueue_internal(ms2000::query("CNTS", axes), "identify",
                          [this](error_code ec, const ms2000::reply& r) {
-                             if (aborted(ec)) return;
+                             if (command_aborted(ec)) return;
                              if (identify_failed(ec)) return disconnect(ec, "identify (CNTS)");
                              if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::counts_per_mm);
                          });
         enqueue_internal(ms2000::query("SL", axes), "identify",
                          [this](error_code ec, const ms2000::reply& r) {
-                             if (aborted(ec)) return;
+                             if (command_aborted(ec)) return;
                              if (identify_failed(ec)) return disconnect(ec, "identify (SL)");
                              if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::lower_limit_mm);
                          });
         enqueue_internal(ms2000::query("SU", axes), "identify",
                          [this](error_code ec, const ms2000::reply& r) {
-                             if (aborted(ec)) return;
+                             if (command_aborted(ec)) return;
                              if (identify_failed(ec)) return disconnect(ec, "identify (SU)");
                              if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::upper_limit_mm);
                          });
         // reply: ":A X=0 Y=0"
         enqueue_internal(ms2000::query("TTL", "XY"), "identify",
                          [this](error_code ec, const ms2000::reply& r) {
-                             if (aborted(ec)) return;
+                             if (command_aborted(ec)) return;
                              if (identify_failed(ec)) return disconnect(ec, "identify (TTL)");
                              if (!ec) apply_ttl_modes(snapshot_, r);
                          });
@@ -947,7 +909,7 @@ void controller::identify() {
         // cycled): read before the controller counts as connected, so no command waits behind it.
         // A controller that cannot answer it is still connected.
         enqueue_internal(ms2000::read_error_log(), "identify", [this](error_code ec, const ms2000::reply& r) {
-            if (aborted(ec)) return;
+            if (command_aborted(ec)) return;
             error_log_read_at_ = steady_clock::now();
             on_error_log_read(ec, r);
             on_identified();
@@ -1025,18 +987,26 @@ std::optional<controller::pending> controller::next_poll_command() {
     const auto axes = motor_axes();
     const auto step = poll_step_;
     const auto index = poll_axis_;
-    auto handler = [this, self = shared_from_this(), step, index](error_code ec, const ms2000::reply& r) {
+    pending job;
+    job.request_id = "poll";
+    job.internal = [this, self = shared_from_this(), step, index](error_code ec, const ms2000::reply& r) {
         on_poll_reply(step, index, ec, r);
     };
+    // Held back while the link gets back in step: the next tick starts a new round.
+    job.held_back = [this] { poll_step_ = poll_step::idle; };
     switch (step) {
         case poll_step::where:
-            return pending{ms2000::where(axes), "poll", {}, std::move(handler), true};
+            job.cmd = ms2000::where(axes);
+            return job;
         case poll_step::status:
-            return pending{ms2000::status(), "poll", {}, std::move(handler), true};
+            job.cmd = ms2000::status();
+            return job;
         case poll_step::axis_status:
-            return pending{ms2000::query("RS", axes.substr(index, 1)), "poll", {}, std::move(handler), true};
+            job.cmd = ms2000::query("RS", axes.substr(index, 1));
+            return job;
         case poll_step::crisp:
-            return pending{ms2000::crisp_state_query(), "poll", {}, std::move(handler), true};
+            job.cmd = ms2000::crisp_state_query();
+            return job;
         case poll_step::idle:
             break;
     }
@@ -1064,7 +1034,7 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
         // Give up this round; the next tick starts a new one (at once: nothing fresh was read).
         poll_step_ = poll_step::idle;
         changed_since_poll_ = true;
-        if (!aborted(ec)) outlet_.log_error("poll", ec);
+        if (!command_aborted(ec)) outlet_.log_error("poll", ec);
         return;
     }
     switch (step) {

@@ -13,10 +13,8 @@
 // never pile up (at most one poll round, and user commands go ahead of the poll's next step).
 
 #include <array>
-#include <atomic>
 #include <chrono>
 #include <cstdint>
-#include <deque>
 #include <exception>
 #include <functional>
 #include <memory>
@@ -35,6 +33,7 @@
 #include "devices/ms2000/line_framer.hpp"
 #include "devices/ms2000/reply.hpp"
 #include "devices/ms2000/report_frame.hpp"
+#include "devices/serial/command_queue.hpp"
 #include "devices/serial/connection_problem.hpp"
 #include "devices/serial/controller_observer.hpp"
 #include "devices/serial/controller_settings.hpp"
@@ -102,26 +101,13 @@ class controller : public std::enable_shared_from_this<controller> {
 
     // HALT commands this controller accepted (queued for the wire, or refused for a closed port: the
     // intent to stop counts), since it was made. Any thread.
-    std::uint64_t halts_accepted() const { return halts_accepted_.load(std::memory_order_acquire); }
+    std::uint64_t halts_accepted() const { return queue_.halts_accepted(); }
 
     // Delivers a copy of the current snapshot (from the strand) to `handler`, which runs on the strand.
     void get_snapshot(std::function<void(controller_snapshot)> handler);
 
   private:
-    using internal_handler = std::function<void(boost::system::error_code, const ms2000::reply&)>;
-
-    struct pending {
-        ms2000::command cmd;
-        std::string request_id;
-        completion_handler user;    // set for user commands
-        internal_handler internal;  // set for the driver's own (identify, poll, resync probe)
-        bool poll = false;          // a step of the poll round (dropped, not requeued, when held back)
-        bool error_log = false;     // a read or clear of the error log (likewise: it waits for its turn)
-        bool probe = false;         // the resynchronisation probe
-        bool resent = false;        // a HALT sent again after the link was resynchronised
-        // async_guarded_command: the halts_accepted() its caller last saw.
-        std::optional<std::uint64_t> halts_seen;
-    };
+    using pending = queued_command;
 
     struct in_flight {
         pending job;
@@ -147,8 +133,6 @@ class controller : public std::enable_shared_from_this<controller> {
     void submit(ms2000::command cmd, std::string request_id, completion_handler handler,
                 std::optional<std::uint64_t> halts_seen = std::nullopt);
     void on_submit(pending job);
-    // A HALT was accepted: the guarded commands in the user queue fail with error::halted.
-    void drop_guarded_commands();
 
     // Connection life cycle.
     void do_connect();
@@ -286,10 +270,7 @@ class controller : public std::enable_shared_from_this<controller> {
     std::size_t probe_attempts_ = 0;
     std::uint64_t quiet_round_ = 0;  // bumped on every quiet-window timer, so an old expiry is ignored
     std::chrono::steady_clock::time_point resync_started_;
-    std::deque<pending> halts_;
-    std::atomic<std::uint64_t> halts_accepted_{0};  // written on the strand only
-    std::deque<pending> internal_queue_;
-    std::deque<pending> user_queue_;
+    command_queue queue_;
     poll_step poll_step_ = poll_step::idle;
     bool poll_due_ = false;
     // For the idle poll interval: when the last round started, and whether a command that may move

@@ -49,7 +49,8 @@ std::optional<controller::pending> controller::next_error_log_command() {
     auto self = shared_from_this();
     pending job;
     job.request_id = "error_log";
-    job.error_log = true;
+    // Held back while the link gets back in step: due again, after the clients' commands.
+    job.held_back = [this] { retry_error_log_step(); };
     if (error_log_clear_due_) {
         error_log_clear_due_ = false;
         error_log_step_ = error_log_step::clearing;
