@@ -100,10 +100,9 @@ controller::controller(const net::any_io_executor& ex, controller_settings setti
       char_time_(configured_char_time(settings_.baud)),
       backoff_(settings_.reconnect_min),
       queue_(settings_.queue_limit),
-      report_port_(strand_) {
+      report_(strand_, settings_, snapshot_, outlet_, *log_, *this) {
     snapshot_.id = settings_.id;
     snapshot_.port = settings_.port;
-    snapshot_.report = settings_.report_port.empty() ? report_port_state::none : report_port_state::closed;
 }
 
 controller::~controller() = default;
@@ -692,7 +691,7 @@ void controller::disconnect(error_code ec, const char* what) {
         log_->debug("{}: {}; port closed, trying again", what, ec.message());  // see set_unreachable
     ++generation_;
     port_.close();
-    close_report_port();
+    report_.close();
     command_timer_.cancel();
     resync_timer_.cancel();
     poll_timer_.cancel();
@@ -729,7 +728,7 @@ void controller::do_stop() {
     stopped_ = true;
     ++generation_;
     port_.close();
-    close_report_port();
+    report_.close();
     for (auto* timer :
          {&command_timer_, &resync_timer_, &reconnect_timer_, &poll_timer_, &presence_timer_, &guard_timer_})
         timer->cancel();
@@ -752,8 +751,8 @@ void controller::arm_presence_check() {
         if (!self->port_.still_present(self->settings_.port))
             return self->disconnect(boost::system::errc::make_error_code(boost::system::errc::no_such_device),
                                     "device node vanished");
-        if (self->snapshot_.state == connection_state::connected && !self->report_port_.is_open())
-            self->open_report_port();
+        if (self->snapshot_.state == connection_state::connected && !self->report_.is_open())
+            self->report_.open();
         self->arm_presence_check();
     });
 }
@@ -943,7 +942,7 @@ void controller::on_identified() {
     snapshot_.next_retry.reset();
     const auto& id = *snapshot_.identity;
     log_->info("identified: version {}, build {}, axes {}", id.version, id.build.name, id.build.motor_axes);
-    open_report_port();
+    report_.open();
     poll_due_ = settings_.poll_interval.count() > 0;
     arm_poll_timer();
     outlet_.publish_snapshot();
@@ -1079,72 +1078,9 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
 
 // ---- report port ------------------------------------------------------------------------------
 
-void controller::open_report_port() {
-    if (settings_.report_port.empty() || report_port_.is_open()) return;
-    if (auto ec = report_port_.open(settings_.report_port, settings_.baud)) {
-        outlet_.log_error("cannot open report port", ec);
-        snapshot_.report = report_port_state::closed;
-        return;
-    }
-    decoder_.emplace(ms2000::report_format::binary, snapshot_.axes.size());
-    snapshot_.report = report_port_state::open;
-    log_->info("report port {} open", settings_.report_port);
-    do_report_read(++report_generation_);
-    outlet_.publish_snapshot();
-}
-
-void controller::close_report_port() {
-    ++report_generation_;
-    report_port_.close();
-    if (!settings_.report_port.empty()) snapshot_.report = report_port_state::closed;
-}
-
-void controller::do_report_read(std::uint64_t generation) {
-    report_port_.stream().async_read_some(
-        net::buffer(report_buffer_),
-        net::bind_executor(strand_, [self = shared_from_this(), generation](error_code ec, std::size_t n) {
-            self->on_report_read(generation, ec, n);
-        }));
-}
-
-void controller::on_report_read(std::uint64_t generation, error_code ec, std::size_t bytes) {
-    if (generation != report_generation_) return;
-    if (ec) {
-        outlet_.log_error("report port read", ec);
-        close_report_port();
-        outlet_.publish_snapshot();
-        return;
-    }
-    guarded("reading the report port", [&] { on_report_bytes(bytes); });
-    if (generation != report_generation_) return;
-    do_report_read(generation);
-}
-
-void controller::on_report_bytes(std::size_t bytes) {
-    const auto steady_now = steady_clock::now();
-    const auto system_now = system_clock::now();
-    frames_.clear();
-    decoder_->feed(std::span<const std::uint8_t>(report_buffer_.data(), bytes), frames_);
+void controller::report_bytes_arrived(steady_clock::time_point at) {
     report_activity_ = true;
-    last_report_bytes_ = steady_now;
-    for (const auto& frame : frames_) {
-        report_event event;
-        event.controller_id = settings_.id;
-        event.sequence = ++report_sequence_;
-        event.steady_time = steady_now;
-        event.system_time = system_now;
-        event.bytes_skipped = decoder_->bytes_skipped();
-        for (const auto& count : frame.axes) {
-            report_event::axis a{count.axis, count.count, std::nullopt};
-            if (const auto* state = snapshot_.axis(count.axis);
-                state && state->counts_per_mm && *state->counts_per_mm != 0) {
-                a.position_um = count.count / *state->counts_per_mm * 1000.0;
-            }
-            event.axes.push_back(a);
-        }
-        if (log_->should_log(spdlog::level::trace)) log_->trace("report #{}", event.sequence);
-        outlet_.report(event);
-    }
+    last_report_bytes_ = at;
 }
 
 // ---- events -----------------------------------------------------------------------------------

@@ -32,7 +32,6 @@
 #include "devices/ms2000/command.hpp"
 #include "devices/ms2000/line_framer.hpp"
 #include "devices/ms2000/reply.hpp"
-#include "devices/ms2000/report_frame.hpp"
 #include "devices/serial/command_queue.hpp"
 #include "devices/serial/connection_problem.hpp"
 #include "devices/serial/controller_observer.hpp"
@@ -40,6 +39,7 @@
 #include "devices/serial/controller_snapshot.hpp"
 #include "devices/serial/event_outlet.hpp"
 #include "devices/serial/log_limiter.hpp"
+#include "devices/serial/report_port.hpp"
 #include "devices/serial/serial_port.hpp"
 
 namespace spdlog {
@@ -48,7 +48,7 @@ class logger;
 
 namespace gw::devices {
 
-class controller : public std::enable_shared_from_this<controller> {
+class controller : public std::enable_shared_from_this<controller>, private report_port::owner {
   public:
     using completion_signature = void(boost::system::error_code, ms2000::reply);
     using completion_handler = boost::asio::any_completion_handler<completion_signature>;
@@ -197,17 +197,14 @@ class controller : public std::enable_shared_from_this<controller> {
     bool error_log_clear_is_safe(std::size_t logged) const;
     void retry_error_log_step();  // a step held back (a HALT jumped in): due again
 
-    // Report port.
-    void open_report_port();
-    void do_report_read(std::uint64_t generation);
-    void on_report_read(std::uint64_t generation, boost::system::error_code ec, std::size_t bytes);
-    void on_report_bytes(std::size_t bytes);
-    void close_report_port();
+    // What the parts ask of the controller.
+    std::shared_ptr<void> keep_alive() override { return shared_from_this(); }
+    void report_bytes_arrived(std::chrono::steady_clock::time_point at) override;
 
     // Events.
     template <typename Body>
     void guarded(const char* where, Body&& body);
-    void contain(const char* where, const std::exception& e);
+    void contain(const char* where, const std::exception& e) override;
     void note_error(int code, std::string name, std::string text);
     void trace(const pending& job, std::chrono::microseconds latency, boost::system::error_code ec,
                const std::string& raw);
@@ -293,12 +290,7 @@ class controller : public std::enable_shared_from_this<controller> {
     bool report_activity_ = false;
     std::chrono::steady_clock::time_point last_report_bytes_;
 
-    serial_port report_port_;
-    std::uint64_t report_generation_ = 0;
-    std::array<std::uint8_t, 512> report_buffer_{};
-    std::optional<ms2000::report_decoder> decoder_;
-    std::vector<ms2000::report_frame> frames_;
-    std::uint64_t report_sequence_ = 0;
+    report_port report_;
     std::uint64_t ttl_sequence_ = 0;
 
     log_limiter sync_limiter_;
