@@ -100,6 +100,7 @@ controller::controller(const net::any_io_executor& ex, controller_settings setti
       char_time_(configured_char_time(settings_.baud)),
       backoff_(settings_.reconnect_min),
       queue_(settings_.queue_limit),
+      error_log_(settings_, snapshot_, outlet_, *log_),
       report_(strand_, settings_, snapshot_, outlet_, *log_, *this) {
     snapshot_.id = settings_.id;
     snapshot_.port = settings_.port;
@@ -171,7 +172,7 @@ std::optional<controller::pending> controller::take_next() {
     // HALT first, then the driver's identification, then user commands, then the error log's next
     // step, then the poll's.
     if (auto job = queue_.pop()) return job;
-    if (auto job = next_error_log_command()) return job;
+    if (auto job = error_log_.next_command()) return job;
     return next_poll_command();
 }
 
@@ -479,7 +480,7 @@ void controller::complete(pending& job, error_code ec, ms2000::reply reply) {
         job.internal(ec, reply);
     } else if (job.user) {
         // A command the controller refused may have left a code in its error log (a job step too).
-        if (ec == ms2000::error::controller_rejected) error_log_due_ = true;
+        if (ec == ms2000::error::controller_rejected) error_log_.read_soon();
         last_user_answer_ = steady_clock::now();
         // Never call user code inline. An answer read by do_read is handed over when that read is
         // done, as a posted handler would be but without the queue's round trip; otherwise posted.
@@ -858,10 +859,7 @@ std::string controller::motor_axes() const {
 
 void controller::identify() {
     auto self = shared_from_this();
-    error_log_seen_.clear();
-    error_log_failures_ = 0;
-    error_log_step_ = error_log_step::idle;
-    error_log_due_ = error_log_clear_due_ = false;
+    error_log_.reset();
     crisp_refused_ = false;
     snapshot_.crisp_state.reset();
     // reply: ":A Version: USB-9.52 "
@@ -909,8 +907,7 @@ void controller::identify() {
         // A controller that cannot answer it is still connected.
         enqueue_internal(ms2000::read_error_log(), "identify", [this](error_code ec, const ms2000::reply& r) {
             if (command_aborted(ec)) return;
-            error_log_read_at_ = steady_clock::now();
-            on_error_log_read(ec, r);
+            error_log_.identification_read(ec, r);
             on_identified();
         });
     });
@@ -955,7 +952,7 @@ void controller::arm_poll_timer() {
         if (ec || generation != self->generation_) return;
         // At most one poll round: a round still running absorbs this tick.
         if (self->poll_step_ == poll_step::idle && self->poll_round_wanted()) self->poll_due_ = true;
-        self->note_error_log_occasions();
+        self->error_log_.note_occasions();
         self->pump();
         self->arm_poll_timer();
     });
@@ -1045,7 +1042,7 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
             apply_where(snapshot_, r);
             snapshot_.positions_read = system_clock::now();
             // The end of a move: a target beyond a soft limit was clamped and logged (34/35).
-            if (snapshot_.busy && !polled_busy_) error_log_due_ = true;
+            if (snapshot_.busy && !polled_busy_) error_log_.read_soon();
             note_busy(polled_busy_);
             if (polled_busy_ && !snapshot_.axes.empty()) {
                 poll_step_ = poll_step::axis_status;
@@ -1079,8 +1076,7 @@ void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_cod
 // ---- report port ------------------------------------------------------------------------------
 
 void controller::report_bytes_arrived(steady_clock::time_point at) {
-    report_activity_ = true;
-    last_report_bytes_ = at;
+    error_log_.note_report_bytes(at);
 }
 
 // ---- events -----------------------------------------------------------------------------------

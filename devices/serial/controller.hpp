@@ -37,6 +37,7 @@
 #include "devices/serial/controller_observer.hpp"
 #include "devices/serial/controller_settings.hpp"
 #include "devices/serial/controller_snapshot.hpp"
+#include "devices/serial/error_log_reader.hpp"
 #include "devices/serial/event_outlet.hpp"
 #include "devices/serial/log_limiter.hpp"
 #include "devices/serial/report_port.hpp"
@@ -189,14 +190,6 @@ class controller : public std::enable_shared_from_this<controller>, private repo
                        const ms2000::reply& reply);
     std::string motor_axes() const;
 
-    // The error log (controller_error_log.cpp).
-    void note_error_log_occasions();  // on each poll tick: the schedule, a report stream gone quiet
-    std::optional<pending> next_error_log_command();
-    void on_error_log_read(boost::system::error_code ec, const ms2000::reply& reply);
-    void on_error_log_cleared(boost::system::error_code ec, const ms2000::reply& reply);
-    bool error_log_clear_is_safe(std::size_t logged) const;
-    void retry_error_log_step();  // a step held back (a HALT jumped in): due again
-
     // What the parts ask of the controller.
     std::shared_ptr<void> keep_alive() override { return shared_from_this(); }
     void report_bytes_arrived(std::chrono::steady_clock::time_point at) override;
@@ -279,16 +272,7 @@ class controller : public std::enable_shared_from_this<controller>, private repo
     bool polled_busy_ = false;    // this round's answer to "/", applied with its positions
     bool crisp_refused_ = false;  // LK X? answered :N- on this connection: not polled again
 
-    enum class error_log_step : std::uint8_t { idle, reading, clearing, unsupported };
-    error_log_step error_log_step_ = error_log_step::idle;
-    bool error_log_due_ = false;
-    bool error_log_clear_due_ = false;
-    std::vector<int> error_log_seen_;     // the codes read since the log was last cleared
-    std::size_t error_log_failures_ = 0;  // reads in a row that got no usable answer
-    std::chrono::steady_clock::time_point error_log_read_at_;
-    // Report frames arrived since the log was last read: once the stream is quiet, it is read.
-    bool report_activity_ = false;
-    std::chrono::steady_clock::time_point last_report_bytes_;
+    error_log_reader error_log_;
 
     report_port report_;
     std::uint64_t ttl_sequence_ = 0;
