@@ -14,7 +14,6 @@
 #include <boost/asio/write.hpp>
 #include <spdlog/spdlog.h>
 
-#include "devices/ms2000/crisp.hpp"
 #include "devices/ms2000/error.hpp"
 #include "devices/ms2000/error_log.hpp"
 #include "devices/ms2000/reply_check.hpp"
@@ -76,12 +75,6 @@ bool sets_soft_limit(const ms2000::command& cmd) {
     return limit_verb && cmd.wire.find('=') != std::string::npos;
 }
 
-// A round that watches a move (CRISP trying to lock ends by itself too) or follows a change: it goes
-// at the fast pace and never yields to a client.
-bool round_watches_change(const controller_snapshot& s, bool changed_since_poll) {
-    return s.busy || changed_since_poll || s.crisp_state == 'K';
-}
-
 }  // namespace
 
 controller::controller(const net::any_io_executor& ex, controller_settings settings,
@@ -94,12 +87,12 @@ controller::controller(const net::any_io_executor& ex, controller_settings setti
       command_timer_(strand_),
       resync_timer_(strand_),
       reconnect_timer_(strand_),
-      poll_timer_(strand_),
       presence_timer_(strand_),
       guard_timer_(strand_),
       char_time_(configured_char_time(settings_.baud)),
       backoff_(settings_.reconnect_min),
       queue_(settings_.queue_limit),
+      poller_(strand_, settings_, snapshot_, outlet_, *log_, *this),
       error_log_(settings_, snapshot_, outlet_, *log_),
       report_(strand_, settings_, snapshot_, outlet_, *log_, *this) {
     snapshot_.id = settings_.id;
@@ -173,7 +166,7 @@ std::optional<controller::pending> controller::take_next() {
     // step, then the poll's.
     if (auto job = queue_.pop()) return job;
     if (auto job = error_log_.next_command()) return job;
-    return next_poll_command();
+    return poller_.next_command();
 }
 
 void controller::pump() {
@@ -336,7 +329,7 @@ void controller::on_line(const std::string& line) {
         event.steady_time = steady_clock::now();
         event.system_time = system_clock::now();
         event.controller_ms = report->milliseconds;
-        const auto axes = motor_axes();
+        const auto axes = snapshot_.motor_axes();
         for (std::size_t i = 0; i < report->positions.size(); ++i) {
             const char letter = i < axes.size() ? axes[i] : '?';
             event.axes.push_back({letter, report->positions[i] / 10.0});
@@ -441,28 +434,7 @@ void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const
         outlet_.publish_snapshot();
         return pump();
     }
-    if (!ec && !done.job.internal && sets_ttl_mode(done.job.cmd)) refresh_ttl_modes();
-    if (!ec && !done.job.internal && sets_soft_limit(done.job.cmd)) refresh_soft_limits();
-    // Whoever asked "/" (a waited move, a job), its answer is the newest word on motion: the snapshot
-    // must not go on saying "moving" after a move's waiter was told it stopped.
-    if (!ec && !done.job.internal && reply && reply->what == ms2000::reply::kind::status) {
-        if (snapshot_.busy && !reply->busy) {
-            changed_since_poll_ = true;
-            poll_due_ = settings_.poll_interval.count() > 0;  // read where it stopped now, not next tick
-        }
-        note_busy(reply->busy);
-    }
-    // It may have started a move or changed a setting: the next poll tick starts a round.
-    if (!done.job.internal && !ms2000::only_reads(done.job.cmd)) changed_since_poll_ = true;
-
-    if (ec && !done.job.internal) {
-        if (ec == ms2000::error::controller_rejected && reply) {
-            note_error(reply->error_code, std::string(ms2000::controller_error_name(reply->error_code)),
-                       std::string(ms2000::controller_error_description(reply->error_code)));
-        } else {
-            note_error(0, ec.message(), "command \"" + escape_control(done.job.cmd.wire) + "\" failed");
-        }
-    }
+    if (!done.job.internal) client_command_finished(done.job.cmd, ec, reply ? &*reply : nullptr);
 
     ms2000::reply result;
     if (reply) {
@@ -481,7 +453,7 @@ void controller::complete(pending& job, error_code ec, ms2000::reply reply) {
     } else if (job.user) {
         // A command the controller refused may have left a code in its error log (a job step too).
         if (ec == ms2000::error::controller_rejected) error_log_.read_soon();
-        last_user_answer_ = steady_clock::now();
+        poller_.client_answered();
         // Never call user code inline. An answer read by do_read is handed over when that read is
         // done, as a posted handler would be but without the queue's round trip; otherwise posted.
         if (handling_read_)
@@ -695,18 +667,14 @@ void controller::disconnect(error_code ec, const char* what) {
     report_.close();
     command_timer_.cancel();
     resync_timer_.cancel();
-    poll_timer_.cancel();
     presence_timer_.cancel();
     guard_timer_.cancel();
     reset_sync();
-    poll_step_ = poll_step::idle;
-    poll_due_ = false;
+    poller_.stop();
 
     fail_all(ms2000::error::disconnected);
 
-    snapshot_.busy = false;
-    for (auto& a : snapshot_.axes)
-        a.busy = false;
+    apply_busy(snapshot_, false);
     if (snapshot_.state != connection_state::connected) {
         // The attempt never got as far as an identified controller: say why, as a person can act on it.
         const bool unanswered = ec == ms2000::error::timeout || ec == ms2000::error::unrecognized_reply;
@@ -730,12 +698,10 @@ void controller::do_stop() {
     ++generation_;
     port_.close();
     report_.close();
-    for (auto* timer :
-         {&command_timer_, &resync_timer_, &reconnect_timer_, &poll_timer_, &presence_timer_, &guard_timer_})
+    for (auto* timer : {&command_timer_, &resync_timer_, &reconnect_timer_, &presence_timer_, &guard_timer_})
         timer->cancel();
     reset_sync();
-    poll_step_ = poll_step::idle;
-    poll_due_ = false;
+    poller_.stop();
     fail_all(ms2000::error::cancelled);
     snapshot_.state = connection_state::stopped;
     snapshot_.busy = false;
@@ -850,18 +816,10 @@ void controller::on_bytes(std::uint64_t generation, std::size_t bytes) {
 
 // ---- identification and polling ---------------------------------------------------------------
 
-std::string controller::motor_axes() const {
-    std::string axes;
-    for (const auto& a : snapshot_.axes)
-        axes += a.axis;
-    return axes;
-}
-
 void controller::identify() {
     auto self = shared_from_this();
     error_log_.reset();
-    crisp_refused_ = false;
-    snapshot_.crisp_state.reset();
+    poller_.reset();
     // reply: ":A Version: USB-9.52 "
     enqueue_internal(ms2000::version(), "identify", [this, self](error_code ec, const ms2000::reply& r) {
         if (command_aborted(ec)) return;
@@ -874,7 +832,7 @@ void controller::identify() {
         if (identify_failed(ec)) return disconnect(ec, "identify (BU X)");
         // Firmware without BU X: the smallest MS-2000, an XY stage.
         if (!apply_build(snapshot_, ec ? nullptr : &r)) log_->warn("no motor axes from BU X, assuming XY");
-        const auto axes = motor_axes();
+        const auto axes = snapshot_.motor_axes();
 
         // reply: ":A X=10000.000000 Y=10000.000000"
         enqueue_internal(ms2000::query("CNTS", axes), "identify",
@@ -924,7 +882,7 @@ void controller::refresh_ttl_modes() {
 void controller::refresh_soft_limits() {
     // Read back, as the TTL modes are: the controller refuses an upper limit below the lower one, and
     // jobs check their targets against these.
-    const auto axes = motor_axes();
+    const auto axes = snapshot_.motor_axes();
     enqueue_internal(ms2000::query("SL", axes), "refresh", [this](error_code ec, const ms2000::reply& r) {
         if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::lower_limit_mm);
     });
@@ -940,137 +898,32 @@ void controller::on_identified() {
     const auto& id = *snapshot_.identity;
     log_->info("identified: version {}, build {}, axes {}", id.version, id.build.name, id.build.motor_axes);
     report_.open();
-    poll_due_ = settings_.poll_interval.count() > 0;
-    arm_poll_timer();
+    poller_.start();
     outlet_.publish_snapshot();
 }
 
-void controller::arm_poll_timer() {
-    if (settings_.poll_interval.count() <= 0) return;
-    poll_timer_.expires_after(settings_.poll_interval);
-    poll_timer_.async_wait([self = shared_from_this(), generation = generation_](error_code ec) {
-        if (ec || generation != self->generation_) return;
-        // At most one poll round: a round still running absorbs this tick.
-        if (self->poll_step_ == poll_step::idle && self->poll_round_wanted()) self->poll_due_ = true;
-        self->error_log_.note_occasions();
-        self->pump();
-        self->arm_poll_timer();
-    });
+void controller::poll_tick() {
+    error_log_.note_occasions();
+    pump();
 }
 
-bool controller::poll_round_wanted() const {
-    return round_watches_change(snapshot_, changed_since_poll_) ||
-           steady_clock::now() - last_poll_round_ >= settings_.idle_poll_interval;
+void controller::move_ended() {
+    // A target beyond a soft limit was clamped and logged (34/35).
+    error_log_.read_soon();
 }
 
-bool controller::idle_round_yields() const {
-    if (round_watches_change(snapshot_, changed_since_poll_)) return false;
-    const auto now = steady_clock::now();
-    return now - last_user_answer_ < settings_.client_pause &&
-           now - last_poll_round_ < 2 * settings_.idle_poll_interval;
-}
-
-std::optional<controller::pending> controller::next_poll_command() {
-    if (snapshot_.state != connection_state::connected) return std::nullopt;
-    if (poll_step_ == poll_step::idle) {
-        // A yielding round stays due: the next tick, or the next answer, looks again.
-        if (!poll_due_ || idle_round_yields()) return std::nullopt;
-        poll_due_ = false;
-        poll_step_ = poll_step::status;
-        last_poll_round_ = steady_clock::now();
-        changed_since_poll_ = false;
+void controller::client_command_finished(const ms2000::command& cmd, error_code ec,
+                                         const ms2000::reply* reply) {
+    if (!ec && sets_ttl_mode(cmd)) refresh_ttl_modes();
+    if (!ec && sets_soft_limit(cmd)) refresh_soft_limits();
+    poller_.client_command_finished(cmd, ec, reply);
+    if (!ec) return;
+    if (ec == ms2000::error::controller_rejected && reply) {
+        note_error(reply->error_code, std::string(ms2000::controller_error_name(reply->error_code)),
+                   std::string(ms2000::controller_error_description(reply->error_code)));
+    } else {
+        note_error(0, ec.message(), "command \"" + escape_control(cmd.wire) + "\" failed");
     }
-    const auto axes = motor_axes();
-    const auto step = poll_step_;
-    const auto index = poll_axis_;
-    pending job;
-    job.request_id = "poll";
-    job.internal = [this, self = shared_from_this(), step, index](error_code ec, const ms2000::reply& r) {
-        on_poll_reply(step, index, ec, r);
-    };
-    // Held back while the link gets back in step: the next tick starts a new round.
-    job.held_back = [this] { poll_step_ = poll_step::idle; };
-    switch (step) {
-        case poll_step::where:
-            job.cmd = ms2000::where(axes);
-            return job;
-        case poll_step::status:
-            job.cmd = ms2000::status();
-            return job;
-        case poll_step::axis_status:
-            job.cmd = ms2000::query("RS", axes.substr(index, 1));
-            return job;
-        case poll_step::crisp:
-            job.cmd = ms2000::crisp_state_query();
-            return job;
-        case poll_step::idle:
-            break;
-    }
-    return std::nullopt;
-}
-
-void controller::note_busy(bool busy) {
-    snapshot_.busy = busy;
-    if (busy) return;  // which axes move is for "RS <axis>?" to say
-    for (auto& a : snapshot_.axes)
-        a.busy = false;
-}
-
-void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_code ec,
-                               const ms2000::reply& r) {
-    if (step == poll_step::crisp && ec == ms2000::error::controller_rejected) {
-        // A build that names CRISP but refuses LK X?: the round ends without it from now on.
-        log_->warn("LK X? refused: the CRISP state is not polled on this connection");
-        crisp_refused_ = true;
-        snapshot_.crisp_state.reset();
-        poll_step_ = poll_step::idle;
-        return;
-    }
-    if (ec) {
-        // Give up this round; the next tick starts a new one (at once: nothing fresh was read).
-        poll_step_ = poll_step::idle;
-        changed_since_poll_ = true;
-        if (!command_aborted(ec)) outlet_.log_error("poll", ec);
-        return;
-    }
-    switch (step) {
-        case poll_step::status:
-            polled_busy_ = r.busy;  // reply: "B" or "N"
-            poll_step_ = poll_step::where;
-            return;
-        case poll_step::where:
-            apply_where(snapshot_, r);
-            snapshot_.positions_read = system_clock::now();
-            // The end of a move: a target beyond a soft limit was clamped and logged (34/35).
-            if (snapshot_.busy && !polled_busy_) error_log_.read_soon();
-            note_busy(polled_busy_);
-            if (polled_busy_ && !snapshot_.axes.empty()) {
-                poll_step_ = poll_step::axis_status;
-                poll_axis_ = 0;
-                return;
-            }
-            break;
-        case poll_step::axis_status: {
-            apply_axis_busy(snapshot_, axis_index, r);
-            poll_axis_ = axis_index + 1;
-            if (poll_axis_ < snapshot_.axes.size()) return;
-            break;
-        }
-        case poll_step::crisp:
-            snapshot_.crisp_state = ms2000::crisp_state_of(r);
-            poll_step_ = poll_step::idle;
-            snapshot_.updated = system_clock::now();
-            return;
-        case poll_step::idle:
-            break;
-    }
-    // A controller with CRISP: its lock state ends the round.
-    if (!crisp_refused_ && snapshot_.identity && snapshot_.identity->build.has(ms2000::module::crisp)) {
-        poll_step_ = poll_step::crisp;
-        return;
-    }
-    poll_step_ = poll_step::idle;
-    snapshot_.updated = system_clock::now();
 }
 
 // ---- report port ------------------------------------------------------------------------------

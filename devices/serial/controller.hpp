@@ -40,6 +40,7 @@
 #include "devices/serial/error_log_reader.hpp"
 #include "devices/serial/event_outlet.hpp"
 #include "devices/serial/log_limiter.hpp"
+#include "devices/serial/poller.hpp"
 #include "devices/serial/report_port.hpp"
 #include "devices/serial/serial_port.hpp"
 
@@ -49,7 +50,9 @@ class logger;
 
 namespace gw::devices {
 
-class controller : public std::enable_shared_from_this<controller>, private report_port::owner {
+class controller : public std::enable_shared_from_this<controller>,
+                   private poller::owner,
+                   private report_port::owner {
   public:
     using completion_signature = void(boost::system::error_code, ms2000::reply);
     using completion_handler = boost::asio::any_completion_handler<completion_signature>;
@@ -123,7 +126,6 @@ class controller : public std::enable_shared_from_this<controller>, private repo
 
     // A round asks "/" first and applies its answer with the positions read after it, so a snapshot
     // that says a move ended also says where it ended.
-    enum class poll_step : std::uint8_t { idle, status, where, axis_status, crisp };
 
     // Whether replies can be matched to commands. in_step: yes. out_of_step: a fault was seen, a
     // resynchronisation starts at the next pump. draining: waiting for the line to stay quiet for
@@ -182,17 +184,16 @@ class controller : public std::enable_shared_from_this<controller>, private repo
     void on_identified();
     void refresh_ttl_modes();
     void refresh_soft_limits();  // SL/SU after a client set one
-    void arm_poll_timer();
-    bool poll_round_wanted() const;  // see controller_settings::idle_poll_interval
-    bool idle_round_yields() const;  // see controller_settings::client_pause
-    std::optional<pending> next_poll_command();
-    void on_poll_reply(poll_step step, std::size_t axis_index, boost::system::error_code ec,
-                       const ms2000::reply& reply);
-    std::string motor_axes() const;
 
     // What the parts ask of the controller.
     std::shared_ptr<void> keep_alive() override { return shared_from_this(); }
     void report_bytes_arrived(std::chrono::steady_clock::time_point at) override;
+    void poll_tick() override;
+    void move_ended() override;
+    // A client's command finished on the wire: settings it changed are read back, the poller and the
+    // snapshot's last error told.
+    void client_command_finished(const ms2000::command& cmd, boost::system::error_code ec,
+                                 const ms2000::reply* reply);
 
     // Events.
     template <typename Body>
@@ -226,7 +227,6 @@ class controller : public std::enable_shared_from_this<controller>, private repo
     boost::asio::steady_timer command_timer_;
     boost::asio::steady_timer resync_timer_;
     boost::asio::steady_timer reconnect_timer_;
-    boost::asio::steady_timer poll_timer_;
     boost::asio::steady_timer presence_timer_;
     boost::asio::steady_timer guard_timer_;
     // One character on the line (10 bits): the configured baud rate's, or less once an answer has
@@ -245,7 +245,6 @@ class controller : public std::enable_shared_from_this<controller>, private repo
                              const std::string& line) const;
     void arm_command_timer(std::chrono::steady_clock::duration after, std::uint64_t sequence);
     void accept(ms2000::reply r, const std::string& line);
-    void note_busy(bool busy);  // a "/" answer: the stage (and, if stopped, every axis) moving or not
     std::chrono::milliseconds backoff_;
     bool node_gone_ = false;  // the device node vanished since the last connection attempt
     // Bytes received since the port was opened, until identified, and the first of them.
@@ -261,16 +260,7 @@ class controller : public std::enable_shared_from_this<controller>, private repo
     std::uint64_t quiet_round_ = 0;  // bumped on every quiet-window timer, so an old expiry is ignored
     std::chrono::steady_clock::time_point resync_started_;
     command_queue queue_;
-    poll_step poll_step_ = poll_step::idle;
-    bool poll_due_ = false;
-    // For the idle poll interval: when the last round started, and whether a command that may move
-    // the stage (or change what a poll reads) ran since.
-    std::chrono::steady_clock::time_point last_poll_round_;
-    bool changed_since_poll_ = true;
-    std::chrono::steady_clock::time_point last_user_answer_{};  // a client's command last completed
-    std::size_t poll_axis_ = 0;
-    bool polled_busy_ = false;    // this round's answer to "/", applied with its positions
-    bool crisp_refused_ = false;  // LK X? answered :N- on this connection: not polled again
+    poller poller_;
 
     error_log_reader error_log_;
 
