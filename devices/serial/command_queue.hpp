@@ -37,17 +37,17 @@ inline bool command_aborted(boost::system::error_code ec) {
 // Built in place and moved by construction only: Boost 1.81's any_completion_handler cannot be
 // move-assigned (its operator= wraps the handler in another one, recursively).
 struct queued_command {
-    ms2000::command cmd;
-    std::string request_id;
-    command_completion user;    // set for a client's command
-    internal_handler internal;  // set for the driver's own (identify, poll, error log, resync probe)
+    ms2000::command cmd{};
+    std::string request_id{};
+    command_completion user{};    // set for a client's command
+    internal_handler internal{};  // set for the driver's own (identify, poll, error log, resync probe)
     // Set for background work (a poll step, an error log step): held back while the link gets back in
     // step, it is not requeued but dropped, and this tells its source to offer it again in its turn.
-    std::function<void()> held_back;
+    std::function<void()> held_back{};
     bool probe = false;   // the resynchronisation probe
     bool resent = false;  // a HALT sent again after the link was resynchronised
     // async_guarded_command: the halts_accepted() its caller last saw.
-    std::optional<std::uint64_t> halts_seen;
+    std::optional<std::uint64_t> halts_seen{};
 };
 
 class command_queue {

@@ -11,8 +11,13 @@
 // that does not fit, or bytes nobody asked for, the link is out of step and no command is released
 // until it is resynchronised (devices/serial/README.md, "Reply matching"); HALT jumps the queue; polls
 // never pile up (at most one poll round, and user commands go ahead of the poll's next step).
+//
+// Inside, the controller is a facade over parts with one job each, plain objects on its strand that
+// talk to it through their owner interfaces: command_link (the port, the queue, reply matching,
+// resynchronisation), poller, error_log_reader, report_port, and event_outlet (the way out to the
+// observer). The controller itself keeps the connection's life cycle (open, identify, reconnect,
+// stop) and what crosses between the parts.
 
-#include <array>
 #include <chrono>
 #include <cstdint>
 #include <exception>
@@ -20,7 +25,6 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <vector>
 
 #include <boost/asio/any_completion_handler.hpp>
 #include <boost/asio/any_io_executor.hpp>
@@ -30,8 +34,8 @@
 #include <boost/system/error_code.hpp>
 
 #include "devices/ms2000/command.hpp"
-#include "devices/ms2000/line_framer.hpp"
 #include "devices/ms2000/reply.hpp"
+#include "devices/serial/command_link.hpp"
 #include "devices/serial/command_queue.hpp"
 #include "devices/serial/connection_problem.hpp"
 #include "devices/serial/controller_observer.hpp"
@@ -39,10 +43,8 @@
 #include "devices/serial/controller_snapshot.hpp"
 #include "devices/serial/error_log_reader.hpp"
 #include "devices/serial/event_outlet.hpp"
-#include "devices/serial/log_limiter.hpp"
 #include "devices/serial/poller.hpp"
 #include "devices/serial/report_port.hpp"
-#include "devices/serial/serial_port.hpp"
 
 namespace spdlog {
 class logger;
@@ -51,6 +53,7 @@ class logger;
 namespace gw::devices {
 
 class controller : public std::enable_shared_from_this<controller>,
+                   private command_link::owner,
                    private poller::owner,
                    private report_port::owner {
   public:
@@ -105,37 +108,14 @@ class controller : public std::enable_shared_from_this<controller>,
 
     // HALT commands this controller accepted (queued for the wire, or refused for a closed port: the
     // intent to stop counts), since it was made. Any thread.
-    std::uint64_t halts_accepted() const { return queue_.halts_accepted(); }
+    std::uint64_t halts_accepted() const { return link_.halts_accepted(); }
 
     // Delivers a copy of the current snapshot (from the strand) to `handler`, which runs on the strand.
     void get_snapshot(std::function<void(controller_snapshot)> handler);
 
   private:
-    using pending = queued_command;
-
-    struct in_flight {
-        pending job;
-        std::uint64_t sequence = 0;
-        bool accepting = false;  // lines before the command is written are stale
-        std::chrono::steady_clock::time_point started;
-        bool write_done = false;  // the write completed (a reply may come first)
-        // A reply identical to the previous answer, held for repeated_reply_window: it is this
-        // command's answer if no other line follows, a copy of the previous one if one does.
-        std::optional<ms2000::reply> held;
-    };
-
-    // A round asks "/" first and applies its answer with the positions read after it, so a snapshot
-    // that says a move ended also says where it ended.
-
-    // Whether replies can be matched to commands. in_step: yes. out_of_step: a fault was seen, a
-    // resynchronisation starts at the next pump. draining: waiting for the line to stay quiet for
-    // resync_quiet. probing: the V probe is in flight. confirming: the probe was answered, the line
-    // must stay quiet once more (a second answer means the first was a late one).
-    enum class link_sync : std::uint8_t { in_step, out_of_step, draining, probing, confirming };
-
     void submit(ms2000::command cmd, std::string request_id, completion_handler handler,
                 std::optional<std::uint64_t> halts_seen = std::nullopt);
-    void on_submit(pending job);
 
     // Connection life cycle.
     void do_connect();
@@ -144,131 +124,45 @@ class controller : public std::enable_shared_from_this<controller>,
     // The attempt failed: state unreachable, last_error = problem, the retry scheduled, published.
     void set_unreachable(const connection_problem& problem);
     void watch_for_node();
-    void disconnect(boost::system::error_code ec, const char* what);
-    void fail_all(boost::system::error_code ec);
     void arm_presence_check();
+    void disconnect(boost::system::error_code ec, const char* what) override;
 
-    // Main port I/O.
-    void do_read(std::uint64_t generation);
-    bool read_available(std::uint64_t generation);  // false: more may wait (read again later)
-    void on_bytes(std::uint64_t generation, std::size_t bytes);
-    void hand_over_answers();
-    void on_line(const std::string& line);
-    void pump();
-    std::optional<pending> take_next();
-    void start_in_flight(pending job);
-    void hold_back_in_flight();
-    // `input_just_flushed`: the port's input was dropped a moment ago (start_in_flight): no byte can
-    // be waiting to be read yet, and asking the kernel again would only cost a system call.
-    void do_write(std::uint64_t sequence, bool input_just_flushed = false);
-    bool bytes_waiting_in_port();
-    void note_line_pace(std::size_t characters, std::chrono::steady_clock::duration round_trip);
-    void on_write(std::uint64_t sequence, boost::system::error_code ec);
-    void on_timeout(std::uint64_t sequence);
-    void finish(boost::system::error_code ec, std::optional<ms2000::reply> reply, const std::string& raw);
-    void complete(pending& job, boost::system::error_code ec, ms2000::reply reply);
-
-    // Resynchronisation (link_sync).
-    void mark_out_of_step(link_fault::kind kind, const char* why);
-    void start_drain();
-    void arm_quiet_timer();
-    void on_quiet_window();
-    void send_probe();
-    void on_probe_reply(boost::system::error_code ec, const ms2000::reply& reply);
-    void retry_resync(const char* why);
-    void reset_sync();
-
-    // Identification and polling.
-    void enqueue_internal(ms2000::command cmd, const char* tag, internal_handler handler);
+    // Identification, and the settings read back after a client changed them.
     void identify();
     void on_identified();
     void refresh_ttl_modes();
     void refresh_soft_limits();  // SL/SU after a client set one
 
-    // What the parts ask of the controller.
+    // What the parts ask of the controller (their owner interfaces).
     std::shared_ptr<void> keep_alive() override { return shared_from_this(); }
-    void report_bytes_arrived(std::chrono::steady_clock::time_point at) override;
+    std::optional<queued_command> next_background_command() override;
+    void client_command_finished(const ms2000::command& cmd, boost::system::error_code ec,
+                                 const ms2000::reply* reply) override;
+    void client_answered(boost::system::error_code ec) override;
+    void position_report(const ms2000::position_report_line& report) override;
+    bool identified() const override { return snapshot_.state == connection_state::connected; }
+    void contain(const char* where, const std::exception& e) override;
     void poll_tick() override;
     void move_ended() override;
-    // A client's command finished on the wire: settings it changed are read back, the poller and the
-    // snapshot's last error told.
-    void client_command_finished(const ms2000::command& cmd, boost::system::error_code ec,
-                                 const ms2000::reply* reply);
+    void report_bytes_arrived(std::chrono::steady_clock::time_point at) override;
 
-    // Events.
-    template <typename Body>
-    void guarded(const char* where, Body&& body);
-    void contain(const char* where, const std::exception& e) override;
     void note_error(int code, std::string name, std::string text);
-    void trace(const pending& job, std::chrono::microseconds latency, boost::system::error_code ec,
-               const std::string& raw);
 
     controller_settings settings_;
     boost::asio::strand<boost::asio::any_io_executor> strand_;
     std::shared_ptr<spdlog::logger> log_;
     controller_snapshot snapshot_;
     event_outlet outlet_;
+    command_link link_;
+    poller poller_;
+    error_log_reader error_log_;
+    report_port report_;
 
-    serial_port port_;
-    std::uint64_t generation_ = 0;  // bumped on every close, so old read handlers are ignored
-    std::array<char, 512> read_buffer_{};
-    std::uint64_t read_wait_generation_ = 0;         // the generation whose readiness wait is armed; 0: none
-    bool handling_read_ = false;                     // inside do_read: a command's write waits for its end
-    std::optional<std::uint64_t> write_after_read_;  // that command's sequence
-    struct answer {
-        completion_handler handler;
-        boost::system::error_code ec;
-        ms2000::reply reply;
-    };
-    std::vector<answer> answered_in_read_;  // user commands answered inside do_read, handed over at its end
-    ms2000::line_framer framer_;
-    std::vector<std::string> lines_;
-
-    boost::asio::steady_timer command_timer_;
-    boost::asio::steady_timer resync_timer_;
     boost::asio::steady_timer reconnect_timer_;
     boost::asio::steady_timer presence_timer_;
-    boost::asio::steady_timer guard_timer_;
-    // One character on the line (10 bits): the configured baud rate's, or less once an answer has
-    // proven the line faster (a pty, a USB device that ignores the baud rate). The guard before a
-    // write is one and a half of them after the last byte read.
-    std::chrono::steady_clock::duration char_time_;
-    std::chrono::steady_clock::time_point last_read_{};
-    // The last reply taken as an answer: a repeat of it soon after, for another command, is suspect.
-    struct answered {
-        std::string line;
-        std::string wire;  // the command it answered
-        std::chrono::steady_clock::time_point at{};
-    };
-    answered last_answer_;
-    bool repeats_last_answer(const ms2000::command& cmd, const ms2000::reply& r,
-                             const std::string& line) const;
-    void arm_command_timer(std::chrono::steady_clock::duration after, std::uint64_t sequence);
-    void accept(ms2000::reply r, const std::string& line);
     std::chrono::milliseconds backoff_;
     bool node_gone_ = false;  // the device node vanished since the last connection attempt
-    // Bytes received since the port was opened, until identified, and the first of them.
-    static constexpr std::size_t attempt_sample_limit = 48;
-    std::uint64_t attempt_bytes_ = 0;
-    std::string attempt_sample_;
-
-    std::optional<in_flight> in_flight_;
-    std::uint64_t next_sequence_ = 1;
-    link_sync sync_ = link_sync::in_step;
-    bool line_noise_ = false;  // bytes arrived while draining or confirming
-    std::size_t probe_attempts_ = 0;
-    std::uint64_t quiet_round_ = 0;  // bumped on every quiet-window timer, so an old expiry is ignored
-    std::chrono::steady_clock::time_point resync_started_;
-    command_queue queue_;
-    poller poller_;
-
-    error_log_reader error_log_;
-
-    report_port report_;
     std::uint64_t ttl_sequence_ = 0;
-
-    log_limiter sync_limiter_;
-    std::uint64_t stale_lines_ = 0;
     bool stopped_ = false;
 };
 
