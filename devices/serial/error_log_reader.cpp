@@ -1,7 +1,5 @@
 #include "devices/serial/error_log_reader.hpp"
 
-#include <algorithm>
-
 #include <spdlog/spdlog.h>
 
 #include "devices/ms2000/error.hpp"
