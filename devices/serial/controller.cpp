@@ -1,26 +1,16 @@
 #include "devices/serial/controller.hpp"
 
 #include <algorithm>
-#include <sys/ioctl.h>
-#include <unistd.h>
 #include <utility>
 
-#include <boost/asio/append.hpp>
-#include <boost/asio/bind_executor.hpp>
-#include <boost/asio/buffer.hpp>
 #include <boost/asio/dispatch.hpp>
-#include <boost/asio/posix/descriptor_base.hpp>
 #include <boost/asio/post.hpp>
-#include <boost/asio/write.hpp>
 #include <spdlog/spdlog.h>
 
-#include "devices/ms2000/crisp.hpp"
 #include "devices/ms2000/error.hpp"
 #include "devices/ms2000/error_log.hpp"
-#include "devices/ms2000/reply_check.hpp"
-#include "devices/serial/connection_problem.hpp"
-#include "devices/serial/emergency_halt.hpp"
 #include "devices/serial/escape.hpp"
+#include "devices/serial/serial_port.hpp"
 #include "devices/serial/snapshot_update.hpp"
 
 namespace gw::devices {
@@ -43,18 +33,6 @@ std::shared_ptr<spdlog::logger> make_logger(const std::string& name) {
         if (auto existing = spdlog::get(name)) return existing;
     }
     return logger;
-}
-
-// Ten bits (8N1) at the baud rate.
-steady_clock::duration configured_char_time(unsigned baud) {
-    return std::chrono::microseconds(10'000'000 / std::max(baud, 1u));
-}
-
-// Errors that mean "the command never got an answer because the port or the controller went away";
-// the driver's own continuations stop there.
-bool aborted(error_code ec) {
-    return ec == ms2000::error::disconnected || ec == ms2000::error::cancelled ||
-           ec == ms2000::error::not_connected;
 }
 
 // A failure of one identification step: the controller refused the command (an older firmware
@@ -83,33 +61,23 @@ bool sets_soft_limit(const ms2000::command& cmd) {
     return limit_verb && cmd.wire.find('=') != std::string::npos;
 }
 
-// A round that watches a move (CRISP trying to lock ends by itself too) or follows a change: it goes
-// at the fast pace and never yields to a client.
-bool round_watches_change(const controller_snapshot& s, bool changed_since_poll) {
-    return s.busy || changed_since_poll || s.crisp_state == 'K';
-}
-
 }  // namespace
 
 controller::controller(const net::any_io_executor& ex, controller_settings settings,
                        std::weak_ptr<controller_observer> observer)
     : settings_(std::move(settings)),
       strand_(net::make_strand(ex)),
-      observer_(std::move(observer)),
       log_(make_logger("ms2000." + settings_.id)),
-      port_(strand_),
-      command_timer_(strand_),
-      resync_timer_(strand_),
+      outlet_(settings_.id, snapshot_, *log_, std::move(observer)),
+      link_(strand_, settings_, outlet_, *log_, *this),
+      poller_(strand_, settings_, snapshot_, outlet_, *log_, *this),
+      error_log_(settings_, snapshot_, outlet_, *log_),
+      report_(strand_, settings_, snapshot_, outlet_, *log_, *this),
       reconnect_timer_(strand_),
-      poll_timer_(strand_),
       presence_timer_(strand_),
-      guard_timer_(strand_),
-      char_time_(configured_char_time(settings_.baud)),
-      backoff_(settings_.reconnect_min),
-      report_port_(strand_) {
+      backoff_(settings_.reconnect_min) {
     snapshot_.id = settings_.id;
     snapshot_.port = settings_.port;
-    snapshot_.report = settings_.report_port.empty() ? report_port_state::none : report_port_state::closed;
 }
 
 controller::~controller() = default;
@@ -120,7 +88,7 @@ void controller::start() {
         self->stopped_ = false;
         self->backoff_ = self->settings_.reconnect_min;
         self->snapshot_.state = connection_state::connecting;
-        self->publish_snapshot();
+        self->outlet_.publish_snapshot();
         self->do_connect();
     });
 }
@@ -131,7 +99,7 @@ void controller::stop() {
 
 void controller::set_observer(std::weak_ptr<controller_observer> observer) {
     net::post(strand_, [self = shared_from_this(), observer = std::move(observer)]() mutable {
-        self->observer_ = std::move(observer);
+        self->outlet_.set_observer(std::move(observer));
     });
 }
 
@@ -144,529 +112,28 @@ void controller::get_snapshot(std::function<void(controller_snapshot)> handler) 
 
 void controller::submit(ms2000::command cmd, std::string request_id, completion_handler handler,
                         std::optional<std::uint64_t> halts_seen) {
-    pending job{std::move(cmd), std::move(request_id), std::move(handler), {}};
-    job.halts_seen = halts_seen;
+    queued_command job{.cmd = std::move(cmd),
+                       .request_id = std::move(request_id),
+                       .user = std::move(handler),
+                       .halts_seen = halts_seen};
     // Onto the strand: all state lives there. Dispatched: on the strand's own thread it is taken at
-    // once (a queue hop less per command); on_submit never completes a handler inline.
+    // once (a queue hop less per command); the link never completes a handler inline.
     net::dispatch(strand_, [self = shared_from_this(), job = std::move(job)]() mutable {
-        self->on_submit(std::move(job));
+        // A closed port refuses it: for good after stop(), until reconnected otherwise.
+        self->link_.submit(std::move(job),
+                           self->stopped_ ? ms2000::error::cancelled : ms2000::error::not_connected);
     });
-}
-
-void controller::on_submit(pending job) {
-    if (job.cmd.is_halt) {
-        // Counted before anything can refuse it, and guarded commands still waiting are dropped: their
-        // callers decided on them before this HALT, and nothing of theirs may follow it.
-        halts_accepted_.fetch_add(1, std::memory_order_acq_rel);
-        drop_guarded_commands();
-    } else if (job.halts_seen && *job.halts_seen != halts_accepted()) {
-        return complete(job, ms2000::error::halted, {});
-    }
-    if (stopped_) return complete(job, ms2000::error::cancelled, {});
-    if (!port_.is_open()) return complete(job, ms2000::error::not_connected, {});
-    if (job.cmd.is_halt) {
-        if (halts_.size() >= settings_.queue_limit) return complete(job, ms2000::error::queue_full, {});
-        halts_.push_back(std::move(job));
-    } else if (user_queue_.size() >= settings_.queue_limit) {
-        return complete(job, ms2000::error::queue_full, {});
-    } else {
-        user_queue_.push_back(std::move(job));
-    }
-    pump();
-}
-
-void controller::drop_guarded_commands() {
-    std::deque<pending> kept;
-    std::vector<pending> dropped;
-    for (auto& job : user_queue_) {
-        if (job.halts_seen)
-            dropped.push_back(std::move(job));
-        else
-            kept.push_back(std::move(job));
-    }
-    user_queue_ = std::move(kept);
-    for (auto& job : dropped)
-        complete(job, ms2000::error::halted, {});
-}
-
-void controller::enqueue_internal(ms2000::command cmd, const char* tag, internal_handler handler) {
-    internal_queue_.push_back(pending{std::move(cmd), tag, {}, std::move(handler)});
-}
-
-std::optional<controller::pending> controller::take_next() {
-    // HALT first, then the driver's identification, then user commands, then the error log's next
-    // step, then the poll's.
-    for (auto* queue : {&halts_, &internal_queue_, &user_queue_}) {
-        if (!queue->empty()) {
-            auto job = std::move(queue->front());
-            queue->pop_front();
-            return job;
-        }
-    }
-    if (auto job = next_error_log_command()) return job;
-    return next_poll_command();
-}
-
-void controller::pump() {
-    if (in_flight_ || !port_.is_open()) return;
-    // Bytes that arrived since the last reply and end no line: nobody asked for them.
-    if (sync_ == link_sync::in_step && !framer_.partial().empty())
-        mark_out_of_step(link_fault::kind::unexpected, "bytes nobody asked for");
-    if (sync_ != link_sync::in_step) {
-        // A HALT does not wait for the link: the stage must stop. If its answer cannot be proven its
-        // own, it is sent once more after the resynchronisation (a second HALT is harmless).
-        const bool halt_now = !halts_.empty() && !halts_.front().resent && sync_ != link_sync::probing;
-        if (!halt_now) {
-            if (sync_ == link_sync::out_of_step) start_drain();
-            return;
-        }
-        ++quiet_round_;
-        resync_timer_.cancel();
-        sync_ = link_sync::out_of_step;
-    }
-    auto next = take_next();
-    if (next) start_in_flight(std::move(*next));
-}
-
-void controller::start_in_flight(pending job) {
-    const auto sequence = next_sequence_++;
-    in_flight_.emplace(in_flight{std::move(job), sequence, false, steady_clock::now()});
-
-    // Stale input (a late reply, noise) must not be taken for this command's reply: what the kernel
-    // holds now is dropped and, unless a resynchronisation is dropping it anyway, puts the link out of
-    // step. Then read completions that are already queued run (through the io_context queue and back
-    // to the strand) while the command is not yet accepting lines.
-    framer_.reset();
-    if (port_.flush_input() > 0 && sync_ == link_sync::in_step)
-        mark_out_of_step(link_fault::kind::unexpected, "bytes nobody asked for");
-    // Every byte read so far has been handled (the port is read only here, on the strand: do_read),
-    // except the rest of the read being handled now, if that read's answer started this command: it
-    // is written once that rest is handled, as any line after an answer is nobody's.
-    if (handling_read_) {
-        write_after_read_ = sequence;
-        return;
-    }
-    do_write(sequence, true);
-}
-
-void controller::hold_back_in_flight() {
-    auto job = std::move(in_flight_->job);
-    in_flight_.reset();
-    if (job.poll) {
-        poll_step_ = poll_step::idle;  // the next tick starts a new round
-    } else if (job.error_log) {
-        retry_error_log_step();  // after the user commands, not ahead of them in the internal queue
-    } else if (job.internal) {
-        internal_queue_.push_front(std::move(job));
-    } else {
-        user_queue_.push_front(std::move(job));
-    }
-    pump();
-}
-
-void controller::do_write(std::uint64_t sequence, bool input_just_flushed) {
-    if (!in_flight_ || in_flight_->sequence != sequence || !port_.is_open()) return;
-    // A stale line still queued when the command was taken put the link out of step: it waits.
-    const auto& waiting = in_flight_->job;
-    const bool may_wait = !waiting.cmd.is_halt && !waiting.probe;
-    if (sync_ == link_sync::in_step && !framer_.partial().empty())
-        mark_out_of_step(link_fault::kind::unexpected, "bytes nobody asked for");
-    if (sync_ == link_sync::out_of_step && may_wait) return hold_back_in_flight();
-    // A reply repeated at once (an echoing adapter, a duplicated frame) would arrive just as the next
-    // command goes out and could be taken for its answer. Its first byte follows the last one read
-    // within a character time: wait one and a half, then for any byte already in the port's buffer to
-    // be read, so that such bytes land while nothing accepts them.
-    const auto guard = char_time_ + char_time_ / 2;
-    const auto quiet_for = steady_clock::now() - last_read_;
-    if (may_wait && (quiet_for < guard || (!input_just_flushed && bytes_waiting_in_port()))) {
-        guard_timer_.expires_after(quiet_for < guard ? guard - quiet_for : guard);
-        guard_timer_.async_wait([self = shared_from_this(), sequence](error_code ec) {
-            if (!ec) self->do_write(sequence);
-        });
-        return;
-    }
-    framer_.reset();
-    in_flight_->accepting = true;
-    in_flight_->started = steady_clock::now();
-
-    // The deadline covers the write too: a port that stops draining is caught as well.
-    arm_command_timer(
-        in_flight_->job.cmd.long_reply ? settings_.long_reply_timeout : settings_.command_timeout, sequence);
-
-    const auto& command = in_flight_->job.cmd.wire;
-    if (log_->should_log(spdlog::level::trace)) log_->trace("TX {}", escape_control(command));
-    // A command is a few bytes and the tty's output buffer is nearly always free: written at once, it
-    // costs no trip through the io_context's queue. Whatever the port does not take now (or an error)
-    // goes the asynchronous way.
-    auto written = ::write(port_.stream().native_handle(), command.data(), command.size());
-    if (written == static_cast<ssize_t>(command.size())) return on_write(sequence, {});
-    // The buffer is shared with the handler: it outlives the command if the port is closed meanwhile.
-    auto wire =
-        std::make_shared<std::string>(command.substr(written > 0 ? static_cast<std::size_t>(written) : 0));
-    net::async_write(
-        port_.stream(), net::buffer(*wire),
-        net::bind_executor(strand_, [self = shared_from_this(), sequence, wire](error_code ec, std::size_t) {
-            self->on_write(sequence, ec);
-        }));
-}
-
-bool controller::bytes_waiting_in_port() {
-    int waiting = 0;
-    return ::ioctl(port_.stream().native_handle(), FIONREAD, &waiting) == 0 && waiting > 0;
-}
-
-void controller::note_line_pace(std::size_t characters, steady_clock::duration round_trip) {
-    // A command and its answer crossed the line within the round trip: no character took longer
-    // than round_trip / characters. Only ever shortens the configured character time.
-    if (characters == 0) return;
-    char_time_ = std::min(char_time_, round_trip / static_cast<long>(characters));
-}
-
-void controller::arm_command_timer(steady_clock::duration after, std::uint64_t sequence) {
-    command_timer_.expires_after(after);
-    command_timer_.async_wait([self = shared_from_this(), sequence](error_code ec) {
-        if (!ec) self->guarded("handling a timeout", [&] { self->on_timeout(sequence); });
-    });
-}
-
-void controller::on_write(std::uint64_t sequence, error_code ec) {
-    if (ec && ec != net::error::operation_aborted) return disconnect(ec, "write");
-    if (in_flight_ && in_flight_->sequence == sequence) in_flight_->write_done = true;
-}
-
-void controller::on_timeout(std::uint64_t sequence) {
-    // An expired timer cannot be cancelled: the sequence number tells a stale one apart.
-    if (!in_flight_ || in_flight_->sequence != sequence) return;
-    if (in_flight_->held) {
-        // Nothing followed the held reply: it was this command's own answer, identical by chance.
-        auto r = std::move(*in_flight_->held);
-        const auto line = r.raw;
-        return accept(std::move(r), line);
-    }
-    if (!in_flight_->write_done) {
-        // Not even the command left: the port is stuck (a hung adapter). Start over.
-        return disconnect(ms2000::error::timeout, "write stalled");
-    }
-    // Before the controller is identified, the unreachable state (and the gateway's log of it) says
-    // what these timeouts mean; each one is only detail.
-    if (snapshot_.state == connection_state::connected)
-        log_error("command timed out", ms2000::error::timeout);
-    else
-        log_->debug("command \"{}\" timed out", escape_control(in_flight_->job.cmd.wire));
-    // Its reply may still come, and would then be taken for the next command's.
-    mark_out_of_step(link_fault::kind::timeout, "a command timed out");
-    finish(ms2000::error::timeout, std::nullopt, escape_control(framer_.partial()));
-}
-
-void controller::on_line(const std::string& line) {
-    if (log_->should_log(spdlog::level::trace)) log_->trace("RX {}", escape_control(line));
-    // Controller bytes are data: a line with a byte that no MS-2000 reply has is noise, and from here
-    // on only printable ASCII lines reach a reply, a snapshot or an event.
-    const bool text = ms2000::is_reply_text(line);
-
-    // Unsolicited position report (TTL IN0 mode 5): "T:   400    0.0    0.1".
-    if (auto report = text ? ms2000::parse_position_report(line) : std::nullopt) {
-        ttl_event event;
-        event.controller_id = settings_.id;
-        event.sequence = ++ttl_sequence_;
-        event.steady_time = steady_clock::now();
-        event.system_time = system_clock::now();
-        event.controller_ms = report->milliseconds;
-        const auto axes = motor_axes();
-        for (std::size_t i = 0; i < report->positions.size(); ++i) {
-            const char letter = i < axes.size() ? axes[i] : '?';
-            event.axes.push_back({letter, report->positions[i] / 10.0});
-        }
-        notify("ttl", [&](controller_observer& o) { o.on_ttl(event); });
-        return;
-    }
-
-    if (sync_ == link_sync::draining || sync_ == link_sync::confirming) {
-        // What the resynchronisation waits to see the end of.
-        line_noise_ = true;
-        ++stale_lines_;
-        log_->debug("drained line \"{}\" ({} so far)", escape_control(line), stale_lines_);
-        return;
-    }
-    if (!in_flight_ || !in_flight_->accepting) {
-        ++stale_lines_;
-        log_->debug("discarded stale line \"{}\" ({} so far)", escape_control(line), stale_lines_);
-        if (sync_ == link_sync::probing) {
-            line_noise_ = true;
-            return;
-        }
-        mark_out_of_step(text ? link_fault::kind::unexpected : link_fault::kind::noise,
-                         "a line nobody asked for");
-        return pump();
-    }
-
-    if (in_flight_->held) {
-        // A line after a reply identical to the previous answer: that reply was the copy.
-        const auto copy = in_flight_->held->raw;
-        mark_out_of_step(link_fault::kind::mismatch, "a reply that repeats the previous one");
-        return finish(ms2000::error::unrecognized_reply, std::nullopt, copy);
-    }
-
-    const auto& cmd = in_flight_->job.cmd;
-    auto parsed = ms2000::accept_reply(cmd, line);
-    if (!parsed) {
-        // Noise, or the right shape for another command (a late reply): never an answer.
-        if (!text) {
-            mark_out_of_step(link_fault::kind::noise, "a reply with bytes that are not ASCII");
-            return finish(parsed.error(), std::nullopt, escape_control(line));
-        }
-        mark_out_of_step(link_fault::kind::mismatch, "a reply that does not fit its command");
-        return finish(parsed.error(), std::nullopt, line);
-    }
-    if (repeats_last_answer(cmd, *parsed, line)) {
-        // It fits, but it may be the previous answer sent again (an adapter that repeats a buffer),
-        // with this command's own answer still on its way. Different commands may also share an
-        // answer ("RS Y?" and "RS Z?" both ":A N"), so only a line that follows proves a copy.
-        log_->debug("holding \"{}\": identical to the previous answer", line);
-        in_flight_->held = std::move(*parsed);
-        return arm_command_timer(settings_.repeated_reply_window, in_flight_->sequence);
-    }
-    accept(std::move(*parsed), line);
-}
-
-void controller::accept(ms2000::reply r, const std::string& line) {
-    const auto& cmd = in_flight_->job.cmd;
-    last_answer_ = {line, cmd.wire, steady_clock::now()};
-    // Only an answer taken in step proves the pace: a HALT's (written at once, even out of step) or the
-    // resynchronisation probe's may be an older reply that was already on its way. The line's end
-    // ("\r\n") was read too.
-    if (sync_ == link_sync::in_step && !cmd.is_halt && !in_flight_->job.probe)
-        note_line_pace(cmd.wire.size() + line.size() + 2, last_answer_.at - in_flight_->started);
-    if (r.what == ms2000::reply::kind::error) {
-        // HALT answers ":N-21" when it stopped a move: that is what HALT is for.
-        if (cmd.is_halt && r.error_code == ms2000::halted) return finish({}, std::move(r), line);
-        return finish(ms2000::error::controller_rejected, std::move(r), line);
-    }
-    finish({}, std::move(r), line);
-}
-
-bool controller::repeats_last_answer(const ms2000::command& cmd, const ms2000::reply& r,
-                                     const std::string& line) const {
-    // Replies that carry no more than a flag repeat legitimately from command to command: bare ":A"
-    // acks (every move), ":N-<code>" errors (a HALT's ":N-21", then the next move's), "/"'s "B" and
-    // one-character values (":A B" to "RS X?", "RS Y?" and "RS Z?" alike while the stage moves; ":A 0"
-    // to "TTL X?" and "TTL Y?"). Holding them would add the window to every poll round of a moving
-    // stage; a copy of one is still caught when the command's own answer arrives as a stray line.
-    const bool flag_only =
-        r.what == ms2000::reply::kind::error || r.what == ms2000::reply::kind::status ||
-        (r.what == ms2000::reply::kind::ack && r.axes.empty() &&
-         std::all_of(r.values.begin(), r.values.end(), [](const std::string& v) { return v.size() <= 1; }));
-    return !flag_only && line == last_answer_.line && cmd.wire != last_answer_.wire &&
-           steady_clock::now() - last_answer_.at < settings_.repeated_reply_window;
-}
-
-void controller::finish(error_code ec, std::optional<ms2000::reply> reply, const std::string& raw) {
-    command_timer_.cancel();
-    auto done = std::move(*in_flight_);
-    in_flight_.reset();
-
-    const auto latency =
-        std::chrono::duration_cast<std::chrono::microseconds>(steady_clock::now() - done.started);
-    trace(done.job, latency, ec, raw);
-
-    const bool unproven = ec == ms2000::error::unrecognized_reply || ec == ms2000::error::timeout;
-    if (done.job.cmd.is_halt && unproven && !done.job.resent) {
-        // The HALT reached the controller; send it again once the link is in step, for a proven answer.
-        done.job.resent = true;
-        halts_.push_front(std::move(done.job));
-        publish_snapshot();
-        return pump();
-    }
-    if (!ec && !done.job.internal && sets_ttl_mode(done.job.cmd)) refresh_ttl_modes();
-    if (!ec && !done.job.internal && sets_soft_limit(done.job.cmd)) refresh_soft_limits();
-    // Whoever asked "/" (a waited move, a job), its answer is the newest word on motion: the snapshot
-    // must not go on saying "moving" after a move's waiter was told it stopped.
-    if (!ec && !done.job.poll && reply && reply->what == ms2000::reply::kind::status) {
-        if (snapshot_.busy && !reply->busy) {
-            changed_since_poll_ = true;
-            poll_due_ = settings_.poll_interval.count() > 0;  // read where it stopped now, not next tick
-        }
-        note_busy(reply->busy);
-    }
-    // It may have started a move or changed a setting: the next poll tick starts a round.
-    if (!done.job.poll && !done.job.internal && !ms2000::only_reads(done.job.cmd)) changed_since_poll_ = true;
-
-    if (ec && !done.job.internal) {
-        if (ec == ms2000::error::controller_rejected && reply) {
-            note_error(reply->error_code, std::string(ms2000::controller_error_name(reply->error_code)),
-                       std::string(ms2000::controller_error_description(reply->error_code)));
-        } else {
-            note_error(0, ec.message(), "command \"" + escape_control(done.job.cmd.wire) + "\" failed");
-        }
-    }
-
-    ms2000::reply result;
-    if (reply) {
-        result = std::move(*reply);
-    } else {
-        result.raw = raw;
-    }
-    complete(done.job, ec, std::move(result));
-    publish_snapshot();
-    pump();
-}
-
-void controller::complete(pending& job, error_code ec, ms2000::reply reply) {
-    if (job.internal) {
-        job.internal(ec, reply);
-    } else if (job.user) {
-        // A command the controller refused may have left a code in its error log (a job step too).
-        if (ec == ms2000::error::controller_rejected) error_log_due_ = true;
-        last_user_answer_ = steady_clock::now();
-        // Never call user code inline. An answer read by do_read is handed over when that read is
-        // done, as a posted handler would be but without the queue's round trip; otherwise posted.
-        if (handling_read_)
-            answered_in_read_.push_back({std::move(job.user), ec, std::move(reply)});
-        else
-            net::post(strand_, net::append(std::move(job.user), ec, std::move(reply)));
-    }
-}
-
-void controller::fail_all(error_code ec) {
-    std::vector<pending> jobs;
-    if (in_flight_) {
-        trace(
-            in_flight_->job,
-            std::chrono::duration_cast<std::chrono::microseconds>(steady_clock::now() - in_flight_->started),
-            ec, {});
-        jobs.push_back(std::move(in_flight_->job));
-        in_flight_.reset();
-    }
-    for (auto* queue : {&halts_, &internal_queue_, &user_queue_}) {
-        for (auto& job : *queue)
-            jobs.push_back(std::move(job));
-        queue->clear();
-    }
-    for (auto& job : jobs)
-        complete(job, ec, {});
-}
-
-// ---- resynchronisation ------------------------------------------------------------------------
-
-void controller::mark_out_of_step(link_fault::kind kind, const char* why) {
-    report_fault(kind);
-    if (sync_ == link_sync::draining || sync_ == link_sync::confirming) {
-        line_noise_ = true;
-        return;
-    }
-    if (sync_ != link_sync::in_step) return;  // already resynchronising (a probe's failure is its own)
-    sync_ = link_sync::out_of_step;
-    probe_attempts_ = 0;
-    resync_started_ = steady_clock::now();
-    std::uint64_t suppressed = 0;
-    if (sync_limiter_.allow(resync_started_, suppressed))
-        log_->warn("{}: link out of step, resynchronising ({} similar suppressed)", why, suppressed);
-}
-
-void controller::start_drain() {
-    sync_ = link_sync::draining;
-    line_noise_ = false;
-    framer_.reset();
-    port_.flush_input();
-    arm_quiet_timer();
-}
-
-void controller::arm_quiet_timer() {
-    resync_timer_.expires_after(settings_.resync_delay);
-    resync_timer_.async_wait(
-        [self = shared_from_this(), generation = generation_, round = ++quiet_round_](error_code ec) {
-            if (ec || generation != self->generation_ || round != self->quiet_round_) return;
-            self->guarded("resynchronising", [&] { self->on_quiet_window(); });
-        });
-}
-
-void controller::on_quiet_window() {
-    const bool noisy = line_noise_ || !framer_.partial().empty();
-    if (sync_ == link_sync::draining) {
-        if (!noisy) return send_probe();
-        if (steady_clock::now() - resync_started_ > settings_.resync_timeout)
-            return retry_resync("the line never went quiet");
-        // Still talking: drop what came and wait for another quiet window.
-        line_noise_ = false;
-        framer_.reset();
-        port_.flush_input();
-        return arm_quiet_timer();
-    }
-    if (sync_ != link_sync::confirming) return;
-    // A second answer after the probe's means the first was a late reply to an earlier V.
-    if (noisy) return retry_resync("more bytes followed the probe's answer");
-    sync_ = link_sync::in_step;
-    report_fault(link_fault::kind::resynced);
-    log_->info(
-        "link back in step after {} ms",
-        std::chrono::duration_cast<std::chrono::milliseconds>(steady_clock::now() - resync_started_).count());
-    pump();
-}
-
-void controller::send_probe() {
-    // V is harmless and its answer ("Version: USB-9.52") has a shape no other command's reply has.
-    sync_ = link_sync::probing;
-    line_noise_ = false;
-    pending probe{
-        ms2000::version(),
-        "resync",
-        {},
-        [this, self = shared_from_this()](error_code ec, const ms2000::reply& r) { on_probe_reply(ec, r); }};
-    probe.probe = true;
-    start_in_flight(std::move(probe));
-}
-
-void controller::on_probe_reply(error_code ec, const ms2000::reply&) {
-    if (aborted(ec)) return;
-    if (ec || line_noise_)
-        return retry_resync(ec ? "the probe got no fitting answer" : "noise around the probe");
-    sync_ = link_sync::confirming;
-    line_noise_ = false;
-    arm_quiet_timer();
-}
-
-void controller::retry_resync(const char* why) {
-    ++probe_attempts_;
-    const bool too_long = steady_clock::now() - resync_started_ > settings_.resync_timeout;
-    if (probe_attempts_ < settings_.resync_attempts && !too_long) {
-        log_->debug("resynchronisation: {}; trying again", why);
-        return start_drain();
-    }
-    report_fault(link_fault::kind::resync_failed);
-    disconnect(ms2000::error::unrecognized_reply, "resynchronisation failed");
-}
-
-void controller::reset_sync() {
-    sync_ = link_sync::in_step;
-    line_noise_ = false;
-    probe_attempts_ = 0;
-    ++quiet_round_;
 }
 
 // ---- connection -------------------------------------------------------------------------------
 
 void controller::do_connect() {
-    if (stopped_ || port_.is_open()) return;
+    if (stopped_ || link_.is_open()) return;
     snapshot_.last_attempt = system_clock::now();
-    if (auto ec = port_.open(settings_.port, settings_.baud)) {
+    if (auto ec = link_.open()) {
         log_->debug("cannot open port {}: {}", settings_.port, ec.message());
         return set_unreachable(problem_of_open_error(settings_.port, ec));
     }
-    // Should the process die, its fatal-signal handler halts the stage through this port.
-    if (!port_.halt_on_crash())
-        log_->warn("port {}: more than {} ports open: a crash would not halt this stage", settings_.port,
-                   emergency_halt::max_ports);
-    ++generation_;
-    char_time_ = configured_char_time(settings_.baud);  // another device may be on the port now
-    attempt_bytes_ = 0;
-    attempt_sample_.clear();
-    framer_.reset();
-    reset_sync();
-    last_answer_ = {};
-    // A fresh port is not yet proven in step: a reply to a command of the program that had it before
-    // (a crashed gateway, another client) may still come. Identification waits for the resync.
-    sync_ = link_sync::out_of_step;
-    resync_started_ = steady_clock::now();
     log_->info("port {} open at {} baud, identifying", settings_.port, settings_.baud);
     // After a failed attempt the state stays unreachable until an identification succeeds.
     if (snapshot_.state != connection_state::unreachable) snapshot_.state = connection_state::identifying;
@@ -674,15 +141,12 @@ void controller::do_connect() {
     snapshot_.identity.reset();
     snapshot_.axes.clear();
     snapshot_.busy = false;
-    publish_snapshot();
+    outlet_.publish_snapshot();
 
-    // Read from the next turn on, as before any command: what the port holds now is stale anyway.
-    net::post(strand_, [self = shared_from_this(), generation = generation_] {
-        if (generation == self->generation_) self->do_read(generation);
-    });
     arm_presence_check();
+    // The link is out of step on a fresh port: identification waits for its resynchronisation.
     identify();
-    pump();
+    link_.pump();
 }
 
 void controller::set_unreachable(const connection_problem& problem) {
@@ -690,7 +154,7 @@ void controller::set_unreachable(const connection_problem& problem) {
     snapshot_.last_error =
         controller_error_info{0, problem.name, problem.text, problem.hint, system_clock::now()};
     schedule_reconnect();
-    publish_snapshot();
+    outlet_.publish_snapshot();
 }
 
 void controller::schedule_reconnect() {
@@ -709,8 +173,8 @@ void controller::watch_for_node() {
     // The backoff paces retries of a node that exists but cannot be opened or identified. A node that
     // went away (an unplugged adapter) and is back is tried at once, however far the backoff has grown.
     presence_timer_.expires_after(settings_.presence_check);
-    presence_timer_.async_wait([self = shared_from_this(), generation = generation_](error_code ec) {
-        if (ec || generation != self->generation_ || self->stopped_ || self->port_.is_open()) return;
+    presence_timer_.async_wait([self = shared_from_this(), generation = link_.generation()](error_code ec) {
+        if (ec || generation != self->link_.generation() || self->stopped_ || self->link_.is_open()) return;
         if (!serial_port::node_exists(self->settings_.port)) {
             self->node_gone_ = true;
         } else if (self->node_gone_) {
@@ -723,256 +187,141 @@ void controller::watch_for_node() {
 }
 
 void controller::disconnect(error_code ec, const char* what) {
-    if (!port_.is_open()) return;
+    if (!link_.is_open()) return;
     if (snapshot_.state == connection_state::connected)
         log_->warn("{}: {}; port closed, reconnecting", what, ec.message());
     else
         log_->debug("{}: {}; port closed, trying again", what, ec.message());  // see set_unreachable
-    ++generation_;
-    port_.close();
-    close_report_port();
-    command_timer_.cancel();
-    resync_timer_.cancel();
-    poll_timer_.cancel();
+    report_.close();
     presence_timer_.cancel();
-    guard_timer_.cancel();
-    reset_sync();
-    poll_step_ = poll_step::idle;
-    poll_due_ = false;
+    poller_.stop();
+    link_.close(ms2000::error::disconnected);
 
-    fail_all(ms2000::error::disconnected);
-
-    snapshot_.busy = false;
-    for (auto& a : snapshot_.axes)
-        a.busy = false;
+    apply_busy(snapshot_, false);
     if (snapshot_.state != connection_state::connected) {
         // The attempt never got as far as an identified controller: say why, as a person can act on it.
         const bool unanswered = ec == ms2000::error::timeout || ec == ms2000::error::unrecognized_reply;
         if (!unanswered)
             return set_unreachable(
                 {"disconnected", std::string(what) + " on " + settings_.port + ": " + ec.message(), ""});
-        if (attempt_bytes_ == 0)
+        if (link_.bytes_heard() == 0)
             return set_unreachable(no_reply_problem(settings_.port, std::to_string(settings_.baud)));
         return set_unreachable(
-            not_ms2000_problem(settings_.port, settings_.baud, escape_control(attempt_sample_)));
+            not_ms2000_problem(settings_.port, settings_.baud, escape_control(link_.first_bytes_heard())));
     }
     snapshot_.state = connection_state::disconnected;
     note_error(0, "disconnected", std::string(what) + ": " + ec.message());
     schedule_reconnect();
-    publish_snapshot();
+    outlet_.publish_snapshot();
 }
 
 void controller::do_stop() {
     if (stopped_ && snapshot_.state == connection_state::stopped) return;
     stopped_ = true;
-    ++generation_;
-    port_.close();
-    close_report_port();
-    for (auto* timer :
-         {&command_timer_, &resync_timer_, &reconnect_timer_, &poll_timer_, &presence_timer_, &guard_timer_})
-        timer->cancel();
-    reset_sync();
-    poll_step_ = poll_step::idle;
-    poll_due_ = false;
-    fail_all(ms2000::error::cancelled);
+    report_.close();
+    reconnect_timer_.cancel();
+    presence_timer_.cancel();
+    poller_.stop();
+    link_.close(ms2000::error::cancelled);
     snapshot_.state = connection_state::stopped;
     snapshot_.busy = false;
     snapshot_.next_retry.reset();
     log_->info("stopped");
-    publish_snapshot();
+    outlet_.publish_snapshot();
 }
 
 void controller::arm_presence_check() {
     presence_timer_.expires_after(settings_.presence_check);
-    presence_timer_.async_wait([self = shared_from_this(), generation = generation_](error_code ec) {
-        if (ec || generation != self->generation_) return;
+    presence_timer_.async_wait([self = shared_from_this(), generation = link_.generation()](error_code ec) {
+        if (ec || generation != self->link_.generation()) return;
         // A vanished node (unplugged adapter, removed link) is not always seen by a pending read.
-        if (!self->port_.still_present(self->settings_.port))
+        if (!self->link_.still_present())
             return self->disconnect(boost::system::errc::make_error_code(boost::system::errc::no_such_device),
                                     "device node vanished");
-        if (self->snapshot_.state == connection_state::connected && !self->report_port_.is_open())
-            self->open_report_port();
+        if (self->snapshot_.state == connection_state::connected && !self->report_.is_open())
+            self->report_.open();
         self->arm_presence_check();
     });
 }
 
-void controller::do_read(std::uint64_t generation) {
-    // The port is read here, on the strand, not by async_read_some: a read that completed could wait
-    // in the io_context's queue while a command is written, and its stale bytes would then be taken
-    // for that command's answer. The readiness wait is armed before reading, so a byte that arrives
-    // after the last read wakes it, and one that arrived before is read now.
-    if (read_wait_generation_ != generation) {
-        read_wait_generation_ = generation;
-        port_.stream().async_wait(
-            net::posix::descriptor_base::wait_read,
-            net::bind_executor(strand_, [self = shared_from_this(), generation](error_code ec) {
-                if (generation != self->generation_) return;
-                self->read_wait_generation_ = 0;
-                if (ec) return self->disconnect(ec, "read");
-                self->do_read(generation);
-            }));
-    }
-    handling_read_ = true;
-    const bool drained = read_available(generation);
-    handling_read_ = false;
-    if (generation != generation_) {
-        write_after_read_.reset();  // the port closed: nothing to write
-        return hand_over_answers();
-    }
-    if (!drained) {
-        // A line that keeps talking must not hold the strand: the rest is read in a later turn.
-        net::post(strand_, [self = shared_from_this(), generation] {
-            if (generation == self->generation_) self->do_read(generation);
-        });
-    }
-    if (auto sequence = std::exchange(write_after_read_, std::nullopt)) do_write(*sequence);
-    hand_over_answers();
-}
-
-void controller::hand_over_answers() {
-    // Nothing of this read is left on the stack: the first handler runs as if it had been posted, on
-    // its own associated executor (dispatched: at once when that executor allows). Any others (a
-    // disconnect fails every queued command) are posted first, so that a handler that throws cannot
-    // take the answers after it with it.
-    auto answers = std::move(answered_in_read_);
-    answered_in_read_.clear();
-    if (answers.empty()) return;
-    for (std::size_t i = 1; i < answers.size(); ++i)
-        net::post(strand_,
-                  net::append(std::move(answers[i].handler), answers[i].ec, std::move(answers[i].reply)));
-    net::dispatch(strand_,
-                  net::append(std::move(answers[0].handler), answers[0].ec, std::move(answers[0].reply)));
-}
-
-bool controller::read_available(std::uint64_t generation) {
-    constexpr int reads_per_turn = 16;
-    for (int i = 0; i < reads_per_turn; ++i) {
-        const auto n = ::read(port_.stream().native_handle(), read_buffer_.data(), read_buffer_.size());
-        if (n < 0 && errno == EINTR) continue;
-        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return true;
-        if (n <= 0) {
-            disconnect(
-                n == 0 ? error_code(net::error::eof) : error_code(errno, boost::system::system_category()),
-                "read");
-            return true;
-        }
-        on_bytes(generation, static_cast<std::size_t>(n));
-        if (generation != generation_) return true;
-        // A tty's read returns all it holds, up to the buffer: a shorter read emptied it.
-        if (static_cast<std::size_t>(n) < read_buffer_.size()) return true;
-    }
-    return false;
-}
-
-void controller::on_bytes(std::uint64_t generation, std::size_t bytes) {
-    last_read_ = steady_clock::now();
-    if (snapshot_.state != connection_state::connected) {
-        // What an attempt heard, for the verdict if it fails: silence, or another device (or baud rate).
-        attempt_bytes_ += bytes;
-        if (attempt_sample_.size() < attempt_sample_limit)
-            attempt_sample_.append(read_buffer_.data(),
-                                   std::min(bytes, attempt_sample_limit - attempt_sample_.size()));
-    }
-    guarded("reading the port", [&] {
-        lines_.clear();
-        if (auto framing = framer_.feed(std::string_view(read_buffer_.data(), bytes), lines_)) {
-            log_error("framing", framing);
-            mark_out_of_step(link_fault::kind::noise, "an overlong line");
-        }
-        for (const auto& line : lines_) {
-            on_line(line);
-            if (generation != generation_) return;  // a handler closed the port
-        }
-    });
-}
-
-// ---- identification and polling ---------------------------------------------------------------
-
-std::string controller::motor_axes() const {
-    std::string axes;
-    for (const auto& a : snapshot_.axes)
-        axes += a.axis;
-    return axes;
-}
+// ---- identification ---------------------------------------------------------------------------
 
 void controller::identify() {
-    auto self = shared_from_this();
-    error_log_seen_.clear();
-    error_log_failures_ = 0;
-    error_log_step_ = error_log_step::idle;
-    error_log_due_ = error_log_clear_due_ = false;
-    crisp_refused_ = false;
-    snapshot_.crisp_state.reset();
+    error_log_.reset();
+    poller_.reset();
     // reply: ":A Version: USB-9.52 "
-    enqueue_internal(ms2000::version(), "identify", [this, self](error_code ec, const ms2000::reply& r) {
-        if (aborted(ec)) return;
+    link_.enqueue_internal(ms2000::version(), "identify", [this](error_code ec, const ms2000::reply& r) {
+        if (command_aborted(ec)) return;
         if (identify_failed(ec)) return disconnect(ec, "identify (V)");
         apply_version(snapshot_, r);
     });
     // reply: "STD_XYZ\rMotor Axes: X Y Z\r...\r\n"
-    enqueue_internal(ms2000::build_x(), "identify", [this, self](error_code ec, const ms2000::reply& r) {
-        if (aborted(ec) || !snapshot_.identity) return;
+    link_.enqueue_internal(ms2000::build_x(), "identify", [this](error_code ec, const ms2000::reply& r) {
+        if (command_aborted(ec) || !snapshot_.identity) return;
         if (identify_failed(ec)) return disconnect(ec, "identify (BU X)");
         // Firmware without BU X: the smallest MS-2000, an XY stage.
         if (!apply_build(snapshot_, ec ? nullptr : &r)) log_->warn("no motor axes from BU X, assuming XY");
-        const auto axes = motor_axes();
+        const auto axes = snapshot_.motor_axes();
 
         // reply: ":A X=10000.000000 Y=10000.000000"
-        enqueue_internal(ms2000::query("CNTS", axes), "identify",
-                         [this](error_code ec, const ms2000::reply& r) {
-                             if (aborted(ec)) return;
-                             if (identify_failed(ec)) return disconnect(ec, "identify (CNTS)");
-                             if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::counts_per_mm);
-                         });
-        enqueue_internal(ms2000::query("SL", axes), "identify",
-                         [this](error_code ec, const ms2000::reply& r) {
-                             if (aborted(ec)) return;
-                             if (identify_failed(ec)) return disconnect(ec, "identify (SL)");
-                             if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::lower_limit_mm);
-                         });
-        enqueue_internal(ms2000::query("SU", axes), "identify",
-                         [this](error_code ec, const ms2000::reply& r) {
-                             if (aborted(ec)) return;
-                             if (identify_failed(ec)) return disconnect(ec, "identify (SU)");
-                             if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::upper_limit_mm);
-                         });
+        link_.enqueue_internal(ms2000::query("CNTS", axes), "identify",
+                               [this](error_code ec, const ms2000::reply& r) {
+                                   if (command_aborted(ec)) return;
+                                   if (identify_failed(ec)) return disconnect(ec, "identify (CNTS)");
+                                   if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::counts_per_mm);
+                               });
+        link_.enqueue_internal(ms2000::query("SL", axes), "identify",
+                               [this](error_code ec, const ms2000::reply& r) {
+                                   if (command_aborted(ec)) return;
+                                   if (identify_failed(ec)) return disconnect(ec, "identify (SL)");
+                                   if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::lower_limit_mm);
+                               });
+        link_.enqueue_internal(ms2000::query("SU", axes), "identify",
+                               [this](error_code ec, const ms2000::reply& r) {
+                                   if (command_aborted(ec)) return;
+                                   if (identify_failed(ec)) return disconnect(ec, "identify (SU)");
+                                   if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::upper_limit_mm);
+                               });
         // reply: ":A X=0 Y=0"
-        enqueue_internal(ms2000::query("TTL", "XY"), "identify",
-                         [this](error_code ec, const ms2000::reply& r) {
-                             if (aborted(ec)) return;
-                             if (identify_failed(ec)) return disconnect(ec, "identify (TTL)");
-                             if (!ec) apply_ttl_modes(snapshot_, r);
-                         });
+        link_.enqueue_internal(ms2000::query("TTL", "XY"), "identify",
+                               [this](error_code ec, const ms2000::reply& r) {
+                                   if (command_aborted(ec)) return;
+                                   if (identify_failed(ec)) return disconnect(ec, "identify (TTL)");
+                                   if (!ec) apply_ttl_modes(snapshot_, r);
+                               });
         // What the error log holds is news to this connection (the controller may have been power-
         // cycled): read before the controller counts as connected, so no command waits behind it.
         // A controller that cannot answer it is still connected.
-        enqueue_internal(ms2000::read_error_log(), "identify", [this](error_code ec, const ms2000::reply& r) {
-            if (aborted(ec)) return;
-            error_log_read_at_ = steady_clock::now();
-            on_error_log_read(ec, r);
-            on_identified();
-        });
+        link_.enqueue_internal(ms2000::read_error_log(), "identify",
+                               [this](error_code ec, const ms2000::reply& r) {
+                                   if (command_aborted(ec)) return;
+                                   error_log_.identification_read(ec, r);
+                                   on_identified();
+                               });
     });
 }
 
 void controller::refresh_ttl_modes() {
     // The modes are read back rather than taken from the command: the controller may clamp or refuse
     // part of it, and whoever restores them later must see what the controller really has.
-    enqueue_internal(ms2000::query("TTL", "XY"), "refresh", [this](error_code ec, const ms2000::reply& r) {
-        if (!ec) apply_ttl_modes(snapshot_, r);
-    });
+    link_.enqueue_internal(ms2000::query("TTL", "XY"), "refresh",
+                           [this](error_code ec, const ms2000::reply& r) {
+                               if (!ec) apply_ttl_modes(snapshot_, r);
+                           });
 }
 
 void controller::refresh_soft_limits() {
     // Read back, as the TTL modes are: the controller refuses an upper limit below the lower one, and
     // jobs check their targets against these.
-    const auto axes = motor_axes();
-    enqueue_internal(ms2000::query("SL", axes), "refresh", [this](error_code ec, const ms2000::reply& r) {
-        if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::lower_limit_mm);
-    });
-    enqueue_internal(ms2000::query("SU", axes), "refresh", [this](error_code ec, const ms2000::reply& r) {
-        if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::upper_limit_mm);
-    });
+    const auto axes = snapshot_.motor_axes();
+    link_.enqueue_internal(ms2000::query("SL", axes), "refresh",
+                           [this](error_code ec, const ms2000::reply& r) {
+                               if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::lower_limit_mm);
+                           });
+    link_.enqueue_internal(ms2000::query("SU", axes), "refresh",
+                           [this](error_code ec, const ms2000::reply& r) {
+                               if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::upper_limit_mm);
+                           });
 }
 
 void controller::on_identified() {
@@ -981,292 +330,76 @@ void controller::on_identified() {
     snapshot_.next_retry.reset();
     const auto& id = *snapshot_.identity;
     log_->info("identified: version {}, build {}, axes {}", id.version, id.build.name, id.build.motor_axes);
-    open_report_port();
-    poll_due_ = settings_.poll_interval.count() > 0;
-    arm_poll_timer();
-    publish_snapshot();
+    report_.open();
+    poller_.start();
+    outlet_.publish_snapshot();
 }
 
-void controller::arm_poll_timer() {
-    if (settings_.poll_interval.count() <= 0) return;
-    poll_timer_.expires_after(settings_.poll_interval);
-    poll_timer_.async_wait([self = shared_from_this(), generation = generation_](error_code ec) {
-        if (ec || generation != self->generation_) return;
-        // At most one poll round: a round still running absorbs this tick.
-        if (self->poll_step_ == poll_step::idle && self->poll_round_wanted()) self->poll_due_ = true;
-        self->note_error_log_occasions();
-        self->pump();
-        self->arm_poll_timer();
-    });
+// ---- what the parts ask ------------------------------------------------------------------------
+
+std::optional<queued_command> controller::next_background_command() {
+    // The error log's next step goes ahead of the poll's: both wait behind the clients' commands.
+    if (auto job = error_log_.next_command()) return job;
+    return poller_.next_command();
 }
 
-bool controller::poll_round_wanted() const {
-    return round_watches_change(snapshot_, changed_since_poll_) ||
-           steady_clock::now() - last_poll_round_ >= settings_.idle_poll_interval;
-}
-
-bool controller::idle_round_yields() const {
-    if (round_watches_change(snapshot_, changed_since_poll_)) return false;
-    const auto now = steady_clock::now();
-    return now - last_user_answer_ < settings_.client_pause &&
-           now - last_poll_round_ < 2 * settings_.idle_poll_interval;
-}
-
-std::optional<controller::pending> controller::next_poll_command() {
-    if (snapshot_.state != connection_state::connected) return std::nullopt;
-    if (poll_step_ == poll_step::idle) {
-        // A yielding round stays due: the next tick, or the next answer, looks again.
-        if (!poll_due_ || idle_round_yields()) return std::nullopt;
-        poll_due_ = false;
-        poll_step_ = poll_step::status;
-        last_poll_round_ = steady_clock::now();
-        changed_since_poll_ = false;
-    }
-    const auto axes = motor_axes();
-    const auto step = poll_step_;
-    const auto index = poll_axis_;
-    auto handler = [this, self = shared_from_this(), step, index](error_code ec, const ms2000::reply& r) {
-        on_poll_reply(step, index, ec, r);
-    };
-    switch (step) {
-        case poll_step::where:
-            return pending{ms2000::where(axes), "poll", {}, std::move(handler), true};
-        case poll_step::status:
-            return pending{ms2000::status(), "poll", {}, std::move(handler), true};
-        case poll_step::axis_status:
-            return pending{ms2000::query("RS", axes.substr(index, 1)), "poll", {}, std::move(handler), true};
-        case poll_step::crisp:
-            return pending{ms2000::crisp_state_query(), "poll", {}, std::move(handler), true};
-        case poll_step::idle:
-            break;
-    }
-    return std::nullopt;
-}
-
-void controller::note_busy(bool busy) {
-    snapshot_.busy = busy;
-    if (busy) return;  // which axes move is for "RS <axis>?" to say
-    for (auto& a : snapshot_.axes)
-        a.busy = false;
-}
-
-void controller::on_poll_reply(poll_step step, std::size_t axis_index, error_code ec,
-                               const ms2000::reply& r) {
-    if (step == poll_step::crisp && ec == ms2000::error::controller_rejected) {
-        // A build that names CRISP but refuses LK X?: the round ends without it from now on.
-        log_->warn("LK X? refused: the CRISP state is not polled on this connection");
-        crisp_refused_ = true;
-        snapshot_.crisp_state.reset();
-        poll_step_ = poll_step::idle;
-        return;
-    }
-    if (ec) {
-        // Give up this round; the next tick starts a new one (at once: nothing fresh was read).
-        poll_step_ = poll_step::idle;
-        changed_since_poll_ = true;
-        if (!aborted(ec)) log_error("poll", ec);
-        return;
-    }
-    switch (step) {
-        case poll_step::status:
-            polled_busy_ = r.busy;  // reply: "B" or "N"
-            poll_step_ = poll_step::where;
-            return;
-        case poll_step::where:
-            apply_where(snapshot_, r);
-            snapshot_.positions_read = system_clock::now();
-            // The end of a move: a target beyond a soft limit was clamped and logged (34/35).
-            if (snapshot_.busy && !polled_busy_) error_log_due_ = true;
-            note_busy(polled_busy_);
-            if (polled_busy_ && !snapshot_.axes.empty()) {
-                poll_step_ = poll_step::axis_status;
-                poll_axis_ = 0;
-                return;
-            }
-            break;
-        case poll_step::axis_status: {
-            apply_axis_busy(snapshot_, axis_index, r);
-            poll_axis_ = axis_index + 1;
-            if (poll_axis_ < snapshot_.axes.size()) return;
-            break;
-        }
-        case poll_step::crisp:
-            snapshot_.crisp_state = ms2000::crisp_state_of(r);
-            poll_step_ = poll_step::idle;
-            snapshot_.updated = system_clock::now();
-            return;
-        case poll_step::idle:
-            break;
-    }
-    // A controller with CRISP: its lock state ends the round.
-    if (!crisp_refused_ && snapshot_.identity && snapshot_.identity->build.has(ms2000::module::crisp)) {
-        poll_step_ = poll_step::crisp;
-        return;
-    }
-    poll_step_ = poll_step::idle;
-    snapshot_.updated = system_clock::now();
-}
-
-// ---- report port ------------------------------------------------------------------------------
-
-void controller::open_report_port() {
-    if (settings_.report_port.empty() || report_port_.is_open()) return;
-    if (auto ec = report_port_.open(settings_.report_port, settings_.baud)) {
-        log_error("cannot open report port", ec);
-        snapshot_.report = report_port_state::closed;
-        return;
-    }
-    decoder_.emplace(ms2000::report_format::binary, snapshot_.axes.size());
-    snapshot_.report = report_port_state::open;
-    log_->info("report port {} open", settings_.report_port);
-    do_report_read(++report_generation_);
-    publish_snapshot();
-}
-
-void controller::close_report_port() {
-    ++report_generation_;
-    report_port_.close();
-    if (!settings_.report_port.empty()) snapshot_.report = report_port_state::closed;
-}
-
-void controller::do_report_read(std::uint64_t generation) {
-    report_port_.stream().async_read_some(
-        net::buffer(report_buffer_),
-        net::bind_executor(strand_, [self = shared_from_this(), generation](error_code ec, std::size_t n) {
-            self->on_report_read(generation, ec, n);
-        }));
-}
-
-void controller::on_report_read(std::uint64_t generation, error_code ec, std::size_t bytes) {
-    if (generation != report_generation_) return;
-    if (ec) {
-        log_error("report port read", ec);
-        close_report_port();
-        publish_snapshot();
-        return;
-    }
-    guarded("reading the report port", [&] { on_report_bytes(bytes); });
-    if (generation != report_generation_) return;
-    do_report_read(generation);
-}
-
-void controller::on_report_bytes(std::size_t bytes) {
-    const auto steady_now = steady_clock::now();
-    const auto system_now = system_clock::now();
-    frames_.clear();
-    decoder_->feed(std::span<const std::uint8_t>(report_buffer_.data(), bytes), frames_);
-    report_activity_ = true;
-    last_report_bytes_ = steady_now;
-    for (const auto& frame : frames_) {
-        report_event event;
-        event.controller_id = settings_.id;
-        event.sequence = ++report_sequence_;
-        event.steady_time = steady_now;
-        event.system_time = system_now;
-        event.bytes_skipped = decoder_->bytes_skipped();
-        for (const auto& count : frame.axes) {
-            report_event::axis a{count.axis, count.count, std::nullopt};
-            if (const auto* state = snapshot_.axis(count.axis);
-                state && state->counts_per_mm && *state->counts_per_mm != 0) {
-                a.position_um = count.count / *state->counts_per_mm * 1000.0;
-            }
-            event.axes.push_back(a);
-        }
-        if (log_->should_log(spdlog::level::trace)) log_->trace("report #{}", event.sequence);
-        notify("report", [&](controller_observer& o) { o.on_report(event); });
+void controller::client_command_finished(const ms2000::command& cmd, error_code ec,
+                                         const ms2000::reply* reply) {
+    if (!ec && sets_ttl_mode(cmd)) refresh_ttl_modes();
+    if (!ec && sets_soft_limit(cmd)) refresh_soft_limits();
+    poller_.client_command_finished(cmd, ec, reply);
+    if (!ec) return;
+    if (ec == ms2000::error::controller_rejected && reply) {
+        note_error(reply->error_code, std::string(ms2000::controller_error_name(reply->error_code)),
+                   std::string(ms2000::controller_error_description(reply->error_code)));
+    } else {
+        note_error(0, ec.message(), "command \"" + escape_control(cmd.wire) + "\" failed");
     }
 }
 
-// ---- events -----------------------------------------------------------------------------------
-
-void controller::publish_snapshot() {
-    if (published_ && same_content(*published_, snapshot_)) return;
-    if (!published_ || published_->state != snapshot_.state)
-        log_->info("state {}", to_string(snapshot_.state));
-    snapshot_.updated = system_clock::now();
-    published_ = snapshot_;
-    notify("snapshot", [&](controller_observer& o) { o.on_snapshot(snapshot_); });
+void controller::client_answered(error_code ec) {
+    // A command the controller refused may have left a code in its error log (a job step too).
+    if (ec == ms2000::error::controller_rejected) error_log_.read_soon();
+    poller_.client_answered();
 }
 
-void controller::publish_error_log(const error_log_event& event) {
-    notify("error_log", [&](controller_observer& o) { o.on_error_log(event); });
-}
-
-template <typename Notify>
-void controller::notify(const char* what, Notify&& call) {
-    auto obs = observer_.lock();
-    if (!obs) return;
-    try {
-        call(*obs);
-    } catch (const std::exception& e) {
-        // An observer's fault stays with the event it failed on: the link is not to blame.
-        std::uint64_t suppressed = 0;
-        if (error_limiter_.allow(steady_clock::now(), suppressed))
-            log_->error("observer failed on {} event: {} ({} similar suppressed)", what, e.what(),
-                        suppressed);
-        report_fault(link_fault::kind::contained);
+void controller::position_report(const ms2000::position_report_line& report) {
+    ttl_event event;
+    event.controller_id = settings_.id;
+    event.sequence = ++ttl_sequence_;
+    event.steady_time = steady_clock::now();
+    event.system_time = system_clock::now();
+    event.controller_ms = report.milliseconds;
+    const auto axes = snapshot_.motor_axes();
+    for (std::size_t i = 0; i < report.positions.size(); ++i) {
+        const char letter = i < axes.size() ? axes[i] : '?';
+        event.axes.push_back({letter, report.positions[i] / 10.0});
     }
-}
-
-template <typename Body>
-void controller::guarded(const char* where, Body&& body) {
-    try {
-        body();
-    } catch (const std::exception& e) {
-        contain(where, e);
-    }
+    outlet_.ttl(event);
 }
 
 void controller::contain(const char* where, const std::exception& e) {
-    // Whatever this controller's input did, it ends here: logged, counted, and the connection reset so
-    // that no half-updated state is used. The other controllers never see it.
-    log_->error("{}: {}; resetting the connection", where, e.what());
-    report_fault(link_fault::kind::contained);
+    outlet_.contained(where, e);
     disconnect(make_error_code(boost::system::errc::io_error), where);
 }
 
-void controller::report_fault(link_fault::kind kind) {
-    auto obs = observer_.lock();
-    if (!obs) return;
-    try {
-        obs->on_link_fault(link_fault{settings_.id, kind});
-    } catch (const std::exception& e) {
-        log_->error("observer failed on link fault: {}", e.what());
-    }
+void controller::poll_tick() {
+    error_log_.note_occasions();
+    link_.pump();
+}
+
+void controller::move_ended() {
+    // A target beyond a soft limit was clamped and logged (34/35).
+    error_log_.read_soon();
+}
+
+void controller::report_bytes_arrived(steady_clock::time_point at) {
+    error_log_.note_report_bytes(at);
 }
 
 void controller::note_error(int code, std::string name, std::string text) {
     snapshot_.last_error =
         controller_error_info{code, std::move(name), std::move(text), {}, system_clock::now()};
-}
-
-void controller::trace(const pending& job, std::chrono::microseconds latency, error_code ec,
-                       const std::string& raw) {
-    auto obs = observer_.lock();
-    if (!obs) return;
-    command_trace t;
-    t.controller_id = settings_.id;
-    t.request_id = job.request_id;
-    t.internal = static_cast<bool>(job.internal);
-    t.wire = escape_control(job.cmd.wire);
-    t.raw_reply = escape_control(raw);
-    t.error = ec;
-    t.latency = latency;
-    try {
-        obs->on_trace(t);
-    } catch (const std::exception& e) {
-        log_->error("observer failed on trace: {}", e.what());
-        report_fault(link_fault::kind::contained);
-    }
-}
-
-void controller::log_error(const char* what, error_code ec) {
-    std::uint64_t suppressed = 0;
-    if (!error_limiter_.allow(steady_clock::now(), suppressed)) return;
-    if (suppressed > 0)
-        log_->error("{}: {} ({} similar messages suppressed)", what, ec.message(), suppressed);
-    else
-        log_->error("{}: {}", what, ec.message());
 }
 
 }  // namespace gw::devices

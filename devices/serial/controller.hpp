@@ -11,18 +11,20 @@
 // that does not fit, or bytes nobody asked for, the link is out of step and no command is released
 // until it is resynchronised (devices/serial/README.md, "Reply matching"); HALT jumps the queue; polls
 // never pile up (at most one poll round, and user commands go ahead of the poll's next step).
+//
+// Inside, the controller is a facade over parts with one job each, plain objects on its strand that
+// talk to it through their owner interfaces: command_link (the port, the queue, reply matching,
+// resynchronisation), poller, error_log_reader, report_port, and event_outlet (the way out to the
+// observer). The controller itself keeps the connection's life cycle (open, identify, reconnect,
+// stop) and what crosses between the parts.
 
-#include <array>
-#include <atomic>
 #include <chrono>
 #include <cstdint>
-#include <deque>
 #include <exception>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <string>
-#include <vector>
 
 #include <boost/asio/any_completion_handler.hpp>
 #include <boost/asio/any_io_executor.hpp>
@@ -32,15 +34,17 @@
 #include <boost/system/error_code.hpp>
 
 #include "devices/ms2000/command.hpp"
-#include "devices/ms2000/line_framer.hpp"
 #include "devices/ms2000/reply.hpp"
-#include "devices/ms2000/report_frame.hpp"
+#include "devices/serial/command_link.hpp"
+#include "devices/serial/command_queue.hpp"
 #include "devices/serial/connection_problem.hpp"
 #include "devices/serial/controller_observer.hpp"
 #include "devices/serial/controller_settings.hpp"
 #include "devices/serial/controller_snapshot.hpp"
-#include "devices/serial/log_limiter.hpp"
-#include "devices/serial/serial_port.hpp"
+#include "devices/serial/error_log_reader.hpp"
+#include "devices/serial/event_outlet.hpp"
+#include "devices/serial/poller.hpp"
+#include "devices/serial/report_port.hpp"
 
 namespace spdlog {
 class logger;
@@ -48,7 +52,10 @@ class logger;
 
 namespace gw::devices {
 
-class controller : public std::enable_shared_from_this<controller> {
+class controller : public std::enable_shared_from_this<controller>,
+                   private command_link::owner,
+                   private poller::owner,
+                   private report_port::owner {
   public:
     using completion_signature = void(boost::system::error_code, ms2000::reply);
     using completion_handler = boost::asio::any_completion_handler<completion_signature>;
@@ -101,53 +108,14 @@ class controller : public std::enable_shared_from_this<controller> {
 
     // HALT commands this controller accepted (queued for the wire, or refused for a closed port: the
     // intent to stop counts), since it was made. Any thread.
-    std::uint64_t halts_accepted() const { return halts_accepted_.load(std::memory_order_acquire); }
+    std::uint64_t halts_accepted() const { return link_.halts_accepted(); }
 
     // Delivers a copy of the current snapshot (from the strand) to `handler`, which runs on the strand.
     void get_snapshot(std::function<void(controller_snapshot)> handler);
 
   private:
-    using internal_handler = std::function<void(boost::system::error_code, const ms2000::reply&)>;
-
-    struct pending {
-        ms2000::command cmd;
-        std::string request_id;
-        completion_handler user;    // set for user commands
-        internal_handler internal;  // set for the driver's own (identify, poll, resync probe)
-        bool poll = false;          // a step of the poll round (dropped, not requeued, when held back)
-        bool error_log = false;     // a read or clear of the error log (likewise: it waits for its turn)
-        bool probe = false;         // the resynchronisation probe
-        bool resent = false;        // a HALT sent again after the link was resynchronised
-        // async_guarded_command: the halts_accepted() its caller last saw.
-        std::optional<std::uint64_t> halts_seen;
-    };
-
-    struct in_flight {
-        pending job;
-        std::uint64_t sequence = 0;
-        bool accepting = false;  // lines before the command is written are stale
-        std::chrono::steady_clock::time_point started;
-        bool write_done = false;  // the write completed (a reply may come first)
-        // A reply identical to the previous answer, held for repeated_reply_window: it is this
-        // command's answer if no other line follows, a copy of the previous one if one does.
-        std::optional<ms2000::reply> held;
-    };
-
-    // A round asks "/" first and applies its answer with the positions read after it, so a snapshot
-    // that says a move ended also says where it ended.
-    enum class poll_step : std::uint8_t { idle, status, where, axis_status, crisp };
-
-    // Whether replies can be matched to commands. in_step: yes. out_of_step: a fault was seen, a
-    // resynchronisation starts at the next pump. draining: waiting for the line to stay quiet for
-    // resync_quiet. probing: the V probe is in flight. confirming: the probe was answered, the line
-    // must stay quiet once more (a second answer means the first was a late one).
-    enum class link_sync : std::uint8_t { in_step, out_of_step, draining, probing, confirming };
-
     void submit(ms2000::command cmd, std::string request_id, completion_handler handler,
                 std::optional<std::uint64_t> halts_seen = std::nullopt);
-    void on_submit(pending job);
-    // A HALT was accepted: the guarded commands in the user queue fail with error::halted.
-    void drop_guarded_commands();
 
     // Connection life cycle.
     void do_connect();
@@ -156,179 +124,45 @@ class controller : public std::enable_shared_from_this<controller> {
     // The attempt failed: state unreachable, last_error = problem, the retry scheduled, published.
     void set_unreachable(const connection_problem& problem);
     void watch_for_node();
-    void disconnect(boost::system::error_code ec, const char* what);
-    void fail_all(boost::system::error_code ec);
     void arm_presence_check();
+    void disconnect(boost::system::error_code ec, const char* what) override;
 
-    // Main port I/O.
-    void do_read(std::uint64_t generation);
-    bool read_available(std::uint64_t generation);  // false: more may wait (read again later)
-    void on_bytes(std::uint64_t generation, std::size_t bytes);
-    void hand_over_answers();
-    void on_line(const std::string& line);
-    void pump();
-    std::optional<pending> take_next();
-    void start_in_flight(pending job);
-    void hold_back_in_flight();
-    // `input_just_flushed`: the port's input was dropped a moment ago (start_in_flight): no byte can
-    // be waiting to be read yet, and asking the kernel again would only cost a system call.
-    void do_write(std::uint64_t sequence, bool input_just_flushed = false);
-    bool bytes_waiting_in_port();
-    void note_line_pace(std::size_t characters, std::chrono::steady_clock::duration round_trip);
-    void on_write(std::uint64_t sequence, boost::system::error_code ec);
-    void on_timeout(std::uint64_t sequence);
-    void finish(boost::system::error_code ec, std::optional<ms2000::reply> reply, const std::string& raw);
-    void complete(pending& job, boost::system::error_code ec, ms2000::reply reply);
-
-    // Resynchronisation (link_sync).
-    void mark_out_of_step(link_fault::kind kind, const char* why);
-    void start_drain();
-    void arm_quiet_timer();
-    void on_quiet_window();
-    void send_probe();
-    void on_probe_reply(boost::system::error_code ec, const ms2000::reply& reply);
-    void retry_resync(const char* why);
-    void reset_sync();
-
-    // Identification and polling.
-    void enqueue_internal(ms2000::command cmd, const char* tag, internal_handler handler);
+    // Identification, and the settings read back after a client changed them.
     void identify();
     void on_identified();
     void refresh_ttl_modes();
     void refresh_soft_limits();  // SL/SU after a client set one
-    void arm_poll_timer();
-    bool poll_round_wanted() const;  // see controller_settings::idle_poll_interval
-    bool idle_round_yields() const;  // see controller_settings::client_pause
-    std::optional<pending> next_poll_command();
-    void on_poll_reply(poll_step step, std::size_t axis_index, boost::system::error_code ec,
-                       const ms2000::reply& reply);
-    std::string motor_axes() const;
 
-    // The error log (controller_error_log.cpp).
-    void note_error_log_occasions();  // on each poll tick: the schedule, a report stream gone quiet
-    std::optional<pending> next_error_log_command();
-    void on_error_log_read(boost::system::error_code ec, const ms2000::reply& reply);
-    void on_error_log_cleared(boost::system::error_code ec, const ms2000::reply& reply);
-    bool error_log_clear_is_safe(std::size_t logged) const;
-    void retry_error_log_step();  // a step held back (a HALT jumped in): due again
+    // What the parts ask of the controller (their owner interfaces).
+    std::shared_ptr<void> keep_alive() override { return shared_from_this(); }
+    std::optional<queued_command> next_background_command() override;
+    void client_command_finished(const ms2000::command& cmd, boost::system::error_code ec,
+                                 const ms2000::reply* reply) override;
+    void client_answered(boost::system::error_code ec) override;
+    void position_report(const ms2000::position_report_line& report) override;
+    bool identified() const override { return snapshot_.state == connection_state::connected; }
+    void contain(const char* where, const std::exception& e) override;
+    void poll_tick() override;
+    void move_ended() override;
+    void report_bytes_arrived(std::chrono::steady_clock::time_point at) override;
 
-    // Report port.
-    void open_report_port();
-    void do_report_read(std::uint64_t generation);
-    void on_report_read(std::uint64_t generation, boost::system::error_code ec, std::size_t bytes);
-    void on_report_bytes(std::size_t bytes);
-    void close_report_port();
-
-    // Events.
-    void publish_snapshot();
-    void publish_error_log(const error_log_event& event);
-    template <typename Notify>
-    void notify(const char* what, Notify&& call);
-    template <typename Body>
-    void guarded(const char* where, Body&& body);
-    void contain(const char* where, const std::exception& e);
-    void report_fault(link_fault::kind kind);
     void note_error(int code, std::string name, std::string text);
-    void trace(const pending& job, std::chrono::microseconds latency, boost::system::error_code ec,
-               const std::string& raw);
-    void log_error(const char* what, boost::system::error_code ec);
 
     controller_settings settings_;
     boost::asio::strand<boost::asio::any_io_executor> strand_;
-    std::weak_ptr<controller_observer> observer_;
     std::shared_ptr<spdlog::logger> log_;
+    controller_snapshot snapshot_;
+    event_outlet outlet_;
+    command_link link_;
+    poller poller_;
+    error_log_reader error_log_;
+    report_port report_;
 
-    serial_port port_;
-    std::uint64_t generation_ = 0;  // bumped on every close, so old read handlers are ignored
-    std::array<char, 512> read_buffer_{};
-    std::uint64_t read_wait_generation_ = 0;         // the generation whose readiness wait is armed; 0: none
-    bool handling_read_ = false;                     // inside do_read: a command's write waits for its end
-    std::optional<std::uint64_t> write_after_read_;  // that command's sequence
-    struct answer {
-        completion_handler handler;
-        boost::system::error_code ec;
-        ms2000::reply reply;
-    };
-    std::vector<answer> answered_in_read_;  // user commands answered inside do_read, handed over at its end
-    ms2000::line_framer framer_;
-    std::vector<std::string> lines_;
-
-    boost::asio::steady_timer command_timer_;
-    boost::asio::steady_timer resync_timer_;
     boost::asio::steady_timer reconnect_timer_;
-    boost::asio::steady_timer poll_timer_;
     boost::asio::steady_timer presence_timer_;
-    boost::asio::steady_timer guard_timer_;
-    // One character on the line (10 bits): the configured baud rate's, or less once an answer has
-    // proven the line faster (a pty, a USB device that ignores the baud rate). The guard before a
-    // write is one and a half of them after the last byte read.
-    std::chrono::steady_clock::duration char_time_;
-    std::chrono::steady_clock::time_point last_read_{};
-    // The last reply taken as an answer: a repeat of it soon after, for another command, is suspect.
-    struct answered {
-        std::string line;
-        std::string wire;  // the command it answered
-        std::chrono::steady_clock::time_point at{};
-    };
-    answered last_answer_;
-    bool repeats_last_answer(const ms2000::command& cmd, const ms2000::reply& r,
-                             const std::string& line) const;
-    void arm_command_timer(std::chrono::steady_clock::duration after, std::uint64_t sequence);
-    void accept(ms2000::reply r, const std::string& line);
-    void note_busy(bool busy);  // a "/" answer: the stage (and, if stopped, every axis) moving or not
     std::chrono::milliseconds backoff_;
     bool node_gone_ = false;  // the device node vanished since the last connection attempt
-    // Bytes received since the port was opened, until identified, and the first of them.
-    static constexpr std::size_t attempt_sample_limit = 48;
-    std::uint64_t attempt_bytes_ = 0;
-    std::string attempt_sample_;
-
-    std::optional<in_flight> in_flight_;
-    std::uint64_t next_sequence_ = 1;
-    link_sync sync_ = link_sync::in_step;
-    bool line_noise_ = false;  // bytes arrived while draining or confirming
-    std::size_t probe_attempts_ = 0;
-    std::uint64_t quiet_round_ = 0;  // bumped on every quiet-window timer, so an old expiry is ignored
-    std::chrono::steady_clock::time_point resync_started_;
-    std::deque<pending> halts_;
-    std::atomic<std::uint64_t> halts_accepted_{0};  // written on the strand only
-    std::deque<pending> internal_queue_;
-    std::deque<pending> user_queue_;
-    poll_step poll_step_ = poll_step::idle;
-    bool poll_due_ = false;
-    // For the idle poll interval: when the last round started, and whether a command that may move
-    // the stage (or change what a poll reads) ran since.
-    std::chrono::steady_clock::time_point last_poll_round_;
-    bool changed_since_poll_ = true;
-    std::chrono::steady_clock::time_point last_user_answer_{};  // a client's command last completed
-    std::size_t poll_axis_ = 0;
-    bool polled_busy_ = false;    // this round's answer to "/", applied with its positions
-    bool crisp_refused_ = false;  // LK X? answered :N- on this connection: not polled again
-
-    enum class error_log_step : std::uint8_t { idle, reading, clearing, unsupported };
-    error_log_step error_log_step_ = error_log_step::idle;
-    bool error_log_due_ = false;
-    bool error_log_clear_due_ = false;
-    std::vector<int> error_log_seen_;     // the codes read since the log was last cleared
-    std::size_t error_log_failures_ = 0;  // reads in a row that got no usable answer
-    std::chrono::steady_clock::time_point error_log_read_at_;
-    // Report frames arrived since the log was last read: once the stream is quiet, it is read.
-    bool report_activity_ = false;
-    std::chrono::steady_clock::time_point last_report_bytes_;
-
-    serial_port report_port_;
-    std::uint64_t report_generation_ = 0;
-    std::array<std::uint8_t, 512> report_buffer_{};
-    std::optional<ms2000::report_decoder> decoder_;
-    std::vector<ms2000::report_frame> frames_;
-    std::uint64_t report_sequence_ = 0;
     std::uint64_t ttl_sequence_ = 0;
-
-    controller_snapshot snapshot_;
-    std::optional<controller_snapshot> published_;
-    log_limiter error_limiter_;
-    log_limiter sync_limiter_;
-    std::uint64_t stale_lines_ = 0;
     bool stopped_ = false;
 };
 

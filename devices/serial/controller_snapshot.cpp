@@ -38,6 +38,13 @@ const axis_state* controller_snapshot::axis(char letter) const {
     return nullptr;
 }
 
+std::string controller_snapshot::motor_axes() const {
+    std::string letters;
+    for (const auto& a : axes)
+        letters += a.axis;
+    return letters;
+}
+
 namespace {
 
 bool same_identity(const std::optional<controller_identity>& a, const std::optional<controller_identity>& b) {

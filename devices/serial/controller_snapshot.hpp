@@ -100,6 +100,7 @@ struct controller_snapshot {
     std::optional<halt_latch> halted;
 
     const axis_state* axis(char letter) const;
+    std::string motor_axes() const;  // the axes' letters in hardware order: "XYZ"
 };
 
 // True when everything but `updated` and `positions_read` is equal (snapshots are only published on a

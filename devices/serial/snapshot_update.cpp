@@ -75,4 +75,11 @@ void apply_axis_busy(controller_snapshot& s, std::size_t axis_index, const ms200
     a.busy = text == "B";
 }
 
+void apply_busy(controller_snapshot& s, bool busy) {
+    s.busy = busy;
+    if (busy) return;
+    for (auto& a : s.axes)
+        a.busy = false;
+}
+
 }  // namespace gw::devices

@@ -25,5 +25,7 @@ void apply_ttl_modes(controller_snapshot& s, const ms2000::reply& r);
 void apply_where(controller_snapshot& s, const ms2000::reply& r);
 // RS <axis>?: whether that axis is busy.
 void apply_axis_busy(controller_snapshot& s, std::size_t axis_index, const ms2000::reply& r);
+// "/": whether the stage moves; when it does not, no axis does (which axes move is for RS to say).
+void apply_busy(controller_snapshot& s, bool busy);
 
 }  // namespace gw::devices
