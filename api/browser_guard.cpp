@@ -50,6 +50,18 @@ bool is_loopback_host(std::string_view host) {
     return !ec && address.is_loopback();
 }
 
+bool is_json_content_type(std::string_view type) {
+    auto media = type.substr(0, type.find(';'));
+    while (!media.empty() && media.back() == ' ')
+        media.remove_suffix(1);
+    return beast::iequals(beast::string_view(media.data(), media.size()), "application/json");
+}
+
+problem unsupported_media_type_problem() {
+    return make_problem(http_error::unsupported_media_type,
+                        "a JSON body needs Content-Type: application/json (curl: --json '{...}')");
+}
+
 std::optional<problem> browser_refusal(const http::request_header<>& req, const browser_rules& rules,
                                        bool upgrade) {
     if (req.method() == http::verb::post && is_halt_target(target_path(req.target()))) return std::nullopt;

@@ -10,7 +10,9 @@
 //     own (its host and port are the Host header's) nor in http.allowed_origins is 403
 //     cross-origin. No Origin (curl, scripts, other programs) is no browser's: not judged here.
 //   - A HALT is judged by neither: stopping a stage is safe whoever asks.
-// Content types are judged where a JSON body is read (request_context::json_body: 415).
+//   - A JSON body must say so (Content-Type: application/json): a page can post a form or text/plain
+//     to another site without the browser asking first, but not JSON. 415 otherwise, judged from the
+//     header (router's refusal_from_header) and where a body is read (request_context::json_body).
 
 #include <optional>
 #include <string>
@@ -32,6 +34,10 @@ struct browser_rules {
 std::string host_name_of(std::string_view host_header);
 // "localhost", or an IPv4/IPv6 loopback address.
 bool is_loopback_host(std::string_view host);
+
+// True for "application/json" with any parameters ("; charset=utf-8"), in any case.
+bool is_json_content_type(std::string_view content_type);
+problem unsupported_media_type_problem();
 
 // Why the request must be refused (421 or 403), or nothing. `upgrade`: a WebSocket upgrade.
 std::optional<problem> browser_refusal(const http::request_header<>& request, const browser_rules& rules,

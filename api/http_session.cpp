@@ -199,6 +199,12 @@ void http_session::on_header(beast::error_code ec, std::size_t) {
         auto& r = *program.refusal;
         return do_write(std::move(r.response), std::move(r.route), true);
     }
+    // What the header decides (route, caller, browser rules, media type) is answered before the body
+    // costs anything; the connection closes without reading it.
+    if (has_body && !program.intake) {
+        if (auto refused = refusal_from_header(*ctx_, header, request_id_))
+            return do_write(std::move(refused->response), std::move(refused->route), true);
+    }
     // Any other body is held in memory: it must fit in the budget of all bodies (a chunked one may
     // grow to the route's limit).
     const std::uint64_t in_memory = program.intake ? upload_chunk_bytes

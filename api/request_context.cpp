@@ -2,6 +2,7 @@
 
 #include <boost/asio/bind_executor.hpp>
 
+#include "api/browser_guard.hpp"
 #include "gateway/common/json_text.hpp"
 
 namespace gw::api {
@@ -61,11 +62,8 @@ std::optional<nlohmann::json> request_context::json_body() {
     nlohmann::json body;
     if (req.body().empty()) return body;
     // A page of another site can post a form or text/plain without asking first; JSON it cannot.
-    const std::string_view type = req[http::field::content_type];
-    const auto media = type.substr(0, type.find(';'));
-    if (!beast::iequals(beast::string_view(media.data(), media.size()), "application/json")) {
-        fail(make_problem(http_error::unsupported_media_type,
-                          "a JSON body needs Content-Type: application/json (curl: --json '{...}')"));
+    if (!is_json_content_type(req[http::field::content_type])) {
+        fail(unsupported_media_type_problem());
         return std::nullopt;
     }
     body = nlohmann::json::parse(req.body(), nullptr, false);

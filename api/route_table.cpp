@@ -1,6 +1,7 @@
 #include "api/route_table.hpp"
 
 #include "api/path_segments.hpp"
+#include "api/router.hpp"
 
 namespace gw::api {
 
@@ -58,38 +59,48 @@ bool route_table::serves(std::string_view path) const {
     return !find(path, params).empty();
 }
 
-void route_table::dispatch(request_context& c) const {
-    const std::string path(target_path(c.req.target()));
-    std::vector<std::string> params;
-    const auto candidates = find(path, params);
+route_table::decision route_table::decide(const api_context& ctx, const http::request_header<>& req,
+                                          bool keep_alive, const std::string& request_id) const {
+    decision d;
+    const std::string path(target_path(req.target()));
+    auto refuse = [&](problem p) {
+        d.refusal = problem_response(std::move(p), req.version(), keep_alive, req.target(), request_id);
+    };
+    const auto candidates = find(path, d.params);
     if (candidates.empty()) {
-        c.route = "unmatched";
-        return c.fail(make_problem(http_error::not_found, "no route for " + path));
+        refuse(make_problem(http_error::not_found, "no route for " + path));
+        return d;
     }
-    c.route = candidates.front()->r.pattern;
-    const compiled* chosen = nullptr;
+    d.label = candidates.front()->r.pattern;
     std::string allow;
     for (const auto* candidate : candidates) {
-        if (candidate->r.method == c.req.method()) chosen = candidate;
+        if (candidate->r.method == req.method()) d.chosen = &candidate->r;
         allow += (allow.empty() ? "" : ", ") + std::string(http::to_string(candidate->r.method));
     }
-    if (!chosen) {
-        auto res = problem_response(
-            make_problem(http_error::method_not_allowed,
-                         std::string(c.req.method_string()) + " is not allowed here; use " + allow),
-            c.req, c.request_id);
-        res.set(http::field::allow, allow);
-        return c.reply(std::move(res));
+    if (!d.chosen) {
+        refuse(make_problem(http_error::method_not_allowed,
+                            std::string(req.method_string()) + " is not allowed here; use " + allow));
+        d.refusal->set(http::field::allow, allow);
+        return d;
     }
-    c.params = std::move(params);
-    if (chosen->r.role) {
+    if (d.chosen->role) {
         problem p;
-        auto who = identify(*c.ctx, c.req, p);
-        if (!who) return c.fail(std::move(p));
-        if (!has_role(*who, *chosen->r.role)) return c.fail(forbidden_problem(*who, *chosen->r.role));
-        c.who = std::move(who);
+        d.who = identify(ctx, req, p);
+        if (!d.who)
+            refuse(std::move(p));
+        else if (!has_role(*d.who, *d.chosen->role))
+            refuse(forbidden_problem(*d.who, *d.chosen->role));
     }
-    chosen->r.handler(c);
+    return d;
+}
+
+void route_table::dispatch(request_context& c) const {
+    auto d = decide(*c.ctx, c.req, c.req.keep_alive(), c.request_id);
+    c.route = std::move(d.label);
+    if (d.refusal) return c.reply(std::move(*d.refusal));
+    c.params = std::move(d.params);
+    c.who = std::move(d.who);
+    d.chosen->handler(c);
 }
 
 }  // namespace gw::api

@@ -37,6 +37,18 @@ class route_table {
   public:
     explicit route_table(std::vector<route> routes);
 
+    // What the request's header alone decides: its route (404; 405 with Allow) and its caller (401,
+    // 403). Without a refusal, `chosen` is the route whose handler may run.
+    struct decision {
+        const route* chosen = nullptr;
+        std::string label = "unmatched";  // the route's template, for metrics
+        std::vector<std::string> params;
+        std::optional<auth_identity> who;
+        std::optional<string_response> refusal;
+    };
+    decision decide(const api_context& ctx, const http::request_header<>& request, bool keep_alive,
+                    const std::string& request_id) const;
+
     // True when some template matches the path (whatever the method).
     bool serves(std::string_view path) const;
     // Answers the request: through its route's handler, or with the 404/405/401/403 above.

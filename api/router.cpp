@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "api/browser_guard.hpp"
 #include "api/gcode_requests.hpp"
 #include "api/job_requests.hpp"
 #include "api/openapi_document.hpp"
@@ -78,6 +79,25 @@ std::optional<auth_identity> identify(const api_context& ctx, const http::reques
     auto it = req.find(http::field::authorization);
     std::string_view header = it == req.end() ? std::string_view{} : std::string_view(it->value());
     return authenticate(ctx.auth, header, error);
+}
+
+std::optional<routed_response> refusal_from_header(const api_context& ctx,
+                                                   const http::request<http::empty_body>& header,
+                                                   const std::string& request_id) {
+    const std::string path(target_path(header.target()));
+    auto refused = [&](problem p, std::string route) {
+        return routed_response{problem_response(std::move(p), header.version(), header.keep_alive(),
+                                                header.target(), request_id),
+                               std::move(route)};
+    };
+    if (auto p = browser_refusal(header, ctx.browser, false)) return refused(std::move(*p), "unmatched");
+    if (is_static_asset_path(path)) return std::nullopt;
+    auto d = api_routes().decide(ctx, header, header.keep_alive(), request_id);
+    if (d.refusal) return routed_response{std::move(*d.refusal), std::move(d.label)};
+    const bool may_be_program = header.method() == http::verb::post && is_gcode_path(path);  // text
+    if (!may_be_program && !is_json_content_type(header[http::field::content_type]))
+        return refused(unsupported_media_type_problem(), std::move(d.label));
+    return std::nullopt;
 }
 
 void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& req, std::string request_id,

@@ -47,6 +47,14 @@ string_response outcome_response(api_outcome o, unsigned version, bool keep_aliv
 std::optional<auth_identity> identify(const api_context& ctx, const http::request_header<>& request,
                                       problem& error);
 
+// What the header of a request with a body decides before the body is read or memory reserved for
+// it, so that an unauthenticated client's body costs nothing: the browser rules, an unknown route
+// (404, 405), the caller (401, 403), a JSON body's media type (415). Nothing: read the body. G-code
+// programs are admitted by their own rules (admit_gcode_program) before this.
+std::optional<routed_response> refusal_from_header(const api_context& ctx,
+                                                   const http::request<http::empty_body>& header,
+                                                   const std::string& request_id);
+
 void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& request, std::string request_id,
                     net::any_io_executor session_executor, response_handler done);
 

@@ -413,28 +413,33 @@ def raw_request(port, head, body=b""):
     return (int(data.split(b" ", 2)[1]) if data else None), s
 
 
-def test_halt_beside_an_exhausted_body_budget(c, port):
-    # An unauthenticated client declares a body as large as every body together may be (64 MiB) and
-    # sends a few bytes of it: its reservation holds the whole budget while it trickles.
-    hog = socket.create_connection(("127.0.0.1", port), timeout=30)
-    hog.sendall(b"POST /api/v1/gcode/no-such-route HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
-                b"Content-Length: 67108864\r\n\r\n{")
+def test_halt_beside_an_exhausted_body_budget(fx, args):
+    # A gateway whose request bodies may take 1 MiB of memory in all; an operator's client declares a
+    # body that large and sends one byte of it: its reservation holds the whole budget while it
+    # trickles. (An unauthenticated client's body costs nothing: http_limits_test.py.)
+    g = SoloGateway(fx, args, "budget")
+    g.start({"limits": {"max_buffered_body_mb": 1, "max_body_bytes": 1048576}})
+    hog = socket.create_connection(("127.0.0.1", g.port), timeout=30)
+    hog.sendall(f"POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {OP}\r\n"
+                "Content-Type: application/json\r\nContent-Length: 1048576\r\n\r\n{".encode())
     try:
         def budget_gone():
-            r = c.request("POST", "/api/v1/controllers/sim2/move", {"axes": {"X": 10}}, token=OP)
+            r = g.c.request("POST", "/api/v1/controllers/budget/move", {"axes": {"X": 10}}, token=OP)
             return r.status == 503 and r.json()["type"].endswith("/body-budget-exhausted")
         wait_until("the body budget exhausted", budget_gone, 10)
-        for path in ("/api/v1/controllers/sim2/halt", "/api/v1/halt"):
-            r = c.request("POST", path, {}, token=OP)  # with a body: it is not read
+        for path in ("/api/v1/controllers/budget/halt", "/api/v1/halt"):
+            r = g.c.request("POST", path, {}, token=OP)  # with a body: it is not read
             check(r.status == 200, f"POST {path} with the budget exhausted: {r.status} {r.body[:200]}")
         # A HALT that declares a body of its own as large: answered from its header.
-        status, s = raw_request(port, "POST /api/v1/controllers/sim2/halt HTTP/1.1\r\nHost: x\r\n"
-                                      f"Authorization: Bearer {OP}\r\nContent-Type: application/json\r\n"
-                                      "Content-Length: 67108864\r\n\r\n", b"{}")
+        status, s = raw_request(g.port, "POST /api/v1/controllers/budget/halt HTTP/1.1\r\nHost: x\r\n"
+                                        f"Authorization: Bearer {OP}\r\nContent-Type: application/json\r\n"
+                                        "Content-Length: 1048576\r\n\r\n", b"{}")
         s.close()
-        check(status == 200, f"a HALT declaring a 64 MiB body: {status}")
+        check(status == 200, f"a HALT declaring a 1 MiB body: {status}")
     finally:
         hog.close()
+        g.proc.terminate()
+        g.proc.wait(timeout=30)
 
 
 def test_halt_with_every_connection_slot_taken(fx, args):
@@ -612,7 +617,7 @@ def main():
         fx.run("HALT ALL over WebSocket", test_halt_all_ws, c, sims, port)
         fx.run("HALT ALL over MQTT", test_halt_all_mqtt, c, sims, broker)
         fx.run("HALT before identification", test_halt_before_identification, fx, args, contract)
-        fx.run("HALT beside an exhausted body budget", test_halt_beside_an_exhausted_body_budget, c, port)
+        fx.run("HALT beside an exhausted body budget", test_halt_beside_an_exhausted_body_budget, fx, args)
         fx.run("HALT with every connection slot taken", test_halt_with_every_connection_slot_taken, fx, args)
         fx.run("HALT while a large G-code program is uploaded and planned",
                test_halt_while_gcode_is_uploaded_and_planned, c)

@@ -176,7 +176,7 @@ def read_response(s, timeout=WAIT):
     return status, headers, rest[:length]
 
 
-def send_head(port, method, path, token, length, expect=True, source="127.0.0.1"):
+def send_head(port, method, path, token, length, expect=True, source="127.0.0.1", media=None):
     """A raw connection that has sent the headers of a request with a body of `length` bytes (not
     the body). With `expect`, Expect: 100-continue."""
     s = socket.socket()
@@ -185,7 +185,8 @@ def send_head(port, method, path, token, length, expect=True, source="127.0.0.1"
     s.connect(("127.0.0.1", port))
     head = f"{method} {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: {length}\r\n"
     # G-code programs are text; every other body is JSON.
-    head += f"Content-Type: {'text/plain' if '/gcode' in path else 'application/json'}\r\n"
+    media = media or ("text/plain" if "/gcode" in path else "application/json")
+    head += f"Content-Type: {media}\r\n"
     if token:
         head += f"Authorization: Bearer {token}\r\n"
     if expect:
@@ -428,6 +429,40 @@ def test_body_budget(port, contract):
     wait_until("the body budget is free again", accepted)
 
 
+def test_unadmitted_bodies_cost_nothing(port, contract):
+    # Bodies that would be refused anyway are refused from their headers (no 100 Continue, nothing
+    # reserved, the connection closed): no token, a role too low, a JSON body that is not typed JSON,
+    # a method the route does not take, a route that does not exist. Held open together, they leave
+    # the whole budget to the clients that are admitted.
+    length = 700 * 1000
+    cases = [("POST", "/api/v1/jobs", None, "application/json", 401, "unauthorized"),
+             ("POST", "/api/v1/jobs", VIEW, "application/json", 403, "forbidden"),
+             ("POST", "/api/v1/jobs", OP, "text/plain", 415, "unsupported-media-type"),
+             ("PUT", "/api/v1/jobs", OP, "application/json", 405, "method-not-allowed"),
+             ("POST", "/api/v1/no-such-route", OP, "application/json", 404, "not-found")]
+    refused = []
+    try:
+        for method, path, token, media, status, kind in cases:
+            s = send_head(port, method, path, token, length, media=media)
+            refused.append(s)
+            got, headers, body = read_response(s)
+            check(got == status, f"{method} {path} ({kind}): expected {status} from the header, got {got}: "
+                                 f"{body[:200]!r}")
+            check(json.loads(body)["type"] == PROBLEM + kind, f"{method} {path}: {body[:200]!r}")
+            check(headers.get("connection") == "close", f"{method} {path}: the connection stays open")
+        held = []
+        for i in range(2):
+            s = send_head(port, "POST", "/api/v1/jobs", OP, length)
+            held.append(s)
+            status, _, _ = read_response(s)
+            check(status == 100, f"an operator's body {i} beside the refused ones: {status}")
+        for s in held:
+            s.close()
+    finally:
+        for s in refused:
+            s.close()
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--gateway", required=True)
@@ -454,6 +489,7 @@ def main():
         fx.run("refusals before the body", test_refusals_before_the_body, port, contract)
         fx.run("parallel uploads in bounded memory", test_parallel_uploads_bounded_memory, port, gw.pid)
         fx.run("body budget", test_body_budget, port, contract)
+        fx.run("bodies that would be refused cost nothing", test_unadmitted_bodies_cost_nothing, port, contract)
         fx.gateway.terminate()
         fx.expect_exit_0()
         fx.finish_log(60)
