@@ -18,6 +18,7 @@ enum class connection_phase : std::uint8_t {
     idle,             // keep-alive, between two requests
     reading_body,     // the header was accepted, its body is on its way
     serving,          // a request is being handled, or a WebSocket: never shed
+    closing,          // answered and half-closed, reading what is left before the close: shed first
 };
 
 // What the table may do to a connection it tracks (the HTTP session).

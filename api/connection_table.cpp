@@ -84,12 +84,14 @@ int connection_table::shed_rank(const entry& e, clock::time_point now) const {
     if (!e.counted || e.halt_only) return -1;
     const bool patience_over = now - e.since >= settings_.patience;
     switch (e.phase) {
-        case connection_phase::awaiting_header:
+        case connection_phase::closing:  // its answer is out: nothing is lost by closing it now
             return 0;
+        case connection_phase::awaiting_header:
+            return 1;
         case connection_phase::idle:
-            return patience_over ? 1 : -1;
-        case connection_phase::reading_body:
             return patience_over ? 2 : -1;
+        case connection_phase::reading_body:
+            return patience_over ? 3 : -1;
         case connection_phase::serving:
             break;
     }

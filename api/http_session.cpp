@@ -453,6 +453,7 @@ void http_session::on_write(bool close_after, beast::error_code ec, std::size_t)
 // while the client is still sending its body). So: half-close, then read and discard what is left,
 // bounded in bytes and time, then close.
 void http_session::do_linger() {
+    set_phase(connection_phase::closing);
     beast::error_code ignored;
     stream_.socket().shutdown(net::ip::tcp::socket::shutdown_send, ignored);
     stream_.expires_after(std::chrono::seconds(2));

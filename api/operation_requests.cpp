@@ -304,12 +304,15 @@ operation_result<any_request> parse_autofocus(const json& body) {
 }
 
 operation_result<any_request> parse_command(const json& body) {
-    body_reader r(body, {"command"});
+    body_reader r(body, {"command", "force"});
     raw_command_request c;
     if (auto* v = r.get("command")) {
         if (auto s = r.string("command", *v)) c.command = std::move(*s);
     } else {
         r.fail("command", "command is required: {\"command\": \"W X Y\"}");
+    }
+    if (auto* v = r.get("force")) {
+        if (auto b = r.boolean("force", *v)) c.force = *b;
     }
     if (r.error()) return *r.error();
     return any_request(std::move(c));

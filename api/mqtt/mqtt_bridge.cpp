@@ -94,11 +94,12 @@ void mqtt_bridge::start() {
     const auto client_id = c.client_id.empty() ? "asi-gateway-" + settings_.gateway_id : c.client_id;
     client_ = mqtt_client::create(strand_, c, client_id, std::move(will), std::move(h), log_);
     if (c.commands_enabled && !ctx_->auth.tokens.empty()) {
-        commands_ = std::make_shared<mqtt_commands>(ctx_, topics_, c.qos.responses, strand_,
-                                                    [weak](const mqtt_message_out& m) {
-                                                        if (auto self = weak.lock())
-                                                            self->send(m, "response");
-                                                    });
+        commands_ = std::make_shared<mqtt_commands>(
+            ctx_, topics_, c.qos.responses, strand_,
+            [weak](const mqtt_message_out& m) {
+                if (auto self = weak.lock()) self->send(m, "response");
+            },
+            c.command_max_payload_bytes);
     }
     net::post(strand_, [self = shared_from_this()] {
         self->subscribe_hub();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstdint>
 #include <mqtt/async_client.h>
 #include <random>
 #include <stdexcept>
@@ -122,6 +123,11 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
     if (version == MQTTVERSION_5) {
         o.set_clean_session(false);
         o.set_clean_start(true);
+        // The broker drops what the gateway would only drop itself: a command payload over the cap
+        // (plus room for its topic and properties) never crosses the network to it.
+        const auto largest =
+            static_cast<std::int32_t>(config_.command_max_payload_bytes + 65536);  // <= 64 MiB
+        o.set_properties(mqtt::properties{{mqtt::property::MAXIMUM_PACKET_SIZE, largest}});
     } else {
         o.set_clean_start(false);
         o.set_clean_session(true);

@@ -1,5 +1,6 @@
 #include "api/mqtt/mqtt_commands.hpp"
 
+#include <chrono>
 #include <utility>
 #include <variant>
 
@@ -17,12 +18,13 @@ namespace net = boost::asio;
 using nlohmann::json;
 
 mqtt_commands::mqtt_commands(std::shared_ptr<api_context> ctx, mqtt_topics topics, int response_qos, strand s,
-                             publish_fn publish, std::size_t max_in_flight)
+                             publish_fn publish, std::size_t max_payload_bytes, std::size_t max_in_flight)
     : ctx_(std::move(ctx)),
       topics_(std::move(topics)),
       response_qos_(response_qos),
       strand_(std::move(s)),
       publish_(std::move(publish)),
+      max_payload_bytes_(max_payload_bytes),
       max_in_flight_(max_in_flight) {}
 
 mqtt_commands::reply_target mqtt_commands::reply_for(const mqtt_message_in& in,
@@ -60,6 +62,14 @@ void mqtt_commands::answer_error(const reply_target& to, const json& id, problem
 void mqtt_commands::handle(const mqtt_message_in& in) {
     auto target = topics_.parse_command_topic(in.topic);
     if (!target) return;  // not ours (a retained leftover on a filter we share)
+    // Nothing is answered before the sender is known: an answer would make the gateway publish, under
+    // its own broker identity, wherever an anonymous message asked.
+    auto envelope = open_mqtt_envelope(in.payload, max_payload_bytes_);
+    if (!envelope) return drop(in.topic, "unreadable", envelope.error());
+    if (envelope->token.empty()) return drop(in.topic, "unauthenticated", "no \"token\"");
+    problem auth_error;
+    auto who = authenticate_token(ctx_->auth, envelope->token, auth_error);
+    if (!who) return drop(in.topic, "unauthenticated", auth_error.detail);
     if (in.retained) {
         // A retained command would run again at every reconnect: never run one.
         auto p =
@@ -68,21 +78,13 @@ void mqtt_commands::handle(const mqtt_message_in& in) {
         return answer_error(reply_for(in, std::nullopt), json(), std::move(p), in.topic);
     }
     const auto generated = "mqtt-" + std::to_string(next_id_++);
-    auto parsed = parse_mqtt_request(topics_, *target, in.topic, in.payload, generated);
+    auto parsed = parse_mqtt_request(topics_, *target, in.topic, std::move(*envelope), generated);
     if (!parsed) {
         auto e = std::move(parsed.error());
         return answer_error(reply_for(in, e.reply_to), e.id, std::move(e.error), in.topic);
     }
     auto& request = *parsed;
     const auto to = reply_for(in, request.reply_to);
-    if (request.token.empty()) {
-        return answer_error(to, request.id,
-                            make_problem(http_error::unauthorized, "every MQTT command needs a \"token\""),
-                            in.topic);
-    }
-    problem auth_error;
-    auto who = authenticate_token(ctx_->auth, request.token, auth_error);
-    if (!who) return answer_error(to, request.id, std::move(auth_error), in.topic);
     // The bound on commands running at once never holds back a HALT.
     const auto* command = std::get_if<command_message>(&request.message);
     const bool halt = std::holds_alternative<halt_all_message>(request.message) ||
@@ -94,6 +96,19 @@ void mqtt_commands::handle(const mqtt_message_in& in) {
         return answer_error(to, request.id, std::move(p), in.topic);
     }
     run(request, *who, to);
+}
+
+void mqtt_commands::drop(std::string_view topic, std::string_view outcome, const std::string& why) {
+    count(outcome);
+    // Info, at most once a second: a flood of anonymous messages must not flood the log too.
+    const auto now = std::chrono::steady_clock::now();
+    if (ctx_->log && now - last_drop_logged_ >= std::chrono::seconds(1)) {
+        last_drop_logged_ = now;
+        ctx_->log->info("mqtt {}: dropped unanswered ({}): {} ({} dropped so far)", topic, outcome, why,
+                        ++dropped_);
+        return;
+    }
+    ++dropped_;
 }
 
 void mqtt_commands::run(mqtt_request& request, const auth_identity& who, const reply_target& to) {

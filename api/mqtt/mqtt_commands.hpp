@@ -6,9 +6,13 @@
 // Answers (the WebSocket "result" / "error" messages) go to the MQTT 5 response topic with the
 // request's correlation data, else to the payload's "reply_to". A request with neither is still run
 // (fire and forget); a malformed one is answered with an error if it can be, never run, and never
-// reaches a serial line. At most max_in_flight commands run at once; more are refused with 503.
+// reaches a serial line. A payload over max_payload_bytes, one that is no JSON object, or one
+// without a valid token is dropped unanswered (counted, logged at most once a second): an
+// unauthenticated sender gets nothing published. At most max_in_flight commands run at once; more
+// are refused with 503.
 // On the bridge's strand only.
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -36,7 +40,7 @@ class mqtt_commands : public std::enable_shared_from_this<mqtt_commands> {
     using publish_fn = std::function<void(mqtt_message_out)>;
 
     mqtt_commands(std::shared_ptr<api_context> ctx, mqtt_topics topics, int response_qos, strand s,
-                  publish_fn publish, std::size_t max_in_flight = 64);
+                  publish_fn publish, std::size_t max_payload_bytes, std::size_t max_in_flight = 64);
 
     // A message on one of the command topics.
     void handle(const mqtt_message_in& in);
@@ -53,14 +57,18 @@ class mqtt_commands : public std::enable_shared_from_this<mqtt_commands> {
     void answer(const reply_target& to, std::string payload, std::string_view outcome);
     void answer_error(const reply_target& to, const nlohmann::json& id, problem p, std::string_view topic);
     void count(std::string_view outcome);
+    void drop(std::string_view topic, std::string_view outcome, const std::string& why);
 
     std::shared_ptr<api_context> ctx_;
     mqtt_topics topics_;
     int response_qos_;
     strand strand_;
     publish_fn publish_;
+    std::size_t max_payload_bytes_;
     std::size_t max_in_flight_;
     std::size_t in_flight_ = 0;
+    std::uint64_t dropped_ = 0;
+    std::chrono::steady_clock::time_point last_drop_logged_{};
     std::uint64_t next_id_ = 1;
 };
 

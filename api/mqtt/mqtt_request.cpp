@@ -20,20 +20,36 @@ mqtt_request_error invalid(json id, std::optional<std::string> reply_to, std::st
 
 }  // namespace
 
+boost::system::result<mqtt_envelope, std::string> open_mqtt_envelope(std::string_view payload,
+                                                                     std::size_t max_payload_bytes) {
+    using result = boost::system::result<mqtt_envelope, std::string>;
+    auto refuse = [](std::string why) { return result(boost::system::in_place_error, std::move(why)); };
+    if (payload.size() > max_payload_bytes)
+        return refuse("a payload of " + std::to_string(payload.size()) +
+                      " bytes, over mqtt.commands.max_payload_bytes (" + std::to_string(max_payload_bytes) +
+                      ")");
+    json msg = json::parse(payload, nullptr, /*allow_exceptions=*/false);
+    if (msg.is_discarded()) return refuse("the payload is not valid JSON");
+    if (!msg.is_object()) return refuse("the payload is not a JSON object");
+    mqtt_envelope e;
+    if (auto it = msg.find("token"); it != msg.end()) {
+        if (!it->is_string() || it->get_ref<const std::string&>().size() > mqtt_max_token_bytes)
+            return refuse("\"token\" is not a string of at most " + std::to_string(mqtt_max_token_bytes) +
+                          " bytes");
+        e.token = it->get<std::string>();
+        msg.erase(it);
+    }
+    e.message = std::move(msg);
+    return e;
+}
+
 boost::system::result<mqtt_request, mqtt_request_error> parse_mqtt_request(const mqtt_topics& topics,
                                                                            const mqtt_command_target& target,
                                                                            std::string_view topic,
-                                                                           std::string_view payload,
+                                                                           mqtt_envelope envelope,
                                                                            std::string_view generated_id) {
-    json msg = json::parse(payload, nullptr, /*allow_exceptions=*/false);
-    if (msg.is_discarded() || !msg.is_object()) {
-        auto p = make_problem(http_error::malformed_json, msg.is_discarded()
-                                                              ? "the payload is not valid JSON"
-                                                              : "the payload must be a JSON object");
-        p.instance = std::string(topic);
-        return mqtt_request_error{json(), std::nullopt, std::move(p)};
-    }
-    // The envelope first, so that later errors can be answered where the client listens.
+    json& msg = envelope.message;
+    // reply_to first, so that later errors can be answered where the client listens.
     std::optional<std::string> reply_to;
     // An id that is not a string or an integer is refused by the WebSocket parser; never echo it.
     const json given = msg.contains("id") ? msg["id"] : json();
@@ -46,13 +62,6 @@ boost::system::result<mqtt_request, mqtt_request_error> parse_mqtt_request(const
                 id, std::nullopt, topic, "reply_to",
                 "\"reply_to\" must be a topic name without wildcards, outside \"" + topics.prefix() + "/\"");
         reply_to = it->get<std::string>();
-        msg.erase(it);
-    }
-    std::string token;
-    if (auto it = msg.find("token"); it != msg.end()) {
-        if (!it->is_string() || it->get_ref<const std::string&>().size() > mqtt_max_token_bytes)
-            return invalid(id, reply_to, topic, "token", "\"token\" must be a string (the bearer token)");
-        token = it->get<std::string>();
         msg.erase(it);
     }
     // What the topic says may not be said again in the payload.
@@ -79,7 +88,7 @@ boost::system::result<mqtt_request, mqtt_request_error> parse_mqtt_request(const
         e.error.instance = std::string(topic);
         return mqtt_request_error{e.id.is_null() ? id : e.id, reply_to, std::move(e.error)};
     }
-    return mqtt_request{target, std::move(token), std::move(reply_to), std::move(*parsed), id};
+    return mqtt_request{target, std::move(envelope.token), std::move(reply_to), std::move(*parsed), id};
 }
 
 std::string mqtt_request_id(const json& id) {

@@ -14,6 +14,13 @@
 // request "mqtt-<n>" and echoes that.
 // Answers go to the MQTT 5 response topic, else to "reply_to" (3.1.1 clients); the response is the
 // WebSocket "result" or "error" message.
+//
+// Two steps, so that nothing of a message is believed before its sender is known:
+//   1. open_mqtt_envelope: within the size cap, a JSON object, its "token" taken out. A failure here
+//      is never answered (anyone may publish on a command topic the broker lets them write to, and
+//      an answer would make the gateway publish for them); the caller counts and logs it.
+//   2. the caller authenticates the token (a failure is not answered either), then
+//      parse_mqtt_request reads the rest; its errors are answered.
 
 #include <optional>
 #include <string>
@@ -44,11 +51,21 @@ struct mqtt_request_error {
     problem error;                        // instance: the topic
 };
 
-// `topics` checks reply_to; `generated_id` is used when the payload has no "id".
+struct mqtt_envelope {
+    nlohmann::json message;  // a JSON object, without "token"
+    std::string token;       // "" when absent
+};
+
+// Step 1: why the payload is not even looked at (for the log), or its envelope.
+boost::system::result<mqtt_envelope, std::string> open_mqtt_envelope(std::string_view payload,
+                                                                     std::size_t max_payload_bytes);
+
+// Step 2, for an authenticated sender: `topics` checks reply_to; `generated_id` is used when the
+// payload has no "id".
 boost::system::result<mqtt_request, mqtt_request_error> parse_mqtt_request(const mqtt_topics& topics,
                                                                            const mqtt_command_target& target,
                                                                            std::string_view topic,
-                                                                           std::string_view payload,
+                                                                           mqtt_envelope envelope,
                                                                            std::string_view generated_id);
 
 // The request id written next to serial commands: "mqtt.<the request's id>" (the message's "id", or

@@ -90,6 +90,22 @@ bool only_reads(const command& cmd) {
     return !words.empty() && !letters_if_all(words, '?').empty();
 }
 
+std::string_view resets_or_recalibrates(const command& cmd) {
+    auto args = std::string_view(cmd.wire).substr(std::min(cmd.verb.size(), cmd.wire.size()));
+    if (args.ends_with('\r')) args.remove_suffix(1);
+    const auto words = upper_words(args);
+    const bool sets = args.find('=') != std::string_view::npos;
+    if (is_one_of(cmd.verb, {"~", "RESET"}))
+        return "RESET restarts the controller with its power-up settings";
+    if (is_one_of(cmd.verb, {"SS", "SAVESET"}) &&
+        std::any_of(words.begin(), words.end(), [](const std::string& w) { return w == "X"; }))
+        return "SS X restores the factory settings at the next power-up";
+    if (is_one_of(cmd.verb, {"UM"}) && sets) return "UM changes the unit of every position";
+    if (is_one_of(cmd.verb, {"CNTS", "C"}) && sets) return "CNTS changes the encoder calibration";
+    if (is_one_of(cmd.verb, {"BAUD"}) && sets) return "BAUD changes the serial line's speed";
+    return {};
+}
+
 namespace {
 
 // Reply contents known from the protocol reference (../shared/docs/ms2000-protocol.md, sections 2.5

@@ -85,6 +85,12 @@ boost::system::result<command> raw_command(std::string_view line);
 // driver polls less often while the stage is idle and nothing but such commands ran.
 bool only_reads(const command& cmd);
 
+// Why the command resets the controller or changes the calibration the gateway reads at identification
+// ("" when it does not): RESET / "~", "SS X" (factory defaults at the next power-up), a unit
+// multiplier or encoder count set ("UM X=..", "CNTS X=.."), a baud rate (BAUD). Such a raw command
+// needs the caller to insist, and is followed by a new identification.
+std::string_view resets_or_recalibrates(const command& cmd);
+
 // Formats a number the way the controller reads it: fixed notation, at most `decimals` decimals,
 // trailing zeros and a trailing dot dropped, "-0" printed as "0". Empty result for NaN or infinity.
 std::string format_number(double value, int decimals);

@@ -324,6 +324,16 @@ void controller::refresh_soft_limits() {
                            });
 }
 
+void controller::reidentify(const ms2000::command& cause) {
+    if (!link_.is_open() || snapshot_.state != connection_state::connected) return;
+    log_->info("\"{}\": {}; identifying the controller again", escape_control(cause.wire),
+               ms2000::resets_or_recalibrates(cause));
+    poller_.stop();
+    snapshot_.state = connection_state::identifying;
+    outlet_.publish_snapshot();
+    identify();
+}
+
 void controller::on_identified() {
     backoff_ = settings_.reconnect_min;
     snapshot_.state = connection_state::connected;
@@ -348,6 +358,10 @@ void controller::client_command_finished(const ms2000::command& cmd, error_code 
     if (!ec && sets_ttl_mode(cmd)) refresh_ttl_modes();
     if (!ec && sets_soft_limit(cmd)) refresh_soft_limits();
     poller_.client_command_finished(cmd, ec, reply);
+    // A controller that restarts may answer late or with noise: it may have done it all the same.
+    const bool may_have_acted =
+        !ec || ec == ms2000::error::timeout || ec == ms2000::error::unrecognized_reply;
+    if (may_have_acted && !ms2000::resets_or_recalibrates(cmd).empty()) reidentify(cmd);
     if (!ec) return;
     if (ec == ms2000::error::controller_rejected && reply) {
         note_error(reply->error_code, std::string(ms2000::controller_error_name(reply->error_code)),

@@ -132,6 +132,9 @@ class controller : public std::enable_shared_from_this<controller>,
     void on_identified();
     void refresh_ttl_modes();
     void refresh_soft_limits();  // SL/SU after a client set one
+    // After a reset or a recalibration (ms2000::resets_or_recalibrates): everything identification
+    // read may be stale, so it is read again; commands wait behind it.
+    void reidentify(const ms2000::command& cause);
 
     // What the parts ask of the controller (their owner interfaces).
     std::shared_ptr<void> keep_alive() override { return shared_from_this(); }

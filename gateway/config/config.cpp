@@ -400,8 +400,11 @@ void read_mqtt(const json& j, mqtt_config& out) {
                 std::chrono::seconds(read_uint(*v, t.path("retain_finished_s"), 0, 604800));
     }
     if (auto* cj = r.get("commands")) {
-        object_reader t(*cj, "mqtt.commands", {"enabled"});
+        object_reader t(*cj, "mqtt.commands", {"enabled", "max_payload_bytes"});
         if (auto* v = t.get("enabled")) out.commands_enabled = read_bool(*v, t.path("enabled"));
+        if (auto* v = t.get("max_payload_bytes"))
+            out.command_max_payload_bytes =
+                read_uint(*v, t.path("max_payload_bytes"), 1024, std::uint64_t{64} * 1024 * 1024);
     }
 }
 

@@ -167,6 +167,9 @@ struct mqtt_config {
     // Then jobs/<job>/state is cleared; when the file does not say, events.ended_job_topic_ttl_s.
     std::chrono::seconds retain_finished_jobs{600};
     bool commands_enabled = false;  // subscribe to the command topics (needs auth.tokens)
+    // A larger command payload is dropped unread and unanswered (an inline G-code program of 4 MiB
+    // fits with room for its JSON escapes).
+    std::size_t command_max_payload_bytes = std::size_t{6} * 1024 * 1024;
 };
 
 struct gateway_config {

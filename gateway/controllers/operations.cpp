@@ -294,6 +294,10 @@ operation_result<ms2000::command> plan(const raw_command_request& r, const contr
     if (!c)
         return invalid("command", fmt::format("must be one line of at most {} printable ASCII characters",
                                               ms2000::max_raw_command_bytes));
+    if (const auto why = ms2000::resets_or_recalibrates(*c); !why.empty() && !r.force)
+        return invalid("force", fmt::format("{}: send \"force\": true to mean it (the controller is "
+                                            "identified again afterwards)",
+                                            why));
     return std::move(*c);
 }
 

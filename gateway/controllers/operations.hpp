@@ -116,6 +116,9 @@ struct autofocus_result {
 struct raw_command_request {  // one line typed by an expert: "W X Y"
     std::string command;
     std::optional<std::uint64_t> halts_seen;  // as move_request::halts_seen
+    // A command that resets or recalibrates the controller (ms2000::resets_or_recalibrates) is
+    // refused without it; with it, the controller is identified again once it answered.
+    bool force = false;
 };
 
 // What every operation without a richer answer returns.

@@ -433,6 +433,36 @@ def test_raw_command(c):
     p = c.problem("POST", base, 403, "forbidden", body={"command": "W X"}, token=TOKENS["operator"])
 
 
+def upper_limit_x(c, cid):
+    r = c.request("GET", f"/api/v1/controllers/{cid}", token=TOKENS["viewer"])
+    x = [a for a in r.json()["axes"] if a["axis"] == "X"][0]
+    return x["soft_limits_um"]["upper"]
+
+
+def test_reset_needs_force(c):
+    # Commands that reset or recalibrate the controller are refused unless the caller insists...
+    base = "/api/v1/controllers/sim2/command"
+    admin = TOKENS["admin"]
+    for command in ("~", "RESET", "SS X", "UM X=-10000", "CNTS X=1000"):
+        p = c.problem("POST", base, 422, "invalid-value", body={"command": command}, token=admin)
+        check(p.get("field") == "force", f"{command}: field {p.get('field')}: {p}")
+    for command in ("SS Z", "UM X?", "CNTS X?"):  # saving, and reading, need no insisting
+        r = c.request("POST", base, {"command": command}, token=admin)
+        check(r.status == 200, f"{command}: {r.status} {r.body[:200]}")
+    c.problem("POST", base, 422, "invalid-value", body={"command": "~", "force": "yes"}, token=admin)
+    # ... and then the controller is identified again: what identification reads is read again. A
+    # soft limit set before the reset (read back at once) is the power-up one after it.
+    powered_up = upper_limit_x(c, "sim2")
+    r = c.request("POST", base, {"command": "SU X=50"}, token=admin)
+    check(r.status == 200, f"SU X=50: {r.status} {r.body[:200]}")
+    wait_until("the new upper limit read back", lambda: upper_limit_x(c, "sim2") == 50000)
+    r = c.request("POST", base, {"command": "~", "force": True}, token=admin)
+    check(r.status == 200, f"a forced RESET: {r.status} {r.body[:200]}")
+    wait_until("sim2 identified again with its power-up limit",
+               lambda: upper_limit_x(c, "sim2") == powered_up and
+               c.request("GET", "/api/v1/controllers/sim2", token=TOKENS["viewer"]).json()["state"] == "connected")
+
+
 def test_errors(c):
     t = TOKENS["operator"]
     base = "/api/v1/controllers/sim1"
@@ -752,6 +782,7 @@ def main():
         run("typed operations", test_operations, c)
         run("CRISP and autofocus", test_focus, c)
         run("raw command", test_raw_command, c)
+        run("a reset or recalibration needs force, then identifies again", test_reset_needs_force, c)
         run("a slow operation does not block others", test_slow_operation_does_not_block_others, c)
         run("error kinds", test_errors, c)
         run("auth roles", test_auth, c)

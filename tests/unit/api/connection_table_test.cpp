@@ -144,6 +144,19 @@ TEST(connection_table, a_slow_body_is_shed_after_the_waiting_and_only_once_patie
     EXPECT_EQ(third.shed.lock(), c_body);
 }
 
+TEST(connection_table, a_connection_closing_after_its_answer_is_shed_before_one_waiting_for_its_header) {
+    auto t = table(2, 2, 5s);
+    auto header = t->admit(addr("10.0.0.1"));
+    auto closing = t->admit(addr("10.0.0.2"), connection_table::clock::now() + 1s);  // the newer one
+    auto c_header = std::make_shared<recording_connection>();
+    auto c_closing = std::make_shared<recording_connection>();
+    header.permit->track(c_header);
+    closing.permit->track(c_closing);
+    closing.permit->set_phase(connection_phase::closing);  // refused from its header, lingering
+    auto c = t->admit(addr("10.0.0.3"), connection_table::clock::now() + 2s);
+    EXPECT_EQ(c.shed.lock(), c_closing);
+}
+
 TEST(connection_table, a_newcomer_the_limits_refuse_gets_a_halt_reserve_slot_outside_the_count) {
     auto t = table(2, 2, 5s, 2);
     auto a = t->admit(addr("10.0.0.1"));

@@ -42,7 +42,7 @@ TEST(mqtt_config, every_key_is_read) {
       "keepalive_s":12,"topic_prefix":"lab/asi","gateway_id":"pc-3.lab","protocol":"3.1.1",
       "qos":{"status":2,"state":0,"telemetry":1,"jobs":2,"responses":0},
       "telemetry":{"position_max_hz":2.5,"reports_batch_ms":0},"reconnect":{"min_ms":100,"max_ms":2000},"tcp_nodelay":false,
-      "jobs":{"queue_limit":7,"retain_finished_s":0},"commands":{"enabled":true}}})");
+      "jobs":{"queue_limit":7,"retain_finished_s":0},"commands":{"enabled":true,"max_payload_bytes":2048}}})");
     ASSERT_TRUE(c) << c.error();
     const auto& m = c->mqtt;
     EXPECT_TRUE(m.enabled);
@@ -68,6 +68,7 @@ TEST(mqtt_config, every_key_is_read) {
     EXPECT_EQ(m.reconnect_min, 100ms);
     EXPECT_EQ(m.reconnect_max, 2000ms);
     EXPECT_EQ(m.job_queue_limit, 7u);
+    EXPECT_EQ(m.command_max_payload_bytes, 2048u);
     EXPECT_EQ(m.retain_finished_jobs, 0s);
     EXPECT_TRUE(m.commands_enabled);
 }
@@ -100,6 +101,8 @@ TEST(mqtt_config, errors_name_the_key) {
          "mqtt.tls.key_file: cert_file and key_file go together"},
         {R"({"mqtt":{"enabled":true,"commands":{"enabled":true}}})",
          "mqtt.commands.enabled: needs auth.tokens"},
+        {R"({"mqtt":{"commands":{"max_payload_bytes":100}}})",
+         "mqtt.commands.max_payload_bytes: must be an integer from 1024"},
     };
     for (const auto& [text, expected] : cases) {
         auto c = parse_config(text);

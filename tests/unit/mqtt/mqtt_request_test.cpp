@@ -19,7 +19,25 @@ const mqtt_command_target submit{mqtt_command_kind::job_submit, {}};
 const mqtt_command_target cancel{mqtt_command_kind::job_cancel, {}};
 
 auto parse(const mqtt_command_target& target, const std::string& payload) {
-    return parse_mqtt_request(topics, target, "asi/gw/x", payload, "mqtt-7");
+    auto envelope = open_mqtt_envelope(payload, 4096);
+    EXPECT_TRUE(envelope) << payload;
+    return parse_mqtt_request(topics, target, "asi/gw/x", envelope ? std::move(*envelope) : mqtt_envelope{},
+                              "mqtt-7");
+}
+
+TEST(mqtt_request, what_is_not_even_looked_at_before_the_sender_is_known) {
+    const std::string long_token = R"({"operation":"halt","token":")" + std::string(1025, 't') + "\"}";
+    for (const std::string& payload : std::vector<std::string>{
+             "not json", "[1]", "", "\"halt\"", R"({"operation":"halt","token":5})", long_token})
+        EXPECT_FALSE(open_mqtt_envelope(payload, 4096)) << payload;
+    const std::string big = R"({"operation":"halt","token":"t","pad":")" + std::string(5000, 'x') + "\"}";
+    auto refused = open_mqtt_envelope(big, 4096);
+    ASSERT_FALSE(refused);
+    EXPECT_NE(refused.error().find("max_payload_bytes"), std::string::npos) << refused.error();
+    auto opened = open_mqtt_envelope(big, big.size());
+    ASSERT_TRUE(opened);
+    EXPECT_EQ(opened->token, "t");
+    EXPECT_FALSE(opened->message.contains("token")) << "the token never travels further than the envelope";
 }
 
 TEST(mqtt_request, controller_command) {
@@ -96,16 +114,12 @@ struct bad_case {
 
 TEST(mqtt_request, malformed_payloads_are_refused_with_the_field) {
     const std::vector<bad_case> cases = {
-        {sim1, "not json", 400, "", json(), false},
-        {sim1, "[1]", 400, "", json(), false},
-        {sim1, "", 400, "", json(), false},
         {sim1, R"({"id":"a","operation":"fly"})", 422, "operation", "a", false},
         {sim1, R"({"id":"a","operation":"move","args":[1]})", 422, "args", "a", false},
         {sim1, R"({"id":"a","operation":"move","colour":1,"reply_to":"me/r"})", 422, "colour", "a", true},
         {sim1, R"({"id":"a","operation":"halt","controller":"sim2"})", 422, "controller", "a", false},
         {sim1, R"({"id":"a","operation":"halt","op":"command"})", 422, "op", "a", false},
         {sim1, R"({"id":{"x":1},"operation":"halt"})", 422, "id", json(), false},
-        {sim1, R"({"id":"a","operation":"halt","token":5})", 422, "token", "a", false},
         {sim1, R"({"id":"a","operation":"halt","reply_to":"asi/gw/status"})", 422, "reply_to", "a", false},
         {sim1, R"({"id":"a","operation":"halt","reply_to":"x/#"})", 422, "reply_to", "a", false},
         {sim1, R"({"id":"a","operation":"halt","lease":""})", 422, "lease", "a", false},

@@ -298,5 +298,26 @@ TEST(command, only_reads_tells_reads_from_commands_that_may_change_something) {
     EXPECT_FALSE(only_reads(zero()));
 }
 
+TEST(command, resets_or_recalibrates_names_what_a_caller_must_insist_on) {
+    struct row {
+        std::string line;
+        bool resets;
+    };
+    const row rows[] = {
+        {"~", true},        {"RESET", true},         {"SS X", true},       {"SAVESET X", true},
+        {"ss x", true},     {"UM X=-10000", true},   {"UM X=1 Y=2", true}, {"CNTS X=1000", true},
+        {"C X=1000", true}, {"BAUD X=115200", true}, {"SS Z", false},      {"SS Y", false},
+        {"UM X?", false},   {"CNTS X? Y?", false},   {"C X?", false},      {"W X", false},
+        {"M X=10", false},  {"SU X=50", false},      {"SPEED X=2", false}, {"UNITS", false},
+    };
+    for (const auto& r : rows) {
+        auto cmd = raw_command(r.line);
+        ASSERT_TRUE(cmd) << r.line;
+        EXPECT_EQ(!resets_or_recalibrates(*cmd).empty(), r.resets) << r.line;
+    }
+    EXPECT_TRUE(resets_or_recalibrates(query("CNTS", "XYZ")).empty());
+    EXPECT_TRUE(resets_or_recalibrates(halt()).empty());
+}
+
 }  // namespace
 }  // namespace gw::devices::ms2000
