@@ -22,7 +22,7 @@ std::string authority_of(std::string_view origin) {
     const std::string o = lower(origin);
     for (std::string_view scheme : {"http://", "https://"}) {
         if (!std::string_view(o).starts_with(scheme)) continue;
-        const auto rest = o.substr(scheme.size());
+        auto rest = o.substr(scheme.size());
         if (rest.empty() || rest.find('/') != std::string::npos) return {};
         return rest;
     }

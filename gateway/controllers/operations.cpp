@@ -89,6 +89,7 @@ std::optional<operation_error> check_position_list(const std::vector<axis_value_
 
 std::vector<ms2000::axis_position> to_positions(const std::vector<axis_value_um>& axes) {
     std::vector<ms2000::axis_position> out;
+    out.reserve(axes.size());
     for (const auto& a : axes)
         out.push_back({upper(a.axis), a.micrometres});
     return out;
