@@ -18,13 +18,17 @@
 
 namespace gw::api {
 
+// No configured token is longer (asi-gateway token new makes 43 characters).
+inline constexpr std::size_t max_token_bytes = 1024;
+
 struct auth_identity {
     std::string name;  // the token's name, "anonymous" without tokens
     gw::role role = gw::role::viewer;
 };
 
 // The identity for an Authorization header value (empty when the header is absent), or a 401
-// problem. Token comparison takes the same time whatever the content.
+// problem. Tokens are compared as SHA-256 hashes (the config keeps no token), in the same time
+// whatever the content.
 std::optional<auth_identity> authenticate(const auth_config& auth, std::string_view authorization,
                                           problem& error);
 

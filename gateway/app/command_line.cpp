@@ -11,6 +11,7 @@
 
 #include "gateway/app/gcode_cli.hpp"
 #include "gateway/app/ports_cli.hpp"
+#include "gateway/app/token_cli.hpp"
 #include "gateway/config/serial_spec.hpp"
 #include "gateway/storage/storage_path.hpp"
 #include "gateway/version.hpp"
@@ -104,6 +105,7 @@ std::variant<launch_settings, int> parse_command_line(int argc, const char* cons
     declare(app, f);
     gcode_cli gcode(app);  // "asi-gateway gcode plan|preview FILE": no controllers, no store
     ports_cli ports(app);  // "asi-gateway ports": find MS-2000s on the serial ports
+    token_cli token(app);  // "asi-gateway token new": a token and its config entry
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -112,6 +114,7 @@ std::variant<launch_settings, int> parse_command_line(int argc, const char* cons
     }
     if (gcode.selected()) return gcode.run(out, err);
     if (ports.selected()) return ports.run(out, err);
+    if (token.selected()) return token.run(out, err);
     if (!f.check_file.empty()) return check_config_file(f.check_file, out, err);
 
     auto config = resolve_config(f);

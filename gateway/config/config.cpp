@@ -254,25 +254,37 @@ void read_auth(const json& j, auth_config& out) {
     if (!tokens->is_array()) fail("auth.tokens", "must be an array");
     for (std::size_t i = 0; i < tokens->size(); ++i) {
         const auto path = "auth.tokens[" + std::to_string(i) + "]";
-        object_reader t((*tokens)[i], path, {"name", "token", "role"});
+        object_reader t((*tokens)[i], path, {"name", "token", "token_sha256", "role"});
         auth_token tok;
         auto* name = t.get("name");
         if (!name) fail(t.path("name"), "required");
         tok.name = read_string(*name, t.path("name"));
         auto* secret = t.get("token");
-        if (!secret) fail(t.path("token"), "required");
-        tok.token = read_string(*secret, t.path("token"));
-        if (tok.token.size() < 16) fail(t.path("token"), "must be at least 16 characters");
-        if (std::any_of(tok.token.begin(), tok.token.end(),
-                        [](unsigned char c) { return c <= 0x20 || c >= 0x7f; }))
-            fail(t.path("token"), "must be printable ASCII without spaces");
+        auto* hashed = t.get("token_sha256");
+        if (!secret && !hashed) fail(t.path("token_sha256"), "required (or \"token\")");
+        if (secret && hashed) fail(t.path("token"), "give \"token\" or \"token_sha256\", not both");
+        if (secret) {
+            const auto token = read_string(*secret, t.path("token"));
+            if (std::any_of(token.begin(), token.end(),
+                            [](unsigned char c) { return c <= 0x20 || c >= 0x7f; }))
+                fail(t.path("token"), "must be printable ASCII without spaces");
+            if (token.size() > 1024) fail(t.path("token"), "must be at most 1024 characters");
+            if (auto why = weak_token_reason(token); !why.empty()) fail(t.path("token"), why);
+            tok.digest = hash_token(token);
+        } else {
+            auto digest = parse_token_digest(read_string(*hashed, t.path("token_sha256")));
+            if (!digest)
+                fail(t.path("token_sha256"), "must be 64 hexadecimal digits (asi-gateway token new)");
+            tok.digest = *digest;
+        }
         if (auto* v = t.get("role"))
             tok.role = read_enum<role>(
                 *v, t.path("role"),
                 {{"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}});
         for (const auto& other : out.tokens) {
             if (other.name == tok.name) fail(t.path("name"), "duplicate name \"" + tok.name + "\"");
-            if (other.token == tok.token) fail(t.path("token"), "the same token is given twice");
+            if (other.digest == tok.digest)
+                fail(t.path(secret ? "token" : "token_sha256"), "the same token is given twice");
         }
         out.tokens.push_back(std::move(tok));
     }

@@ -24,6 +24,7 @@
 #include <boost/system/result.hpp>
 
 #include "devices/serial/controller_settings.hpp"
+#include "gateway/config/token_secret.hpp"
 
 namespace gw {
 
@@ -88,7 +89,7 @@ std::string_view to_string(role r);
 
 struct auth_token {
     std::string name;
-    std::string token;
+    token_digest digest{};  // SHA-256 of the token (gateway/config/token_secret.hpp): never the token
     gw::role role = role::viewer;
 };
 

@@ -150,6 +150,44 @@ def test_bad_flags(fx, gateway):
           f"no HOME: exit {out.returncode}, {out.stderr.strip()!r}")
 
 
+def test_tokens(fx, gateway):
+    # `token new` makes a token and the entry with its hash; a gateway with only that entry takes the
+    # token, and nothing in its config is the token.
+    made = {}
+    for name, role in (("scheduler", "operator"), ("dash", "viewer")):
+        out = subprocess.run([gateway, "token", "new", "--name", name, "--role", role, "--json"],
+                             capture_output=True, text=True, timeout=WAIT, env=base_env(HOME=fx.tmp))
+        check(out.returncode == 0, f"token new: exit {out.returncode}, {out.stderr.strip()!r}")
+        made[name] = json.loads(out.stdout)
+        check(len(made[name]["token"]) == 43 and len(made[name]["token_sha256"]) == 64, f"token new: {out.stdout}")
+    check(made["scheduler"]["token"] != made["dash"]["token"], "two tokens alike")
+    text = subprocess.run([gateway, "token", "new", "--name", "expert", "--role", "admin"], capture_output=True,
+                          text=True, timeout=WAIT).stdout
+    check('"token_sha256": "' in text and '"role": "admin"' in text, f"token new without --json: {text!r}")
+    port = free_port()
+    cfg = os.path.join(fx.tmp, "tokens.json")
+    entries = [{k: m[k] for k in ("name", "role", "token_sha256")} for m in made.values()]
+    with open(cfg, "w") as f:
+        json.dump({"http": {"port": port}, "simulate": {"count": 1, "directory": os.path.join(fx.tmp, "sims-t")},
+                   "storage": {"path": "jobs-t"}, "auth": {"tokens": entries}}, f)
+    with open(cfg) as f:
+        check(made["scheduler"]["token"] not in f.read(), "the config holds the token")
+    proc, _ = start(fx, gateway, ["--config", cfg, "--port", str(port)], base_env(HOME=fx.tmp), fx.tmp)
+    status, body = http_request(port, "GET", "/api/v1/whoami", token=made["scheduler"]["token"])
+    check(status == 200 and json.loads(body)["role"] == "operator", f"whoami: {status} {body}")
+    status, _ = http_request(port, "GET", "/api/v1/whoami", token=made["scheduler"]["token_sha256"])
+    check(status == 401, f"the hash is not a token: {status}")
+    stop(proc)
+    # The documentation's placeholders and guessable tokens are refused before anything starts.
+    for token, message in (("change-me-operator-token", "is a placeholder"),
+                           ("0123456789abcdef", "is too easy to guess")):
+        with open(cfg, "w") as f:
+            json.dump({"auth": {"tokens": [{"name": "x", "token": token, "role": "operator"}]}}, f)
+        out = subprocess.run([gateway, "--check-config", cfg], capture_output=True, text=True, timeout=WAIT)
+        check(out.returncode == 2 and "auth.tokens[0].token: " + message in out.stdout + out.stderr,
+              f"{token}: exit {out.returncode}, {(out.stdout + out.stderr).strip()!r}")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--gateway", required=True)
@@ -166,6 +204,8 @@ def main():
         fx.run("a config's storage.path is relative to the file", test_config_storage_is_relative_to_the_file, fx,
                args.gateway)
         fx.run("bad flags: a message and exit 2", test_bad_flags, fx, args.gateway)
+        fx.run("token new: a token that works, a config that keeps only its hash; weak ones refused", test_tokens,
+               fx, args.gateway)
     finally:
         fx.cleanup()
     return fx.report()

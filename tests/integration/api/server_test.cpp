@@ -252,7 +252,7 @@ TEST_F(server_test, refuses_a_public_address_without_tokens) {
     hub_ = event_hub::create(io_.get_executor());
     server srv(io_.get_executor(), config, registry_, hub_, std::make_shared<metrics>());
     EXPECT_THROW(srv.start(), std::runtime_error);
-    config.auth.tokens = {{"t", "a-token-of-enough-length", role::viewer}};
+    config.auth.tokens = {{"t", hash_token("a-token-of-enough-length"), role::viewer}};
     config.http.port = 0;
     server with_tokens(io_.get_executor(), config, registry_, hub_, std::make_shared<metrics>());
     EXPECT_NO_THROW(with_tokens.start());

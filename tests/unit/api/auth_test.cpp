@@ -10,9 +10,10 @@ namespace {
 
 auth_config tokens() {
     auth_config a;
-    a.tokens = {{"dash", "viewer-token-0123456789", role::viewer},
-                {"robot", "operator-token-0123456789", role::operator_},
-                {"root", "admin-token-0123456789abc", role::admin}};
+    a.tokens = {{"dash", hash_token("viewer-token-0123456789"), role::viewer},
+                {"robot", hash_token("operator-token-0123456789"), role::operator_},
+                // As a config's "token_sha256" gives it: the hash of admin-token-0123456789abc.
+                {"root", *parse_token_digest(to_hex(hash_token("admin-token-0123456789abc"))), role::admin}};
     return a;
 }
 

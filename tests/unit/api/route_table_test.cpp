@@ -33,8 +33,8 @@ class route_table_test : public ::testing::Test {
     std::shared_ptr<api_context> make_context() {
         auto c = std::make_shared<api_context>(
             api_context{io_.get_executor(), registry_, nullptr, nullptr, {}, {}, nullptr, nullptr, nullptr});
-        c->auth.tokens = {{"ada", "viewer-token", gw::role::viewer},
-                          {"bob", "operator-token", gw::role::operator_}};
+        c->auth.tokens = {{"ada", hash_token("viewer-token"), gw::role::viewer},
+                          {"bob", hash_token("operator-token"), gw::role::operator_}};
         return c;
     }
 

@@ -65,10 +65,10 @@ TEST(config, reads_every_key) {
       "simulate": {"count": 2, "time_scale": 10.5, "directory": "/tmp/sims"},
       "storage": {"path": "/var/lib/asi", "max_size_mb": 64},
       "jobs": {"restart_queued": true, "max_queued_per_controller": 20},
-      "auth": {"tokens": [{"name": "dash", "token": "0123456789abcdef", "role": "viewer"},
-                          {"name": "ops", "token": "0123456789abcdeX", "role": "operator"},
-                          {"name": "root", "token": "0123456789abcdeY", "role": "admin"},
-                          {"name": "def", "token": "0123456789abcdeZ"}]},
+      "auth": {"tokens": [{"name": "dash", "token": "Tok-0123456789abcdef", "role": "viewer"},
+                          {"name": "ops", "token": "Tok-0123456789abcdeX", "role": "operator"},
+                          {"name": "root", "token": "Tok-0123456789abcdeY", "role": "admin"},
+                          {"name": "def", "token": "Tok-0123456789abcdeZ"}]},
       "logging": {"level": "debug", "format": "json",
                   "levels": {"api": "warn", "ms2000": "trace", "ms2000.stage1": "error"}},
       "shutdown": {"halt_on_exit": false}
@@ -229,19 +229,30 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
         {R"({"gcode": {"max_file_mb": 2.5}})", "gcode.max_file_mb: must be an integer from 1 to 4096"},
         {R"({"gcode": {"max_file_mb": 4097}})", "gcode.max_file_mb: must be an integer from 1 to 4096"},
         // auth
-        {R"({"auth": {"tokens": [{"token": "0123456789abcdef"}]}})", "auth.tokens[0].name: required"},
-        {R"({"auth": {"tokens": [{"name": "a"}]}})", "auth.tokens[0].token: required"},
+        {R"({"auth": {"tokens": [{"token": "Tok-0123456789abcdef"}]}})", "auth.tokens[0].name: required"},
+        {R"({"auth": {"tokens": [{"name": "a"}]}})", "auth.tokens[0].token_sha256: required (or \"token\")"},
         {R"({"auth": {"tokens": [{"name": "a", "token": "short"}]}})",
-         "auth.tokens[0].token: must be at least 16 characters"},
-        {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789 abcdef"}]}})",
+         "auth.tokens[0].token: is too easy to guess (about 23 bits; at least 128 are needed):"
+         " make a token with `asi-gateway token new`"},
+        {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789abcdef"}]}})",
+         "auth.tokens[0].token: is too easy to guess (about 82 bits; at least 128 are needed):"
+         " make a token with `asi-gateway token new`"},
+        {R"({"auth": {"tokens": [{"name": "a", "token": "change-me-operator-token"}]}})",
+         "auth.tokens[0].token: is a placeholder (\"change-me\"): make a token with `asi-gateway token new`"},
+        {R"({"auth": {"tokens": [{"name": "a", "token_sha256": "abc"}]}})",
+         "auth.tokens[0].token_sha256: must be 64 hexadecimal digits (asi-gateway token new)"},
+        {R"({"auth": {"tokens": [{"name": "a", "token": "Tok-0123456789abcdef",
+                                  "token_sha256": "00000000000000000000000000000000000000000000000000000000000000000"}]}})",
+         "auth.tokens[0].token: give \"token\" or \"token_sha256\", not both"},
+        {R"({"auth": {"tokens": [{"name": "a", "token": "Tok-0123456789 abcdef"}]}})",
          "auth.tokens[0].token: must be printable ASCII without spaces"},
-        {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789abcdef", "role": "root"}]}})",
+        {R"({"auth": {"tokens": [{"name": "a", "token": "Tok-0123456789abcdef", "role": "root"}]}})",
          "auth.tokens[0].role: must be one of viewer, operator, admin"},
-        {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789abcdef"},
-                                  {"name": "a", "token": "0123456789abcdeX"}]}})",
+        {R"({"auth": {"tokens": [{"name": "a", "token": "Tok-0123456789abcdef"},
+                                  {"name": "a", "token": "Tok-0123456789abcdeX"}]}})",
          "auth.tokens[1].name: duplicate name \"a\""},
-        {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789abcdef"},
-                                  {"name": "b", "token": "0123456789abcdef"}]}})",
+        {R"({"auth": {"tokens": [{"name": "a", "token": "Tok-0123456789abcdef"},
+                                  {"name": "b", "token": "Tok-0123456789abcdef"}]}})",
          "auth.tokens[1].token: the same token is given twice"},
         {R"({"http": {"listen_address": "0.0.0.0"}})",
          "http.listen_address (--listen): 0.0.0.0 is not a loopback address, which needs auth.tokens (no "
@@ -278,7 +289,7 @@ TEST(config, refuses_unknown_keys_at_every_level) {
         {R"({"jobs": {"restart": true}})", "jobs.restart: unknown key"},
         {R"({"gcode": {"max_file": 1}})", "gcode.max_file: unknown key"},
         {R"({"auth": {"token": []}})", "auth.token: unknown key"},
-        {R"({"auth": {"tokens": [{"name": "a", "token": "0123456789abcdef", "roles": "admin"}]}})",
+        {R"({"auth": {"tokens": [{"name": "a", "token": "Tok-0123456789abcdef", "roles": "admin"}]}})",
          "auth.tokens[0].roles: unknown key"},
         {R"({"logging": {"lvl": "info"}})", "logging.lvl: unknown key"},
         {R"({"shutdown": {"halt": true}})", "shutdown.halt: unknown key"},
@@ -301,7 +312,7 @@ TEST(config, refuses_malformed_json_with_its_position) {
 TEST(config, non_loopback_address_is_fine_with_tokens_and_loopback_is_recognised) {
     auto r = parse_config(
         R"({"http": {"listen_address": "0.0.0.0"},
-            "auth": {"tokens": [{"name": "a", "token": "0123456789abcdef", "role": "admin"}]}})");
+            "auth": {"tokens": [{"name": "a", "token": "Tok-0123456789abcdef", "role": "admin"}]}})");
     EXPECT_TRUE(r) << r.error();
     EXPECT_TRUE(is_loopback_address("127.0.0.1"));
     EXPECT_TRUE(is_loopback_address("127.1.2.3"));

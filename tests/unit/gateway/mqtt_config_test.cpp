@@ -35,7 +35,8 @@ TEST(mqtt_config, defaults_are_off_and_safe) {
 }
 
 TEST(mqtt_config, every_key_is_read) {
-    auto c = parse_config(R"({"auth":{"tokens":[{"name":"op","token":"0123456789abcdef","role":"operator"}]},
+    auto c =
+        parse_config(R"({"auth":{"tokens":[{"name":"op","token":"Tok-0123456789abcdef","role":"operator"}]},
       "mqtt":{"enabled":true,"brokers":["mqtts://broker.lab:8883","ssl://[::1]:8884","tcp://b2"],
       "client_id":"gw-7","username":"u","password":"p",
       "tls":{"ca_file":"/etc/ca.pem","cert_file":"c.pem","key_file":"k.pem","verify":false},
