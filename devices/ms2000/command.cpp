@@ -78,21 +78,25 @@ std::string letters_if_all(const std::vector<std::string>& words, char suffix) {
     return letters;
 }
 
+// What the wire says after the verb, without the closing CR: " X? Y?" of "RS X? Y?\r".
+std::string_view arguments_of(const command& cmd) {
+    auto args = std::string_view(cmd.wire).substr(std::min(cmd.verb.size(), cmd.wire.size()));
+    if (args.ends_with('\r')) args.remove_suffix(1);
+    return args;
+}
+
 }  // namespace
 
 bool only_reads(const command& cmd) {
     if (is_one_of(cmd.verb, {"W", "WHERE", "/", "STATUS", "RS", "RDSTAT", "V", "VERSION", "WHO"}))
         return true;
-    auto args = std::string_view(cmd.wire).substr(std::min(cmd.verb.size(), cmd.wire.size()));
-    if (args.ends_with('\r')) args.remove_suffix(1);
-    const auto words = upper_words(args);
+    const auto words = upper_words(arguments_of(cmd));
     if (is_one_of(cmd.verb, {"BU", "BUILD", "INFO"})) return words.size() <= 1;
     return !words.empty() && !letters_if_all(words, '?').empty();
 }
 
 std::string_view resets_or_recalibrates(const command& cmd) {
-    auto args = std::string_view(cmd.wire).substr(std::min(cmd.verb.size(), cmd.wire.size()));
-    if (args.ends_with('\r')) args.remove_suffix(1);
+    const auto args = arguments_of(cmd);
     const auto words = upper_words(args);
     const bool sets = args.find('=') != std::string_view::npos;
     if (is_one_of(cmd.verb, {"~", "RESET"}))
