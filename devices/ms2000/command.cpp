@@ -80,7 +80,10 @@ std::string letters_if_all(const std::vector<std::string>& words, char suffix) {
 
 // What the wire says after the verb, without the closing CR: " X? Y?" of "RS X? Y?\r".
 std::string_view arguments_of(const command& cmd) {
-    auto args = std::string_view(cmd.wire).substr(std::min(cmd.verb.size(), cmd.wire.size()));
+    // A verbatim line may begin with spaces; built commands begin with their verb.
+    auto args = std::string_view(cmd.wire);
+    args.remove_prefix(std::min(args.find_first_not_of(' '), args.size()));
+    args.remove_prefix(std::min(cmd.verb.size(), args.size()));
     if (args.ends_with('\r')) args.remove_suffix(1);
     return args;
 }
@@ -108,6 +111,56 @@ std::string_view resets_or_recalibrates(const command& cmd) {
     if (is_one_of(cmd.verb, {"CNTS", "C"}) && sets) return "CNTS changes the encoder calibration";
     if (is_one_of(cmd.verb, {"BAUD"}) && sets) return "BAUD changes the serial line's speed";
     return {};
+}
+
+namespace {
+
+// Every verb of the protocol reference (../shared/docs/ms2000-protocol.md, section 3), short and long.
+constexpr std::string_view known_verbs[] = {
+    "M",       "MOVE",  "R",       "MOVREL", "W",        "WHERE",     "H",     "HERE",    "Z",
+    "ZERO",    "!",     "HOME",    "HM",     "SETHOME",  "\\",        "HALT",  "/",       "STATUS",
+    "ST",      "RS",    "RDSTAT",  "RB",     "RDSBYTE",  "@",         "SPIN",  "VE",      "VECTOR",
+    "S",       "SPEED", "AC",      "ACCEL",  "B",        "BACKLASH",  "PC",    "PCROS",   "E",
+    "ERROR",   "WT",    "WAIT",    "OS",     "O",        "OVERSHOOT", "KP",    "KI",      "KD",
+    "KV",      "AA",    "AALIGN",  "AZ",     "AZERO",    "SU",        "SETUP", "SL",      "SETLOW",
+    "UM",      "MC",    "MOTCTRL", "J",      "JOYSTICK", "JS",        "JSSPD", "C",       "CNTS",
+    "Z2B",     "CCA",   "CUSTOMA", "CCB",    "CUSTOMB",  "VB",        "LD",    "LOAD",    "RM",
+    "RBMODE",  "NR",    "SCANR",   "NV",     "SCANV",    "SN",        "SCAN",  "AH",      "AHOME",
+    "IJ",      "AIJ",   "AR",      "ARRAY",  "RT",       "RTIME",     "SS",    "SAVESET", "SP",
+    "SAVEPOS", "BU",    "BUILD",   "V",      "VERSION",  "CD",        "CDATE", "N",       "WHO",
+    "I",       "INFO",  "DU",      "DUMP",   "~",        "RESET",     "UN",    "UNITS",   "RA",
+    "RDADC",   "LK",    "LOCK",    "AF",     "AFOCUS",   "EX",        "EXTRA", "TTL",     "LED",
+    "UL",      "LR",    "AL",      "BAUD",   "PM",       "DAC",
+};
+
+}  // namespace
+
+command_effect effect_of(const command& cmd) {
+    if (cmd.is_halt) return command_effect::halts;
+    if (only_reads(cmd)) return command_effect::reads;
+    if (is_one_of(cmd.verb, {"~", "RESET", "BAUD"})) return command_effect::breaks_link;
+    if (is_one_of(cmd.verb, {"SS", "SAVESET", "SP", "SAVEPOS"})) return command_effect::writes_flash;
+    if (std::find(std::begin(known_verbs), std::end(known_verbs), cmd.verb) == std::end(known_verbs))
+        return command_effect::unknown;
+    return command_effect::acts;
+}
+
+const char* to_string(command_effect effect) {
+    switch (effect) {
+        case command_effect::reads:
+            return "reads";
+        case command_effect::halts:
+            return "halts";
+        case command_effect::acts:
+            return "acts";
+        case command_effect::writes_flash:
+            return "writes-flash";
+        case command_effect::breaks_link:
+            return "breaks-link";
+        case command_effect::unknown:
+            return "unknown";
+    }
+    return "unknown";
 }
 
 namespace {
@@ -288,6 +341,29 @@ boost::system::result<command> raw_command(std::string_view line) {
     wire.append(args);
     const reply_shape expect = infer_shape(verb, args);
     return finish(std::move(verb), std::move(wire), expect);
+}
+
+boost::system::result<command> verbatim_command(std::string_view line) {
+    if (line.empty() || line.size() > max_raw_command_bytes) return make_error_code(error::invalid_argument);
+    for (char c : line) {
+        const auto byte = static_cast<unsigned char>(c);
+        if (byte < 0x20 || byte > 0x7E) return make_error_code(error::invalid_argument);
+    }
+    std::string_view rest = line.substr(std::min(line.find_first_not_of(' '), line.size()));
+    if (rest.empty()) return make_error_code(error::invalid_argument);
+    const std::size_t verb_end = is_single_char_verb(rest[0]) ? 1 : std::min(rest.find(' '), rest.size());
+    std::string verb = checked_verb(rest.substr(0, verb_end));
+    if (verb.empty() || verb == "RB" || verb == "RDSBYTE") return make_error_code(error::invalid_argument);
+    const std::string_view args = rest.substr(verb_end);
+    command c;
+    c.form = infer_form(verb, args);
+    c.expect = infer_shape(verb, args);
+    c.long_reply = c.expect == reply_shape::multiline || c.expect == reply_shape::two_phase;
+    c.is_halt = is_halt_verb(verb);
+    c.verb = std::move(verb);
+    c.wire.assign(line);
+    c.wire.push_back('\r');
+    return c;
 }
 
 command status() {

@@ -80,6 +80,25 @@ boost::system::result<command> make_command(std::string_view verb, std::span<con
 inline constexpr std::size_t max_raw_command_bytes = 256;
 boost::system::result<command> raw_command(std::string_view line);
 
+// One line from a program that speaks to the controller itself (a shared port's client), sent exactly
+// as it came with a CR added: the firmware's own parser decides, since clients in the wild send forms
+// the manual does not show ("w x", "MOVE X=1"). Printable ASCII only, at most max_raw_command_bytes,
+// a first word the controller could read as a verb. Reply shape and form are inferred from the
+// upper-cased verb as for raw_command. RDSBYTE ("RB") is refused: its binary answer cannot be framed.
+boost::system::result<command> verbatim_command(std::string_view line);
+
+// What a command may do to the controller, for deciding who may send it (a shared port's role).
+enum class command_effect : std::uint8_t {
+    reads,         // only reads (only_reads)
+    halts,         // HALT
+    acts,          // moves, or changes a setting the controller keeps in memory (a verb the tables know)
+    writes_flash,  // SAVESET, SAVEPOS: outlives a power cycle
+    breaks_link,   // RESET, BAUD: the gateway's own link to the controller ends
+    unknown,       // a verb the protocol tables do not know: may do anything
+};
+command_effect effect_of(const command& cmd);
+const char* to_string(command_effect effect);
+
 // True when the command only reads the controller (WHERE, STATUS, RS, VERSION, BUILD, WHO, INFO, or
 // parameter queries whose every argument is "L?"): it cannot start a move or change a setting. The
 // driver polls less often while the stage is idle and nothing but such commands ran.

@@ -319,5 +319,67 @@ TEST(command, resets_or_recalibrates_names_what_a_caller_must_insist_on) {
     EXPECT_TRUE(resets_or_recalibrates(halt()).empty());
 }
 
+TEST(verbatim_command, sends_the_line_as_it_came) {
+    struct row {
+        std::string_view line;
+        std::string_view verb;
+        reply_shape expect;
+        reply_form::kind form;
+    };
+    const row rows[] = {
+        {"w x y", "W", reply_shape::standard, reply_form::kind::numbers},
+        {"  W X", "W", reply_shape::standard, reply_form::kind::numbers},
+        {"MOVE X=1 ", "MOVE", reply_shape::standard, reply_form::kind::bare_ack},
+        {"/", "/", reply_shape::status, reply_form::kind::any},
+        {"\\", "\\", reply_shape::standard, reply_form::kind::bare_ack},
+        {"bu x", "BU", reply_shape::multiline, reply_form::kind::build_text},
+        {"ss z", "SS", reply_shape::two_phase, reply_form::kind::any},
+        {"s x?", "S", reply_shape::standard, reply_form::kind::axis_values},
+    };
+    for (const auto& r : rows) {
+        auto cmd = verbatim_command(r.line);
+        ASSERT_TRUE(cmd) << r.line;
+        EXPECT_EQ(cmd->wire, std::string(r.line) + "\r") << r.line;
+        EXPECT_EQ(cmd->verb, r.verb) << r.line;
+        EXPECT_EQ(cmd->expect, r.expect) << r.line;
+        EXPECT_EQ(cmd->form.what, r.form) << r.line;
+    }
+    EXPECT_TRUE(verbatim_command("\\")->is_halt);
+    EXPECT_TRUE(verbatim_command("halt")->is_halt);
+}
+
+TEST(verbatim_command, refuses_what_cannot_be_one_line_of_ascii) {
+    for (std::string_view line :
+         {"", "   ", "W X\r", "W\nX", "W \x01", "RB X", "rdsbyte x", "M=X", "ABCDEFGHIJKLM X"})
+        EXPECT_FALSE(verbatim_command(line)) << line;
+    EXPECT_FALSE(verbatim_command(std::string(max_raw_command_bytes + 1, 'W')));
+    const std::string high = "W \xC3\xA9";
+    EXPECT_FALSE(verbatim_command(high));
+}
+
+TEST(command_effect, tells_what_a_line_may_do) {
+    struct row {
+        std::string_view line;
+        command_effect effect;
+    };
+    const row rows[] = {
+        {"W X", command_effect::reads},         {"/", command_effect::reads},
+        {"S X? Y?", command_effect::reads},     {"BU X", command_effect::reads},
+        {"\\", command_effect::halts},          {"HALT", command_effect::halts},
+        {"M X=10", command_effect::acts},       {"r x=1", command_effect::acts},
+        {"S X=2", command_effect::acts},        {"UM X=-10000 Y=10000", command_effect::acts},
+        {"TTL X=1", command_effect::acts},      {"CCA Y", command_effect::acts},
+        {"SS Z", command_effect::writes_flash}, {"SAVESET X", command_effect::writes_flash},
+        {"SP", command_effect::writes_flash},   {"~", command_effect::breaks_link},
+        {"RESET", command_effect::breaks_link}, {"BAUD X=9600", command_effect::breaks_link},
+        {"FOO X=1", command_effect::unknown},   {"XYZZY", command_effect::unknown},
+    };
+    for (const auto& r : rows) {
+        auto cmd = verbatim_command(r.line);
+        ASSERT_TRUE(cmd) << r.line;
+        EXPECT_EQ(effect_of(*cmd), r.effect) << r.line << ": " << to_string(effect_of(*cmd));
+    }
+}
+
 }  // namespace
 }  // namespace gw::devices::ms2000
