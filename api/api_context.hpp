@@ -22,6 +22,7 @@ class event_hub;
 class gcode_file_store;
 class lease_manager;
 class metrics;
+class shared_ports;
 }  // namespace gw
 
 namespace gw::jobs {
@@ -53,6 +54,8 @@ struct api_context {
     std::shared_ptr<batch_text_cache> batch_texts;
     // What a browser page of another site may not do (api/browser_guard.hpp).
     browser_rules browser;
+    // The controllers' shared ports, shown with each controller; null: none.
+    const shared_ports* shares = nullptr;
 };
 
 }  // namespace gw::api

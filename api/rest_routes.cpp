@@ -8,6 +8,7 @@
 #include "api/lease_requests.hpp"
 #include "api/operation_requests.hpp"
 #include "api/port_requests.hpp"
+#include "api/share_json.hpp"
 #include "gateway/common/metrics.hpp"
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/events/controller_state_texts.hpp"
@@ -59,6 +60,7 @@ void ready(request_context& c) {
 
 void metrics(request_context& c) {
     copy_hub_counters(*c.ctx);
+    copy_share_counters(*c.ctx);
     c.reply_body(http::status::ok, c.ctx->metrics->exposition(), "text/plain; version=0.0.4; charset=utf-8");
 }
 
@@ -70,19 +72,28 @@ void whoami(request_context& c) {
 
 void list_controllers(request_context& c) {
     json list = json::array();
-    for (const auto& s : c.ctx->registry.list())
-        list.push_back(state_json(s));
+    for (const auto& s : c.ctx->registry.list()) {
+        auto state = state_json(s);
+        state["share"] = share_json_of(*c.ctx, s.id);
+        list.push_back(std::move(state));
+    }
     c.reply_json(http::status::ok, {{"controllers", std::move(list)}});
 }
 
 void get_controller(request_context& c) {
     // The text the events bridge built with the last snapshot: nothing to build per request.
+    // The shared port changes on its own (clients come and go): its status is added to that text.
     if (c.ctx->state_texts)
-        if (auto text = c.ctx->state_texts->get(c.params[0]))
-            return c.reply_body(http::status::ok, *text, "application/json");
+        if (auto text = c.ctx->state_texts->get(c.params[0]); text && text->ends_with('}')) {
+            std::string body(*text, 0, text->size() - 1);
+            body += R"(,"share":)" + share_json_of(*c.ctx, c.params[0]).dump() + "}";
+            return c.reply_body(http::status::ok, std::move(body), "application/json");
+        }
     auto s = c.ctx->registry.get(c.params[0]);
     if (!s) return c.fail(unknown_controller(c.params[0]));
-    c.reply_json(http::status::ok, state_json(*s));
+    auto state = state_json(*s);
+    state["share"] = share_json_of(*c.ctx, s->id);
+    c.reply_json(http::status::ok, state);
 }
 
 // POST /controllers/{id}/<operation>: the operation's own name is the last segment of the route.

@@ -10,6 +10,7 @@
 #include "api/gcode_worker.hpp"
 #include "api/listener.hpp"
 #include "api/port_scan_worker.hpp"
+#include "api/share_json.hpp"
 #include "gateway/common/metrics.hpp"
 #include "gateway/config/logging.hpp"
 #include "gateway/controllers/controller_registry.hpp"
@@ -30,21 +31,22 @@ std::shared_ptr<gcode_file_store> make_gcode_store(const gateway_config& config)
 server::server(const io_executor& executor, const gateway_config& config, controller_registry& registry,
                std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
                std::shared_ptr<jobs::job_manager> jobs, std::shared_ptr<lease_manager> leases,
-               std::shared_ptr<const controller_state_texts> state_texts)
+               std::shared_ptr<const controller_state_texts> state_texts, const shared_ports* shares)
     : executor_(executor),
       http_(config.http),
-      ctx_(std::make_shared<api_context>(
-          api_context{executor, registry, std::move(hub), std::move(metrics), config.http.limits, config.auth,
-                      get_logger("api"), std::move(jobs), std::move(leases), make_gcode_store(config),
-                      std::make_shared<api::gcode_worker>(), std::make_shared<api::port_scan_worker>(),
-                      std::move(state_texts), std::make_shared<batch_text_cache>(),
-                      browser_rules{config.http.allowed_origins, config.http.allowed_hosts,
-                                    config.auth.tokens.empty()}})) {
+      ctx_(std::make_shared<api_context>(api_context{
+          executor, registry, std::move(hub), std::move(metrics), config.http.limits, config.auth,
+          get_logger("api"), std::move(jobs), std::move(leases), make_gcode_store(config),
+          std::make_shared<api::gcode_worker>(), std::make_shared<api::port_scan_worker>(),
+          std::move(state_texts), std::make_shared<batch_text_cache>(),
+          browser_rules{config.http.allowed_origins, config.http.allowed_hosts, config.auth.tokens.empty()},
+          shares})) {
     // main holds the storage lock by now: no other gateway uploads into this store.
     if (auto stale = ctx_->gcode_files->remove_stale_temporaries())
         ctx_->log->info("removed {} unfinished G-code uploads from {}", stale,
                         ctx_->gcode_files->settings().directory.string());
     controller_metrics::describe(*ctx_->metrics);
+    describe_share_metrics(*ctx_);
     // Gauges exist from the start (a scrape before the first client sees 0, not nothing).
     ctx_->metrics->set("gw_http_connections", {}, 0);
     ctx_->metrics->set("gw_websocket_clients", {}, 0);

@@ -23,7 +23,8 @@ class server {
     server(const io_executor& executor, const gateway_config& config, controller_registry& registry,
            std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
            std::shared_ptr<jobs::job_manager> jobs = nullptr, std::shared_ptr<lease_manager> leases = nullptr,
-           std::shared_ptr<const controller_state_texts> state_texts = nullptr);
+           std::shared_ptr<const controller_state_texts> state_texts = nullptr,
+           const shared_ports* shares = nullptr);
     ~server();
 
     // Binds http.listen_address:http.port. Throws std::runtime_error (refused address, port in use).

@@ -103,6 +103,12 @@ void controller::set_observer(std::weak_ptr<controller_observer> observer) {
     });
 }
 
+void controller::set_report_tap(report_port::byte_tap tap) {
+    net::post(strand_, [self = shared_from_this(), tap = std::move(tap)]() mutable {
+        self->report_.set_tap(std::move(tap));
+    });
+}
+
 void controller::get_snapshot(std::function<void(controller_snapshot)> handler) {
     net::post(strand_,
               [self = shared_from_this(), handler = std::move(handler)] { handler(self->snapshot_); });

@@ -110,6 +110,10 @@ class controller : public std::enable_shared_from_this<controller>,
     // intent to stop counts), since it was made. Any thread.
     std::uint64_t halts_accepted() const { return link_.halts_accepted(); }
 
+    // Every byte of the report port, unchanged, to `tap` on the controller's strand (a shared report
+    // port carries them to programs that read the report stream themselves); empty: none.
+    void set_report_tap(report_port::byte_tap tap);
+
     // Delivers a copy of the current snapshot (from the strand) to `handler`, which runs on the strand.
     void get_snapshot(std::function<void(controller_snapshot)> handler);
 

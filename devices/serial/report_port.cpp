@@ -72,6 +72,7 @@ void report_port::on_read(std::uint64_t generation, error_code ec, std::size_t b
 void report_port::on_bytes(std::size_t bytes) {
     const auto steady_now = steady_clock::now();
     const auto system_now = system_clock::now();
+    if (tap_) tap_(std::string_view(reinterpret_cast<const char*>(buffer_.data()), bytes));
     frames_.clear();
     decoder_->feed(std::span<const std::uint8_t>(buffer_.data(), bytes), frames_);
     owner_.report_bytes_arrived(steady_now);

@@ -8,8 +8,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <exception>
+#include <functional>
 #include <memory>
 #include <optional>
+#include <string_view>
 #include <vector>
 
 #include <boost/asio/any_io_executor.hpp>
@@ -53,6 +55,9 @@ class report_port {
     void open();
     void close();
     bool is_open() const { return port_.is_open(); }
+    // Gets every byte read, unchanged, before it is decoded (a shared report port); empty: none.
+    using byte_tap = std::function<void(std::string_view)>;
+    void set_tap(byte_tap tap) { tap_ = std::move(tap); }
 
   private:
     void read(std::uint64_t generation);
@@ -72,6 +77,7 @@ class report_port {
     std::optional<ms2000::report_decoder> decoder_;
     std::vector<ms2000::report_frame> frames_;
     std::uint64_t sequence_ = 0;
+    byte_tap tap_;
 };
 
 }  // namespace gw::devices

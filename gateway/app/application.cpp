@@ -21,6 +21,7 @@
 #include "gateway/events/event_hub.hpp"
 #include "gateway/jobs/job_manager.hpp"
 #include "gateway/leases/lease_manager.hpp"
+#include "gateway/share/shared_ports.hpp"
 #include "gateway/version.hpp"
 
 namespace gw {
@@ -115,8 +116,9 @@ bool application::start() {
         return false;
     }
     jobs_ = std::move(*jobs);
+    shares_ = std::make_unique<shared_ports>(ioc_.get_executor(), config, *registry_, leases_, jobs_);
     http_ = std::make_unique<api::server>(ioc_.get_executor(), config, *registry_, hub_, metrics_, jobs_,
-                                          leases_, state_texts_);
+                                          leases_, state_texts_, shares_.get());
 
     try {
         registry_->start();
@@ -125,6 +127,11 @@ bool application::start() {
         return false;
     }
     jobs_->start();  // restart recovery: interrupted jobs, queued ones kept
+    if (auto why = shares_->start(); !why.empty()) {
+        log_->error("{}", why);
+        stop_after_failed_start();
+        return false;
+    }
     try {
         http_->start();
     } catch (const std::exception& e) {
@@ -157,6 +164,7 @@ bool application::start() {
 // not run yet, so nothing has moved: the ports close without HALT, and the job manager, which has only
 // read the store, is abandoned by its destructor like a crash (what it stored stays as it was).
 void application::stop_after_failed_start() {
+    shares_->stop();
     http_->stop();
     registry_->stop();
     hub_->stop();
@@ -167,6 +175,7 @@ void application::stop_after_failed_start() {
 // last the hub, after the jobs' and controllers' final events have gone out.
 void application::shutdown() {
     http_->stop();
+    shares_->stop();
     run_in_order(std::make_shared<std::vector<step>>(std::vector<step>{
         [this](auto next) {
             jobs_->async_shutdown([this, next = std::move(next)] {

@@ -30,6 +30,7 @@ namespace gw {
 class controller_state_texts;
 class event_hub;
 class lease_manager;
+class shared_ports;
 class metrics;
 namespace jobs {
 class job_manager;
@@ -83,6 +84,7 @@ class application {
     std::shared_ptr<controller_state_texts> state_texts_;  // filled by the events bridge, read by HTTP
     std::shared_ptr<lease_manager> leases_;
     std::shared_ptr<jobs::job_manager> jobs_;
+    std::unique_ptr<shared_ports> shares_;
     std::unique_ptr<api::server> http_;
     std::shared_ptr<api::mqtt_bridge> mqtt_;
     // A controlled stop (HALT to the stages it was moving, jobs interrupted, the store closed). SIGHUP

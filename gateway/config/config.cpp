@@ -1,6 +1,7 @@
 #include "gateway/config/config.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <fstream>
 #include <functional>
 #include <initializer_list>
@@ -204,10 +205,82 @@ void read_http(const json& j, http_config& out) {
     }
 }
 
-devices::controller_settings read_controller(const json& j, const std::string& path) {
+// "HOST:PORT" with an IP address ("[::1]:7001" for IPv6). RFC 2217 and a raw TCP port have no
+// authentication: a non-loopback address must be meant (allow_network).
+void read_host_port(const json& j, const std::string& path, bool allow_network, std::string& host,
+                    std::uint16_t& port) {
+    const auto text = read_string(j, path);
+    const auto colon = text.rfind(':');
+    std::string h = colon == std::string::npos ? "" : text.substr(0, colon);
+    if (h.size() >= 2 && h.front() == '[' && h.back() == ']') h = h.substr(1, h.size() - 2);
+    unsigned number = 0;
+    const auto digits =
+        colon == std::string::npos ? std::string_view{} : std::string_view(text).substr(colon + 1);
+    const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), number);
+    boost::system::error_code bad;
+    const auto address = boost::asio::ip::make_address(h, bad);
+    if (bad || ec != std::errc{} || end != digits.data() + digits.size() || number == 0 || number > 65535)
+        fail(path, "must be \"HOST:PORT\" with an IP address, e.g. \"127.0.0.1:7001\"");
+    if (!address.is_loopback() && !allow_network)
+        fail(path,
+             "is not a loopback address: anyone who reaches it controls the stage with share.role and "
+             "no token; set \"allow_network\": true to mean it");
+    host = h;
+    port = static_cast<std::uint16_t>(number);
+}
+
+// controllers[].share: {"pty": PATH, "pty_mode": "0660", "pty_group": "dialout", "tcp": "HOST:PORT",
+// "report_pty": PATH, "report_tcp": "HOST:PORT", "role": "operator", "lease": false, "max_clients": 4,
+// "allow_network": false}.
+devices::share::share_settings read_share(const json& j, const std::string& path,
+                                          const devices::controller_settings& controller) {
+    object_reader r(j, path,
+                    {"pty", "pty_mode", "pty_group", "tcp", "report_pty", "report_tcp", "role", "lease",
+                     "max_clients", "allow_network"});
+    devices::share::share_settings s;
+    s.controller = controller.id;
+    s.line_baud = controller.baud;
+    if (auto* v = r.get("pty")) {
+        s.pty = read_string(*v, r.path("pty"));
+        if (!s.pty.starts_with('/')) fail(r.path("pty"), "must be an absolute path");
+    }
+    if (auto* v = r.get("pty_mode")) {
+        const auto text = read_string(*v, r.path("pty_mode"));
+        unsigned mode = 0;
+        const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), mode, 8);
+        if (ec != std::errc{} || end != text.data() + text.size() || text.size() < 3 || mode > 0666)
+            fail(r.path("pty_mode"), "must be an octal mode such as \"0660\" (no execute bits)");
+        s.pty_mode = static_cast<mode_t>(mode);
+    }
+    if (auto* v = r.get("pty_group")) s.pty_group = read_string(*v, r.path("pty_group"));
+    bool allow_network = false;
+    if (auto* v = r.get("allow_network")) allow_network = read_bool(*v, r.path("allow_network"));
+    if (auto* v = r.get("tcp")) read_host_port(*v, r.path("tcp"), allow_network, s.tcp_host, s.tcp_port);
+    if (auto* v = r.get("report_pty")) {
+        s.report_pty = read_string(*v, r.path("report_pty"));
+        if (!s.report_pty.starts_with('/')) fail(r.path("report_pty"), "must be an absolute path");
+    }
+    if (auto* v = r.get("report_tcp"))
+        read_host_port(*v, r.path("report_tcp"), allow_network, s.report_tcp_host, s.report_tcp_port);
+    if (s.shares_reports() && controller.report_port.empty())
+        fail(r.path(s.report_pty.empty() ? "report_tcp" : "report_pty"),
+             "needs the controller's report_port");
+    if (auto* v = r.get("role"))
+        s.role = read_enum<devices::share::share_role>(*v, r.path("role"),
+                                                       {{"viewer", devices::share::share_role::viewer},
+                                                        {"operator", devices::share::share_role::operator_},
+                                                        {"admin", devices::share::share_role::admin}});
+    if (auto* v = r.get("lease")) s.lease = read_bool(*v, r.path("lease"));
+    if (auto* v = r.get("max_clients")) s.max_clients = read_uint(*v, r.path("max_clients"), 1, 64);
+    if (!s.enabled()) fail(path, "needs \"pty\", \"tcp\", \"report_pty\" or \"report_tcp\"");
+    return s;
+}
+
+devices::controller_settings read_controller(const json& j, const std::string& path,
+                                             std::vector<devices::share::share_settings>& shares) {
     object_reader r(j, path,
                     {"id", "port", "baud", "report_port", "poll_ms", "idle_poll_ms", "error_log_ms",
-                     "command_timeout_ms"});
+                     "command_timeout_ms", "share"});
     devices::controller_settings s;
     auto* id = r.get("id");
     if (!id) fail(r.path("id"), "required");
@@ -233,11 +306,13 @@ devices::controller_settings read_controller(const json& j, const std::string& p
         s.error_log_interval = std::chrono::milliseconds(read_uint(*v, r.path("error_log_ms"), 0, 3600000));
     if (auto* v = r.get("command_timeout_ms"))
         s.command_timeout = std::chrono::milliseconds(read_uint(*v, r.path("command_timeout_ms"), 10, 60000));
+    if (auto* v = r.get("share")) shares.push_back(read_share(*v, r.path("share"), s));
     return s;
 }
 
 void read_simulate(const json& j, simulate_config& out) {
-    object_reader r(j, "simulate", {"count", "time_scale", "directory"});
+    object_reader r(j, "simulate", {"count", "time_scale", "directory", "share"});
+    if (auto* v = r.get("share")) out.share = read_bool(*v, r.path("share"));
     if (auto* v = r.get("count")) out.count = read_uint(*v, r.path("count"), 0, max_simulated_controllers);
     if (auto* v = r.get("time_scale")) out.time_scale = read_double(*v, r.path("time_scale"), 0.01, 1000);
     if (auto* v = r.get("directory")) out.directory = read_string(*v, r.path("directory"));
@@ -446,7 +521,8 @@ gateway_config read_config(const json& j) {
     if (auto* v = r.get("controllers")) {
         if (!v->is_array()) fail("controllers", "must be an array");
         for (std::size_t i = 0; i < v->size(); ++i)
-            c.controllers.push_back(read_controller((*v)[i], "controllers[" + std::to_string(i) + "]"));
+            c.controllers.push_back(
+                read_controller((*v)[i], "controllers[" + std::to_string(i) + "]", c.shares));
     }
     if (auto* v = r.get("simulate")) read_simulate(*v, c.simulate);
     if (auto* v = r.get("storage")) {
@@ -541,6 +617,19 @@ std::string validate_config(const gateway_config& config) {
         auto where = "controllers[" + std::to_string(i) + "].id: duplicate id \"" + id + "\"";
         if (simulated.contains(id)) return where + " (simulated controllers are named sim1..simN)";
         if (!ids.insert(id).second) return where;
+    }
+    std::set<std::string> share_places;
+    for (const auto& share : config.shares) {
+        const auto tcp = share.tcp_host + ":" + std::to_string(share.tcp_port);
+        if (!share.pty.empty() && !share_places.insert(share.pty).second)
+            return "controllers[].share.pty: " + share.pty + " is given twice";
+        if (share.tcp_port != 0 && !share_places.insert(tcp).second)
+            return "controllers[].share.tcp: " + tcp + " is given twice";
+        const auto report_tcp = share.report_tcp_host + ":" + std::to_string(share.report_tcp_port);
+        if (!share.report_pty.empty() && !share_places.insert(share.report_pty).second)
+            return "controllers[].share.report_pty: " + share.report_pty + " is given twice";
+        if (share.report_tcp_port != 0 && !share_places.insert(report_tcp).second)
+            return "controllers[].share.report_tcp: " + report_tcp + " is given twice";
     }
     boost::system::error_code ec;
     boost::asio::ip::make_address(config.http.listen_address, ec);

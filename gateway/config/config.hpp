@@ -24,6 +24,7 @@
 #include <boost/system/result.hpp>
 
 #include "devices/serial/controller_settings.hpp"
+#include "devices/share/share_settings.hpp"
 #include "gateway/config/token_secret.hpp"
 
 namespace gw {
@@ -56,6 +57,7 @@ struct simulate_config {
     std::size_t count = 0;  // simulated controllers "sim1".."simN" (presets cycle full, plain, planar, crisp)
     double time_scale = 1.0;  // 1 = real time
     std::string directory;    // where their port symlinks go; empty = /tmp/asi-gateway-<pid>
+    bool share = true;        // each gets a shared pty next to its port, <directory>/<id>/share
 };
 
 struct storage_config {
@@ -176,6 +178,7 @@ struct mqtt_config {
 struct gateway_config {
     http_config http;
     std::vector<devices::controller_settings> controllers;
+    std::vector<devices::share::share_settings> shares;  // controllers[].share, in controller order
     simulate_config simulate;
     storage_config storage;
     jobs_config jobs;

@@ -434,12 +434,18 @@ void controller_registry::run_emergency_halt(std::string id, std::string by, std
             std::move(h),
             make_error(operation_error_kind::unknown_controller, "no controller with id \"" + id + "\""), id,
             request_id);
+    latch_halt(id, by, request_id);
+    run_simple<halt_request>(std::move(id), halt_request{}, std::move(request_id), std::move(h));
+}
+
+void controller_registry::latch_halt(const std::string& id, const std::string& by,
+                                     const std::string& request_id) {
+    if (!controllers_.contains(id)) return;
     if (store_->set_latch(id, devices::halt_latch{by, std::chrono::system_clock::now()})) {
         log_->warn("[{}] {}: HALT by {}: jobs there stay stopped until one is resumed or submitted",
                    request_id, id, by);
         republish(id);
     }
-    run_simple<halt_request>(std::move(id), halt_request{}, std::move(request_id), std::move(h));
 }
 
 void controller_registry::release_halt_latch(const std::string& id) {

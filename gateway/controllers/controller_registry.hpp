@@ -123,6 +123,9 @@ class controller_registry {
             },
             token, std::move(id), std::move(by), std::move(request_id));
     }
+    // The latch alone, for a HALT that goes to the controller another way (a shared port's client sends
+    // its own, to get the controller's reply); nothing for an unknown id.
+    void latch_halt(const std::string& id, const std::string& by, const std::string& request_id);
     // Releases the latch (someone resumed or submitted a job there); nothing when there is none.
     void release_halt_latch(const std::string& id);
     // The controller's HALTs so far (devices::controller::halts_accepted); 0 for an unknown id.
