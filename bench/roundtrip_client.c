@@ -3,6 +3,7 @@
 //   roundtrip_client line PORT N          "W X\r" over raw TCP (ser2net), the reply ends with '\n'
 //   roundtrip_client http PORT N ID       POST /api/v1/controllers/ID/command {"command":"W X"}, keep-alive
 //   roundtrip_client ws PORT N ID         {"op":"command",...,"operation":"command"} over /api/v1/ws
+//   roundtrip_client pty PATH N           "W X\r" on a serial device or pty (a controller's own, or a shared one)
 //
 // Each mode does N round trips one after the other on one connection (after 50 unmeasured ones) and
 // prints "n p50_us p90_us p99_us max_us mean_us". Loopback only (127.0.0.1). Exit code 1 on any error
@@ -14,7 +15,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
 #include <sys/socket.h>
+#include <termios.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -41,6 +44,15 @@ static int connect_loopback(int port) {
     if (fd < 0 || connect(fd, (struct sockaddr *)&a, sizeof a) != 0) die("cannot connect");
     int one = 1;
     setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    return fd;
+}
+
+static int open_raw(const char *path) {
+    int fd = open(path, O_RDWR | O_NOCTTY);
+    struct termios t;
+    if (fd < 0 || tcgetattr(fd, &t) != 0) die("cannot open the device");
+    cfmakeraw(&t);
+    if (tcsetattr(fd, TCSANOW, &t) != 0) die("cannot make the device raw");
     return fd;
 }
 
@@ -180,14 +192,14 @@ static int by_value(const void *a, const void *b) {
 }
 
 int main(int argc, char **argv) {
-    if (argc < 4) die("usage: roundtrip_client line|http|ws PORT N [CONTROLLER]");
+    if (argc < 4) die("usage: roundtrip_client line|http|ws PORT N [CONTROLLER] | pty PATH N");
     const char *mode = argv[1];
-    int port = atoi(argv[2]);
     int n = atoi(argv[3]);
     if (n <= 0) die("N must be positive");
     void (*round_trip)(int) = NULL;
-    int fd = connect_loopback(port);
-    if (strcmp(mode, "line") == 0) {
+    int pty = strcmp(mode, "pty") == 0;
+    int fd = pty ? open_raw(argv[2]) : connect_loopback(atoi(argv[2]));
+    if (strcmp(mode, "line") == 0 || pty) {
         round_trip = line_round_trip;
     } else if (strcmp(mode, "http") == 0 && argc > 4) {
         const char *body = "{\"command\":\"W X\"}";

@@ -1,7 +1,8 @@
 // The controller view (#/controller/<id>): the controller's state, build and modules, a big HALT, its
 // lease; the position of every axis; a live XY map with trail and soft limits; a live chart of the
 // positions (10 Hz) and, where the controller has a report port, of its encoder report frames (every
-// frame counted, a few drawn), with TTL events marked; the motion and module controls. While a job
+// frame counted, a few drawn), with TTL events marked; the motion and module controls; its shared port
+// and the programs connected to it. While a job
 // holds the controller (running or paused there), the controls are disabled and say why: only the
 // lease it runs under may change the controller then (409 job-active); HALT always works.
 
@@ -11,6 +12,7 @@ import { LeasePanel } from "./lease_panel.js";
 import { ModuleControls } from "./module_controls.js";
 import { MotionControls } from "./motion_controls.js";
 import { ReportStats } from "./report_stats.js";
+import { SharePanel } from "./share_panel.js";
 import { store } from "./store.js";
 import { axisColour, TimeChart } from "./time_chart.js";
 import { XYPlot } from "./xy_plot.js";
@@ -36,6 +38,7 @@ class ControllerView {
     this.stats = null;
     this.ttlEvents = 0;
     this.lease = new LeasePanel(id);
+    this.share = new SharePanel(id);
     this.motion = new MotionControls(id);
     this.modules = new ModuleControls(id);
     this.xy = new XYPlot({ title: id });
@@ -68,7 +71,7 @@ class ControllerView {
                             el("h2", {}, el("a", { href: "#/" }, "Controllers"), " / ", this.id), this.badge),
                          this.identity),
                       this.halt),
-                   this.haltError, this.haltedLine, this.holdLine, this.lastError, this.hint, this.lease.root,
+                   this.haltError, this.haltedLine, this.holdLine, this.lastError, this.hint, this.lease.root, this.share.root,
                    el("div", { class: "ctl-grid" },
                       el("section", { class: "panel panel-position" }, el("h3", {}, "Position"), this.axesTable, this.busy, this.xy.root),
                       el("section", { class: "panel panel-chart" },
@@ -268,6 +271,7 @@ class ControllerView {
     this.reportStop?.();
     clearInterval(this.statsTimer);
     this.lease.destroy();
+    this.share.destroy();
     this.chart.destroy();
   }
 }

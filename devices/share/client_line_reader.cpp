@@ -7,7 +7,18 @@ client_line_reader::client_line_reader(std::size_t max_line_bytes) : max_line_by
 void client_line_reader::feed(std::string_view bytes, std::vector<client_line>& lines) {
     for (const char c : bytes) {
         const auto byte = static_cast<unsigned char>(c);
+        if (halted_) {  // the CR after a HALT that went at once belongs to it
+            halted_ = false;
+            if (byte == '\r') continue;
+        }
         if (byte == '\n') continue;
+        // "\" at the start of a line is HALT at once, as the controller's fast path reads it: a program
+        // may send it without a CR (mesoSPIM does) and wait for the answer.
+        if (byte == '\\' && partial_.empty() && !spoiled_) {
+            lines.push_back({client_line::kind::command, "\\"});
+            halted_ = true;
+            continue;
+        }
         if (byte == '\r') {
             if (spoiled_)
                 lines.push_back({client_line::kind::unreadable, {}});

@@ -119,7 +119,18 @@ boost::system::result<command_line> parse_command_line(std::string_view line) {
         const auto start = i;
         while (i < line.size() && !is_space(line[i]))
             ++i;
-        auto arg = parse_argument(line.substr(start, i - start));
+        const auto token = line.substr(start, i - start);
+        // Axis letters run together ("W XYZ") are read one by one, as the firmware's parser reads
+        // characters: mesoSPIM sends "W XYZ" and reads the values in hardware order (devices/sim/README.md,
+        // "Third-party drivers").
+        if (token.size() > 1 && std::all_of(token.begin(), token.end(), [](char c) {
+                return std::isalpha(static_cast<unsigned char>(c)) != 0;
+            })) {
+            for (char c : token)
+                out.args.push_back({static_cast<char>(std::toupper(static_cast<unsigned char>(c)))});
+            continue;
+        }
+        auto arg = parse_argument(token);
         if (!arg) return arg.error();
         out.args.push_back(*arg);
     }

@@ -201,6 +201,17 @@ std::string ms2000_model::feed(std::string_view bytes, sim_time now) {
             low_level_pending_ = false;
             continue;
         }
+        if (halted_fast_) {  // the CR after a fast-path HALT belongs to it
+            halted_fast_ = false;
+            if (byte == '\r') continue;
+        }
+        // "\" at the start of a line is HALT at once, CR or not: the parser's fast path (doc §1).
+        // mesoSPIM sends the backslash without a CR and waits for the answer.
+        if (byte == '\\' && line_.empty()) {
+            out += handle_line("\\", now);
+            halted_fast_ = true;
+            continue;
+        }
         switch (byte) {
             case 0xFF:
                 low_level_pending_ = true;

@@ -219,6 +219,7 @@ class ms2000_model {
     std::vector<axis> axes_;
     std::string line_;
     bool low_level_pending_ = false;
+    bool halted_fast_ = false;          // a fast-path HALT was just handled: a CR right after it is its own
     std::deque<timed_output> pending_;  // delayed main-port output
     std::vector<int> errors_;           // DU Y
     ring_state ring_;

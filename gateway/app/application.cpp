@@ -156,7 +156,8 @@ bool application::start() {
     }
     log_->info("asi-gateway {} {}", version,
                startup_summary(http_->local_endpoint(), config.storage.path, registry_->list(),
-                               config.mqtt.enabled ? config.mqtt.brokers : std::vector<std::string>{}));
+                               config.mqtt.enabled ? config.mqtt.brokers : std::vector<std::string>{},
+                               shares_->places()));
     return true;
 }
 

@@ -10,12 +10,15 @@ std::string http_url(const boost::asio::ip::tcp::endpoint& http) {
 
 std::string startup_summary(const boost::asio::ip::tcp::endpoint& http, const std::string& storage,
                             const std::vector<devices::controller_snapshot>& controllers,
-                            const std::vector<std::string>& brokers) {
+                            const std::vector<std::string>& brokers,
+                            const std::map<std::string, std::string>& shared_at) {
     std::string line = "serving " + http_url(http) + " (storage " + storage + "; controllers: ";
     if (controllers.empty()) line += "none";
     for (std::size_t i = 0; i < controllers.size(); ++i) {
         if (i > 0) line += ", ";
         line += controllers[i].id + " on " + controllers[i].port;
+        if (auto it = shared_at.find(controllers[i].id); it != shared_at.end())
+            line += " shared at " + it->second;
     }
     if (!brokers.empty()) {
         line += "; MQTT to ";

@@ -53,10 +53,27 @@ std::string shared_ports::start() {
     for (const auto& [id, port] : ports_) {
         if (auto why = port->start(); !why.empty()) return id + ": " + why;
         const auto s = port->status();
-        log_->info("{}: shared port{}{} (role {}{})", id, s.pty.empty() ? "" : " pty " + s.pty,
-                   s.tcp.empty() ? "" : " tcp " + s.tcp, s.role, s.lease ? ", takes the lease" : "");
+        log_->info("{}: shared at {} (role {}{})", id, places().at(id), s.role,
+                   s.lease ? ", takes the lease" : "");
     }
     return {};
+}
+
+std::map<std::string, std::string> shared_ports::places() const {
+    std::map<std::string, std::string> out;
+    for (const auto& [id, port] : ports_) {
+        const auto s = port->status();
+        std::vector<std::string> parts;
+        if (!s.pty.empty()) parts.push_back("pty " + s.pty);
+        if (!s.tcp.empty()) parts.push_back("tcp " + s.tcp);
+        if (!s.report_pty.empty()) parts.push_back("reports pty " + s.report_pty);
+        if (!s.report_tcp.empty()) parts.push_back("reports tcp " + s.report_tcp);
+        std::string text;
+        for (const auto& p : parts)
+            text += (text.empty() ? "" : ", ") + p;
+        out[id] = text;
+    }
+    return out;
 }
 
 void shared_ports::stop() {

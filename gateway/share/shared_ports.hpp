@@ -52,6 +52,8 @@ class shared_ports {
     // The controller's shared port, if it has one.
     std::optional<devices::share::port_status> status(const std::string& controller) const;
     std::vector<devices::share::port_status> all() const;
+    // Controller id -> where its shared port is: "pty /run/x, tcp 127.0.0.1:7001, reports pty /run/y".
+    std::map<std::string, std::string> places() const;
 
   private:
     std::shared_ptr<lease_and_job_gate> gate_;

@@ -19,7 +19,8 @@ a lease taken, renewed and released from the page, a page move while holding it 
 move without it gets 409, HALT on the leased controller stops a move; a controller leased by someone
 else shows the 409 'leased' next to the control; the overview card shows the running job, the report
 count and a link to the view; while a job holds a controller its view names the job and disables
-the motion and module controls (HALT stays), and shows who halted it; no console errors except
+the motion and module controls (HALT stays), and shows who halted it; sim1's shared pty and a program
+that opened it are listed (ext1 has no share); no console errors except
 those the API causes by design.
 With --screenshot-dir, writes controller.png (the ext1 view with the chart running).
 
@@ -380,6 +381,28 @@ async def test_lease(b, port):
     check("sim2" not in (held or ""), f"the page still keeps {held}")
 
 
+async def test_share_panel(b, port):
+    """sim1's shared pty (simulate.share): the panel names it; a program that opens it is listed with
+    the commands it sent; ext1 (configured without a share) shows no panel."""
+    await open_view(b, port, "sim1")
+    panel = "[data-controller-view=sim1] .share-panel"
+    pty = state(port, "sim1")["share"]["pty"]
+    where = await b.wait_for("the share panel", f"!document.querySelector('{panel}').hidden"
+                             f" && document.querySelector('{panel} .share-where').textContent")
+    check(pty in where and "role admin" in where, f"share line {where!r}")
+    fd = os.open(pty, os.O_RDWR | os.O_NOCTTY)
+    try:
+        os.write(fd, b"W X\r")
+        await b.wait_for("the program listed with its command",
+                         f"document.querySelector('{panel} [data-share-client=pty] td:nth-child(3)')?.textContent === '1'")
+    finally:
+        os.close(fd)
+    await b.wait_for("no program once it closed the pty", f"document.querySelector('{panel}').dataset.clients === '0'")
+    await open_view(b, port, "ext1")
+    await b.wait_for("no share panel for ext1",
+                     "document.querySelector('[data-controller-view=ext1] .share-panel').hidden === true")
+
+
 async def test_leased_by_other(b, port):
     status, lease = rest(port, "POST", "/api/v1/controllers/sim3/lease", {"ttl_s": 60, "holder": "someone-else"})
     check(status == 201, f"lease sim3: {status} {lease}")
@@ -490,6 +513,7 @@ async def main_async(args, fx):
             await run("screenshot", screenshot, b, port, ext1, os.path.join(args.screenshot_dir, "controller.png"))
         await run("lease from the page: take, renew, move with it, REST 409 without, HALT, release",
                   test_lease, b, port)
+        await run("the shared port and the program connected to it", test_share_panel, b, port)
         await run("a controller leased by someone else: the 409 next to the control", test_leased_by_other, b, port,
                   expected=r"status of 409")
         await run("overview card: running job, report count, link to the view", test_overview_card, b, port, ext1)

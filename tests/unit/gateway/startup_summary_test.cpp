@@ -26,6 +26,15 @@ TEST(startup_summary, names_the_url_the_storage_and_every_controller) {
               "mqtts://b2:8883)");
 }
 
+TEST(startup_summary, names_where_a_controller_is_shared) {
+    const ip::tcp::endpoint http(ip::make_address("127.0.0.1"), 8080);
+    EXPECT_EQ(
+        startup_summary(http, "/s", {controller("sim1", "/tmp/gw/sim1/port"), controller("s2", "/dev/ttyS0")},
+                        {}, {{"sim1", "pty /tmp/gw/sim1/share, tcp 127.0.0.1:7001"}}),
+        "serving http://127.0.0.1:8080/ (storage /s; controllers: sim1 on /tmp/gw/sim1/port shared at pty "
+        "/tmp/gw/sim1/share, tcp 127.0.0.1:7001, s2 on /dev/ttyS0)");
+}
+
 TEST(startup_summary, ipv6_hosts_are_bracketed) {
     EXPECT_EQ(http_url(ip::tcp::endpoint(ip::make_address("::1"), 9000)), "http://[::1]:9000/");
     EXPECT_EQ(http_url(ip::tcp::endpoint(ip::make_address("0.0.0.0"), 80)), "http://0.0.0.0:80/");

@@ -40,6 +40,10 @@ TEST(client_line_reader, frames_lines_as_the_controller_does) {
         {"W \xC3\xA9\r", {{kind::unreadable, ""}}},          // outside ASCII
         {std::string(17, 'A') + "\rV\r", {{kind::unreadable, ""}, {kind::command, "V"}}},  // over 16 bytes
         {std::string(16, 'A') + "\r", {{kind::command, std::string(16, 'A')}}},            // exactly 16
+        {"\\", {{kind::command, "\\"}}},                                   // HALT at once, no CR needed
+        {"\\\r\nW X\r", {{kind::command, "\\"}, {kind::command, "W X"}}},  // its CR is no second line
+        {"\\rW X\r", {{kind::command, "\\"}, {kind::command, "rW X"}}},    // mesoSPIM's "\\r"
+        {"W \\\r", {{kind::command, "W \\"}}},                             // inside a line: no HALT
     };
     for (const auto& r : rows) {
         for (bool one_at_a_time : {false, true}) {

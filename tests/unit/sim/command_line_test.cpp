@@ -56,7 +56,9 @@ INSTANTIATE_TEST_SUITE_P(
         line_case{"CCB Z=6", "CUSTOMB", {{'Z', op::set, 6}}},
         line_case{"ld x=1e3", "LOAD", {{'X', op::set, 1000}}},
         line_case{"WRDAC X=1.1", "WRDAC", {{'X', op::set, 1.1}}},
-        line_case{"FOO X=1", "FOO", {{'X', op::set, 1}}}));
+        line_case{"FOO X=1", "FOO", {{'X', op::set, 1}}},
+        line_case{"W XYZ", "WHERE", {{'X', op::bare, 0}, {'Y', op::bare, 0}, {'Z', op::bare, 0}}},
+        line_case{"w xy", "WHERE", {{'X', op::bare, 0}, {'Y', op::bare, 0}}}));
 
 TEST(command_line, rejects_malformed_arguments) {
     for (const char* bad : {"M X=abc", "M 12", "M X=1.5.5", "M X*", "M =5", "M X==1"})

@@ -104,6 +104,16 @@ TEST(model_framing, cr_ends_commands_lf_ignored_del_flushes) {
               ":A 0.0 \r\n");  // low-level setup swallowed
 }
 
+TEST(model_framing, a_backslash_halts_at_once_with_or_without_cr) {
+    ms2000_model m(config_for("plain"));
+    EXPECT_EQ(m.feed("M X=100000\r", sim_time{0}), ":A\r\n");
+    EXPECT_EQ(m.feed("\\", sim_time{1000}), ":N-21\r\n");      // no CR: answered at once
+    EXPECT_EQ(m.feed("\r", sim_time{2000}), "");               // its CR is no second command
+    EXPECT_EQ(m.feed("\\\r", sim_time{3000}), ":A\r\n");       // the usual form: one answer
+    EXPECT_EQ(m.feed("W X\\\r", sim_time{4000}), ":N-6\r\n");  // inside a line it is no HALT
+    EXPECT_EQ(m.feed("W XYZ\r", sim_time{5000}).substr(0, 3), ":A ");
+}
+
 TEST(model_framing, empty_line_is_configurable) {
     auto config = config_for("plain");
     ms2000_model quiet(config);

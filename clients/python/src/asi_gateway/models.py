@@ -78,6 +78,8 @@ class ControllerState:
     next_retry: str | None
     halted: JsonObject | None  # {"by", "at"}: a HALT latched it (jobs there wait); None when not
     updated: str
+    # The shared port (pty, TCP) and the programs connected to it; REST only (not in state events).
+    share: JsonObject | None = None
     raw: JsonObject = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
@@ -98,6 +100,7 @@ class ControllerState:
             next_retry=d["next_retry"],
             halted=d["halted"],
             updated=d["updated"],
+            share=d.get("share"),
             raw=d,
         )
 

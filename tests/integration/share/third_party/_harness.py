@@ -5,7 +5,8 @@ A runner calls Runner.step(name, fn) for each step of a driver's real control fl
 driver's public API, checks the result and returns a short detail string; any exception fails the
 step. A step marked with a known simulator gap (gap="...") prints GAP instead of FAIL when it fails
 and counts as failed unless --allow-known-gaps is given. Each line starts with ok, FAIL, GAP or n/a;
-the last line is "N passed, N failed". Exit status 0 only when nothing failed.
+the last line is "N passed, N failed". Exit status 0 only when nothing failed; 77 (SKIPPED) when the
+driver itself is not at hand (a runner whose driver comes from a source checkout).
 """
 
 import argparse
@@ -21,17 +22,21 @@ import serial
 # one decimal, so a position read back after a move is within one count of the target: 0.05 um
 # (0.5 in ASI units) leaves room for rounding.
 POSITION_TOLERANCE_TENTHS = 0.5
+SKIPPED = 77
 
 
 class Runner:
-    def __init__(self, driver, description):
-        parser = argparse.ArgumentParser(description=description)
+    def __init__(self, driver, description, add_arguments=None):
+        parser = argparse.ArgumentParser(description=description,
+                                         formatter_class=argparse.RawDescriptionHelpFormatter)
         parser.add_argument("--port", required=True, help="serial device path or rfc2217://HOST:PORT")
         parser.add_argument("--allow-known-gaps", action="store_true",
                             help="steps that hit a known simulator gap do not fail the run")
         parser.add_argument("--no-url-shim", action="store_true",
                             help="give a URL to the driver as it is (shows whether it accepts URLs)")
         parser.add_argument("--verbose", action="store_true", help="tracebacks and the driver's own output")
+        if add_arguments:
+            add_arguments(parser)
         self.args = parser.parse_args()
         if self.args.verbose:
             logging.basicConfig(level=logging.DEBUG, stream=sys.stderr)
@@ -67,6 +72,10 @@ class Runner:
         self.passed += 1
         print(f"ok   {name} ({seconds:.1f} s): {detail or ''}{note}", flush=True)
         return True
+
+    def skip(self, reason):
+        print(f"n/a  {self.driver}: {reason}", flush=True)
+        sys.exit(SKIPPED)
 
     def not_applicable(self, name, reason):
         print(f"n/a  {name}: {reason}", flush=True)

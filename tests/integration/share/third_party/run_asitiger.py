@@ -110,7 +110,8 @@ def main():
 
     run.step("connect: TigerController.from_serial_port", connect, required=True)
     run.step("identify: who (WHO), build (BU X)", identify)
-    run.not_applicable("axes", "reads the Tiger card table (Axis Types, Hex Addr) from BU X; an MS-2000 has none")
+    run.not_applicable("axes", "reads the Tiger card table (Axis Types, Hex Addr) from BU X; "
+                       "an MS-2000 has none")
     run.step("speed: speed (S X=, S X?)", speed)
     run.step("read position: where (W X Y Z)", read_position)
     run.step("move absolute, busy then idle: move, is_busy, rdstat", move_absolute)

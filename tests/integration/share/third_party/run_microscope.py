@@ -91,9 +91,11 @@ def main():
         state["conn"].reset_position("X")  # HERE X=0
         check_near("X after HERE X=0", axis.position, 0)
         state["conn"].get_command(b"HERE X=60000")  # the old coordinates again, for the next client
-        axis.move_to(0)
+        state["stage"].move_to({"X": 0, "Y": 0})
+        wait_for("RDSTAT X bit 0 clears", lambda: not state["conn"].motor_moving("X"))
+        wait_for("RDSTAT Y bit 0 clears", lambda: not state["conn"].motor_moving("Y"))
         check_near("X after HERE X=60000, MOVE X=0", axis.position, 0)
-        return "HERE X=0 -> WHERE X 0; HERE X=60000, MOVE X=0 -> WHERE X 0"
+        return "HERE X=0 -> WHERE X 0; HERE X=60000, MOVE X=0 Y=0 -> WHERE X 0"
 
     run.step("connect: ASIMS2000() sends INFO X, INFO Y, INFO Z", connect, required=True)
     run.step("identify: INFO settings", identify)
