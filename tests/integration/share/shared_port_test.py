@@ -9,7 +9,8 @@ What is checked: every client gets exactly the replies to its own commands, byte
 queries of one axis while REST moves another; multi-line and error replies identical to the REST raw
 command's), in order, and nothing else; the roles; leases and jobs refusing shared motion with ":N-90"
 while reads and HALT work; share.lease; a shared HALT stops a move and pauses a job like any HALT;
-what a shared client changes is seen by the gateway; the bad-input bounds (over-long and non-printable
+what a shared client changes is seen by the gateway; the report stream shared byte for byte to a pty
+and a TCP reader; the bad-input bounds (over-long and non-printable
 lines, a flood, a client that never reads, a client gone mid-command, too many clients); unplug and
 replug with the pty left open; the share in GET /api/v1/controllers/{id} and /metrics.
 
@@ -17,8 +18,10 @@ Run by ctest with Debian's /usr/bin/python3 (python3-serial, python3-yaml, pytho
 """
 
 import argparse
+import grp
 import os
 import socket
+import stat
 import sys
 import threading
 import time
@@ -106,20 +109,25 @@ class Scene:
 
     def __init__(self, fx, args):
         self.fx = fx
-        self.sims = {name: fx.start_sim(args.sim, name, preset, time_scale=10)
+        self.sims = {name: fx.start_sim(args.sim, name, preset, time_scale=10, report=name == "s1")
                      for name, preset in (("s1", "full"), ("s2", "plain"), ("s3", "plain"))}
+        self.report_pty = os.path.join(fx.tmp, "s1-report-share")
+        self.report_tcp = free_port()
         self.http_port = free_port()
         self.tcp = {name: free_port() for name in ("s1", "s2", "s3")}
         self.pty = {name: os.path.join(fx.tmp, f"{name}-share") for name in ("s1", "s2", "s3")}
         shares = {
-            "s1": {"pty": self.pty["s1"], "tcp": f"127.0.0.1:{self.tcp['s1']}", "max_clients": 3},
-            "s2": {"pty": self.pty["s2"], "tcp": f"127.0.0.1:{self.tcp['s2']}", "role": "viewer"},
+            "s1": {"pty": self.pty["s1"], "tcp": f"127.0.0.1:{self.tcp['s1']}", "max_clients": 3,
+                   "report_pty": self.report_pty, "report_tcp": f"127.0.0.1:{self.report_tcp}"},
+            "s2": {"pty": self.pty["s2"], "tcp": f"127.0.0.1:{self.tcp['s2']}", "role": "viewer",
+                   "pty_mode": "0640", "pty_group": grp.getgrgid(os.getgid()).gr_name},
             "s3": {"pty": self.pty["s3"], "tcp": f"127.0.0.1:{self.tcp['s3']}", "lease": True, "role": "admin"},
         }
         config = {
             "http": {"port": self.http_port},
             "auth": auth_tokens(),
-            "controllers": [{"id": name, "port": sim.link, "baud": 115200, "share": shares[name]}
+            "controllers": [dict({"id": name, "port": sim.link, "baud": 115200, "share": shares[name]},
+                                 **({"report_port": sim.report_link} if sim.report_link else {}))
                             for name, sim in self.sims.items()],
             "simulate": {"count": 0},
         }
@@ -147,6 +155,13 @@ def test_pty_answers_like_the_controller(s):
     share = controller(s.c, "s1")["share"]
     check(share["pty"] == s.pty["s1"] and share["tcp"] == f"127.0.0.1:{s.tcp['s1']}", f"share: {share}")
     check(share["role"] == "operator" and share["commands"] >= 4, f"share counts: {share}")
+
+
+def test_the_pty_has_the_mode_and_group_configured(s):
+    st = os.stat(s.pty["s2"])  # the slave the link points to
+    check(stat.S_IMODE(st.st_mode) == 0o640, f"mode {oct(stat.S_IMODE(st.st_mode))}")
+    check(st.st_gid == os.getgid(), f"group {st.st_gid}")
+    check(os.path.islink(s.pty["s2"]) and os.readlink(s.pty["s2"]).startswith("/dev/pts/"), "a link to the pty")
 
 
 def test_replies_go_to_their_own_client(s):
@@ -367,6 +382,68 @@ def test_unplug_and_replug_with_the_pty_open(s):
         check(ask(p, "W X").startswith(b":A "), "the same open pty works after the replug")
 
 
+def read_exactly(read, n, timeout=REPLY_WAIT * 4):
+    data, deadline = b"", time.monotonic() + timeout
+    while len(data) < n and time.monotonic() < deadline:
+        data += read()
+    return data
+
+
+def report_frames(data):
+    """Binary TTL_REPORT frames (AID, int32 little-endian per axis, CR) -> [{axis id: count}]."""
+    frames, i = [], 0
+    while i < len(data):
+        frame = {}
+        while data[i] != 0x0D:
+            frame[data[i]] = int.from_bytes(data[i + 1:i + 5], "little", signed=True)
+            i += 5
+        frames.append(frame)
+        i += 1
+    return frames
+
+
+def test_the_report_stream_is_shared_unchanged(s):
+    """20 IN0 edges: a program on the shared report pty and one on the report TCP port read the same
+    bytes, 20 well-formed frames with the controller's own encoder counts."""
+    sim = s.sims["s1"]
+    raw(s.c, "s1", "M X=10000 Y=0")
+    wait_until("s1 at X 1000 um", lambda: not controller(s.c, "s1")["busy"])
+    fd = os.open(s.report_pty, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    tcp = socket.create_connection(("127.0.0.1", s.report_tcp), timeout=REPLY_WAIT)
+    try:
+        wait_until("two report readers", lambda: len(controller(s.c, "s1")["share"]["report_readers"]) == 2)
+        raw(s.c, "s1", "TTL X=1")
+        check(sim.control("pulse 20 100") == "ok", "pulse train")
+
+        def from_pty():
+            try:
+                return os.read(fd, 4096)
+            except BlockingIOError:
+                time.sleep(0.01)
+                return b""
+
+        tcp.settimeout(0.2)
+
+        def from_tcp():
+            try:
+                return tcp.recv(4096)
+            except socket.timeout:
+                return b""
+
+        pty_bytes = read_exactly(from_pty, 20 * 16)
+        tcp_bytes = read_exactly(from_tcp, len(pty_bytes))
+        frames = report_frames(pty_bytes)
+        check(len(frames) == 20, f"{len(frames)} frames from {len(pty_bytes)} bytes")
+        check(pty_bytes == tcp_bytes, "the pty and the TCP reader got the same bytes")
+        counts_per_mm = next(a["counts_per_mm"] for a in controller(s.c, "s1")["axes"] if a["axis"] == "X")
+        expected_x = round(1.0 * counts_per_mm)
+        check(all(abs(f[0x18] - expected_x) <= 1 for f in frames), f"X counts {frames[0]} vs {expected_x}")
+    finally:
+        raw(s.c, "s1", "TTL X=0")
+        os.close(fd)
+        tcp.close()
+
+
 def test_rfc2217(s):
     port = serial.serial_for_url(f"rfc2217://127.0.0.1:{s.tcp['s1']}", baudrate=115200, timeout=REPLY_WAIT)
     try:
@@ -389,6 +466,7 @@ def main():
         s = Scene(fx, args)
         for name, fn in [
             ("the pty answers like the controller", test_pty_answers_like_the_controller),
+            ("the pty has the mode and group configured", test_the_pty_has_the_mode_and_group_configured),
             ("replies go to their own client", test_replies_go_to_their_own_client),
             ("several clients and the limit", test_several_clients_and_the_limit),
             ("roles", test_roles),
@@ -399,6 +477,7 @@ def main():
             ("what a shared client changes the gateway sees", test_what_a_shared_client_changes_the_gateway_sees),
             ("bad input is bounded", test_bad_input_is_bounded),
             ("unplug and replug with the pty open", test_unplug_and_replug_with_the_pty_open),
+            ("the report stream is shared unchanged", test_the_report_stream_is_shared_unchanged),
             ("rfc2217://", test_rfc2217),
         ]:
             fx.run(name, fn, s)
