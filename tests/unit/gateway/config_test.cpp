@@ -277,6 +277,64 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
     }
 }
 
+TEST(config, reads_a_controllers_share) {
+    auto c = parse_config(R"({"controllers": [{"id": "a", "port": "/dev/ttyUSB0", "baud": 115200,
+        "report_port": "/dev/ttyUSB1",
+        "share": {"pty": "/run/gw/a", "pty_mode": "0640", "pty_group": "dialout", "tcp": "127.0.0.1:7001",
+                  "report_pty": "/run/gw/a-report", "report_tcp": "[::1]:7002", "role": "viewer",
+                  "lease": true, "max_clients": 2}}]})");
+    ASSERT_TRUE(c) << c.error();
+    ASSERT_EQ(c->shares.size(), 1U);
+    const auto& s = c->shares[0];
+    EXPECT_EQ(s.controller, "a");
+    EXPECT_EQ(s.line_baud, 115200U);
+    EXPECT_EQ(s.pty, "/run/gw/a");
+    EXPECT_EQ(s.pty_mode, 0640U);
+    EXPECT_EQ(s.pty_group, "dialout");
+    EXPECT_EQ(s.tcp_host, "127.0.0.1");
+    EXPECT_EQ(s.tcp_port, 7001);
+    EXPECT_EQ(s.report_pty, "/run/gw/a-report");
+    EXPECT_EQ(s.report_tcp_host, "::1");
+    EXPECT_EQ(s.report_tcp_port, 7002);
+    EXPECT_EQ(s.role, devices::share::share_role::viewer);
+    EXPECT_TRUE(s.lease);
+    EXPECT_EQ(s.max_clients, 2U);
+    EXPECT_TRUE(parse_config("{}")->simulate.share);
+}
+
+TEST(config, refuses_a_bad_share_naming_the_key) {
+    const std::string head = R"({"controllers": [{"id": "a", "port": "/dev/ttyUSB0", "share": )";
+    const bad_case cases[] = {
+        {"{}", "controllers[0].share: needs \"pty\", \"tcp\", \"report_pty\" or \"report_tcp\""},
+        {R"({"pty": "relative"})", "controllers[0].share.pty: must be an absolute path"},
+        {R"({"tcp": "localhost:7001"})",
+         "controllers[0].share.tcp: must be \"HOST:PORT\" with an IP address, e.g. \"127.0.0.1:7001\""},
+        {R"({"tcp": "127.0.0.1:0"})",
+         "controllers[0].share.tcp: must be \"HOST:PORT\" with an IP address, e.g. \"127.0.0.1:7001\""},
+        {R"({"tcp": "0.0.0.0:7001"})",
+         "controllers[0].share.tcp: is not a loopback address: anyone who reaches it controls the stage with "
+         "share.role and no token; set \"allow_network\": true to mean it"},
+        {R"({"pty": "/x", "pty_mode": "0777"})",
+         "controllers[0].share.pty_mode: must be an octal mode such as \"0660\" (no execute bits)"},
+        {R"({"pty": "/x", "role": "root"})", "controllers[0].share.role: must be one of viewer, operator, admin"},
+        {R"({"report_pty": "/x"})", "controllers[0].share.report_pty: needs the controller's report_port"},
+        {R"({"pty": "/x", "colour": 1})", "controllers[0].share.colour: unknown key"},
+    };
+    std::vector<std::string> texts;
+    for (const auto& c : cases) {
+        const auto text = head + c.json + "}]}";
+        SCOPED_TRACE(text);
+        auto r = parse_config(text);
+        ASSERT_FALSE(r) << "accepted";
+        EXPECT_EQ(r.error(), c.error);
+    }
+    EXPECT_TRUE(parse_config(head + R"({"tcp": "0.0.0.0:7001", "allow_network": true}}]})"));
+    auto twice = parse_config(R"({"controllers": [{"id": "a", "port": "/p1", "share": {"pty": "/s"}},
+                                                  {"id": "b", "port": "/p2", "share": {"pty": "/s"}}]})");
+    ASSERT_FALSE(twice);
+    EXPECT_EQ(twice.error(), "controllers[].share.pty: /s is given twice");
+}
+
 TEST(config, refuses_unknown_keys_at_every_level) {
     const bad_case cases[] = {
         {R"({"htp": {}})", "htp: unknown key"},
