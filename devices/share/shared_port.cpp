@@ -117,7 +117,8 @@ void shared_port::stop() {
             error_code ignored;
             self->acceptor_->close(ignored);
         }
-        auto sessions = std::move(self->tcp_sessions_);
+        std::vector<std::shared_ptr<client_session>> sessions;
+        sessions.swap(self->tcp_sessions_);  // left empty: the sessions' ends find nothing to remove
         if (self->pty_session_) sessions.push_back(std::move(self->pty_session_));
         for (auto& s : sessions)
             s->close();

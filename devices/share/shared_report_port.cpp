@@ -74,7 +74,8 @@ void shared_report_port::stop() {
         error_code ignored;
         acceptor_->close(ignored);
     }
-    auto all = std::move(tcp_readers_);
+    std::vector<std::shared_ptr<reader>> all;
+    all.swap(tcp_readers_);
     if (pty_reader_) all.push_back(std::move(pty_reader_));
     for (auto& r : all) {
         r->gone = true;

@@ -51,7 +51,7 @@ shared_ports::~shared_ports() {
 
 std::string shared_ports::start() {
     for (const auto& [id, port] : ports_) {
-        if (auto why = port->start(); !why.empty()) return id + ": " + why;
+        if (auto why = port->start(); !why.empty()) return why.insert(0, id + ": ");
         const auto s = port->status();
         log_->info("{}: shared at {} (role {}{})", id, places().at(id), s.role,
                    s.lease ? ", takes the lease" : "");

@@ -316,7 +316,8 @@ TEST(config, refuses_a_bad_share_naming_the_key) {
          "share.role and no token; set \"allow_network\": true to mean it"},
         {R"({"pty": "/x", "pty_mode": "0777"})",
          "controllers[0].share.pty_mode: must be an octal mode such as \"0660\" (no execute bits)"},
-        {R"({"pty": "/x", "role": "root"})", "controllers[0].share.role: must be one of viewer, operator, admin"},
+        {R"({"pty": "/x", "role": "root"})",
+         "controllers[0].share.role: must be one of viewer, operator, admin"},
         {R"({"report_pty": "/x"})", "controllers[0].share.report_pty: needs the controller's report_port"},
         {R"({"pty": "/x", "colour": 1})", "controllers[0].share.colour: unknown key"},
     };
