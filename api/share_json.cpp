@@ -20,7 +20,8 @@ nlohmann::json clients_json(const std::vector<devices::share::client_status>& cl
                        {"since", format_timestamp(c.since)},
                        {"commands", c.commands},
                        {"refused", c.refused},
-                       {"dropped_bytes", c.dropped_bytes}});
+                       {"dropped_bytes", c.dropped_bytes},
+                       {"late", c.late}});
     return out;
 }
 

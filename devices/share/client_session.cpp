@@ -1,5 +1,6 @@
 #include "devices/share/client_session.hpp"
 
+#include <algorithm>
 #include <utility>
 
 #include "devices/ms2000/command.hpp"
@@ -72,28 +73,36 @@ void client_session::on_read(boost::system::error_code ec, std::size_t bytes) {
 void client_session::take_lines(std::string_view data) {
     std::vector<client_line> lines;
     reader_.feed(data, lines);
+    const auto now = std::chrono::steady_clock::now();
     for (auto& line : lines) {
         if (line.what == client_line::kind::command && is_halt_line(line.text)) {
             // Not behind this client's waiting lines: a HALT must not wait for anything.
-            owner_->run_line(shared_from_this(), std::move(line.text),
+            owner_->run_line(shared_from_this(), std::move(line.text), now,
                              [self = shared_from_this()](std::string a) { self->send(std::move(a)); });
             continue;
         }
-        waiting_.push_back(std::move(line));
+        waiting_.push_back({std::move(line), now});
     }
 }
 
 void client_session::pump() {
     while (!line_out_ && !closed_ && !waiting_.empty()) {
-        client_line line = std::move(waiting_.front());
+        client_line line = std::move(waiting_.front().line);
+        // The client waits for this answer from when it sent the line, or, when it sent lines ahead
+        // (a pipelining program), from when it got the answer before: unless that was silence, after
+        // which it may have given up on the lines it had sent meanwhile.
+        const auto arrived =
+            previous_silent_ ? waiting_.front().arrived : std::max(waiting_.front().arrived, last_answered_);
         waiting_.pop_front();
         // An unreadable line goes to the owner as an empty one, which it refuses as not a command: its
         // refusal then takes its turn among the client's answers.
         if (line.what == client_line::kind::unreadable) line.text.clear();
         line_out_ = true;
-        owner_->run_line(shared_from_this(), std::move(line.text),
+        owner_->run_line(shared_from_this(), std::move(line.text), arrived,
                          [self = shared_from_this()](std::string a) {
                              self->line_out_ = false;
+                             self->previous_silent_ = a.empty();
+                             self->last_answered_ = std::chrono::steady_clock::now();
                              self->send(std::move(a));
                              self->pump();
                              self->read();

@@ -30,9 +30,11 @@ class client_session : public std::enable_shared_from_this<client_session> {
     // What the session asks of its shared port.
     class owner {
       public:
-        // Runs one line of the client and calls `answer` (on the port's strand) with the bytes to send
-        // back, or "" when the controller gave no answer (a serial line's silence).
+        // Runs one line of the client, whose answer it has awaited since `arrived` (when it sent it, or
+        // got the answer to the line before), and calls `answer` (on the port's strand) with the bytes to
+        // send back, or "" when the controller gave no answer (a serial line's silence).
         virtual void run_line(const std::shared_ptr<client_session>& from, std::string line,
+                              std::chrono::steady_clock::time_point arrived,
                               std::function<void(std::string)> answer) = 0;
         // The client is gone (its connection closed, or the pty's last holder closed it).
         virtual void session_ended(const std::shared_ptr<client_session>& session) = 0;
@@ -53,6 +55,7 @@ class client_session : public std::enable_shared_from_this<client_session> {
     client_status status() const { return status_; }
     void count_refused() { ++status_.refused; }
     void count_sent() { ++status_.commands; }
+    void count_late() { ++status_.late; }
 
   private:
     void read();
@@ -71,10 +74,18 @@ class client_session : public std::enable_shared_from_this<client_session> {
     client_line_reader reader_;
     std::array<char, 1024> read_buffer_{};
     bool reading_ = false;
-    std::deque<client_line> waiting_;
+    struct waiting_line {
+        client_line line;
+        std::chrono::steady_clock::time_point arrived;
+    };
+    std::deque<waiting_line> waiting_;
     bool line_out_ = false;  // a line of this client is with the controller
-    std::string writing_;    // bytes being written
-    std::string next_;       // bytes to write once writing_ is done
+    // When the client's previous line was answered, and whether with silence: its next line's answer
+    // is due within the command timeout of the later of that and the line's arrival.
+    std::chrono::steady_clock::time_point last_answered_{};
+    bool previous_silent_ = false;
+    std::string writing_;  // bytes being written
+    std::string next_;     // bytes to write once writing_ is done
     bool closed_ = false;
     bool ended_ = false;  // session_ended was reported
     client_status status_;

@@ -15,6 +15,7 @@ struct client_status {
     std::uint64_t commands = 0;       // lines sent to the controller
     std::uint64_t refused = 0;        // lines answered by the gateway with an error of its own
     std::uint64_t dropped_bytes = 0;  // replies dropped because the client did not read them
+    std::uint64_t late = 0;  // answers that came after the command timeout, not sent (the client gave up)
 };
 
 struct port_status {

@@ -218,6 +218,7 @@ void shared_port::refuse(client_session& from, const refusal& why, const std::st
 }
 
 void shared_port::run_line(const std::shared_ptr<client_session>& from, std::string line,
+                           std::chrono::steady_clock::time_point arrived,
                            std::function<void(std::string)> answer) {
     auto cmd = ms2000::verbatim_command(line);
     if (!cmd) {
@@ -242,16 +243,32 @@ void shared_port::run_line(const std::shared_ptr<client_session>& from, std::str
         log_->warn("shared port: HALT from {}", from->name());
         if (gate_) gate_->halting(settings_.controller, from->name());
     }
+    // A real controller answers within the gateway's own command timeout of the line's arrival; a
+    // program that waited that long has given up. A line that waited longer behind the client's earlier
+    // ones (a resynchronisation held them) is not sent at all: it would act late. An answer later than
+    // that would be read as the answer to the program's next line: it gets silence instead.
+    const auto& link = controller_->settings();
+    const auto answer_by = arrived + (cmd->long_reply ? link.long_reply_timeout : link.command_timeout);
+    if (effect != ms2000::command_effect::halts && std::chrono::steady_clock::now() > answer_by) {
+        from->count_late();
+        publish();
+        return answer({});
+    }
     from->count_sent();
     ++commands_;
     const auto request_id = "share-" + std::to_string(++line_sequence_);
     controller_->async_command(
         std::move(*cmd), request_id,
-        net::bind_executor(strand_, [self = shared_from_this(), answer = std::move(answer)](
+        net::bind_executor(strand_, [self = shared_from_this(), from, answer = std::move(answer), answer_by](
                                         error_code ec, const ms2000::reply& reply) {
             self->publish();
+            const bool answered = !ec || ec == ms2000::error::controller_rejected;
+            if (answered && std::chrono::steady_clock::now() > answer_by) {
+                from->count_late();
+                return answer({});
+            }
             // The controller's answer, its ":N-<code>" refusal included, goes back as it came.
-            if (!ec || ec == ms2000::error::controller_rejected) return answer(reply.raw + "\r\n");
+            if (answered) return answer(reply.raw + "\r\n");
             if (ec == ms2000::error::queue_full) return answer(refusal_reply(refusal_code::busy));
             answer({});  // no answer: not connected, timed out, an answer that did not fit
         }));

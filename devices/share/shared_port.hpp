@@ -10,6 +10,7 @@
 //
 // Create with std::make_shared; start() and stop() from any thread; status() from any thread.
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -54,6 +55,7 @@ class shared_port : public std::enable_shared_from_this<shared_port>, public cli
 
   private:
     void run_line(const std::shared_ptr<client_session>& from, std::string line,
+                  std::chrono::steady_clock::time_point arrived,
                   std::function<void(std::string)> answer) override;
     void session_ended(const std::shared_ptr<client_session>& session) override;
 

@@ -84,8 +84,8 @@ def test_flags_and_startup_line(fx, gateway, version):
     check(v == version, f"start-up line version {v}")
     check(url == f"http://127.0.0.1:{port}/", f"URL {url}")
     check(storage == store, f"storage {storage} (expected {store})")
-    check(controllers == f"sim1 on {fx.tmp}/sims1/sim1/port, sim2 on {fx.tmp}/sims1/sim2/port",
-          f"controllers {controllers}")
+    check(controllers == f"sim1 on {fx.tmp}/sims1/sim1/port shared at pty {fx.tmp}/sims1/sim1/share, "
+          f"sim2 on {fx.tmp}/sims1/sim2/port shared at pty {fx.tmp}/sims1/sim2/share", f"controllers {controllers}")
     check(os.path.exists(os.path.join(store, "jobs.sqlite3")), "no jobs.sqlite3 in --storage")
     stop(proc)
     check(not os.path.exists(os.path.join(fx.tmp, "home-unused")), "--storage given, yet HOME was used")

@@ -3,9 +3,11 @@
 simulators' control sockets, every answer checked against the truth.
 
   serial faults   drop, corrupt, delay, split, high-bit, echo and garbage faults on one controller
-                  while clients read positions through the raw command and the state; every answer
-                  is checked against the stage's real position (the stage is parked at positions no
-                  two axes share); a second controller on the same gateway must never see an error.
+                  while clients read positions through the raw command and the state, and programs
+                  on both controllers' shared ptys read them too (one more sends over-long lines,
+                  control and high bytes and floods into the noisy one's TCP port); every answer is checked
+                  against the stage's real position (the stage is parked at positions no two axes
+                  share); a second controller on the same gateway must never see an error.
   unplug storm    unplug/replug cycles; the time from replug to "connected" in the state.
   jobs in storms  plate jobs on both controllers while one is unplugged again and again: every job
                   the unplug catches pauses with the reason, is resumed once the controller is back
@@ -24,9 +26,12 @@ import os
 import platform
 import random
 import re
+import socket
 import sys
 import threading
 import time
+
+import serial  # Debian python3-serial: the shared ports' programs
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "api"))
 from gateway_fixture import TOKENS, Fixture, check, free_port, http_request, run_main, wait_until  # noqa: E402
@@ -145,13 +150,59 @@ def reader(gw, cid, truth, tally, stop, seed):
                     tally.mismatch(f"{cid} state {a['axis']} = {a['position_um']} (truth {truth[a['axis']] / 10})")
 
 
-def serial_faults(fx, gw, sims, minutes, seed, figures, only=None):
+def shared_reader(path, cid, truth, tally, stop, seed):
+    """A program on the controller's shared pty during the faults, reading as Micro-Manager does (input
+    drained before each command, 1.5 s for the answer): every answer must be its command's, or none."""
+    r = random.Random(seed)
+    with serial.Serial(path, 115200, timeout=1.5) as port:
+        while not stop.is_set():
+            axis = r.choice(AXES)
+            port.reset_input_buffer()
+            port.write(f"W {axis}\r".encode())
+            reply = port.read_until(b"\r\n")
+            if not reply:
+                tally.add(f"{cid} shared silences")
+                continue
+            parts = reply.split()
+            if len(parts) == 2 and parts[0] == b":A" and float(parts[1]) == truth[axis]:
+                tally.add(f"{cid} shared replies checked")
+            else:
+                tally.mismatch(f"{cid} shared pty W {axis} -> {reply!r} (truth {truth[axis]})")
+
+
+def shared_garbage(tcp_port, stop, seed):
+    """A program that sends what no controller could read into the noisy controller's shared TCP port
+    (a client of its own; the pty is the reader's): over-long lines, control and high bytes (never
+    IAC, which would be Telnet), a flood without waiting. Its answers are read and dropped."""
+    r = random.Random(seed)
+    with socket.create_connection(("127.0.0.1", tcp_port), timeout=5) as sock:
+        sock.settimeout(0.05)
+        while not stop.is_set():
+            choice = r.random()
+            if choice < 0.3:
+                sock.sendall(b"W " + b"X" * r.randint(250, 600) + b"\r")
+            elif choice < 0.6:
+                sock.sendall(bytes(r.randrange(255) for _ in range(r.randint(1, 64))) + b"\r")
+            else:
+                sock.sendall(b"W X\r" * r.randint(1, 40))
+            try:
+                sock.recv(65536)
+            except socket.timeout:
+                pass
+            time.sleep(r.uniform(0.01, 0.1))
+
+
+def serial_faults(fx, gw, sims, minutes, seed, figures, only=None, shares=None):
     noisy = sims["noisy"]
     truth = {cid: park(gw, cid) for cid in ("noisy", "quiet")}
     tally = Tally()
     stop = threading.Event()
     readers = [threading.Thread(target=reader, args=(gw, cid, truth[cid], tally, stop, seed + i))
                for i, cid in enumerate(["noisy", "noisy", "quiet"])]
+    # Programs on the shared ports: one reading each controller, one sending garbage to the noisy one.
+    readers += [threading.Thread(target=shared_reader, args=(shares[cid], cid, truth[cid], tally, stop, seed + 10 + i))
+                for i, cid in enumerate(["noisy", "quiet"])]
+    readers.append(threading.Thread(target=shared_garbage, args=(shares["noisy tcp"], stop, seed + 20)))
     for t in readers:
         t.start()
     r = random.Random(seed)
@@ -183,10 +234,14 @@ def serial_faults(fx, gw, sims, minutes, seed, figures, only=None):
           f"after the faults: {status} {body}")
     counts = tally.counts
     quiet_refused = sum(v for k, v in counts.items() if k.startswith("quiet refused"))
+    quiet_refused += counts.get("quiet shared silences", 0)
     figures["serial faults"] = {
         "minutes": minutes, "faults injected": injected,
         "replies checked": counts.get("noisy replies checked", 0) + counts.get("quiet replies checked", 0),
         "states checked": counts.get("noisy states checked", 0) + counts.get("quiet states checked", 0),
+        "shared pty replies checked": counts.get("noisy shared replies checked", 0)
+        + counts.get("quiet shared replies checked", 0),
+        "shared pty silences (noisy)": counts.get("noisy shared silences", 0),
         "noisy refused (timeout/502)": sum(v for k, v in counts.items() if k.startswith("noisy refused")),
         "quiet controller errors": quiet_refused,
         "mismatches": len(tally.mismatches),
@@ -197,6 +252,8 @@ def serial_faults(fx, gw, sims, minutes, seed, figures, only=None):
     check(not tally.mismatches, f"{len(tally.mismatches)} answers were not their command's: {tally.mismatches[:5]}")
     check(quiet_refused == 0, f"the quiet controller saw {quiet_refused} errors: one controller's faults reached another")
     check(counts.get("noisy replies checked", 0) > 0, "no reply was checked")
+    check(counts.get("noisy shared replies checked", 0) > 0 and counts.get("quiet shared replies checked", 0) > 0,
+          "no shared pty reply was checked")
 
 
 def unplug_storm(fx, gw, sims, cycles, seed, figures):
@@ -394,8 +451,12 @@ def main():
     try:
         sims = {name: fx.start_sim(args.sim, name, "full", time_scale=20) for name in ("noisy", "quiet")}
         port = free_port()
-        controllers = [{"id": name, "port": sim.link, "baud": 115200, "poll_ms": 50, "command_timeout_ms": 500}
+        shares = {name: os.path.join(fx.tmp, f"{name}-share") for name in sims}
+        shares["noisy tcp"] = free_port()
+        controllers = [{"id": name, "port": sim.link, "baud": 115200, "poll_ms": 50, "command_timeout_ms": 500,
+                        "share": {"pty": shares[name]}}
                        for name, sim in sims.items()]
+        controllers[0]["share"]["tcp"] = f"127.0.0.1:{shares['noisy tcp']}"
         config = {"http": {"listen_address": "127.0.0.1", "port": port}, "controllers": controllers,
                   "simulate": {"count": 0}, "auth": {"tokens": [{"name": "admin1", "token": TOKENS["admin"],
                                                                   "role": "admin"},
@@ -407,7 +468,7 @@ def main():
         fx.start_gateway(args.gateway, config)
         gw = Gateway(port)
         fx.run("serial faults: every answer is its command's", serial_faults, fx, gw, sims, minutes, args.seed,
-               figures, set(args.only.split(",")) if args.only else None)
+               figures, set(args.only.split(",")) if args.only else None, shares)
         fx.run("unplug storm: every replug reconnects", unplug_storm, fx, gw, sims, cycles, args.seed, figures)
         fx.run("jobs in storms: paused, resumed, every well once", jobs_in_storms, fx, gw, sims, storm_minutes,
                args.seed, figures)
