@@ -74,6 +74,8 @@ check_prefix() {  # check_prefix PREFIX SYSCONFDIR
   check "$prefix: unit has no placeholder left" bash -c '! grep -q "@GW_[A-Z]*@" "$1"' _ "$unit"
   check "$prefix: SupplementaryGroups=dialout" test "$(unit_value "$unit" SupplementaryGroups)" = dialout
   check "$prefix: StateDirectory=asi-gateway" test "$(unit_value "$unit" StateDirectory)" = asi-gateway
+  check "$prefix: RuntimeDirectory=asi-gateway (shared pty links)" \
+    test "$(unit_value "$unit" RuntimeDirectory)" = asi-gateway
   check "$prefix: Restart=on-failure" test "$(unit_value "$unit" Restart)" = on-failure
   check "$prefix: User=asi-gateway, the sysusers.d user" test "$(unit_value "$unit" User)" = asi-gateway
   # The job store is the state directory systemd creates and exports as $STATE_DIRECTORY: the config
