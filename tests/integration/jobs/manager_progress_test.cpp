@@ -139,6 +139,11 @@ TEST_F(manager_progress_test, the_eta_is_estimated_again_at_every_step) {
     const auto id = submitted->job.id;
     ASSERT_TRUE(wait_state(id, job_state::succeeded, 120s));
     ASSERT_TRUE(wait_until([&] { return of_type(id, "step").size() == 4; }));
+    // The job's record says succeeded before its last state event has reached the hub: wait for it.
+    ASSERT_TRUE(wait_until([&] {
+        const auto events = of_type(id, "state");
+        return !events.empty() && events.back()["state"] == "succeeded";
+    }));
 
     // The running event: started now, ends after the whole plan's estimate.
     const auto states = of_type(id, "state");
