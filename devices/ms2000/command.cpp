@@ -318,7 +318,18 @@ boost::system::result<command> make_command(std::string_view verb, std::span<con
     return finish(std::move(checked), std::move(wire), expect);
 }
 
-boost::system::result<command> raw_command(std::string_view line) {
+namespace {
+
+// A line typed by a person or a program: its upper-cased verb and what follows it, spaces around
+// trimmed. Printable ASCII only, at most max_raw_command_bytes, a verb the controller could read; not
+// RDSBYTE, whose raw-byte answer the line framing cannot carry (a status byte may be a line feed;
+// RDSTAT "RS X" gives the same byte in ASCII).
+struct typed_line {
+    std::string verb;
+    std::string_view args;
+};
+
+boost::system::result<typed_line> read_typed_line(std::string_view line) {
     if (line.empty() || line.size() > max_raw_command_bytes) return make_error_code(error::invalid_argument);
     for (char c : line) {
         const auto byte = static_cast<unsigned char>(c);
@@ -329,38 +340,33 @@ boost::system::result<command> raw_command(std::string_view line) {
     std::string_view rest = line.substr(start);
     while (!rest.empty() && rest.back() == ' ')
         rest.remove_suffix(1);
-
     // "/" and "\" may be followed directly by arguments; other verbs end at the first space.
     const std::size_t verb_end = is_single_char_verb(rest[0]) ? 1 : std::min(rest.find(' '), rest.size());
     std::string verb = checked_verb(rest.substr(0, verb_end));
-    // RDSBYTE answers with raw bytes, which the line framing cannot carry (a status byte may be a line
-    // feed); RDSTAT ("RS X") gives the same byte in ASCII.
     if (verb.empty() || verb == "RB" || verb == "RDSBYTE") return make_error_code(error::invalid_argument);
-    const std::string_view args = rest.substr(verb_end);
-    std::string wire = verb;
-    wire.append(args);
-    const reply_shape expect = infer_shape(verb, args);
-    return finish(std::move(verb), std::move(wire), expect);
+    return typed_line{std::move(verb), rest.substr(verb_end)};
+}
+
+}  // namespace
+
+boost::system::result<command> raw_command(std::string_view line) {
+    auto typed = read_typed_line(line);
+    if (!typed) return typed.error();
+    std::string wire = typed->verb;
+    wire.append(typed->args);
+    const reply_shape expect = infer_shape(typed->verb, typed->args);
+    return finish(std::move(typed->verb), std::move(wire), expect);
 }
 
 boost::system::result<command> verbatim_command(std::string_view line) {
-    if (line.empty() || line.size() > max_raw_command_bytes) return make_error_code(error::invalid_argument);
-    for (char c : line) {
-        const auto byte = static_cast<unsigned char>(c);
-        if (byte < 0x20 || byte > 0x7E) return make_error_code(error::invalid_argument);
-    }
-    std::string_view rest = line.substr(std::min(line.find_first_not_of(' '), line.size()));
-    if (rest.empty()) return make_error_code(error::invalid_argument);
-    const std::size_t verb_end = is_single_char_verb(rest[0]) ? 1 : std::min(rest.find(' '), rest.size());
-    std::string verb = checked_verb(rest.substr(0, verb_end));
-    if (verb.empty() || verb == "RB" || verb == "RDSBYTE") return make_error_code(error::invalid_argument);
-    const std::string_view args = rest.substr(verb_end);
+    auto typed = read_typed_line(line);
+    if (!typed) return typed.error();
     command c;
-    c.form = infer_form(verb, args);
-    c.expect = infer_shape(verb, args);
+    c.form = infer_form(typed->verb, typed->args);
+    c.expect = infer_shape(typed->verb, typed->args);
     c.long_reply = c.expect == reply_shape::multiline || c.expect == reply_shape::two_phase;
-    c.is_halt = is_halt_verb(verb);
-    c.verb = std::move(verb);
+    c.is_halt = is_halt_verb(typed->verb);
+    c.verb = std::move(typed->verb);
     c.wire.assign(line);
     c.wire.push_back('\r');
     return c;

@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "devices/ms2000/error.hpp"
+#include "devices/share/tcp_listener.hpp"
 
 namespace gw::devices::share {
 
@@ -62,10 +63,7 @@ std::string shared_port::start() {
         if (ec) return "shared TCP port: \"" + settings_.tcp_host + "\" is not an IP address";
         acceptor_.emplace(strand_);
         const tcp::endpoint at(address, settings_.tcp_port);
-        if (acceptor_->open(at.protocol(), ec); !ec) {
-            acceptor_->set_option(tcp::acceptor::reuse_address(true), ec);
-            if (acceptor_->bind(at, ec); !ec) acceptor_->listen(net::socket_base::max_listen_connections, ec);
-        }
+        ec = open_listener(*acceptor_, at);
         if (ec) {
             pty_.close();
             return "shared TCP port " + endpoint_text(at) + ": " + ec.message();

@@ -7,6 +7,8 @@
 
 #include <boost/asio/ip/address.hpp>
 
+#include "devices/share/tcp_listener.hpp"
+
 namespace gw::devices::share {
 
 namespace net = boost::asio;
@@ -41,11 +43,7 @@ std::string shared_report_port::start(std::function<void()> changed) {
                                settings_.report_tcp_port);
         if (!ec) {
             acceptor_.emplace(strand_);
-            if (acceptor_->open(at.protocol(), ec); !ec) {
-                acceptor_->set_option(tcp::acceptor::reuse_address(true), ec);
-                if (acceptor_->bind(at, ec); !ec)
-                    acceptor_->listen(net::socket_base::max_listen_connections, ec);
-            }
+            ec = open_listener(*acceptor_, at);
         }
         if (ec) {
             pty_.close();
