@@ -29,6 +29,8 @@ std::string error_label(const boost::system::error_code& ec) {
             return "disconnected";
         case error::cancelled:
             return "cancelled";
+        case error::halted:
+            return "halted";
     }
     return "other";
 }

@@ -24,10 +24,6 @@ namespace {
 
 constexpr std::size_t max_list_limit = 500;
 
-operation_error invalid(std::string field, std::string message) {
-    return make_error(operation_error_kind::invalid_value, std::move(message), std::move(field));
-}
-
 int hex_digit(char c) {
     if (c >= '0' && c <= '9') return c - '0';
     if (c >= 'a' && c <= 'f') return c - 'a' + 10;
@@ -106,14 +102,16 @@ operation_result<query_params> parse_query(std::string_view target) {
         auto eq = part.find('=');
         auto name = percent_decode(part.substr(0, eq));
         if (!name)
-            return invalid(shown_in_message(part.substr(0, eq)),
-                           "malformed percent escape in a parameter name");
+            return invalid_field(shown_in_message(part.substr(0, eq)),
+                                 "malformed percent escape in a parameter name");
         std::optional<std::string> value = std::string();
         if (eq != std::string_view::npos) value = percent_decode(part.substr(eq + 1));
         if (!value)
-            return invalid(*name, "malformed percent escape in the value of " + shown_in_message(*name));
+            return invalid_field(*name,
+                                 "malformed percent escape in the value of " + shown_in_message(*name));
         for (const auto& [n, _] : out)
-            if (n == *name) return invalid(*name, "parameter " + shown_in_message(*name) + " is given twice");
+            if (n == *name)
+                return invalid_field(*name, "parameter " + shown_in_message(*name) + " is given twice");
         out.emplace_back(std::move(*name), std::move(*value));
     }
     return out;
@@ -129,9 +127,9 @@ operation_result<void> check_known_parameters(const query_params& q,
             std::string list;
             for (auto k : known)
                 list += (list.empty() ? "" : ", ") + std::string(k);
-            return invalid(shown_in_message(name),
-                           "unknown parameter \"" + shown_in_message(name) + "\"" +
-                               (list.empty() ? " (this route takes none)" : " (known: " + list + ")"));
+            return invalid_field(shown_in_message(name),
+                                 "unknown parameter \"" + shown_in_message(name) + "\"" +
+                                     (list.empty() ? " (this route takes none)" : " (known: " + list + ")"));
         }
     }
     return {};
@@ -148,8 +146,8 @@ operation_result<bool> query_flag(const query_params& q, std::string_view name, 
     if (!v) return fallback;
     if (*v == "true" || *v == "1" || v->empty()) return true;
     if (*v == "false" || *v == "0") return false;
-    return invalid(std::string(name),
-                   std::string(name) + " must be true or false, not \"" + shown_in_message(*v) + "\"");
+    return invalid_field(std::string(name),
+                         std::string(name) + " must be true or false, not \"" + shown_in_message(*v) + "\"");
 }
 
 operation_result<jobs::job_filter> parse_job_filter(const query_params& q) {
@@ -158,30 +156,30 @@ operation_result<jobs::job_filter> parse_job_filter(const query_params& q) {
     jobs::job_filter f;
     if (auto v = query_value(q, "controller")) {
         if (v->empty() || v->size() > 64 || !is_printable_word(*v))
-            return invalid("controller", "controller must be a controller id");
+            return invalid_field("controller", "controller must be a controller id");
         f.controller = *v;
     }
     if (auto v = query_value(q, "type")) {
         f.type = jobs::parse_job_type(*v);
         if (!f.type)
-            return invalid("type", "unknown job type \"" + shown_in_message(*v) +
-                                       "\" (one of: " + joined(job_type_names) + ")");
+            return invalid_field("type", "unknown job type \"" + shown_in_message(*v) +
+                                             "\" (one of: " + joined(job_type_names) + ")");
     }
     if (auto v = query_value(q, "state")) {
         f.state = jobs::parse_job_state(*v);
         if (!f.state)
-            return invalid("state", "unknown job state \"" + shown_in_message(*v) +
-                                        "\" (one of: " + joined(job_state_names) + ")");
+            return invalid_field("state", "unknown job state \"" + shown_in_message(*v) +
+                                              "\" (one of: " + joined(job_state_names) + ")");
     }
     if (auto v = query_value(q, "limit")) {
         auto n = parse_count(*v);
         if (!n || *n < 1 || *n > max_list_limit)
-            return invalid("limit", "limit must be an integer 1.." + std::to_string(max_list_limit));
+            return invalid_field("limit", "limit must be an integer 1.." + std::to_string(max_list_limit));
         f.limit = *n;
     }
     if (auto v = query_value(q, "before")) {
         if (!is_plausible_job_id(*v))
-            return invalid("before", "before must be a job id (the \"next\" of a page)");
+            return invalid_field("before", "before must be a job id (the \"next\" of a page)");
         f.before = *v;
     }
     return f;
@@ -193,7 +191,7 @@ operation_result<std::size_t> parse_event_limit(const query_params& q) {
     if (!v) return default_event_limit;
     auto n = parse_count(*v);
     if (!n || *n < 1 || *n > max_event_limit)
-        return invalid("limit", "limit must be an integer 1.." + std::to_string(max_event_limit));
+        return invalid_field("limit", "limit must be an integer 1.." + std::to_string(max_event_limit));
     return *n;
 }
 
@@ -201,29 +199,32 @@ operation_result<job_submission> parse_job_submission(const json& body_in) {
     static const json empty = json::object();
     const json& body = body_in.is_null() ? empty : body_in;
     if (!body.is_object())
-        return invalid("", "the body must be a JSON object {\"controller\", \"type\", \"spec\"}");
+        return invalid_field("", "the body must be a JSON object {\"controller\", \"type\", \"spec\"}");
     if (auto unknown = find_unknown_field(body, {"controller", "type", "spec"}))
-        return invalid(unknown->field, unknown->message);
+        return invalid_field(unknown->field, unknown->message);
     job_submission s;
     auto c = body.find("controller");
-    if (c == body.end()) return invalid("controller", "controller is required (a controller id)");
+    if (c == body.end()) return invalid_field("controller", "controller is required (a controller id)");
     if (!c->is_string() || c->get_ref<const std::string&>().empty())
-        return invalid("controller", "controller must be a controller id (a non-empty string), not " +
-                                         std::string(json_type_name(*c)));
+        return invalid_field("controller", "controller must be a controller id (a non-empty string), not " +
+                                               std::string(json_type_name(*c)));
     s.controller = c->get<std::string>();
     auto t = body.find("type");
-    if (t == body.end()) return invalid("type", "type is required (one of: " + joined(job_type_names) + ")");
+    if (t == body.end())
+        return invalid_field("type", "type is required (one of: " + joined(job_type_names) + ")");
     if (!t->is_string())
-        return invalid("type", "type must be a string, not " + std::string(json_type_name(*t)));
+        return invalid_field("type", "type must be a string, not " + std::string(json_type_name(*t)));
     auto type = jobs::parse_job_type(t->get_ref<const std::string&>());
     if (!type)
-        return invalid("type", "unknown job type \"" + shown_in_message(t->get_ref<const std::string&>()) +
-                                   "\" (one of: " + joined(job_type_names) + ")");
+        return invalid_field("type", "unknown job type \"" +
+                                         shown_in_message(t->get_ref<const std::string&>()) +
+                                         "\" (one of: " + joined(job_type_names) + ")");
     s.type = *type;
     auto sp = body.find("spec");
-    if (sp == body.end()) return invalid("spec", "spec is required (an object; {} takes every default)");
+    if (sp == body.end())
+        return invalid_field("spec", "spec is required (an object; {} takes every default)");
     if (!sp->is_object())
-        return invalid("spec", "spec must be an object, not " + std::string(json_type_name(*sp)));
+        return invalid_field("spec", "spec must be an object, not " + std::string(json_type_name(*sp)));
     s.spec = *sp;
     return s;
 }
@@ -258,8 +259,9 @@ void submit_job(api_context& ctx, const json& body, submit_options options, api_
     auto parsed = parse_job_submission(body);
     if (!parsed) return finish_now(failed(parsed.error(), request_id));
     if (options.idempotency_key && options.dry_run)
-        return finish_now(failed(
-            invalid("Idempotency-Key", "a dry run stores nothing: leave out Idempotency-Key"), request_id));
+        return finish_now(
+            failed(invalid_field("Idempotency-Key", "a dry run stores nothing: leave out Idempotency-Key"),
+                   request_id));
 
     jobs::submit_request r;
     r.controller = std::move(parsed->controller);

@@ -20,10 +20,6 @@ namespace net = boost::asio;
 
 namespace {
 
-operation_error invalid(std::string field, std::string message) {
-    return make_error(operation_error_kind::invalid_value, std::move(message), std::move(field));
-}
-
 std::optional<api_outcome> check_controller(api_context& ctx, const std::string& controller,
                                             const std::string& request_id) {
     if (!ctx.registry.get(controller))
@@ -39,10 +35,11 @@ std::optional<api_outcome> check_controller(api_context& ctx, const std::string&
 std::optional<api_outcome> require_lease_id(const std::optional<std::string>& lease_id,
                                             const std::string& request_id) {
     if (!lease_id)
-        return failed(invalid("Lease-Id", "the Lease-Id header is required (the lease_id of the lease)"),
-                      request_id);
+        return failed(
+            invalid_field("Lease-Id", "the Lease-Id header is required (the lease_id of the lease)"),
+            request_id);
     if (!is_valid_key(*lease_id))
-        return failed(invalid("Lease-Id", "Lease-Id must be 1..128 printable characters"), request_id);
+        return failed(invalid_field("Lease-Id", "Lease-Id must be 1..128 printable characters"), request_id);
     return std::nullopt;
 }
 
@@ -51,26 +48,26 @@ std::optional<api_outcome> require_lease_id(const std::optional<std::string>& le
 operation_result<lease_body> parse_lease_body(const json& body_in, bool allow_holder) {
     static const json empty = json::object();
     const json& body = body_in.is_null() ? empty : body_in;
-    if (!body.is_object()) return invalid("", "the body must be a JSON object");
+    if (!body.is_object()) return invalid_field("", "the body must be a JSON object");
     auto unknown =
         allow_holder ? find_unknown_field(body, {"ttl_s", "holder"}) : find_unknown_field(body, {"ttl_s"});
-    if (unknown) return invalid(unknown->field, unknown->message);
+    if (unknown) return invalid_field(unknown->field, unknown->message);
     lease_body out;
     if (auto it = body.find("ttl_s"); it != body.end()) {
         const auto range =
             std::to_string(min_lease_ttl.count()) + ".." + std::to_string(max_lease_ttl.count());
         if (!it->is_number_integer())
-            return invalid("ttl_s", "ttl_s must be an integer number of seconds " + range);
+            return invalid_field("ttl_s", "ttl_s must be an integer number of seconds " + range);
         const auto s = it->get<std::int64_t>();
         if (s < min_lease_ttl.count() || s > max_lease_ttl.count())
-            return invalid("ttl_s", "ttl_s must be " + range + " seconds");
+            return invalid_field("ttl_s", "ttl_s must be " + range + " seconds");
         out.ttl = std::chrono::seconds(s);
     }
     if (auto it = body.find("holder"); it != body.end()) {
         if (!it->is_string() || it->get_ref<const std::string&>().empty() ||
             it->get_ref<const std::string&>().size() > 64 ||
             !is_printable_label(it->get_ref<const std::string&>()))
-            return invalid("holder", "holder must be a label of 1..64 printable characters");
+            return invalid_field("holder", "holder must be a label of 1..64 printable characters");
         out.label = it->get<std::string>();
     }
     return out;

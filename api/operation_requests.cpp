@@ -30,16 +30,12 @@ namespace {
 constexpr std::array<std::string_view, 12> names = {"move", "halt", "home", "zero",  "here",      "speed",
                                                     "ttl",  "dac",  "led",  "crisp", "autofocus", "command"};
 
-operation_error invalid(std::string field, std::string message) {
-    return make_error(operation_error_kind::invalid_value, std::move(message), std::move(field));
-}
-
 // Reads one JSON object strictly: every key must be known, every value of the expected type.
 class body_reader {
   public:
     body_reader(const json& body, std::initializer_list<std::string_view> known) : body_(body) {
         if (!body_.is_object()) {
-            error_ = invalid("", "the body must be a JSON object");
+            error_ = invalid_field("", "the body must be a JSON object");
             return;
         }
         if (auto unknown = find_unknown_field(body_, known, "this operation takes none"))
@@ -114,7 +110,7 @@ class body_reader {
     }
 
     void fail(std::string field, std::string message) {
-        if (!error_) error_ = invalid(std::move(field), std::move(message));
+        if (!error_) error_ = invalid_field(std::move(field), std::move(message));
     }
     const std::optional<operation_error>& error() const { return error_; }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "devices/ms2000/ascii.hpp"
 #include "devices/ms2000/error.hpp"
 
 namespace gw::devices::ms2000 {
@@ -20,19 +21,13 @@ constexpr int max_decimals = 9;
 bool is_upper_alnum(char c) {
     return (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9');
 }
-bool is_letter(char c) {
-    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z');
-}
-char to_upper(char c) {
-    return (c >= 'a' && c <= 'z') ? static_cast<char>(c - 'a' + 'A') : c;
-}
 bool is_single_char_verb(char c) {
     return c == '/' || c == '\\' || c == '!' || c == '@' || c == '~';
 }
 
 std::string upper(std::string_view text) {
     std::string out(text);
-    std::transform(out.begin(), out.end(), out.begin(), to_upper);
+    std::transform(out.begin(), out.end(), out.begin(), ascii_upper);
     return out;
 }
 
@@ -72,7 +67,7 @@ std::string letters_if_all(const std::vector<std::string>& words, char suffix) {
     for (const std::string& w : words) {
         const bool bare = w.size() == 1 && suffix == '\0';
         const bool query = w.size() == 2 && suffix != '\0' && w[1] == suffix;
-        if (!is_letter(w[0]) || !(bare || query)) return {};
+        if (!is_ascii_letter(w[0]) || !(bare || query)) return {};
         letters.push_back(w[0]);
     }
     return letters;
@@ -220,9 +215,9 @@ command verb_with_axes(std::string verb, std::string_view axes, std::string_view
                        reply_shape expect = reply_shape::standard) {
     std::string wire = verb;
     for (char c : axes) {
-        if (!is_letter(c)) continue;
+        if (!is_ascii_letter(c)) continue;
         wire.push_back(' ');
-        wire.push_back(to_upper(c));
+        wire.push_back(ascii_upper(c));
         wire.append(suffix);
     }
     return finish(std::move(verb), std::move(wire), expect);
@@ -233,7 +228,7 @@ boost::system::result<command> positions(std::string_view verb, std::span<const 
     std::vector<argument> args;
     args.reserve(list.size());
     for (const axis_position& p : list) {
-        const char axis = to_upper(p.axis);
+        const char axis = ascii_upper(p.axis);
         for (const argument& earlier : args) {
             if (earlier.axis == axis) return make_error_code(error::invalid_argument);  // "M X=1 X=2"
         }
@@ -287,9 +282,9 @@ boost::system::result<command> make_command(std::string_view verb, std::span<con
     if (checked.empty()) return make_error_code(error::invalid_argument);
     std::string wire = checked;
     for (const argument& a : args) {
-        if (!is_letter(a.axis)) return make_error_code(error::invalid_argument);
+        if (!is_ascii_letter(a.axis)) return make_error_code(error::invalid_argument);
         wire.push_back(' ');
-        wire.push_back(to_upper(a.axis));
+        wire.push_back(ascii_upper(a.axis));
         switch (a.kind) {
             case argument::op::bare:
                 break;
@@ -395,7 +390,8 @@ command query(std::string_view verb, std::string_view axes) {
     // The verb comes from code, not from a user; characters that could not be a verb are dropped.
     std::string checked;
     for (char c : verb) {
-        if (is_upper_alnum(to_upper(c)) && checked.size() < max_verb_chars) checked.push_back(to_upper(c));
+        if (is_upper_alnum(ascii_upper(c)) && checked.size() < max_verb_chars)
+            checked.push_back(ascii_upper(c));
     }
     if (verb.size() == 1 && is_single_char_verb(verb[0])) checked.assign(verb);
     return verb_with_axes(std::move(checked), axes, "?");

@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cmath>
 
+#include "devices/ms2000/ascii.hpp"
 #include "devices/ms2000/error.hpp"
 
 namespace gw::devices::ms2000 {
@@ -39,18 +40,11 @@ std::optional<double> to_number(std::string_view text) {
     return value;
 }
 
-bool is_letter(char c) {
-    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z');
-}
-char to_upper(char c) {
-    return (c >= 'a' && c <= 'z') ? static_cast<char>(c - 'a' + 'A') : c;
-}
-
 // "X=7.5", "X=" (empty text), "x=N".
 std::optional<axis_value> to_axis_value(std::string_view token) {
-    if (token.size() < 2 || !is_letter(token[0]) || token[1] != '=') return std::nullopt;
+    if (token.size() < 2 || !is_ascii_letter(token[0]) || token[1] != '=') return std::nullopt;
     axis_value v;
-    v.axis = to_upper(token[0]);
+    v.axis = ascii_upper(token[0]);
     v.text = std::string(token.substr(2));
     v.number = to_number(v.text);
     return v;
@@ -155,7 +149,7 @@ std::optional<double> reply::number(std::size_t index) const {
 }
 
 const axis_value* reply::axis(char letter) const {
-    const char wanted = to_upper(letter);
+    const char wanted = ascii_upper(letter);
     for (const axis_value& v : axes) {
         if (v.axis == wanted) return &v;
     }

@@ -5,6 +5,8 @@
 #include <optional>
 #include <string_view>
 
+#include "devices/ms2000/ascii.hpp"
+
 namespace gw::devices::ms2000 {
 
 namespace {
@@ -14,10 +16,6 @@ namespace {
 constexpr std::string_view axis_letters = "XYZFTRAB";
 constexpr std::uint8_t frame_end = 0x0D;
 constexpr std::size_t bytes_per_axis = 5;
-
-char to_upper(char c) {
-    return (c >= 'a' && c <= 'z') ? static_cast<char>(c - 'a' + 'A') : c;
-}
 
 enum class scan_result : std::uint8_t { frame, incomplete, invalid };
 
@@ -29,7 +27,7 @@ char axis_from_id(std::uint8_t id) {
 }
 
 std::uint8_t axis_id(char axis) {
-    const auto pos = axis_letters.find(to_upper(axis));
+    const auto pos = axis_letters.find(ascii_upper(axis));
     if (axis == '\0' || pos == std::string_view::npos) return 0;
     return static_cast<std::uint8_t>(first_axis_id + pos);
 }
@@ -54,7 +52,7 @@ std::vector<std::uint8_t> encode_report(const report_frame& frame, report_format
     for (const axis_count& a : frame.axes) {
         if (axis_id(a.axis) == 0) continue;
         if (!text.empty()) text.push_back(' ');
-        text.push_back(to_upper(a.axis));
+        text.push_back(ascii_upper(a.axis));
         text.push_back('=');
         text += std::to_string(a.count);
     }

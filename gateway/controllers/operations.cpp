@@ -16,10 +16,6 @@ using kind = operation_error_kind;
 
 namespace {
 
-operation_error invalid(std::string field, std::string message) {
-    return make_error(kind::invalid_value, std::move(message), std::move(field));
-}
-
 char upper(char c) {
     return static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
 }
@@ -59,9 +55,9 @@ std::optional<operation_error> check_axis(const controller_snapshot& s, char axi
     const auto axes = motor_axes(s);
     const char a = upper(axis);
     if (axes.find(a) == std::string::npos || !std::isalpha(static_cast<unsigned char>(a)))
-        return invalid(field, fmt::format("{} is not a motor axis of {} ({})", std::string(1, axis), s.id,
-                                          spaced(axes)));
-    if (!seen.insert(a).second) return invalid(field, fmt::format("axis {} is given twice", a));
+        return invalid_field(field, fmt::format("{} is not a motor axis of {} ({})", std::string(1, axis),
+                                                s.id, spaced(axes)));
+    if (!seen.insert(a).second) return invalid_field(field, fmt::format("axis {} is given twice", a));
     return std::nullopt;
 }
 
@@ -70,19 +66,21 @@ std::string axis_field(char axis) {
 }
 
 operation_result<ms2000::command> built(boost::system::result<ms2000::command> c, std::string_view field) {
-    if (!c) return invalid(std::string(field), "refused by the command builder: " + c.error().message());
+    if (!c)
+        return invalid_field(std::string(field), "refused by the command builder: " + c.error().message());
     return std::move(*c);
 }
 
 std::optional<operation_error> check_position_list(const std::vector<axis_value_um>& axes,
                                                    const controller_snapshot& s) {
-    if (axes.empty()) return invalid("axes", "at least one axis is needed");
+    if (axes.empty()) return invalid_field("axes", "at least one axis is needed");
     std::set<char> seen;
     for (const auto& a : axes) {
         if (auto e = check_axis(s, a.axis, seen, axis_field(a.axis))) return e;
         if (!std::isfinite(a.micrometres) || std::fabs(a.micrometres) > max_travel_um)
-            return invalid(axis_field(a.axis), fmt::format("{} must be a number from {} to {} um",
-                                                           upper(a.axis), -max_travel_um, max_travel_um));
+            return invalid_field(axis_field(a.axis),
+                                 fmt::format("{} must be a number from {} to {} um", upper(a.axis),
+                                             -max_travel_um, max_travel_um));
     }
     return std::nullopt;
 }
@@ -117,7 +115,8 @@ operation_result<ms2000::command> plan(const move_request& r, const controller_s
     if (auto e = check_connected(s)) return *e;
     if (auto e = check_position_list(r.axes, s)) return *e;
     if (r.wait && (r.wait_timeout <= std::chrono::milliseconds::zero() || r.wait_timeout > max_wait_timeout))
-        return invalid("wait_timeout", fmt::format("must be from 1 to {} ms", max_wait_timeout.count()));
+        return invalid_field("wait_timeout",
+                             fmt::format("must be from 1 to {} ms", max_wait_timeout.count()));
     // Soft limits (SL/SU, mm) where the snapshot knows them; a relative move needs the position too.
     for (const auto& a : r.axes) {
         const auto* state = s.axis(upper(a.axis));
@@ -130,9 +129,9 @@ operation_result<ms2000::command> plan(const move_request& r, const controller_s
         const double lower = state->lower_limit_mm ? *state->lower_limit_mm * 1000 : -max_travel_um;
         const double upper_um = state->upper_limit_mm ? *state->upper_limit_mm * 1000 : max_travel_um;
         if (target < lower || target > upper_um)
-            return invalid(axis_field(a.axis),
-                           fmt::format("{} target {} um is outside the soft limits {} .. {} um",
-                                       upper(a.axis), target, lower, upper_um));
+            return invalid_field(axis_field(a.axis),
+                                 fmt::format("{} target {} um is outside the soft limits {} .. {} um",
+                                             upper(a.axis), target, lower, upper_um));
     }
     const auto positions = to_positions(r.axes);
     return built(
@@ -177,14 +176,15 @@ operation_result<ms2000::command> plan(const here_request& r, const controller_s
 
 operation_result<ms2000::command> plan(const speed_request& r, const controller_snapshot& s) {
     if (auto e = check_connected(s)) return *e;
-    if (r.axes.empty()) return invalid("axes", "at least one axis is needed");
+    if (r.axes.empty()) return invalid_field("axes", "at least one axis is needed");
     std::set<char> seen;
     std::vector<ms2000::argument> args;
     for (const auto& a : r.axes) {
         if (auto e = check_axis(s, a.axis, seen, axis_field(a.axis))) return *e;
         if (!std::isfinite(a.mm_per_s) || a.mm_per_s <= 0 || a.mm_per_s > max_speed_mm_s)
-            return invalid(axis_field(a.axis), fmt::format("{} speed must be above 0 and at most {} mm/s",
-                                                           upper(a.axis), max_speed_mm_s));
+            return invalid_field(
+                axis_field(a.axis),
+                fmt::format("{} speed must be above 0 and at most {} mm/s", upper(a.axis), max_speed_mm_s));
         args.push_back({upper(a.axis), ms2000::argument::op::set, a.mm_per_s, 6});
     }
     return built(ms2000::make_command("S", args), "axes");
@@ -193,13 +193,13 @@ operation_result<ms2000::command> plan(const speed_request& r, const controller_
 operation_result<ms2000::command> plan(const ttl_request& r, const controller_snapshot& s) {
     if (auto e = check_connected(s)) return *e;
     if (!r.in0_mode && !r.out0_mode && !r.output_high)
-        return invalid("", "give at least one of in0_mode, out0_mode, output");
+        return invalid_field("", "give at least one of in0_mode, out0_mode, output");
     if (r.out0_mode && r.output_high)
-        return invalid("output", "output sets OUT0 mode 0 or 1 itself; do not give out0_mode with it");
+        return invalid_field("output", "output sets OUT0 mode 0 or 1 itself; do not give out0_mode with it");
     std::vector<ms2000::argument> args;
     if (r.in0_mode) {
         const int mode = *r.in0_mode;
-        if (!is_documented_in0_mode(mode)) return invalid("in0_mode", "must be one of 0..12, 30");
+        if (!is_documented_in0_mode(mode)) return invalid_field("in0_mode", "must be one of 0..12, 30");
         // With TTL_REPORT_INT every non-zero mode only enables the encoder latch (doc §5.3).
         const auto& build = s.identity->build;
         if (!build.has(ms2000::module::ttl_report)) {
@@ -215,7 +215,8 @@ operation_result<ms2000::command> plan(const ttl_request& r, const controller_sn
         args.push_back({'X', ms2000::argument::op::set, static_cast<double>(mode), 0});
     }
     if (r.out0_mode) {
-        if (!is_documented_out0_mode(*r.out0_mode)) return invalid("out0_mode", "must be one of 0, 1, 2, 9");
+        if (!is_documented_out0_mode(*r.out0_mode))
+            return invalid_field("out0_mode", "must be one of 0, 1, 2, 9");
         args.push_back({'Y', ms2000::argument::op::set, static_cast<double>(*r.out0_mode), 0});
     }
     if (r.output_high) args.push_back({'Y', ms2000::argument::op::set, *r.output_high ? 1.0 : 0.0, 0});
@@ -226,7 +227,7 @@ operation_result<ms2000::command> plan(const dac_request& r, const controller_sn
     if (auto e = check_connected(s)) return *e;
     if (auto e = check_module(s, ms2000::module::dac_out, "WRDAC")) return *e;
     if (!std::isfinite(r.volts) || r.volts < 0 || r.volts > max_dac_volts)
-        return invalid("volts", fmt::format("must be from 0 to {} V", max_dac_volts));
+        return invalid_field("volts", fmt::format("must be from 0 to {} V", max_dac_volts));
     const ms2000::argument arg{'X', ms2000::argument::op::set, r.volts, 3};
     return built(ms2000::make_command("WRDAC", std::span(&arg, 1)), "volts");
 }
@@ -236,9 +237,9 @@ operation_result<ms2000::command> plan(const led_request& r, const controller_sn
     if (auto e = check_module(s, ms2000::module::led_dimmer, "LED")) return *e;
     const char channel = upper(r.channel);
     if (std::string_view("XYZF").find(channel) == std::string_view::npos)
-        return invalid("channel", "must be one of X, Y, Z, F");
+        return invalid_field("channel", "must be one of X, Y, Z, F");
     if (!std::isfinite(r.percent) || r.percent < 0 || r.percent > max_led_percent)
-        return invalid("percent", fmt::format("must be from 0 to {}", max_led_percent));
+        return invalid_field("percent", fmt::format("must be from 0 to {}", max_led_percent));
     const ms2000::argument arg{channel, ms2000::argument::op::set, std::round(r.percent), 0};
     return built(ms2000::make_command("LED", std::span(&arg, 1)), "percent");
 }
@@ -247,13 +248,14 @@ operation_result<crisp_plan> plan(const crisp_request& r, const controller_snaps
     if (auto e = check_connected(s)) return *e;
     if (auto e = check_module(s, ms2000::module::crisp, "CRISP")) return *e;
     if (r.wait && r.what != crisp_request::action::lock)
-        return invalid("wait", "wait goes with action \"lock\"");
+        return invalid_field("wait", "wait goes with action \"lock\"");
     if (r.wait_timeout.count() < 1 || r.wait_timeout > max_wait_timeout)
-        return invalid("timeout_ms", fmt::format("must be 1..{}", max_wait_timeout.count()));
+        return invalid_field("timeout_ms", fmt::format("must be 1..{}", max_wait_timeout.count()));
     crisp_plan p;
     if (r.lock_offset) {
         if (!std::isfinite(*r.lock_offset) || std::abs(*r.lock_offset) > ms2000::max_crisp_offset)
-            return invalid("lock_offset", fmt::format("must be from -{0} to {0}", ms2000::max_crisp_offset));
+            return invalid_field("lock_offset",
+                                 fmt::format("must be from -{0} to {0}", ms2000::max_crisp_offset));
         auto c = built(ms2000::crisp_set_offset(*r.lock_offset), "lock_offset");
         if (!c) return c.error();
         p.writes.push_back(std::move(*c));
@@ -282,23 +284,24 @@ operation_result<ms2000::command> plan(const autofocus_request& r, const control
     if (auto e = check_connected(s)) return *e;
     if (auto e = check_module(s, ms2000::module::autofocus, "AUTOFOCUS")) return *e;
     if (motor_axes(s).find('Z') == std::string::npos)
-        return invalid("", fmt::format("{} has no Z axis to focus with", s.id));
+        return invalid_field("", fmt::format("{} has no Z axis to focus with", s.id));
     if (r.wait_timeout.count() < 1 || r.wait_timeout > max_wait_timeout)
-        return invalid("timeout_ms", fmt::format("must be 1..{}", max_wait_timeout.count()));
+        return invalid_field("timeout_ms", fmt::format("must be 1..{}", max_wait_timeout.count()));
     return ms2000::autofocus_start();
 }
 
 operation_result<ms2000::command> plan(const raw_command_request& r, const controller_snapshot& s) {
     if (auto e = check_connected(s)) return *e;
-    if (r.command.empty()) return invalid("command", "must not be empty");
+    if (r.command.empty()) return invalid_field("command", "must not be empty");
     auto c = ms2000::raw_command(r.command);
     if (!c)
-        return invalid("command", fmt::format("must be one line of at most {} printable ASCII characters",
-                                              ms2000::max_raw_command_bytes));
+        return invalid_field("command",
+                             fmt::format("must be one line of at most {} printable ASCII characters",
+                                         ms2000::max_raw_command_bytes));
     if (const auto why = ms2000::resets_or_recalibrates(*c); !why.empty() && !r.force)
-        return invalid("force", fmt::format("{}: send \"force\": true to mean it (the controller is "
-                                            "identified again afterwards)",
-                                            why));
+        return invalid_field("force", fmt::format("{}: send \"force\": true to mean it (the controller is "
+                                                  "identified again afterwards)",
+                                                  why));
     return std::move(*c);
 }
 

@@ -18,11 +18,6 @@
 //  * The TTL OUT0 pulse on arrival is "TTL Y=1" then "TTL Y=0", sent by the gateway after it has
 //    confirmed the arrival (OUT0 mode 2, "pulse after a move", is only [I] in the protocol doc).
 #include <algorithm>
-// g++ 12 reports a false -Wmismatched-new-delete on Asio's awaitable frames (aligned_alloc in the
-// frame's operator new, its matching operator delete) once it inlines them into a large coroutine.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#endif
 #include <chrono>
 #include <cmath>
 #include <fmt/format.h>

@@ -36,12 +36,6 @@
 #include "gateway/jobs/job_kinds.hpp"
 #include "gateway/storage/gcode_files.hpp"
 
-// g++ 12 reports a false -Wmismatched-new-delete at the end of some asio coroutines (the awaitable
-// frame's own operator new/delete pair); clang and g++ 13 do not.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#endif
-
 namespace gw::jobs {
 
 namespace {

@@ -30,6 +30,10 @@ std::string command_text(std::string_view verb, std::initializer_list<ms::argume
     return command_text(verb, std::span<const ms::argument>(args.begin(), args.size()));
 }
 
+std::string ttl_in0_command(int mode) {
+    return command_text("TTL", {set_arg('X', mode, 0)});
+}
+
 std::string move_text(std::span<const ms::axis_position> to) {
     auto c = ms::move(to);
     return c ? wire_text(*c) : "M";

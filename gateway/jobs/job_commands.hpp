@@ -24,6 +24,9 @@ std::string command_text(std::string_view verb, std::initializer_list<devices::m
 // "M X=<tenths> Y=<tenths>" for positions in micrometres; "M" when there are none.
 std::string move_text(std::span<const devices::ms2000::axis_position> to);
 
+// "TTL X=<mode>": the TTL input mode a scan or a ring-buffer run sets (and puts back).
+std::string ttl_in0_command(int mode);
+
 // "SPEED X? Y?": the query of `verb` for each letter of `letters`.
 std::string query_text(std::string_view verb, std::string_view letters);
 

@@ -62,6 +62,13 @@ json to_json(const position_um& p) {
     return out;
 }
 
+json measured_position_json(const position_um& p) {
+    json out = json::object();
+    for (const auto& [axis, um] : p)
+        out[std::string(1, axis)] = std::round(um * 10.0) / 10.0;
+    return out;
+}
+
 json to_json(const job_record& job, job_clock::time_point now) {
     const auto& p = job.progress;
     json progress = {

@@ -27,6 +27,8 @@ namespace gw::jobs {
 
 // Positions: {"X": 1000.0, "Y": -250.5} (micrometres).
 nlohmann::json to_json(const position_um& p);
+// A position read back from the controller (WHERE), to its resolution: tenths of a micrometre.
+nlohmann::json measured_position_json(const position_um& p);
 
 // elapsed_s: from `started` to `finished` (or to `now` while not finished); 0 before it started.
 // percent: 100 * steps_done / steps_total (100 for a succeeded job without steps), one decimal.

@@ -27,7 +27,7 @@ using kind = operation_error_kind;
 constexpr std::array<char, 3> xyz{'X', 'Y', 'Z'};
 constexpr std::chrono::milliseconds point_move_timeout{120000};
 
-operation_error invalid(std::string field, std::string message) {
+operation_error invalid_field(std::string field, std::string message) {
     return make_error(kind::invalid_value, std::move(message), std::move(field));
 }
 
@@ -48,23 +48,23 @@ std::string tenths(double um) {
 }
 
 operation_result<planar_spec> parse_spec(const json& spec) {
-    if (!spec.is_object()) return invalid("spec", "must be an object");
+    if (!spec.is_object()) return invalid_field("spec", "must be an object");
     for (const auto& [key, value] : spec.items())
         if (key != "action" && key != "points" && key != "enable" && key != "mode")
-            return invalid("spec." + key,
-                           "unknown field (planar_correction takes action, points, enable, mode)");
+            return invalid_field("spec." + key,
+                                 "unknown field (planar_correction takes action, points, enable, mode)");
     if (auto m = spec.find("mode"); m != spec.end()) {
         if (!m->is_string() || (*m != "auto" && *m != "firmware" && *m != "host"))
-            return invalid("spec.mode", "must be \"auto\", \"firmware\" or \"host\"");
+            return invalid_field("spec.mode", "must be \"auto\", \"firmware\" or \"host\"");
         if (*m == "host")
-            return invalid("spec.mode",
-                           "planar_correction has no host-driven path: the controller's "
-                           "PLANAR CORRECTION module applies the correction");
+            return invalid_field("spec.mode",
+                                 "planar_correction has no host-driven path: the controller's "
+                                 "PLANAR CORRECTION module applies the correction");
     }
     planar_spec out;
     auto a = spec.find("action");
     if (a == spec.end() || !a->is_string())
-        return invalid("spec.action", "required: \"set\", \"enable\", \"disable\" or \"clear\"");
+        return invalid_field("spec.action", "required: \"set\", \"enable\", \"disable\" or \"clear\"");
     const auto name = a->get<std::string>();
     if (name == "set")
         out.what = action::set;
@@ -75,20 +75,21 @@ operation_result<planar_spec> parse_spec(const json& spec) {
     else if (name == "clear")
         out.what = action::clear;
     else
-        return invalid("spec.action", "must be \"set\", \"enable\", \"disable\" or \"clear\"");
+        return invalid_field("spec.action", "must be \"set\", \"enable\", \"disable\" or \"clear\"");
 
     if (out.what != action::set) {
-        if (spec.contains("points")) return invalid("spec.points", "only with action \"set\"");
-        if (spec.contains("enable")) return invalid("spec.enable", "only with action \"set\"");
+        if (spec.contains("points")) return invalid_field("spec.points", "only with action \"set\"");
+        if (spec.contains("enable")) return invalid_field("spec.enable", "only with action \"set\"");
         return out;
     }
     if (auto e = spec.find("enable"); e != spec.end()) {
-        if (!e->is_boolean()) return invalid("spec.enable", "must be true or false");
+        if (!e->is_boolean()) return invalid_field("spec.enable", "must be true or false");
         out.enable = e->get<bool>();
     }
     auto points = spec.find("points");
     if (points == spec.end() || !points->is_array() || points->size() != 3)
-        return invalid("spec.points", "exactly three points: {\"X\":..,\"Y\":..,\"Z\":..} or \"current\"");
+        return invalid_field("spec.points",
+                             "exactly three points: {\"X\":..,\"Y\":..,\"Z\":..} or \"current\"");
     for (std::size_t i = 0; i < 3; ++i) {
         const auto& p = (*points)[i];
         const std::string field = "spec.points[" + std::to_string(i) + "]";
@@ -96,18 +97,19 @@ operation_result<planar_spec> parse_spec(const json& spec) {
             out.points.push_back({});
             continue;
         }
-        if (!p.is_object()) return invalid(field, "must be {\"X\":..,\"Y\":..,\"Z\":..} or \"current\"");
+        if (!p.is_object())
+            return invalid_field(field, "must be {\"X\":..,\"Y\":..,\"Z\":..} or \"current\"");
         position_um pos;
         for (const auto& [key, value] : p.items()) {
             if (key.size() != 1 || (key != "X" && key != "Y" && key != "Z"))
-                return invalid(field + "." + key, "a point has the axes X, Y and Z (micrometres)");
+                return invalid_field(field + "." + key, "a point has the axes X, Y and Z (micrometres)");
             if (!value.is_number() || !std::isfinite(value.get<double>()))
-                return invalid(field + "." + key, "must be a number (micrometres)");
+                return invalid_field(field + "." + key, "must be a number (micrometres)");
             pos[key[0]] = value.get<double>();
         }
         for (const char axis : xyz)
             if (!pos.contains(axis))
-                return invalid(field + "." + std::string(1, axis), "required (micrometres)");
+                return invalid_field(field + "." + std::string(1, axis), "required (micrometres)");
         out.points.push_back({std::move(pos)});
     }
     return out;
@@ -187,8 +189,8 @@ operation_result<job_plan> plan_planar_correction(const json& spec, const plan_c
     }
     for (const char axis : xyz)
         if (s.axis(axis) == nullptr)
-            return invalid("spec.points",
-                           fmt::format("{} has no {} axis (a plane needs X, Y and Z)", s.id, axis));
+            return invalid_field("spec.points",
+                                 fmt::format("{} has no {} axis (a plane needs X, Y and Z)", s.id, axis));
 
     // Where the stage is (for the first move's estimate); unknown after a "current" point.
     std::optional<position_um> at;
@@ -231,7 +233,7 @@ operation_result<job_plan> plan_planar_correction(const json& spec, const plan_c
         std::array<position_um, 3> pts{*parsed->points[0].given, *parsed->points[1].given,
                                        *parsed->points[2].given};
         if (!plane_through(pts))
-            return invalid("spec.points", "the three points lie on one line in XY: no plane");
+            return invalid_field("spec.points", "the three points lie on one line in XY: no plane");
     }
     // The given points against the travel range and the soft limits here, so that a refusal names the
     // point's field (spec.points[i]) rather than the plan step's.

@@ -30,14 +30,9 @@
 
 #include "devices/ms2000/command.hpp"
 #include "gateway/jobs/job_commands.hpp"
+#include "gateway/jobs/job_json.hpp"
 #include "gateway/jobs/job_kinds.hpp"
 #include "gateway/jobs/ring_buffer_spec.hpp"
-
-// g++ 12 reports a false -Wmismatched-new-delete at the end of some asio coroutines (the awaitable
-// frame's own operator new/delete pair); clang and g++ 13 do not.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#endif
 
 namespace gw::jobs {
 
@@ -48,7 +43,7 @@ using devices::ms2000::module;
 using trigger_kind = ring_buffer_spec::trigger_kind;
 using std::chrono::milliseconds;
 
-constexpr milliseconds follow_poll{20};
+constexpr milliseconds tour_follow_poll{20};
 
 std::size_t capacity_of(const devices::controller_snapshot& s) {
     if (has_module(s, module::ring_buffer) && s.identity->build.ring_buffer_size > 0)
@@ -73,7 +68,8 @@ std::string firmware_unfit(const ring_buffer_spec& spec, const devices::controll
     return {};
 }
 
-operation_result<rb_setup> resolve(const nlohmann::json& json, const devices::controller_snapshot& s) {
+operation_result<rb_setup> resolve_ring_buffer(const nlohmann::json& json,
+                                               const devices::controller_snapshot& s) {
     auto spec = parse_ring_buffer_spec(json);
     if (!spec) return spec.error();
     rb_setup u{*spec, false, 0, {}};
@@ -147,10 +143,6 @@ std::string rt_delay_command(double delay_ms) {
     return command_text("RT", {set_arg('Z', delay_ms, 0)});
 }
 
-std::string in0_command(int mode) {
-    return command_text("TTL", {set_arg('X', mode, 0)});
-}
-
 std::string pointer_command(std::size_t pointer) {
     return command_text("RM", {set_arg('Z', static_cast<double>(pointer), 0)});
 }
@@ -159,7 +151,7 @@ std::string pointer_command(std::size_t pointer) {
 
 operation_result<job_plan> plan_ring_buffer(const nlohmann::json& json, const plan_context& ctx) {
     const auto& s = ctx.snapshot;
-    auto setup = resolve(json, s);
+    auto setup = resolve_ring_buffer(json, s);
     if (!setup) return setup.error();
     const auto& u = *setup;
     const auto& spec = u.spec;
@@ -221,7 +213,7 @@ operation_result<job_plan> plan_ring_buffer(const nlohmann::json& json, const pl
                 if (spec.trigger == trigger_kind::next)
                     for (std::size_t k = 0; k < n; ++k)
                         add_preview_command(plan, "RM");
-                add_preview_command(plan, in0_command(s.ttl_in0_mode.value_or(0)));
+                add_preview_command(plan, ttl_in0_command(s.ttl_in0_mode.value_or(0)));
             }
         }
         if (spec.forever() && firmware_mode(spec) == 3)
@@ -258,20 +250,13 @@ operation_result<job_plan> plan_ring_buffer(const nlohmann::json& json, const pl
 
 namespace {
 
-nlohmann::json position_json(const position_um& p) {
-    nlohmann::json j = nlohmann::json::object();
-    for (const auto& [axis, um] : p)
-        j[std::string(1, axis)] = std::round(um * 10.0) / 10.0;
-    return j;
-}
-
 // Built outside the coroutines: g++ 12 miscompiles braced json initialisers with string literals in
 // a coroutine body ("array used as initializer").
 nlohmann::json arrival_detail(std::size_t slot, int tour, const position_um& p, bool measured) {
     nlohmann::json j = nlohmann::json::object();
     j["slot"] = slot + 1;
     j["tour"] = tour + 1;
-    j["position"] = position_json(p);
+    j["position"] = measured_position_json(p);
     j["measured"] = measured;
     return j;
 }
@@ -357,7 +342,7 @@ boost::asio::awaitable<void> follow(job_context& ctx, const rb_setup& u, follow_
             report(reported, latest ? *measured : u.spec.positions[(r.first_slot + reported) % n], latest);
         }
         if (!r.forever && reported >= count) co_return;
-        co_await ctx.sleep(follow_poll);
+        co_await ctx.sleep(tour_follow_poll);
     }
 }
 
@@ -402,7 +387,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
         const std::size_t slot = tour == first_tour ? first_slot : 0;
         const std::size_t base = spec.forever() ? 0 : tour * n;
         if (tour != first_tour) co_await ctx.command(pointer_command(0));
-        ctx.restore_if_stopped(in0_command(previous_in0));
+        ctx.restore_if_stopped(ttl_in0_command(previous_in0));
         co_await ctx.command("TTL X=1");
         if (spec.trigger == trigger_kind::ttl) {
             ctx.step_started(base + slot);
@@ -421,11 +406,11 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
                 ctx.step_done(base + k, arrival_detail(k, static_cast<int>(tour), p, true));
             }
         }
-        co_await ctx.command(in0_command(previous_in0));
+        co_await ctx.command(ttl_in0_command(previous_in0));
     }
 }
 
-boost::asio::awaitable<void> run_host(job_context& ctx, const rb_setup& u) {
+boost::asio::awaitable<void> run_ring_buffer_host(job_context& ctx, const rb_setup& u) {
     const auto& spec = u.spec;
     const std::size_t n = spec.positions.size();
     const std::size_t first = ctx.first_step();
@@ -458,14 +443,14 @@ boost::asio::awaitable<void> run_host(job_context& ctx, const rb_setup& u) {
 }  // namespace
 
 boost::asio::awaitable<void> run_ring_buffer(job_context& ctx) {
-    auto setup = resolve(ctx.job().spec, ctx.snapshot());
+    auto setup = resolve_ring_buffer(ctx.job().spec, ctx.snapshot());
     if (!setup) throw job_failure(setup.error());
     auto u = *setup;
     u.firmware = ctx.plan().path == "firmware";
     if (u.firmware)
         co_await run_firmware(ctx, u);
     else
-        co_await run_host(ctx, u);
+        co_await run_ring_buffer_host(ctx, u);
 }
 
 }  // namespace gw::jobs

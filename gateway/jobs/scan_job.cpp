@@ -29,14 +29,9 @@
 
 #include "devices/ms2000/command.hpp"
 #include "gateway/jobs/job_commands.hpp"
+#include "gateway/jobs/job_json.hpp"
 #include "gateway/jobs/job_kinds.hpp"
 #include "gateway/jobs/scan_spec.hpp"
-
-// g++ 12 reports a false -Wmismatched-new-delete at the end of some asio coroutines (the awaitable
-// frame's own operator new/delete pair); clang and g++ 13 do not.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#endif
 
 namespace gw::jobs {
 
@@ -46,9 +41,9 @@ namespace ms = devices::ms2000;
 using devices::ms2000::module;
 using std::chrono::milliseconds;
 
-constexpr milliseconds follow_poll{25};
+constexpr milliseconds line_follow_poll{25};
 
-std::string move_text(const std::vector<axis_value_um>& axes) {
+std::string axes_move_text(const std::vector<axis_value_um>& axes) {
     std::vector<ms::axis_position> to;
     for (const auto& a : axes)
         to.push_back({a.axis, a.micrometres});
@@ -61,7 +56,7 @@ struct scan_setup {
     bool firmware = false;
 };
 
-operation_result<scan_setup> resolve(const nlohmann::json& json, const devices::controller_snapshot& s) {
+operation_result<scan_setup> resolve_scan(const nlohmann::json& json, const devices::controller_snapshot& s) {
     auto spec = parse_scan_spec(json);
     if (!spec) return spec.error();
     for (const auto& [letter, field] :
@@ -133,10 +128,6 @@ std::string speed_command(char axis, double mm_s) {
     return command_text("SPEED", {set_arg(axis, mm_s, 6)});
 }
 
-std::string in0_command(int mode) {
-    return command_text("TTL", {set_arg('X', mode, 0)});
-}
-
 // The fast and slow axes' start and stop positions against the soft limits; the error's field is
 // the setting (spec.fast.start_mm, spec.fast.stop_mm or spec.fast.pixels, spec.slow.start_mm,
 // spec.slow.stop_mm) whose position is beyond them.
@@ -171,7 +162,7 @@ operation_result<void> check_scan_extent(const scan_setup& u, const devices::con
 
 operation_result<job_plan> plan_scan(const nlohmann::json& json, const plan_context& ctx) {
     const auto& s = ctx.snapshot;
-    auto setup = resolve(json, s);
+    auto setup = resolve_scan(json, s);
     if (!setup) return setup.error();
     const auto& u = *setup;
     const auto& g = u.geometry;
@@ -226,7 +217,7 @@ operation_result<job_plan> plan_scan(const nlohmann::json& json, const plan_cont
     if (u.firmware) {
         for (auto& c : firmware_setup(u, s, 0))
             add_preview_command(plan, std::move(c));
-        add_preview_command(plan, move_text(to_axes(line_point(u, g.fast_begin(0), g.slow_at(0)))));
+        add_preview_command(plan, axes_move_text(to_axes(line_point(u, g.fast_begin(0), g.slow_at(0)))));
         if (u.spec.speed_mm_s) add_preview_command(plan, command_text("SPEED", {set_arg(f, scan_speed, 6)}));
         add_preview_command(plan, "SCAN");
         if (u.spec.speed_mm_s)
@@ -238,10 +229,10 @@ operation_result<job_plan> plan_scan(const nlohmann::json& json, const plan_cont
             "mid-way (cancel stops it at once)");
     } else {
         for (int i = 0; i < g.lines; ++i) {
-            add_preview_command(plan, move_text(to_axes(line_point(u, g.fast_begin(i), g.slow_at(i)))));
+            add_preview_command(plan, axes_move_text(to_axes(line_point(u, g.fast_begin(i), g.slow_at(i)))));
             if (u.spec.speed_mm_s)
                 add_preview_command(plan, command_text("SPEED", {set_arg(f, scan_speed, 6)}));
-            add_preview_command(plan, move_text({{f, g.fast_end(i) * 1000.0}}));
+            add_preview_command(plan, axes_move_text({{f, g.fast_end(i) * 1000.0}}));
             if (u.spec.speed_mm_s)
                 add_preview_command(plan, command_text("SPEED", {set_arg(f, fp.speed_mm_s, 6)}));
         }
@@ -278,19 +269,12 @@ boost::asio::awaitable<position_um> where(job_context& ctx, char a, char b) {
     co_return out;
 }
 
-nlohmann::json position_json(const position_um& p) {
-    nlohmann::json j = nlohmann::json::object();
-    for (const auto& [axis, um] : p)
-        j[std::string(1, axis)] = std::round(um * 10.0) / 10.0;
-    return j;
-}
-
 // Built outside the coroutines: g++ 12 miscompiles braced json initialisers with string literals in
 // a coroutine body ("array used as initializer").
 nlohmann::json line_detail(int line, const position_um& p, bool measured) {
     nlohmann::json j = nlohmann::json::object();
     j["line"] = line;
-    j["position"] = position_json(p);
+    j["position"] = measured_position_json(p);
     j["measured"] = measured;
     return j;
 }
@@ -306,7 +290,7 @@ milliseconds wait_timeout_for(double estimated_s) {
     return std::min(milliseconds(ms), max_wait_timeout);
 }
 
-boost::asio::awaitable<void> run_host(job_context& ctx, const scan_setup& u, double original_speed) {
+boost::asio::awaitable<void> run_scan_host(job_context& ctx, const scan_setup& u, double original_speed) {
     const auto& g = u.geometry;
     const char f = u.spec.fast_axis;
     const auto& steps = ctx.plan().steps;
@@ -430,7 +414,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const scan_setup& u)
             throw job_failure(make_error(operation_error_kind::timeout,
                                          fmt::format("{}: the scan made no progress in {} ms (line {} of {})",
                                                      s.id, stall_limit.count(), reported + 1, g.lines)));
-        co_await ctx.sleep(follow_poll);
+        co_await ctx.sleep(line_follow_poll);
     }
 }
 
@@ -438,7 +422,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const scan_setup& u)
 
 boost::asio::awaitable<void> run_scan(job_context& ctx) {
     const auto s = ctx.snapshot();
-    auto setup = resolve(ctx.job().spec, s);
+    auto setup = resolve_scan(ctx.job().spec, s);
     if (!setup) throw job_failure(setup.error());
     auto u = *setup;
     u.firmware = ctx.plan().path == "firmware";
@@ -451,17 +435,17 @@ boost::asio::awaitable<void> run_scan(job_context& ctx) {
     if (enc_int) original_in0 = co_await in0_mode_before(ctx);
     // What the job changes; the manager puts it back after a cancel or a failure.
     if (u.spec.speed_mm_s) ctx.restore_if_stopped(speed_command(f, original_speed));
-    if (enc_int) ctx.restore_if_stopped(in0_command(original_in0));
+    if (enc_int) ctx.restore_if_stopped(ttl_in0_command(original_in0));
     if (u.firmware)
         co_await run_firmware(ctx, u);
     else
-        co_await run_host(ctx, u, original_speed);
+        co_await run_scan_host(ctx, u, original_speed);
     if (u.spec.speed_mm_s) {
         auto restore = speed_command(f, original_speed);
         co_await ctx.command(std::move(restore));
     }
     if (enc_int) {
-        auto in0 = in0_command(original_in0);
+        auto in0 = ttl_in0_command(original_in0);
         co_await ctx.command(std::move(in0));
     }
 }

@@ -6,6 +6,7 @@
 #include <future>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <utility>
 
 #include <gtest/gtest.h>
@@ -15,6 +16,13 @@
 namespace gw::test {
 
 using command_result = std::pair<boost::system::error_code, devices::ms2000::reply>;
+
+// A typed command line as a command; a line the parser refuses is a test failure.
+inline devices::ms2000::command raw_line(std::string_view line) {
+    auto c = devices::ms2000::raw_command(line);
+    EXPECT_TRUE(c.has_value()) << line;
+    return c.value();
+}
 
 // The completion runs on the controller's strand and fulfils the promise.
 inline std::future<command_result> submit_command(devices::controller& ctl, devices::ms2000::command cmd,

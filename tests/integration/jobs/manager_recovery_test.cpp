@@ -17,7 +17,7 @@ using kind = operation_error_kind;
 
 class manager_recovery_test : public manager_fixture {};
 
-json far_points(double span_um) {
+json far_corner_points(double span_um) {
     return {{"action", "set"},
             {"points",
              json::array({json{{"X", span_um}, {"Y", 0}, {"Z", 0}}, json{{"X", 0}, {"Y", span_um}, {"Z", 10}},
@@ -35,7 +35,7 @@ std::size_t actions_in(const std::vector<std::string>& commands) {
 TEST_F(manager_recovery_test, a_crash_mid_job_leaves_it_interrupted_and_resume_finishes_it) {
     add_sim("sim3", "planar", 3);
     start();
-    auto a = submit("sim3", job_type::planar_correction, far_points(5000));
+    auto a = submit("sim3", job_type::planar_correction, far_corner_points(5000));
     ASSERT_TRUE(a);
     const auto id = a->job.id;
     ASSERT_TRUE(wait_until([&] {
@@ -85,7 +85,7 @@ TEST_P(manager_restart_queued_test, queued_jobs_are_kept_and_started_again_only_
     restart_queued_ = GetParam();
     add_sim("sim3", "planar", 2);
     start();
-    auto a = submit("sim3", job_type::planar_correction, far_points(5000));
+    auto a = submit("sim3", job_type::planar_correction, far_corner_points(5000));
     auto b = submit("sim3", job_type::planar_correction, {{"action", "clear"}});
     ASSERT_TRUE(a && b);
     ASSERT_TRUE(wait_state(a->job.id, job_state::running));
@@ -111,7 +111,7 @@ INSTANTIATE_TEST_SUITE_P(on_off, manager_restart_queued_test, ::testing::Bool())
 TEST_F(manager_recovery_test, an_unplugged_controller_pauses_the_job_and_resume_finishes_it_after_replug) {
     auto s = add_sim("sim3", "planar", 2);
     start();
-    auto a = submit("sim3", job_type::planar_correction, far_points(5000));
+    auto a = submit("sim3", job_type::planar_correction, far_corner_points(5000));
     auto b = submit("sim3", job_type::planar_correction, {{"action", "disable"}});
     ASSERT_TRUE(a && b);
     const auto id = a->job.id;
@@ -142,7 +142,7 @@ TEST_F(manager_recovery_test, an_unplugged_controller_pauses_the_job_and_resume_
 TEST_F(manager_recovery_test, shutdown_halts_running_jobs_and_marks_them_interrupted) {
     add_sim("sim3", "planar", 1);
     start();
-    auto a = submit("sim3", job_type::planar_correction, far_points(20000));
+    auto a = submit("sim3", job_type::planar_correction, far_corner_points(20000));
     ASSERT_TRUE(a);
     const auto id = a->job.id;
     ASSERT_TRUE(wait_until([&] {

@@ -26,12 +26,6 @@ namespace net = boost::asio;
 using namespace std::chrono_literals;
 using kind = link_fault::kind;
 
-ms2000::command raw(std::string_view line) {
-    auto c = ms2000::raw_command(line);
-    EXPECT_TRUE(c.has_value()) << line;
-    return c.value();
-}
-
 // The identification replies of an XYZ stage (the fake's default is an XY one).
 std::vector<std::string> xyz_reply(const std::string& c) {
     if (c == "BU X") return {"STD_XYZ\rMotor Axes: X Y Z\rAxis Addr: 1 2 3\r\n"};
@@ -142,7 +136,7 @@ TEST_F(controller_sync_test, a_move_answered_with_values_is_not_acknowledged) {
         if (c == "M X=10") return {":A 555.1 0\r\n"};
         return test::drv_pty_controller::default_reply(c);
     });
-    EXPECT_EQ(call(raw("M X=10")).first, ms2000::error::unrecognized_reply);
+    EXPECT_EQ(call(test::raw_line("M X=10")).first, ms2000::error::unrecognized_reply);
     EXPECT_FALSE(call(ms2000::where("XY")).first);
 }
 
@@ -176,7 +170,7 @@ TEST_F(controller_sync_test, a_late_reply_after_the_probe_starts_the_resynchroni
         return test::drv_pty_controller::default_reply(c);
     });
     fake_.clear_commands();
-    EXPECT_EQ(call(raw("DROP")).first, ms2000::error::timeout);
+    EXPECT_EQ(call(test::raw_line("DROP")).first, ms2000::error::timeout);
     EXPECT_FALSE(call(ms2000::where("XY")).first);
     const std::vector<std::string> expected{"DROP", "V", "V", "W X Y"};
     EXPECT_EQ(fake_.commands(), expected);
@@ -190,7 +184,7 @@ TEST_F(controller_sync_test, a_halt_goes_out_at_once_while_the_link_is_out_of_st
         return test::drv_pty_controller::default_reply(c);
     });
     fake_.clear_commands();
-    auto dropped = test::submit_command(*ctl_, raw("DROP"), "t");
+    auto dropped = test::submit_command(*ctl_, test::raw_line("DROP"), "t");
     auto halt = test::submit_command(*ctl_, ms2000::halt(), "t");  // waits behind DROP's deadline only
     EXPECT_EQ(test::await_command(std::move(dropped), 20s).first, ms2000::error::timeout);
     EXPECT_FALSE(test::await_command(std::move(halt), 20s).first);
@@ -277,7 +271,7 @@ TEST_F(controller_sync_test, a_ttl_mode_set_by_a_command_is_read_back_into_the_s
     start(settings());
     ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     EXPECT_EQ(observer_->latest().ttl_in0_mode, 0);
-    EXPECT_FALSE(call(raw("TTL X=7")).first);
+    EXPECT_FALSE(call(test::raw_line("TTL X=7")).first);
     EXPECT_TRUE(observer_->wait([&] { return observer_->snapshots.back().ttl_in0_mode == 7; }));
 }
 
@@ -345,7 +339,7 @@ TEST_F(controller_sync_test, identical_answers_to_different_commands_are_each_th
     });
     const auto resynced_before = count_of(kind::resynced);
     for (const char* line : {"RS X?", "RS Y?", "W X", "W Y", "RS X?"}) {
-        const auto [ec, r] = call(raw(line));
+        const auto [ec, r] = call(test::raw_line(line));
         ASSERT_FALSE(ec) << line << ": " << ec.message();
         EXPECT_EQ(r.raw, line[0] == 'R' ? ":A N" : ":A 12.5") << line;
     }
@@ -412,10 +406,10 @@ TEST_F(controller_sync_test, a_handler_that_throws_loses_none_of_the_answers_han
     fake_.hold();
     // One command in flight and two queued behind it; the port then fails while it is read, so the
     // three end in that one read and are handed over together, the throwing one first.
-    ctl_->async_command(raw("W X"), "throws",
+    ctl_->async_command(test::raw_line("W X"), "throws",
                         [](boost::system::error_code, ms2000::reply) { throw std::runtime_error("a bug"); });
-    auto second = test::submit_command(*ctl_, raw("W Y"), "second");
-    auto third = test::submit_command(*ctl_, raw("W Z"), "third");
+    auto second = test::submit_command(*ctl_, test::raw_line("W Y"), "second");
+    auto third = test::submit_command(*ctl_, test::raw_line("W Z"), "third");
     ASSERT_TRUE(fake_.wait_for_commands(1));
     fake_.unplug();
     EXPECT_TRUE(test::await_command(std::move(second), 10s).first) << "the second command's end was lost";

@@ -30,12 +30,6 @@ using namespace std::chrono_literals;
 using boost::system::error_code;
 using result_pair = test::command_result;
 
-ms2000::command raw(std::string_view line) {
-    auto c = ms2000::raw_command(line);
-    EXPECT_TRUE(c.has_value()) << line;
-    return c.value();
-}
-
 class controller_test : public ::testing::Test {
   protected:
     controller_settings settings() const {
@@ -146,7 +140,7 @@ TEST_F(controller_test, stale_bytes_before_a_command_are_discarded) {
     start(settings());
     // Complete stale lines and a partial one arrive while nothing is in flight.
     fake_.write_raw(":A 999\r\n:N-3\r\n:A 12");
-    auto [ec, reply] = call(raw("NUM X?"));
+    auto [ec, reply] = call(test::raw_line("NUM X?"));
     ASSERT_FALSE(ec) << ec.message();
     EXPECT_EQ(reply.raw, ":A");
     fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
@@ -154,7 +148,7 @@ TEST_F(controller_test, stale_bytes_before_a_command_are_discarded) {
         return test::drv_pty_controller::default_reply(c);  // the resynchronisation probe's V
     });
     fake_.write_raw("junk without end");
-    auto [ec2, reply2] = call(raw("NUM X?"));
+    auto [ec2, reply2] = call(test::raw_line("NUM X?"));
     ASSERT_FALSE(ec2) << ec2.message();
     EXPECT_EQ(reply2.raw, ":A 5");
 }
@@ -169,8 +163,8 @@ TEST_F(controller_test, timeout_fails_the_command_and_the_next_one_succeeds) {
         return test::drv_pty_controller::default_reply(c);
     });
     // Queued together: the second is written only after the first timed out.
-    auto first = submit(raw("DROP"));
-    auto second = submit(raw("NUM 2"));
+    auto first = submit(test::raw_line("DROP"));
+    auto second = submit(test::raw_line("NUM 2"));
     ASSERT_EQ(first.wait_for(20s), std::future_status::ready);
     EXPECT_EQ(first.get().first, ms2000::error::timeout);
     ASSERT_EQ(second.wait_for(20s), std::future_status::ready);
@@ -179,11 +173,11 @@ TEST_F(controller_test, timeout_fails_the_command_and_the_next_one_succeeds) {
     EXPECT_EQ(reply.number(0), 2.0);
 
     // A late reply to a timed-out command is discarded, not taken for the next command's reply.
-    auto third = submit(raw("DROP"));
+    auto third = submit(test::raw_line("DROP"));
     ASSERT_EQ(third.wait_for(20s), std::future_status::ready);
     EXPECT_EQ(third.get().first, ms2000::error::timeout);
     fake_.write_raw(":A 666\r\n");
-    auto [ec4, reply4] = call(raw("NUM 2"));
+    auto [ec4, reply4] = call(test::raw_line("NUM 2"));
     ASSERT_FALSE(ec4) << ec4.message();
     EXPECT_EQ(reply4.number(0), 2.0);
     EXPECT_TRUE(observer_->wait([&] {
@@ -201,12 +195,12 @@ TEST_F(controller_test, queue_is_bounded) {
     s.command_timeout = 30s;
     start(s);
     fake_.hold();
-    auto in_flight = submit(raw("A1"));
+    auto in_flight = submit(test::raw_line("A1"));
     ASSERT_TRUE(fake_.wait_for_commands(identification_commands + 1));  // and A1: A1 is in flight
     std::vector<std::future<result_pair>> queued;
     for (int i = 0; i < 3; ++i)
-        queued.push_back(submit(raw("Q" + std::to_string(i))));
-    auto overflow = submit(raw("OVER"));
+        queued.push_back(submit(test::raw_line("Q" + std::to_string(i))));
+    auto overflow = submit(test::raw_line("OVER"));
     ASSERT_EQ(overflow.wait_for(20s), std::future_status::ready);
     EXPECT_EQ(overflow.get().first, ms2000::error::queue_full);
     fake_.release();
@@ -223,10 +217,10 @@ TEST_F(controller_test, halt_jumps_the_queue_and_its_minus_21_is_success) {
         return {":A\r\n"};
     });
     fake_.hold();
-    auto a = submit(raw("A1"));
+    auto a = submit(test::raw_line("A1"));
     ASSERT_TRUE(fake_.wait_for_commands(identification_commands + 1));
-    auto b = submit(raw("B1"));
-    auto c = submit(raw("C1"));
+    auto b = submit(test::raw_line("B1"));
+    auto c = submit(test::raw_line("C1"));
     auto halt = submit(ms2000::halt());
     // Make sure all three are queued before the in-flight command completes.
     std::promise<void> queued;
@@ -249,7 +243,7 @@ TEST_F(controller_test, halt_jumps_the_queue_and_its_minus_21_is_success) {
 TEST_F(controller_test, controller_error_completes_with_controller_rejected_and_signed_code) {
     start(settings());
     fake_.set_responder([](const std::string&) -> std::vector<std::string> { return {":N-4\r\n"}; });
-    auto [ec, reply] = call(raw("S X=99999"));
+    auto [ec, reply] = call(test::raw_line("S X=99999"));
     EXPECT_EQ(ec, ms2000::error::controller_rejected);
     EXPECT_EQ(reply.what, ms2000::reply::kind::error);
     EXPECT_EQ(reply.error_code, -4);
@@ -264,7 +258,7 @@ TEST_F(controller_test, halt_minus_21_is_success_but_other_commands_minus_21_are
     start(settings());
     fake_.set_responder([](const std::string&) -> std::vector<std::string> { return {":N-21\r\n"}; });
     EXPECT_FALSE(call(ms2000::halt()).first);
-    EXPECT_EQ(call(raw("M X=1")).first, ms2000::error::controller_rejected);
+    EXPECT_EQ(call(test::raw_line("M X=1")).first, ms2000::error::controller_rejected);
 }
 
 TEST_F(controller_test, many_concurrent_submissions_from_several_threads_stay_in_order) {
@@ -286,7 +280,7 @@ TEST_F(controller_test, many_concurrent_submissions_from_several_threads_stay_in
         threads.emplace_back([&, t] {
             for (int i = 0; i < per_thread; ++i) {
                 const int n = t * 1000 + i;
-                ctl_->async_command(raw("NUM " + std::to_string(n)), "c",
+                ctl_->async_command(test::raw_line("NUM " + std::to_string(n)), "c",
                                     [&, n, t](error_code ec, ms2000::reply r) {
                                         if (ec || r.number(0) != static_cast<double>(n)) ++mismatches;
                                         {
@@ -336,7 +330,7 @@ TEST_F(controller_test, works_with_use_future_and_use_awaitable) {
 
     // An error reaches use_future as an exception carrying the error code.
     fake_.set_responder([](const std::string&) -> std::vector<std::string> { return {":N-1\r\n"}; });
-    auto bad = ctl_->async_command(raw("NOPE"), "future", net::use_future);
+    auto bad = ctl_->async_command(test::raw_line("NOPE"), "future", net::use_future);
     try {
         bad.get();
         ADD_FAILURE() << "no exception";
@@ -382,7 +376,7 @@ TEST_F(controller_test, user_command_goes_ahead_of_the_next_poll_step) {
     ASSERT_TRUE(fake_.wait_deferred(1));
     const std::size_t w_index = fake_.commands().size() - 1;
     ASSERT_GT(w_index, 0u) << "never caught a W in flight";
-    auto user = submit(raw("USER"));
+    auto user = submit(test::raw_line("USER"));
     std::promise<void> queued;
     ctl_->get_snapshot([&](controller_snapshot) { queued.set_value(); });
     queued.get_future().wait();
@@ -396,19 +390,19 @@ TEST_F(controller_test, user_command_goes_ahead_of_the_next_poll_step) {
 TEST_F(controller_test, unplug_fails_commands_with_disconnected_and_replug_reconnects) {
     start(settings());
     fake_.hold();
-    auto pending = submit(raw("LONG"));
+    auto pending = submit(test::raw_line("LONG"));
     ASSERT_TRUE(fake_.wait_for_commands(identification_commands + 1));
     fake_.unplug();
     ASSERT_EQ(pending.wait_for(20s), std::future_status::ready);
     EXPECT_EQ(pending.get().first, ms2000::error::disconnected);
     EXPECT_TRUE(observer_->wait_state(connection_state::disconnected));
-    EXPECT_EQ(call(raw("NUM 1")).first, ms2000::error::not_connected);
+    EXPECT_EQ(call(test::raw_line("NUM 1")).first, ms2000::error::not_connected);
 
     fake_.release();
     fake_.replug();
     EXPECT_TRUE(observer_->wait_state(connection_state::connected));
     EXPECT_GE(fake_.count("V"), 2u);
-    EXPECT_FALSE(call(raw("NUM 1")).first);
+    EXPECT_FALSE(call(test::raw_line("NUM 1")).first);
 }
 
 TEST_F(controller_test, a_vanished_device_node_is_a_disconnect) {
@@ -453,7 +447,7 @@ TEST_F(controller_test, unsolicited_position_report_becomes_a_ttl_event) {
     EXPECT_EQ(e.axes[0].letter, 'X');
     EXPECT_DOUBLE_EQ(e.axes[0].position_um, 1.2);
     EXPECT_DOUBLE_EQ(e.axes[1].position_um, -0.35);
-    EXPECT_FALSE(call(raw("NUM 1")).first);  // and the main port still works
+    EXPECT_FALSE(call(test::raw_line("NUM 1")).first);  // and the main port still works
 }
 
 TEST_F(controller_test, traces_carry_request_id_wire_reply_and_latency) {
@@ -479,21 +473,21 @@ TEST_F(controller_test, traces_carry_request_id_wire_reply_and_latency) {
 TEST_F(controller_test, commands_before_start_and_after_stop_fail) {
     ctl_ = std::make_shared<controller>(io_.get_executor(), settings(), observer_);
     threads_.emplace_back([this] { io_.run(); });
-    EXPECT_EQ(call(raw("NUM 1")).first, ms2000::error::not_connected);
+    EXPECT_EQ(call(test::raw_line("NUM 1")).first, ms2000::error::not_connected);
     ctl_->start();
     ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     fake_.hold();
-    auto pending = submit(raw("LONG"));
+    auto pending = submit(test::raw_line("LONG"));
     ASSERT_TRUE(fake_.wait_for_commands(identification_commands + 1));
     ctl_->stop();
     EXPECT_EQ(pending.get().first, ms2000::error::cancelled);
-    EXPECT_EQ(call(raw("NUM 1")).first, ms2000::error::cancelled);
+    EXPECT_EQ(call(test::raw_line("NUM 1")).first, ms2000::error::cancelled);
     fake_.release();
 
     // And it can be started again.
     ctl_->start();
     ASSERT_TRUE(observer_->wait_state(connection_state::connected));
-    EXPECT_FALSE(call(raw("NUM 1")).first);
+    EXPECT_FALSE(call(test::raw_line("NUM 1")).first);
 }
 
 // The report port: a second pty on which the test sends binary encoder frames.

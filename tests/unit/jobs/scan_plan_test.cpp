@@ -195,13 +195,13 @@ TEST(scan_plan, pixels_given_sets_the_stop_like_scanr_f) {
     EXPECT_NEAR(plan->bounds.max.at('X'), 500 + 1000.0 * 24 / 45396 * 1000, 1e-6);
 }
 
-struct refusal_row {
+struct scan_refusal_row {
     const char* name;
     const char* spec;
     const char* field;
 };
 
-const refusal_row refusal_table[] = {
+const scan_refusal_row scan_refusal_table[] = {
     {"not_an_object", R"([1])", "spec"},
     {"unknown_field", R"({"fast":{"stop_mm":1},"slow":{"lines":1},"speed":1})", "spec.speed"},
     {"unknown_fast_field", R"({"fast":{"stop_mm":1,"end":2},"slow":{"lines":1}})", "spec.fast.end"},
@@ -255,7 +255,7 @@ const refusal_row refusal_table[] = {
      "spec.fast.stop_mm"},
 };
 
-class scan_refusals : public ::testing::TestWithParam<refusal_row> {};
+class scan_refusals : public ::testing::TestWithParam<scan_refusal_row> {};
 
 TEST_P(scan_refusals, invalid_value_names_the_field) {
     const auto& row = GetParam();
@@ -265,7 +265,7 @@ TEST_P(scan_refusals, invalid_value_names_the_field) {
     EXPECT_EQ(plan.error().field, row.field) << plan.error().message;
 }
 
-INSTANTIATE_TEST_SUITE_P(table, scan_refusals, ::testing::ValuesIn(refusal_table),
+INSTANTIATE_TEST_SUITE_P(table, scan_refusals, ::testing::ValuesIn(scan_refusal_table),
                          [](const auto& info) { return std::string(info.param.name); });
 
 // Each setting is checked against its own axis's limits: Y (the slow axis) allows only 0..5 mm here,

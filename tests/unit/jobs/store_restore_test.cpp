@@ -62,7 +62,7 @@ class store_restore_test : public ::testing::Test {
     fs::path dir_;
 };
 
-job_record make_job(std::string id) {
+job_record make_restorable_job(std::string id) {
     job_record j;
     j.id = std::move(id);
     j.controller = "sim1";
@@ -90,8 +90,8 @@ TEST_F(store_restore_test, restore_commands_round_trip_in_order_replace_and_clea
     ASSERT_TRUE(store);
     const auto a = make_job_id();
     const auto b = make_job_id();
-    ASSERT_TRUE(store->insert(make_job(a)));
-    ASSERT_TRUE(store->insert(make_job(b)));
+    ASSERT_TRUE(store->insert(make_restorable_job(a)));
+    ASSERT_TRUE(store->insert(make_restorable_job(b)));
     EXPECT_EQ(stored(*store, a), commands{});  // nothing registered yet
 
     ASSERT_TRUE(store->set_restore_commands(a, {"TTL X=0"}));
@@ -113,7 +113,7 @@ TEST_F(store_restore_test, restore_commands_survive_reopening) {
     {
         auto store = open_store();
         ASSERT_TRUE(store);
-        ASSERT_TRUE(store->insert(make_job(id)));
+        ASSERT_TRUE(store->insert(make_restorable_job(id)));
         ASSERT_TRUE(store->set_restore_commands(id, {"TTL X=7", "S X=1"}));
     }  // no flush: like a kill -9 after the call returned
     auto store = open_store();
@@ -135,7 +135,7 @@ TEST_F(store_restore_test, a_corrupt_list_is_a_storage_error_not_a_crash) {
     const auto id = make_job_id();
     auto store = open_store();
     ASSERT_TRUE(store);
-    ASSERT_TRUE(store->insert(make_job(id)));
+    ASSERT_TRUE(store->insert(make_restorable_job(id)));
     exec("INSERT INTO job_restore_commands (job_id, commands, updated_ms) VALUES ('" + id +
          "', '[1, 2]', 0)");
     auto r = store->restore_commands(id);
@@ -153,7 +153,7 @@ TEST_F(store_restore_test, a_version_1_database_is_migrated_and_keeps_its_jobs) 
     {
         auto store = open_store();
         ASSERT_TRUE(store);
-        ASSERT_TRUE(store->insert(make_job(id)));
+        ASSERT_TRUE(store->insert(make_restorable_job(id)));
         ASSERT_TRUE(store->append_event(id, {{"type", "step"}, {"index", 0}}));
     }
     exec("DROP TABLE job_restore_commands; PRAGMA user_version = 1;");

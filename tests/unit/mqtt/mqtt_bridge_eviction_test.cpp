@@ -18,6 +18,7 @@
 #include "gateway/common/metrics.hpp"
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/events/event_hub.hpp"
+#include "tests/support/closed_broker.hpp"
 
 namespace gw::api {
 namespace {
@@ -25,14 +26,6 @@ namespace {
 namespace net = boost::asio;
 
 // A loopback port nobody listens on (bound, then closed).
-std::string closed_broker() {
-    net::io_context io;
-    net::ip::tcp::acceptor a(io, {net::ip::make_address("127.0.0.1"), 0});
-    const auto port = a.local_endpoint().port();
-    a.close();
-    return "mqtt://127.0.0.1:" + std::to_string(port);
-}
-
 nlohmann::json ttl_data(std::uint64_t n) {
     nlohmann::json j = nlohmann::json::object();
     j["id"] = "sim1";
@@ -51,7 +44,7 @@ class mqtt_bridge_eviction : public ::testing::Test {
             api_context{io_.get_executor(), registry_, hub_, metrics_, {}, {}, {}, {}, {}, {}, {}});
         mqtt_bridge_settings s;
         s.config.enabled = true;
-        s.config.brokers = {closed_broker()};
+        s.config.brokers = {test::closed_broker_url()};
         s.config.reconnect_min = std::chrono::seconds(30);  // one refused attempt is enough
         s.config.reconnect_max = std::chrono::seconds(30);
         s.gateway_id = "gw";
