@@ -40,7 +40,7 @@ void describe_metrics(gw::metrics& m) {
     m.describe("gw_mqtt_dropped_total", metric_type::counter,
                "Events that did not reach MQTT (disconnected, or the hub reported a gap), by kind");
     m.describe("gw_mqtt_commands_total", metric_type::counter,
-               "MQTT commands by outcome (ok, refused, failed)");
+               "MQTT commands by outcome (ok, refused, failed, unreadable, unauthenticated, replayed)");
     m.describe("gw_mqtt_job_queue", metric_type::gauge, "Job state changes waiting for the broker");
 }
 
@@ -93,13 +93,15 @@ void mqtt_bridge::start() {
     };
     const auto client_id = c.client_id.empty() ? "asi-gateway-" + settings_.gateway_id : c.client_id;
     client_ = mqtt_client::create(strand_, c, client_id, std::move(will), std::move(h), log_);
-    if (c.commands_enabled && !ctx_->auth.tokens.empty()) {
+    if (c.commands_enabled && (!c.command_signing_keys.empty() || c.accept_bearer_tokens)) {
         commands_ = std::make_shared<mqtt_commands>(
             ctx_, topics_, c.qos.responses, strand_,
             [weak](const mqtt_message_out& m) {
                 if (auto self = weak.lock()) self->send(m, "response");
             },
-            c.command_max_payload_bytes);
+            c.command_max_payload_bytes,
+            mqtt_commands::authentication{c.command_signing_keys, c.command_signature_window,
+                                          c.accept_bearer_tokens});
     }
     net::post(strand_, [self = shared_from_this()] {
         self->subscribe_hub();

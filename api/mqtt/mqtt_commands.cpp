@@ -1,5 +1,6 @@
 #include "api/mqtt/mqtt_commands.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <utility>
 #include <variant>
@@ -18,13 +19,16 @@ namespace net = boost::asio;
 using nlohmann::json;
 
 mqtt_commands::mqtt_commands(std::shared_ptr<api_context> ctx, mqtt_topics topics, int response_qos, strand s,
-                             publish_fn publish, std::size_t max_payload_bytes, std::size_t max_in_flight)
+                             publish_fn publish, std::size_t max_payload_bytes, authentication auth,
+                             std::size_t max_in_flight)
     : ctx_(std::move(ctx)),
       topics_(std::move(topics)),
       response_qos_(response_qos),
       strand_(std::move(s)),
       publish_(std::move(publish)),
       max_payload_bytes_(max_payload_bytes),
+      auth_(std::move(auth)),
+      replays_(auth_.signature_window, max_remembered_signatures),
       max_in_flight_(max_in_flight) {}
 
 mqtt_commands::reply_target mqtt_commands::reply_for(const mqtt_message_in& in,
@@ -64,12 +68,41 @@ void mqtt_commands::handle(const mqtt_message_in& in) {
     if (!target) return;  // not ours (a retained leftover on a filter we share)
     // Nothing is answered before the sender is known: an answer would make the gateway publish, under
     // its own broker identity, wherever an anonymous message asked.
-    auto envelope = open_mqtt_envelope(in.payload, max_payload_bytes_);
-    if (!envelope) return drop(in.topic, "unreadable", envelope.error());
-    if (envelope->token.empty()) return drop(in.topic, "unauthenticated", "no \"token\"");
-    problem auth_error;
-    auto who = authenticate_token(ctx_->auth, envelope->token, auth_error);
-    if (!who) return drop(in.topic, "unauthenticated", auth_error.detail);
+    if (in.payload.size() > max_payload_bytes_)
+        return drop(in.topic, "unreadable",
+                    "a payload of " + std::to_string(in.payload.size()) +
+                        " bytes, over mqtt.commands.max_payload_bytes (" +
+                        std::to_string(max_payload_bytes_) + ")");
+    std::optional<auth_identity> who;
+    std::optional<mqtt_envelope> envelope;
+    if (looks_signed(in.payload)) {
+        auto verified = verify_signed(in);
+        if (!verified) return;
+        auto opened = open_mqtt_envelope(verified->second, max_payload_bytes_);
+        if (!opened) return drop(in.topic, "unreadable", "the signed body: " + opened.error());
+        if (!opened->token.empty()) {
+            // Known sender, so answered: a token next to a signature is a token published for nothing.
+            auto p = make_problem(make_error(operation_error_kind::invalid_value,
+                                             "a signed command carries no \"token\" (it is readable on the "
+                                             "topic): leave it out",
+                                             "token"));
+            return answer_error(reply_for(in, std::nullopt), json(), std::move(p), in.topic);
+        }
+        who = std::move(verified->first);
+        envelope = std::move(*opened);
+    } else {
+        if (!auth_.accept_bearer_tokens)
+            return drop(in.topic, "unauthenticated",
+                        "not signed (bearer tokens are not taken over MQTT unless "
+                        "mqtt.commands.accept_bearer_tokens)");
+        auto opened = open_mqtt_envelope(in.payload, max_payload_bytes_);
+        if (!opened) return drop(in.topic, "unreadable", opened.error());
+        if (opened->token.empty()) return drop(in.topic, "unauthenticated", "no \"token\"");
+        problem auth_error;
+        who = authenticate_token(ctx_->auth, opened->token, auth_error);
+        if (!who) return drop(in.topic, "unauthenticated", auth_error.detail);
+        envelope = std::move(*opened);
+    }
     if (in.retained) {
         // A retained command would run again at every reconnect: never run one.
         auto p =
@@ -96,6 +129,45 @@ void mqtt_commands::handle(const mqtt_message_in& in) {
         return answer_error(to, request.id, std::move(p), in.topic);
     }
     run(request, *who, to);
+}
+
+std::optional<std::pair<auth_identity, std::string>> mqtt_commands::verify_signed(const mqtt_message_in& in) {
+    auto signed_command = read_signed_command(in.payload);
+    if (!signed_command) {
+        drop(in.topic, "unreadable", signed_command.error());
+        return std::nullopt;
+    }
+    auto& c = *signed_command;
+    const auto key = std::find_if(auth_.signing_keys.begin(), auth_.signing_keys.end(),
+                                  [&](const mqtt_signing_key& k) { return k.name == c.key; });
+    if (key == auth_.signing_keys.end()) {
+        drop(in.topic, "unauthenticated", "unknown signing key \"" + c.key + "\"");
+        return std::nullopt;
+    }
+    if (!signature_matches(key->key, signing_text(in.topic, c.ts_ms, c.nonce, c.body), c.sig)) {
+        drop(in.topic, "unauthenticated", "the signature of key \"" + c.key + "\" does not match");
+        return std::nullopt;
+    }
+    const auto now_ms = std::chrono::duration_cast<std::chrono::milliseconds>(
+                            std::chrono::system_clock::now().time_since_epoch())
+                            .count();
+    switch (replays_.admit(c.key, c.nonce, c.ts_ms, now_ms)) {
+        case signature_replay_guard::verdict::fresh:
+            break;
+        case signature_replay_guard::verdict::stale:
+            drop(in.topic, "unauthenticated",
+                 "ts " + std::to_string(c.ts_ms) + " is " + std::to_string((now_ms - c.ts_ms) / 1000) +
+                     " s from the gateway's clock, outside mqtt.commands.signature_window_s (clocks in "
+                     "sync?)");
+            return std::nullopt;
+        case signature_replay_guard::verdict::replayed:
+            drop(in.topic, "replayed", "key \"" + c.key + "\" used nonce " + c.nonce + " before");
+            return std::nullopt;
+        case signature_replay_guard::verdict::full:
+            drop(in.topic, "replayed", "too many signed commands within the window to remember");
+            return std::nullopt;
+    }
+    return std::make_pair(auth_identity{key->name, key->role}, std::move(c.body));
 }
 
 void mqtt_commands::drop(std::string_view topic, std::string_view outcome, const std::string& why) {

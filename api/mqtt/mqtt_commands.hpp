@@ -1,16 +1,18 @@
 #pragma once
 // Commands received on the MQTT command topics, decoded into calls and run by the same dispatch as
 // REST and WebSocket (api/calls.hpp): the same validation, roles, leases and result shapes. Each request
-// carries a bearer token ("token") with the roles of auth.tokens.
+// is signed with a key of mqtt.commands.signing_keys (api/mqtt/mqtt_signature.hpp), whose role it gets;
+// a bearer token of auth.tokens in the payload ("token") is taken only with
+// mqtt.commands.accept_bearer_tokens (TLS brokers only).
 //
 // Answers (the WebSocket "result" / "error" messages) go to the MQTT 5 response topic with the
 // request's correlation data, else to the payload's "reply_to". A request with neither is still run
 // (fire and forget); a malformed one is answered with an error if it can be, never run, and never
-// reaches a serial line. A payload over max_payload_bytes, one that is no JSON object, or one
-// without a valid token is dropped unanswered (counted, logged at most once a second): an
-// unauthenticated sender gets nothing published. At most max_in_flight commands run at once; more
-// are refused with 503.
-// On the bridge's strand only.
+// reaches a serial line. A payload over max_payload_bytes, one that is no JSON object, one whose
+// signature does not hold (unknown key, wrong signature, ts outside the window, a nonce used before)
+// or, without a signature, without a bearer token the gateway takes, is dropped unanswered (counted,
+// logged at most once a second): an unauthenticated sender gets nothing published. At most max_in_flight
+// commands run at once; more are refused with 503. On the bridge's strand only.
 
 #include <chrono>
 #include <cstddef>
@@ -19,6 +21,8 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <boost/asio/any_io_executor.hpp>
 #include <boost/asio/strand.hpp>
@@ -27,8 +31,10 @@
 #include "api/api_context.hpp"
 #include "api/auth.hpp"
 #include "api/mqtt/mqtt_client.hpp"
+#include "api/mqtt/mqtt_signature.hpp"
 #include "api/mqtt/mqtt_topics.hpp"
 #include "api/problem.hpp"
+#include "gateway/config/config.hpp"
 
 namespace gw::api {
 
@@ -39,8 +45,17 @@ class mqtt_commands : public std::enable_shared_from_this<mqtt_commands> {
     using strand = boost::asio::strand<boost::asio::any_io_executor>;
     using publish_fn = std::function<void(mqtt_message_out)>;
 
+    struct authentication {
+        std::vector<mqtt_signing_key> signing_keys;
+        std::chrono::milliseconds signature_window{30000};
+        bool accept_bearer_tokens = false;
+    };
+    // Signed commands remembered for replay checks at most (api/mqtt/mqtt_signature.hpp).
+    static constexpr std::size_t max_remembered_signatures = 100000;
+
     mqtt_commands(std::shared_ptr<api_context> ctx, mqtt_topics topics, int response_qos, strand s,
-                  publish_fn publish, std::size_t max_payload_bytes, std::size_t max_in_flight = 64);
+                  publish_fn publish, std::size_t max_payload_bytes, authentication auth,
+                  std::size_t max_in_flight = 64);
 
     // A message on one of the command topics.
     void handle(const mqtt_message_in& in);
@@ -58,6 +73,8 @@ class mqtt_commands : public std::enable_shared_from_this<mqtt_commands> {
     void answer_error(const reply_target& to, const nlohmann::json& id, problem p, std::string_view topic);
     void count(std::string_view outcome);
     void drop(std::string_view topic, std::string_view outcome, const std::string& why);
+    // The sender of a signed payload, and the command's JSON text; nullopt when dropped.
+    std::optional<std::pair<auth_identity, std::string>> verify_signed(const mqtt_message_in& in);
 
     std::shared_ptr<api_context> ctx_;
     mqtt_topics topics_;
@@ -65,6 +82,8 @@ class mqtt_commands : public std::enable_shared_from_this<mqtt_commands> {
     strand strand_;
     publish_fn publish_;
     std::size_t max_payload_bytes_;
+    authentication auth_;
+    signature_replay_guard replays_;
     std::size_t max_in_flight_;
     std::size_t in_flight_ = 0;
     std::uint64_t dropped_ = 0;

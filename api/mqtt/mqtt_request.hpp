@@ -15,6 +15,7 @@
 // Answers go to the MQTT 5 response topic, else to "reply_to" (3.1.1 clients); the response is the
 // WebSocket "result" or "error" message.
 //
+// A signed payload (api/mqtt/mqtt_signature.hpp) is verified first; its body is the payload here.
 // Two steps, so that nothing of a message is believed before its sender is known:
 //   1. open_mqtt_envelope: within the size cap, a JSON object, its "token" taken out. A failure here
 //      is never answered (anyone may publish on a command topic the broker lets them write to, and

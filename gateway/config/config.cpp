@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <initializer_list>
@@ -15,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gateway/config/config_files_check.hpp"
+#include "gateway/config/tokens_file.hpp"
 
 namespace gw {
 
@@ -144,19 +147,11 @@ const std::initializer_list<std::pair<std::string_view, log_level>> level_table 
     {"warn", log_level::warn},   {"error", log_level::error}, {"critical", log_level::critical},
     {"off", log_level::off}};
 
-bool valid_id(std::string_view id) {
-    if (id.empty() || id.size() > 64) return false;
-    return std::all_of(id.begin(), id.end(), [](char c) {
-        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
-               c == '_';
-    });
-}
-
 bool valid_logger_name(std::string_view name) {
     if (name == "gateway" || name == "api" || name == "jobs" || name == "mqtt" || name == "ms2000")
         return true;
     constexpr std::string_view prefix = "ms2000.";
-    return name.starts_with(prefix) && valid_id(name.substr(prefix.size()));
+    return name.starts_with(prefix) && is_valid_controller_id(name.substr(prefix.size()));
 }
 
 void read_http(const json& j, http_config& out) {
@@ -285,7 +280,8 @@ devices::controller_settings read_controller(const json& j, const std::string& p
     auto* id = r.get("id");
     if (!id) fail(r.path("id"), "required");
     s.id = read_string(*id, r.path("id"));
-    if (!valid_id(s.id)) fail(r.path("id"), "must be 1-64 characters of letters, digits, '-' or '_'");
+    if (!is_valid_controller_id(s.id))
+        fail(r.path("id"), "must be 1-64 characters of letters, digits, '-' or '_'");
     auto* port = r.get("port");
     if (!port) fail(r.path("port"), "required");
     s.port = read_string(*port, r.path("port"));
@@ -318,18 +314,13 @@ void read_simulate(const json& j, simulate_config& out) {
     if (auto* v = r.get("directory")) out.directory = read_string(*v, r.path("directory"));
 }
 
-void read_auth(const json& j, auth_config& out) {
-    object_reader r(j, "auth", {"tokens", "halt_role"});
-    if (auto* v = r.get("halt_role"))
-        out.halt_role = read_enum<role>(
-            *v, r.path("halt_role"),
-            {{"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}});
-    auto* tokens = r.get("tokens");
-    if (!tokens) return;
-    if (!tokens->is_array()) fail("auth.tokens", "must be an array");
-    for (std::size_t i = 0; i < tokens->size(); ++i) {
-        const auto path = "auth.tokens[" + std::to_string(i) + "]";
-        object_reader t((*tokens)[i], path, {"name", "token", "token_sha256", "role"});
+// A list of token entries ({"name", "role", "token" or "token_sha256"}), from auth.tokens or from
+// the tokens file; `path` names the list in error messages. Duplicates among all of `out` refused.
+void read_tokens(const json& tokens, const std::string& path, std::vector<auth_token>& out) {
+    if (!tokens.is_array()) fail(path, "must be an array");
+    for (std::size_t i = 0; i < tokens.size(); ++i) {
+        object_reader t(tokens[i], path + "[" + std::to_string(i) + "]",
+                        {"name", "token", "token_sha256", "role"});
         auth_token tok;
         auto* name = t.get("name");
         if (!name) fail(t.path("name"), "required");
@@ -356,13 +347,26 @@ void read_auth(const json& j, auth_config& out) {
             tok.role = read_enum<role>(
                 *v, t.path("role"),
                 {{"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}});
-        for (const auto& other : out.tokens) {
+        for (const auto& other : out) {
             if (other.name == tok.name) fail(t.path("name"), "duplicate name \"" + tok.name + "\"");
             if (other.digest == tok.digest)
                 fail(t.path(secret ? "token" : "token_sha256"), "the same token is given twice");
         }
-        out.tokens.push_back(std::move(tok));
+        out.push_back(std::move(tok));
     }
+}
+
+void read_auth(const json& j, auth_config& out) {
+    object_reader r(j, "auth", {"tokens", "tokens_file", "halt_role"});
+    if (auto* v = r.get("halt_role"))
+        out.halt_role = read_enum<role>(
+            *v, r.path("halt_role"),
+            {{"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}});
+    if (auto* v = r.get("tokens_file")) {
+        out.tokens_file = read_string(*v, r.path("tokens_file"));
+        if (out.tokens_file.empty()) fail(r.path("tokens_file"), "must not be empty");
+    }
+    if (auto* tokens = r.get("tokens")) read_tokens(*tokens, "auth.tokens", out.tokens);
 }
 
 void read_logging(const json& j, logging_config& out) {
@@ -387,6 +391,39 @@ int read_qos(const json& j, const std::string& path) {
 }
 
 // "mqtt://host[:port]" and the like: a known scheme, a host, an optional port.
+// mqtt.commands.signing_keys: [{"name", "role", "key": "<64..128 hex digits>"}].
+void read_signing_keys(const json& keys, const std::string& path, std::vector<mqtt_signing_key>& out) {
+    if (!keys.is_array()) fail(path, "must be an array");
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+        object_reader k(keys[i], path + "[" + std::to_string(i) + "]", {"name", "role", "key"});
+        mqtt_signing_key entry;
+        auto* name = k.get("name");
+        if (!name) fail(k.path("name"), "required");
+        entry.name = read_string(*name, k.path("name"));
+        if (entry.name.empty() || entry.name.size() > 64) fail(k.path("name"), "must be 1..64 characters");
+        if (auto* v = k.get("role"))
+            entry.role = read_enum<role>(
+                *v, k.path("role"),
+                {{"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}});
+        auto* key = k.get("key");
+        if (!key) fail(k.path("key"), "required (openssl rand -hex 32)");
+        const auto hex = read_string(*key, k.path("key"));
+        const bool is_hex = std::all_of(hex.begin(), hex.end(), [](char c) {
+            return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F');
+        });
+        if (!is_hex || hex.size() % 2 != 0 || hex.size() < 64 || hex.size() > 128)
+            fail(k.path("key"),
+                 "must be 64..128 hexadecimal digits, 256 bits or more (openssl rand -hex 32)");
+        if (std::set<char>(hex.begin(), hex.end()).size() < 8)
+            fail(k.path("key"), "is too easy to guess (fewer than 8 different digits): openssl rand -hex 32");
+        for (std::size_t at = 0; at < hex.size(); at += 2)
+            entry.key.push_back(static_cast<std::uint8_t>(std::stoi(hex.substr(at, 2), nullptr, 16)));
+        for (const auto& other : out)
+            if (other.name == entry.name) fail(k.path("name"), "duplicate name \"" + entry.name + "\"");
+        out.push_back(std::move(entry));
+    }
+}
+
 void check_broker_uri(const std::string& uri, const std::string& path) {
     const auto sep = uri.find("://");
     const auto scheme = sep == std::string::npos ? std::string() : uri.substr(0, sep);
@@ -487,11 +524,20 @@ void read_mqtt(const json& j, mqtt_config& out) {
                 std::chrono::seconds(read_uint(*v, t.path("retain_finished_s"), 0, 604800));
     }
     if (auto* cj = r.get("commands")) {
-        object_reader t(*cj, "mqtt.commands", {"enabled", "max_payload_bytes"});
+        object_reader t(
+            *cj, "mqtt.commands",
+            {"enabled", "max_payload_bytes", "signing_keys", "signature_window_s", "accept_bearer_tokens"});
         if (auto* v = t.get("enabled")) out.commands_enabled = read_bool(*v, t.path("enabled"));
         if (auto* v = t.get("max_payload_bytes"))
             out.command_max_payload_bytes =
                 read_uint(*v, t.path("max_payload_bytes"), 1024, std::uint64_t{64} * 1024 * 1024);
+        if (auto* v = t.get("signing_keys"))
+            read_signing_keys(*v, t.path("signing_keys"), out.command_signing_keys);
+        if (auto* v = t.get("signature_window_s"))
+            out.command_signature_window =
+                std::chrono::seconds(read_uint(*v, t.path("signature_window_s"), 1, 600));
+        if (auto* v = t.get("accept_bearer_tokens"))
+            out.accept_bearer_tokens = read_bool(*v, t.path("accept_bearer_tokens"));
     }
 }
 
@@ -601,6 +647,14 @@ bool is_valid_mqtt_prefix(std::string_view prefix) {
     }
 }
 
+bool is_valid_controller_id(std::string_view id) {
+    if (id.empty() || id.size() > 64) return false;
+    return std::all_of(id.begin(), id.end(), [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
+               c == '_';
+    });
+}
+
 bool is_loopback_address(std::string_view address) {
     boost::system::error_code ec;
     const auto a = boost::asio::ip::make_address(std::string(address), ec);
@@ -639,13 +693,47 @@ std::string validate_config(const gateway_config& config) {
     if (config.auth.tokens.empty() && !is_loopback_address(config.http.listen_address))
         return "http.listen_address (--listen): " + config.http.listen_address +
                " is not a loopback address, which needs auth.tokens (no tokens: loopback only)";
-    // Every MQTT command carries a token: without tokens anyone on the broker would be admin.
-    if (config.mqtt.enabled && config.mqtt.commands_enabled && config.auth.tokens.empty())
-        return "mqtt.commands.enabled: needs auth.tokens (every MQTT command carries a token)";
+    // Every MQTT command proves its sender: without a way to, anyone on the broker would be admin.
+    const auto& mqtt = config.mqtt;
+    if (mqtt.enabled && mqtt.commands_enabled && mqtt.command_signing_keys.empty() &&
+        !(mqtt.accept_bearer_tokens && !config.auth.tokens.empty()))
+        return "mqtt.commands.enabled: needs mqtt.commands.signing_keys (signed commands), or "
+               "accept_bearer_tokens with auth.tokens";
+    // A token in a payload is readable by whoever reads the topic; on a plain connection, by the wire too.
+    if (mqtt.accept_bearer_tokens)
+        for (const auto& broker : mqtt.brokers)
+            if (!broker.starts_with("mqtts://") && !broker.starts_with("ssl://"))
+                return "mqtt.commands.accept_bearer_tokens: bearer tokens are never taken over a plain "
+                       "connection (" +
+                       broker + "): use mqtts:// brokers, or signed commands (mqtt.commands.signing_keys)";
     return {};
 }
 
-boost::system::result<gateway_config, std::string> parse_config(std::string_view json_text) {
+namespace {
+
+// Adds auth.tokens_file's entries to auth.tokens; an error message, or empty.
+std::string add_file_tokens(auth_config& auth, std::string_view config_directory) {
+    const char* credentials = std::getenv("CREDENTIALS_DIRECTORY");
+    auto path =
+        resolve_tokens_file_path(auth.tokens_file, config_directory,
+                                 credentials ? std::optional<std::string>(credentials) : std::nullopt);
+    if (!path) return path.error().message;
+    auto text = read_tokens_file(*path);
+    if (!text) return "auth.tokens_file: " + text.error().message;
+    const auto j = json::parse(*text, nullptr, false);
+    if (j.is_discarded()) return "auth.tokens_file: " + *path + ": not valid JSON";
+    try {
+        read_tokens(j, "auth.tokens_file (" + *path + ")", auth.tokens);
+    } catch (const config_error& e) {
+        return e.message;
+    }
+    return {};
+}
+
+}  // namespace
+
+boost::system::result<gateway_config, std::string> parse_config(std::string_view json_text,
+                                                                std::string_view config_directory) {
     json j;
     try {
         j = json::parse(json_text);
@@ -660,6 +748,9 @@ boost::system::result<gateway_config, std::string> parse_config(std::string_view
     } catch (const config_error& e) {
         return e.message;
     }
+    if (!c.auth.tokens_file.empty()) {
+        if (auto problem = add_file_tokens(c.auth, config_directory); !problem.empty()) return problem;
+    }
     if (auto problem = validate_config(c); !problem.empty()) return problem;
     return c;
 }
@@ -669,7 +760,7 @@ boost::system::result<gateway_config, std::string> load_config_file(const std::s
     if (!in) return path + ": cannot be read";
     std::ostringstream text;
     text << in.rdbuf();
-    auto parsed = parse_config(text.str());
+    auto parsed = parse_config(text.str(), std::filesystem::path(path).parent_path().string());
     if (!parsed) return path + ": " + parsed.error();
     return parsed;
 }

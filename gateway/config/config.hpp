@@ -97,6 +97,8 @@ struct auth_token {
 
 struct auth_config {
     std::vector<auth_token> tokens;  // none: the service may only listen on loopback
+    // More tokens, in a file of their own (gateway/config/tokens_file.hpp); read by parse_config.
+    std::string tokens_file;
     // Who may HALT (every transport, HALT ALL too). Viewer by default: like a physical emergency stop,
     // anyone who may watch a stage may stop it.
     gw::role halt_role = role::viewer;
@@ -144,6 +146,13 @@ struct mqtt_qos_config {
     int responses = 1;  // command responses (and the command subscriptions)
 };
 
+// A key that signs MQTT commands (api/mqtt/mqtt_signature.hpp); the sender gets its role.
+struct mqtt_signing_key {
+    std::string name;
+    gw::role role = gw::role::viewer;
+    std::vector<std::uint8_t> key;  // 32..64 bytes, from 64..128 hex digits
+};
+
 struct mqtt_config {
     bool enabled = false;
     std::vector<std::string> brokers{"mqtt://127.0.0.1:1883"};  // mqtt:// tcp:// mqtts:// ssl://
@@ -169,7 +178,13 @@ struct mqtt_config {
     std::size_t job_queue_limit = 1000;  // job state changes kept while disconnected
     // Then jobs/<job>/state is cleared; when the file does not say, events.ended_job_topic_ttl_s.
     std::chrono::seconds retain_finished_jobs{600};
-    bool commands_enabled = false;  // subscribe to the command topics (needs auth.tokens)
+    bool commands_enabled = false;  // subscribe to the command topics (needs a way to authenticate)
+    // Commands are signed with one of these keys (HMAC-SHA256, a short window, no replays).
+    std::vector<mqtt_signing_key> command_signing_keys;
+    std::chrono::seconds command_signature_window{30};
+    // Also take a bearer token of auth.tokens in a payload ("token"); only with TLS brokers, since
+    // whoever reads the command topics could use the token on REST.
+    bool accept_bearer_tokens = false;
     // A larger command payload is dropped unread and unanswered (an inline G-code program of 4 MiB
     // fits with room for its JSON escapes).
     std::size_t command_max_payload_bytes = std::size_t{6} * 1024 * 1024;
@@ -204,7 +219,10 @@ gateway_config default_config();
 
 // Parses and validates the text of a config file. Keys left out keep their default (simulate.count
 // is 0 in a file: a file describes its controllers). The error is one line naming the JSON path.
-boost::system::result<gateway_config, std::string> parse_config(std::string_view json_text);
+// auth.tokens_file is read here, a relative path from `config_directory` (the working directory when
+// empty).
+boost::system::result<gateway_config, std::string> parse_config(std::string_view json_text,
+                                                                std::string_view config_directory = {});
 // Reads and parses a file; the error names the file when it cannot be read.
 boost::system::result<gateway_config, std::string> load_config_file(const std::string& path);
 // Checks what parse_config cannot see in isolation (e.g. after flags changed it): duplicate ids,
@@ -220,6 +238,9 @@ int check_config_file(const std::string& path, std::ostream& out, std::ostream& 
 bool is_valid_mqtt_level(std::string_view level);
 // "asi", "lab/asi": levels as above, separated by '/'.
 bool is_valid_mqtt_prefix(std::string_view prefix);
+
+// A controller id: 1..64 characters of [A-Za-z0-9_-] (it names REST paths and MQTT topic levels).
+bool is_valid_controller_id(std::string_view id);
 
 // The loopback test behind the "no tokens, loopback only" rule.
 bool is_loopback_address(std::string_view address);

@@ -1,26 +1,20 @@
 #include "gateway/config/serial_spec.hpp"
 
 #include <algorithm>
-#include <array>
 #include <charconv>
+#include <iterator>
+
+#include "gateway/config/config.hpp"
 
 namespace gw {
 
 namespace {
-constexpr std::array<unsigned, 6> supported_bauds{9600, 19200, 28800, 38400, 57600, 115200};
-
 using spec_result = boost::system::result<devices::controller_settings, std::string>;
 
 spec_result fail(const char* why) {
     return spec_result(boost::system::in_place_error, why);
 }
 
-bool valid_id(std::string_view id) {
-    return !id.empty() && id.size() <= 64 && std::all_of(id.begin(), id.end(), [](char c) {
-        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
-               c == '_';
-    });
-}
 }  // namespace
 
 spec_result parse_serial_spec(std::string_view spec) {
@@ -28,7 +22,8 @@ spec_result parse_serial_spec(std::string_view spec) {
     auto eq = spec.find('=');
     if (eq == std::string_view::npos) return fail("expected ID=PATH[@BAUD][,report=PATH]");
     s.id = std::string(spec.substr(0, eq));
-    if (!valid_id(s.id)) return fail("the id must be 1-64 characters of letters, digits, '-' or '_'");
+    if (!is_valid_controller_id(s.id))
+        return fail("the id must be 1-64 characters of letters, digits, '-' or '_'");
     std::string_view rest = spec.substr(eq + 1);
 
     if (auto comma = rest.find(','); comma != std::string_view::npos) {
@@ -45,7 +40,8 @@ spec_result parse_serial_spec(std::string_view spec) {
         unsigned value = 0;
         auto [end, ec] = std::from_chars(baud.data(), baud.data() + baud.size(), value);
         if (ec != std::errc() || end != baud.data() + baud.size() ||
-            std::find(supported_bauds.begin(), supported_bauds.end(), value) == supported_bauds.end()) {
+            std::find(std::begin(supported_bauds), std::end(supported_bauds), value) ==
+                std::end(supported_bauds)) {
             return fail("baud must be one of 9600, 19200, 28800, 38400, 57600, 115200");
         }
         s.baud = value;

@@ -64,6 +64,9 @@ struct job_manager_settings {
     // An ended job's hub topic (jobs/<id>) is retired this long after its last event: the hub does not
     // keep every job's replay buffer for ever (its history is in the store).
     std::chrono::milliseconds ended_job_topic_ttl{600'000};
+    // Called on the planner's thread as each plan starts (tests hold a plan there to show that the
+    // manager goes on meanwhile); empty in the gateway.
+    std::function<void(const std::string& controller)> on_plan_started;
 };
 
 struct submit_request {

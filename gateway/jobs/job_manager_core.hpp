@@ -44,16 +44,11 @@
 #include "gateway/jobs/job_store.hpp"
 #include "gateway/jobs/job_store_handle.hpp"
 #include "gateway/jobs/motion_probe.hpp"
+#include "gateway/jobs/plan_worker.hpp"
 #include "gateway/jobs/restore_ledger.hpp"
 #include "gateway/jobs/safe_outputs.hpp"
 #include "gateway/jobs/ttl_edge_listeners.hpp"
 #include "gateway/leases/lease_manager.hpp"
-
-// g++ 12 reports a false -Wmismatched-new-delete at the end of some asio coroutines (the awaitable
-// frame's own operator new/delete pair); clang and g++ 13 do not.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#endif
 
 namespace gw::jobs {
 
@@ -168,7 +163,15 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // "j-1 running, j-2 queued": the jobs that hold the controller or wait for it; empty when none.
     std::string jobs_in_lane(const std::string& controller) const;
 
-    void submit_planned(submit_request r, job_manager::handler<submit_result> h, motion_model model);
+    // On the strand, once the motion model is read: the checks, then the plan on the planner's thread.
+    void plan_submission(submit_request r, job_manager::handler<submit_result> h, motion_model model);
+    // On the strand, with the plan: stored and queued (or, for a dry run, answered).
+    void submit_planned(submit_request r, job_manager::handler<submit_result> h,
+                        operation_result<job_plan> plan);
+    // plan_job on the planner's thread, then `done` with the plan on the strand; false when the
+    // planner has too many plans waiting.
+    bool plan_off_strand(job_type type, json spec, devices::controller_snapshot snapshot, motion_model model,
+                         std::function<void(operation_result<job_plan>)> done);
     void plan_again(std::shared_ptr<live_job> job, std::function<void(operation_result<void>)> done);
 
     // Changes the state, persists it (transition) and publishes {"type":"state",...}. `waiting`: what
@@ -289,6 +292,9 @@ class manager_core final : public execution_host, public std::enable_shared_from
     bool store_retry_armed_ = false;
 
     std::shared_ptr<devices::controller_observer> observer_;
+
+    // Last: destroyed first, it waits for a plan being computed while the rest still exists.
+    plan_worker planner_;
 
     friend class job_manager;
 };

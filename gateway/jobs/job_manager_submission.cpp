@@ -61,14 +61,31 @@ void manager_core::submit(submit_request r, job_manager::handler<submit_result> 
             self->registry_, controller, rid, [self, r = std::move(r), shared_h](motion_model model) mutable {
                 net::post(self->strand_,
                           [self, r = std::move(r), shared_h, model = std::move(model)]() mutable {
-                              self->submit_planned(std::move(r), std::move(*shared_h), std::move(model));
+                              self->plan_submission(std::move(r), std::move(*shared_h), std::move(model));
                           });
             });
     });
 }
 
-void manager_core::submit_planned(submit_request r, job_manager::handler<submit_result> h,
-                                  motion_model model) {
+bool manager_core::plan_off_strand(job_type type, json spec, devices::controller_snapshot snapshot,
+                                   motion_model model, std::function<void(operation_result<job_plan>)> done) {
+    return planner_.post([self = shared_from_this(), type, spec = std::move(spec),
+                          snapshot = std::move(snapshot), model = std::move(model),
+                          gcode_dir = gcode_files_directory(settings_), hook = settings_.on_plan_started,
+                          done = std::move(done)]() mutable {
+        const plan_context context{std::move(snapshot), std::move(model), gcode_dir};
+        if (hook) hook(context.snapshot.id);
+        auto plan = plan_job(type, spec, context);
+        // The core's reference moves on with the result: the planner's thread never holds the last one.
+        auto& strand = self->strand_;
+        net::post(strand, [self = std::move(self), plan = std::move(plan), done = std::move(done)]() mutable {
+            done(std::move(plan));
+        });
+    });
+}
+
+void manager_core::plan_submission(submit_request r, job_manager::handler<submit_result> h,
+                                   motion_model model) {
     if (shutting_down_ || abandoned_)
         return deliver<submit_result>(std::move(h),
                                       make_error(kind::not_connected, "the gateway is shutting down"));
@@ -81,8 +98,28 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
     if (!r.spec.is_object())
         return deliver<submit_result>(std::move(h),
                                       make_error(kind::invalid_value, "spec must be a JSON object", "spec"));
-    auto plan =
-        plan_job(r.type, r.spec, plan_context{*snapshot, std::move(model), gcode_files_directory(settings_)});
+    const auto type = r.type;
+    auto spec = r.spec;
+    auto shared_h = std::make_shared<job_manager::handler<submit_result>>(std::move(h));
+    auto shared_r = std::make_shared<submit_request>(std::move(r));
+    const bool queued =
+        plan_off_strand(type, std::move(spec), std::move(*snapshot), std::move(model),
+                        [self = shared_from_this(), shared_r, shared_h](operation_result<job_plan> plan) {
+                            self->submit_planned(std::move(*shared_r), std::move(*shared_h), std::move(plan));
+                        });
+    if (!queued)
+        deliver<submit_result>(
+            std::move(*shared_h),
+            make_error(kind::queue_full, fmt::format("the job planner has {} plans waiting: "
+                                                     "submit again shortly",
+                                                     plan_worker::max_waiting)));
+}
+
+void manager_core::submit_planned(submit_request r, job_manager::handler<submit_result> h,
+                                  operation_result<job_plan> plan) {
+    if (shutting_down_ || abandoned_)
+        return deliver<submit_result>(std::move(h),
+                                      make_error(kind::not_connected, "the gateway is shutting down"));
     if (!plan) return deliver<submit_result>(std::move(h), plan.error());
 
     const auto now = job_clock::now();
@@ -172,16 +209,22 @@ void manager_core::plan_again(std::shared_ptr<live_job> job,
                     !snapshot->identity)
                     return done(
                         make_error(kind::not_connected, job->record.controller + " is not connected"));
-                auto plan = plan_job(
-                    job->record.type, job->record.spec,
-                    plan_context{*snapshot, std::move(model), gcode_files_directory(self->settings_)});
-                if (!plan) return done(plan.error());
-                if (plan->steps.size() != job->record.progress.steps_total)
-                    self->log_->warn("job {}: the plan now has {} steps, it had {}", job->record.id,
-                                     plan->steps.size(), job->record.progress.steps_total);
-                job->record.progress.steps_total = plan->steps.size();
-                job->plan = std::move(*plan);
-                done({});
+                auto shared_done =
+                    std::make_shared<std::function<void(operation_result<void>)>>(std::move(done));
+                const bool queued = self->plan_off_strand(
+                    job->record.type, job->record.spec, std::move(*snapshot), std::move(model),
+                    [self, job, shared_done](operation_result<job_plan> plan) {
+                        if (!plan) return (*shared_done)(plan.error());
+                        if (plan->steps.size() != job->record.progress.steps_total)
+                            self->log_->warn("job {}: the plan now has {} steps, it had {}", job->record.id,
+                                             plan->steps.size(), job->record.progress.steps_total);
+                        job->record.progress.steps_total = plan->steps.size();
+                        job->plan = std::move(*plan);
+                        (*shared_done)({});
+                    });
+                if (!queued)
+                    (*shared_done)(
+                        make_error(kind::queue_full, "the job planner has too many plans waiting"));
             });
         });
 }

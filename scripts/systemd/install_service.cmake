@@ -28,9 +28,25 @@ configure_file("${GW_SERVICE_SOURCE_DIR}/asi-gateway.service.in" "${GW_SERVICE_S
 file(INSTALL DESTINATION "${prefix}/lib/systemd/system" TYPE FILE
      FILES "${GW_SERVICE_STAGING_DIR}/asi-gateway.service")
 
+# The config will hold token hashes and MQTT passwords: root writes it, the service's group reads it
+# (0640 root:asi-gateway), nobody else. The group comes from the sysusers entry installed above; on a
+# real install (no DESTDIR) as root it is created here, as a package's post-install step would.
 if(EXISTS "$ENV{DESTDIR}${GW_CONFIG}")
   message(STATUS "Kept: $ENV{DESTDIR}${GW_CONFIG} (already there)")
 else()
   file(INSTALL DESTINATION "${sysconfdir}/asi-gateway" TYPE FILE
-       FILES "${GW_SERVICE_SOURCE_DIR}/asi-gateway.example.json" RENAME asi-gateway.json)
+       FILES "${GW_SERVICE_SOURCE_DIR}/asi-gateway.example.json" RENAME asi-gateway.json
+       FILE_PERMISSIONS OWNER_READ OWNER_WRITE GROUP_READ)
+  if("$ENV{DESTDIR}" STREQUAL "")
+    find_program(GW_SYSUSERS systemd-sysusers)
+    if(GW_SYSUSERS)
+      execute_process(COMMAND "${GW_SYSUSERS}" "${prefix}/lib/sysusers.d/asi-gateway.conf"
+                      RESULT_VARIABLE sysusers_rc OUTPUT_QUIET ERROR_QUIET)
+    endif()
+    execute_process(COMMAND chgrp asi-gateway "${GW_CONFIG}" RESULT_VARIABLE chgrp_rc ERROR_QUIET)
+    if(NOT chgrp_rc EQUAL 0)
+      message(STATUS "${GW_CONFIG} is 0640: run `sudo systemd-sysusers && sudo chgrp asi-gateway "
+                     "${GW_CONFIG}` so that the service may read it")
+    endif()
+  endif()
 endif()

@@ -62,3 +62,19 @@ printf '\x08G0 X1. X2.\nG28\n(a (b))\nG1 X F1\nG04 P1.5\n' > gcode/errors
 mkdir -p controller_data
 printf '\x05:A Version: USB-9.52 \r\nSTD_XYZ\rMotor Axes: X Y Z\rRING BUFFER 50\r\n:A X=10000 Y=10000 Z=10000\r\n:A X=-110 Y=-110 Z=-110\r\n:A X=0 Y=0\r\n:A 1234.5 -555.1 77.7 \r\nB\r\n:A B\r\n' > controller_data/identify_and_poll
 printf '\x03:A 12\xc3(\xff 3\r\nT:   400    0.0    0.1\r\n\x80\x81:N-21\r\n:A ASI-MS2000 STD_XYZ\r\n' > controller_data/noise
+
+# fuzz_token_config: byte 0 = reader (0 digest, 1 token strength, 2 tokens file), then the text.
+mkdir -p token_config
+printf '\x009f86d081884c7d659a2feaa0c55ad015a3bf4f1b2b0b822cd15d6c15b0f00a08' > token_config/digest
+printf '\x00ABCDEF0123456789abcdef0123456789abcdef0123456789abcdef012345678' > token_config/digest_short
+printf '\x01kQ2v9TzX4mB7wR1yH8nL3pD6sF0gJ5cA' > token_config/strong
+printf '\x01change-me-operator-token' > token_config/placeholder
+printf '\x02[{"name": "s", "role": "operator", "token": "kQ2v9TzX4mB7wR1yH8nL3pD6sF0gJ5cA"}]' > token_config/plain_file
+printf '\x02[{"name": "s", "token_sha256": "9f86d081884c7d659a2feaa0c55ad015a3bf4f1b2b0b822cd15d6c15b0f00a08"}]' > token_config/hashed_file
+
+# fuzz_mqtt_signed_command: byte 0 even = an envelope follows, odd = replay-guard steps (nonce, ts step).
+mkdir -p mqtt_signed_command
+printf '\x00{"key": "scheduler", "ts": 1764921600123, "nonce": "6f1c2a9b0e4d7c35", "sig": "%s", "body": "{\\"operation\\":\\"halt\\"}"}' "$(printf 'a%.0s' $(seq 64))" > mqtt_signed_command/signed
+printf '\x00{"key": "k", "ts": 1, "nonce": "x", "sig": "%s", "body": "{}"}' "$(printf '0%.0s' $(seq 64))" > mqtt_signed_command/bad_nonce
+printf '\x00{"operation": "halt", "token": "t"}' > mqtt_signed_command/bearer
+printf '\x01\x01\x05\x01\x05\x02\xc8\x01\x0a\x03\x46\x01\x3f' > mqtt_signed_command/replays

@@ -61,6 +61,8 @@ check_prefix() {  # check_prefix PREFIX SYSCONFDIR
     cmp -s "$src/scripts/systemd/asi-gateway.example.json" "$dest$share/asi-gateway.example.json"
   check "$prefix: config in $etc/asi-gateway" \
     cmp -s "$src/scripts/systemd/asi-gateway.example.json" "$dest$etc/asi-gateway/asi-gateway.json"
+  check "$prefix: config readable by owner and group only (0640)" \
+    test "$(stat -c %a "$dest$etc/asi-gateway/asi-gateway.json")" = 640
   check "$prefix: sysusers.d entry for user asi-gateway" \
     grep -q '^u asi-gateway ' "$dest$prefix/lib/sysusers.d/asi-gateway.conf"
   check "$prefix: unit installed" test -f "$unit"

@@ -7,6 +7,8 @@ Imported by the test scripts with their own directory on sys.path. Standard libr
 are generous (a loaded 2-core machine); nothing asserts wall-clock speed.
 """
 
+import hashlib
+import hmac
 import http.client
 import json
 import os
@@ -22,6 +24,12 @@ TOKENS = {
     "viewer": "viewer-token-0123456789",
     "operator": "operator-token-0123456789",
     "admin": "admin-token-0123456789abc",
+}
+# MQTT command signing keys, one per role, named like the role (mqtt.commands.signing_keys).
+SIGNING_KEYS = {
+    "viewer": "5f0c8e1a9b3d47e2a6c4f8091d2e3b4c5a6f7e8d9c0b1a2f3e4d5c6b7a8f9e0d",
+    "operator": "a1b2c3d4e5f60718293a4b5c6d7e8f90a1b2c3d4e5f60718293a4b5c6d7e8f91",
+    "admin": "0f1e2d3c4b5a69788796a5b4c3d2e1f00f1e2d3c4b5a69788796a5b4c3d2e1f2",
 }
 WAIT = 60.0  # generous: a loaded 2-core machine
 
@@ -59,6 +67,32 @@ def wait_until(what, fn, timeout=WAIT):
 def auth_tokens():
     """The config's auth section: one token per role, named <role>1."""
     return {"tokens": [{"name": role + "1", "token": tok, "role": role} for role, tok in TOKENS.items()]}
+
+
+def signing_keys_config():
+    """mqtt.commands.signing_keys: one key per role, named like the role."""
+    return [{"name": role, "role": role, "key": key} for role, key in SIGNING_KEYS.items()]
+
+
+def signed_command(topic, message, role, ts_ms=None, nonce=None):
+    """The payload of a signed MQTT command: `message` (a dict, or its JSON text) signed with the
+    role's key (HMAC-SHA256 over topic, ts, nonce and body, one per line)."""
+    body = message if isinstance(message, str) else json.dumps(message)
+    ts = int(time.time() * 1000) if ts_ms is None else ts_ms
+    nonce = nonce or os.urandom(12).hex()
+    text = f"{topic}\n{ts}\n{nonce}\n{body}".encode()
+    sig = hmac.new(bytes.fromhex(SIGNING_KEYS[role]), text, hashlib.sha256).hexdigest()
+    return json.dumps({"key": role, "ts": ts, "nonce": nonce, "sig": sig, "body": body})
+
+
+def signed_if_token(topic, payload):
+    """A command written with a test token ({"token": TOKENS[role], ...}) as the same role's signed
+    command, so that the tests read as before; anything else unchanged."""
+    if isinstance(payload, dict):
+        role = next((r for r, t in TOKENS.items() if payload.get("token") == t), None)
+        if role:
+            return signed_command(topic, {k: v for k, v in payload.items() if k != "token"}, role)
+    return payload
 
 
 def http_request(port, method, path, body=None, token=TOKENS["admin"]):

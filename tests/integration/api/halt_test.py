@@ -27,7 +27,8 @@ import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gateway_fixture import TOKENS, Failure, Fixture, auth_tokens, check, free_port, run_main, wait_until  # noqa: E402
+from gateway_fixture import (TOKENS, Failure, Fixture, auth_tokens, check, free_port, run_main,  # noqa: E402
+                             signing_keys_config, wait_until)
 from http_api_test import Client, Contract  # noqa: E402
 from mqtt_api_test import Broker, Client as MqttClient, command as mqtt_command  # noqa: E402
 from ws_api_test import WsClient  # noqa: E402
@@ -365,10 +366,10 @@ def test_halt_all_mqtt(c, sims, broker):
     m = MqttClient(broker.port, "halt-test-client")
     reply = "halt-test-clients/replies"
     m.subscribe(reply)
-    a = mqtt_command(m, f"{PREFIX}/lab/halt", {"id": "m-halt", "token": OP}, reply)
+    a = mqtt_command(m, f"{PREFIX}/lab/halt", {"id": "m-halt", "token": OP}, reply)  # signed with "operator"
     m.close()
     check(a["type"] == "result", f"answer: {a}")
-    check_all_halted(c, sims, a["result"], "operator1")
+    check_all_halted(c, sims, a["result"], "operator")  # the signing key's name
     back_home(c)
 
 
@@ -598,7 +599,8 @@ def main():
             "http": {"listen_address": "127.0.0.1", "port": port}, "auth": auth_tokens(),
             "controllers": controllers,
             "mqtt": {"enabled": True, "brokers": [f"mqtt://127.0.0.1:{broker.port}"], "gateway_id": "lab",
-                     "topic_prefix": PREFIX, "commands": {"enabled": True}}})
+                     "topic_prefix": PREFIX,
+                     "commands": {"enabled": True, "signing_keys": signing_keys_config()}}})
         c = Client(port, contract)
         run = fx.run
         fx.run = lambda name, *a: run(name, *a) if args.only in name else None

@@ -32,7 +32,8 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from gateway_fixture import (TOKENS, WAIT, Failure, Fixture, auth_tokens, check,  # noqa: E402
-                             free_port, http_request, wait_until)
+                             free_port, http_request, signed_command, signed_if_token, signing_keys_config,
+                             wait_until)
 
 import paho.mqtt.client as mqtt  # noqa: E402  (Debian python3-paho-mqtt 1.6)
 from paho.mqtt.packettypes import PacketTypes  # noqa: E402
@@ -153,7 +154,11 @@ class Client:
             check(result == mqtt.MQTT_ERR_SUCCESS, f"subscribe {f}: {result}")
         time.sleep(0.3)  # the SUBACK; retained messages follow it
 
-    def publish(self, topic, payload, response_topic=None, correlation=None, retain=False):
+    def publish(self, topic, payload, response_topic=None, correlation=None, retain=False, sign=True):
+        """Publishes; a payload with a test token goes out signed with that role's key instead
+        (sign=False sends the token as it is)."""
+        if sign:
+            payload = signed_if_token(topic, payload)
         props = None
         if self.v5 and (response_topic or correlation):
             props = Properties(PacketTypes.PUBLISH)
@@ -314,7 +319,8 @@ class Gateway:
             "mqtt": {"enabled": True, "brokers": brokers, "gateway_id": name, "topic_prefix": PREFIX,
                      "keepalive_s": 5, "reconnect": {"min_ms": 100, "max_ms": 1000},
                      "telemetry": {"position_max_hz": 5}, "jobs": {"retain_finished_s": 3},
-                     "commands": {"enabled": True, "max_payload_bytes": MAX_PAYLOAD}, **(mqtt_extra or {})},
+                     "commands": {"enabled": True, "max_payload_bytes": MAX_PAYLOAD,
+                                  "signing_keys": signing_keys_config()}, **(mqtt_extra or {})},
         }
         self.extra = ["--simulate", str(sims), "--time-scale", str(TIME_SCALE),
                       "--sim-dir", os.path.join(fx.tmp, name + "-sims")]
@@ -398,12 +404,12 @@ def test_retained_state(gw, broker, contract):
         check(isinstance(j["data"]["axes"], list) and j["data"]["axes"], "axes in the state")
 
 
-def command(c, topic, body, reply_topic, correlation=None, v5=True):
+def command(c, topic, body, reply_topic, correlation=None, v5=True, sign=True):
     """Publishes a command and waits for its answer (matched by correlation data or id)."""
     start = c.mark()
     if v5:
         corr = correlation or os.urandom(8)
-        c.publish(topic, body, response_topic=reply_topic, correlation=corr)
+        c.publish(topic, body, response_topic=reply_topic, correlation=corr, sign=sign)
 
         def pred(t, p, r, props):
             return t == reply_topic and props is not None and getattr(props, "CorrelationData", None) == corr
@@ -418,13 +424,13 @@ def command(c, topic, body, reply_topic, correlation=None, v5=True):
     return payload_json(p)
 
 
-def unanswered(c, topic, body, reply_topic, barrier=None):
+def unanswered(c, topic, body, reply_topic, barrier=None, sign=True):
     """Publishes a command that must get no answer at all: a known sender's command published after
     it on the same topic (`barrier`, a viewer's HALT unless given) is answered, and nothing came for
     the first one before that answer (the gateway handles a topic's messages in order)."""
     start = c.mark()
     corr = os.urandom(8)
-    c.publish(topic, body, response_topic=reply_topic, correlation=corr)
+    c.publish(topic, body, response_topic=reply_topic, correlation=corr, sign=sign)
     command(c, topic, barrier or {"operation": "halt", "token": TOKENS["viewer"]}, reply_topic)
     answers = [m for m in c.all(lambda t: t == reply_topic, start) if getattr(m[3], "CorrelationData", None) == corr]
     check(not answers, f"{body!r} was answered: {answers}")
@@ -621,7 +627,7 @@ def test_bad_payloads(gw, c, contract):
     props = Properties(PacketTypes.PUBLISH)
     props.ResponseTopic = reply
     props.CorrelationData = corr
-    c.c.publish(cmd, json.dumps({"operation": "halt", "token": TOKENS["admin"]}), qos=1, retain=True,
+    c.c.publish(cmd, signed_command(cmd, {"operation": "halt"}, "admin"), qos=1, retain=True,
                 properties=props).wait_for_publish(WAIT)
     _, p, _, _ = c.wait_for("retained refusal",
                             lambda t, p, r, pr: t == reply and getattr(pr, "CorrelationData", None) == corr,
@@ -632,6 +638,45 @@ def test_bad_payloads(gw, c, contract):
     ans = command(c, cmd, {"operation": "halt", "token": TOKENS["operator"]}, reply)
     check(ans["type"] == "result", f"after bad payloads: {ans}")
     check(gw.proc.poll() is None, "the gateway is still running")
+
+
+def test_signed_commands(gw, c):
+    # Commands are signed (HMAC-SHA256 over topic, ts, nonce and body): what the command topic's
+    # readers see holds no token, and cannot be used again, elsewhere or later.
+    reply = "clients/v5/signed"
+    cmd = gw.topic("controllers", "sim1", "cmd")
+    c.subscribe(reply, cmd)
+    replayed_before = metric(gw, "gw_mqtt_commands_total", outcome="replayed")
+    payload = signed_command(cmd, {"operation": "halt"}, "operator")
+    mark = c.mark()
+    ans = command(c, cmd, payload, reply)
+    check(ans["type"] == "result", f"a signed HALT: {ans}")
+    _, seen, _, _ = c.wait_for("the command as the topic's readers see it", lambda t, *_: t == cmd, start=mark)
+    check(b"token" not in seen and not any(t.encode() in seen for t in TOKENS.values()),
+          f"a signed command carries no token: {seen!r}")
+    # Before, a reader of the topic harvested the operator's bearer token here and used it on REST.
+    unanswered(c, cmd, seen.decode(), reply)  # published again as seen: a replay
+    unanswered(c, gw.topic("controllers", "sim2", "cmd"), payload, reply)  # the topic is signed
+    forged = json.loads(signed_command(cmd, {"operation": "halt"}, "operator"))
+    forged["body"] = json.dumps({"operation": "move", "args": {"axes": {"X": 5000}}})
+    unanswered(c, cmd, json.dumps(forged), reply)  # a body not signed
+    unknown = json.loads(signed_command(cmd, {"operation": "halt"}, "operator"))
+    unknown["key"] = "nobody"
+    unanswered(c, cmd, json.dumps(unknown), reply)
+    an_hour_ago = int(time.time() * 1000) - 3600 * 1000
+    unanswered(c, cmd, signed_command(cmd, {"operation": "halt"}, "operator", ts_ms=an_hour_ago), reply)
+    # A bearer token is not taken at all without mqtt.commands.accept_bearer_tokens (and never over
+    # a plain connection, as here).
+    unanswered(c, cmd, {"operation": "halt", "token": TOKENS["admin"]}, reply, sign=False)
+    # A token inside a signed command is answered (the sender is known) and refused.
+    ans = command(c, cmd, signed_command(cmd, {"operation": "halt", "token": TOKENS["operator"]}, "operator"),
+                  reply)
+    check(ans["type"] == "error" and ans["problem"].get("field") == "token", f"a token in a signed body: {ans}")
+    # Roles come from the key: a viewer's key may HALT, not move.
+    ans = command(c, cmd, signed_command(cmd, {"operation": "move", "args": {"axes": {"X": 10}}}, "viewer"), reply)
+    check(ans["type"] == "error" and ans["problem"]["status"] == 403, f"a viewer's move: {ans}")
+    check(metric(gw, "gw_mqtt_commands_total", outcome="replayed") >= replayed_before + 1,
+          "the replay is counted")
 
 
 def job_state_pred(gw, job_id, states):
@@ -1056,7 +1101,7 @@ def test_no_serial_byte(gw, sims, broker, contract):
             check(ans["type"] == "error", f"{body!r:.80}: {ans}")
             contract.validate(reply, json.dumps(ans))
         # A retained command and one without any way to answer: refused (or ignored), never run.
-        c.c.publish(cmd, json.dumps({"operation": "move", "args": move, "token": TOKENS["admin"]}), qos=1,
+        c.c.publish(cmd, signed_command(cmd, {"operation": "move", "args": move}, "admin"), qos=1,
                     retain=True).wait_for_publish(WAIT)
         c.c.publish(cmd, b"", qos=1, retain=True).wait_for_publish(WAIT)
         c.c.publish(cmd, json.dumps({"operation": "move", "args": move}), qos=1).wait_for_publish(WAIT)
@@ -1159,9 +1204,11 @@ def test_tls(fx, binary, contract):
     pki = make_pki(fx.tmp)
     broker = Broker(fx, "tls-broker", tls={"ca": pki["ca"], "cert": pki["server_cert"], "key": pki["server_key"]})
     broker.start()
+    # Over TLS a bearer token in the payload may be allowed (accept_bearer_tokens).
     gw = Gateway(fx, binary, "gw-tls", [f"mqtts://localhost:{broker.tls_port}"], sims=1,
                  mqtt_extra={"tls": {"ca_file": pki["ca"], "cert_file": pki["client_cert"],
-                                     "key_file": pki["client_key"], "verify": True}})
+                                     "key_file": pki["client_key"], "verify": True},
+                             "commands": {"enabled": True, "accept_bearer_tokens": True}})
     bad = Gateway(fx, binary, "gw-badca", [f"mqtts://localhost:{broker.tls_port}"], sims=1,
                   mqtt_extra={"tls": {"ca_file": pki["other_ca"], "cert_file": pki["client_cert"],
                                       "key_file": pki["client_key"], "verify": True}})
@@ -1174,6 +1221,11 @@ def test_tls(fx, binary, contract):
         bad.start()
         _, p, _, _ = c.wait_for("birth over TLS", status_is(gw, "online"))
         contract.validate(gw.topic("status"), p)
+        reply = "clients/tls/replies"
+        c.subscribe(reply)
+        ans = command(c, gw.topic("controllers", "sim1", "cmd"), {"operation": "halt", "token": TOKENS["operator"]},
+                      reply, sign=False)
+        check(ans["type"] == "result", f"a bearer token over TLS with accept_bearer_tokens: {ans}")
         time.sleep(2)
         check(not c.all(lambda t: t == bad.topic("status")),
               "a gateway that does not trust the broker's CA must not connect")
@@ -1288,6 +1340,7 @@ def main():
         run("the controller's error log", test_error_log, gw, c, contract)
         run("commands over MQTT 3.1.1 (reply_to)", test_commands_v311, gw, broker, contract)
         run("bad payloads", test_bad_payloads, gw, c, contract)
+        run("signed commands: no token on the topic, no replays", test_signed_commands, gw, c)
         run("jobs", test_jobs, gw, c, broker, contract)
         c.close()
         run("broker restart", test_broker_restart, gw, broker,

@@ -2,7 +2,9 @@
 // HALT and TTL low, pause after the current step and resume, a refused command failing the job,
 // idempotency, leases (and jobs from before a lease), queue bound.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <future>
 
 #include "devices/ms2000/error.hpp"
 #include "tests/integration/jobs/manager_fixture.hpp"
@@ -73,6 +75,64 @@ TEST_F(manager_control_test, jobs_on_one_controller_run_one_at_a_time_in_submiss
     ASSERT_TRUE(page) << page.error().message;
     ASSERT_EQ(page->jobs.size(), 3u);
     EXPECT_EQ(page->jobs.front().id, c->job.id);
+}
+
+// Planning happens on the planner's own thread: while one submission's plan is being computed (held
+// here by the on_plan_started hook, as a program of megabytes would hold it), the manager answers a
+// pause and a cancel of another controller's running job. Before, plan_job ran on the manager's strand,
+// and both waited for the plan.
+TEST_F(manager_control_test, a_plan_being_computed_holds_up_no_other_job) {
+    add_sim("sim3", "planar", 1);  // real time: the job's first move takes seconds
+    add_sim("sim4", "planar");
+    // Shared with the hook, which the manager keeps until the fixture tears down.
+    struct gate {
+        std::promise<void> entered;
+        std::promise<void> release;
+        std::shared_future<void> released = release.get_future().share();
+        std::atomic<bool> held{false};
+    };
+    auto g = std::make_shared<gate>();
+    on_plan_started_ = [g](const std::string& controller) {
+        if (controller != "sim4" || g->held.exchange(true)) return;
+        g->entered.set_value();
+        g->released.wait();
+    };
+    // Whatever fails below, the held plan is let go before the fixture tears down.
+    struct release_at_exit {
+        std::shared_ptr<gate> g;
+        ~release_at_exit() {
+            try {
+                g->release.set_value();
+            } catch (const std::future_error&) {
+            }
+        }
+    } guard{g};
+    start();
+    auto a = submit("sim3", job_type::planar_correction, far_points(20000));
+    ASSERT_TRUE(a) << a.error().message;
+    ASSERT_TRUE(wait_state(a->job.id, job_state::running));
+
+    submit_request r;
+    r.controller = "sim4";
+    r.type = job_type::planar_correction;
+    r.spec = {{"action", "clear"}};
+    r.request_id = "test-held-plan";
+    auto b = call<submit_result>([&](auto h) { manager_->async_submit(std::move(r), std::move(h)); });
+    ASSERT_EQ(g->entered.get_future().wait_for(30s), std::future_status::ready)
+        << "sim4's plan never started";
+
+    auto paused = pause(a->job.id);
+    ASSERT_TRUE(paused) << paused.error().message;
+    auto cancelled = cancel(a->job.id);
+    ASSERT_TRUE(cancelled) << cancelled.error().message;
+    EXPECT_EQ(cancelled->state, job_state::cancelled);
+    EXPECT_EQ(b.wait_for(0s), std::future_status::timeout)
+        << "sim4's submission was answered while its plan was held";
+
+    g->release.set_value();
+    auto planned = await(std::move(b));
+    ASSERT_TRUE(planned) << planned.error().message;
+    EXPECT_TRUE(wait_state(planned->job.id, job_state::succeeded));
 }
 
 TEST_F(manager_control_test, jobs_on_two_controllers_run_in_parallel) {

@@ -135,6 +135,7 @@ class manager_fixture : public ::testing::Test {
         s.storage_max_size_mb = storage_max_size_mb_;
         s.max_unstored_writes_per_job = max_unstored_writes_;
         s.ended_job_topic_ttl = ended_job_topic_ttl_;
+        s.on_plan_started = on_plan_started_;
         return s;
     }
 
@@ -340,6 +341,7 @@ class manager_fixture : public ::testing::Test {
     std::size_t max_queued_ = 1000;
     std::size_t storage_max_size_mb_ = 64;
     std::size_t max_unstored_writes_ = 10000;
+    std::function<void(const std::string&)> on_plan_started_;  // settings().on_plan_started
     std::chrono::milliseconds ended_job_topic_ttl_{600'000};
 };
 

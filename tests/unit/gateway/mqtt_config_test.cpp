@@ -43,7 +43,9 @@ TEST(mqtt_config, every_key_is_read) {
       "keepalive_s":12,"topic_prefix":"lab/asi","gateway_id":"pc-3.lab","protocol":"3.1.1",
       "qos":{"status":2,"state":0,"telemetry":1,"jobs":2,"responses":0},
       "telemetry":{"position_max_hz":2.5,"reports_batch_ms":0},"reconnect":{"min_ms":100,"max_ms":2000},"tcp_nodelay":false,
-      "jobs":{"queue_limit":7,"retain_finished_s":0},"commands":{"enabled":true,"max_payload_bytes":2048}}})");
+      "jobs":{"queue_limit":7,"retain_finished_s":0},"commands":{"enabled":true,"max_payload_bytes":2048,
+      "signature_window_s":5,"signing_keys":[{"name":"scheduler","role":"operator",
+      "key":"a1b2c3d4e5f60718293a4b5c6d7e8f90a1b2c3d4e5f60718293a4b5c6d7e8f91"}]}}})");
     ASSERT_TRUE(c) << c.error();
     const auto& m = c->mqtt;
     EXPECT_TRUE(m.enabled);
@@ -72,6 +74,35 @@ TEST(mqtt_config, every_key_is_read) {
     EXPECT_EQ(m.command_max_payload_bytes, 2048u);
     EXPECT_EQ(m.retain_finished_jobs, 0s);
     EXPECT_TRUE(m.commands_enabled);
+    EXPECT_EQ(m.command_signature_window, 5s);
+    ASSERT_EQ(m.command_signing_keys.size(), 1u);
+    EXPECT_EQ(m.command_signing_keys[0].name, "scheduler");
+    EXPECT_EQ(m.command_signing_keys[0].role, role::operator_);
+    ASSERT_EQ(m.command_signing_keys[0].key.size(), 32u);
+    EXPECT_EQ(m.command_signing_keys[0].key[0], 0xa1);
+    EXPECT_EQ(m.command_signing_keys[0].key[31], 0x91);
+    EXPECT_FALSE(m.accept_bearer_tokens);
+}
+
+TEST(mqtt_config, bearer_tokens_in_payloads_only_over_tls) {
+    const std::string tokens =
+        R"("auth":{"tokens":[{"name":"op","token":"Tok-0123456789abcdef","role":"operator"}]})";
+    auto tls = parse_config("{" + tokens + R"(,"mqtt":{"enabled":true,"brokers":["mqtts://b:8883","ssl://c"],
+        "commands":{"enabled":true,"accept_bearer_tokens":true}}})");
+    ASSERT_TRUE(tls) << tls.error();
+    EXPECT_TRUE(tls->mqtt.accept_bearer_tokens);
+    auto plain =
+        parse_config("{" + tokens + R"(,"mqtt":{"enabled":true,"brokers":["mqtts://b:8883","mqtt://c"],
+        "commands":{"enabled":true,"accept_bearer_tokens":true}}})");
+    ASSERT_FALSE(plain);
+    EXPECT_EQ(plain.error(),
+              "mqtt.commands.accept_bearer_tokens: bearer tokens are never taken over a plain connection "
+              "(mqtt://c): use mqtts:// brokers, or signed commands (mqtt.commands.signing_keys)");
+    // Without tokens there is nothing to accept: commands need signing keys then.
+    auto no_tokens = parse_config(R"({"mqtt":{"enabled":true,"brokers":["mqtts://b"],
+        "commands":{"enabled":true,"accept_bearer_tokens":true}}})");
+    ASSERT_FALSE(no_tokens);
+    EXPECT_TRUE(no_tokens.error().starts_with("mqtt.commands.enabled: needs mqtt.commands.signing_keys"));
 }
 
 TEST(mqtt_config, errors_name_the_key) {
@@ -101,7 +132,25 @@ TEST(mqtt_config, errors_name_the_key) {
         {R"({"mqtt":{"tls":{"cert_file":"c.pem"}}})",
          "mqtt.tls.key_file: cert_file and key_file go together"},
         {R"({"mqtt":{"enabled":true,"commands":{"enabled":true}}})",
-         "mqtt.commands.enabled: needs auth.tokens"},
+         "mqtt.commands.enabled: needs mqtt.commands.signing_keys (signed commands), or "
+         "accept_bearer_tokens"},
+        {R"({"mqtt":{"commands":{"signing_keys":{}}}})", "mqtt.commands.signing_keys: must be an array"},
+        {R"({"mqtt":{"commands":{"signing_keys":[{"name":"a"}]}}})",
+         "mqtt.commands.signing_keys[0].key: required (openssl rand -hex 32)"},
+        {R"({"mqtt":{"commands":{"signing_keys":[{"name":"a","key":"abcdef"}]}}})",
+         "mqtt.commands.signing_keys[0].key: must be 64..128 hexadecimal digits"},
+        {R"({"mqtt":{"commands":{"signing_keys":[{"name":"a",
+           "key":"abababababababababababababababababababababababababababababababab"}]}}})",
+         "mqtt.commands.signing_keys[0].key: is too easy to guess"},
+        {R"({"mqtt":{"commands":{"signing_keys":[{"name":"a","role":"root",
+           "key":"a1b2c3d4e5f60718293a4b5c6d7e8f90a1b2c3d4e5f60718293a4b5c6d7e8f91"}]}}})",
+         "mqtt.commands.signing_keys[0].role: must be one of"},
+        {R"({"mqtt":{"commands":{"signing_keys":[
+           {"name":"a","key":"a1b2c3d4e5f60718293a4b5c6d7e8f90a1b2c3d4e5f60718293a4b5c6d7e8f91"},
+           {"name":"a","key":"0f1e2d3c4b5a69788796a5b4c3d2e1f00f1e2d3c4b5a69788796a5b4c3d2e1f2"}]}}})",
+         "mqtt.commands.signing_keys[1].name: duplicate name \"a\""},
+        {R"({"mqtt":{"commands":{"signature_window_s":0}}})",
+         "mqtt.commands.signature_window_s: must be an integer from 1"},
         {R"({"mqtt":{"commands":{"max_payload_bytes":100}}})",
          "mqtt.commands.max_payload_bytes: must be an integer from 1024"},
     };

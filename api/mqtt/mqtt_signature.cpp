@@ -1,0 +1,136 @@
+#include "api/mqtt/mqtt_signature.hpp"
+
+#include <algorithm>
+#include <array>
+#include <openssl/crypto.h>
+#include <openssl/evp.h>
+#include <openssl/hmac.h>
+
+#include <nlohmann/json.hpp>
+
+namespace gw::api {
+
+namespace {
+
+using json = nlohmann::json;
+using result = boost::system::result<signed_command, std::string>;
+
+result refuse(std::string why) {
+    return result(boost::system::in_place_error, std::move(why));
+}
+
+bool valid_nonce(std::string_view nonce) {
+    return nonce.size() >= 8 && nonce.size() <= 64 && std::all_of(nonce.begin(), nonce.end(), [](char c) {
+               return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                      c == '-' || c == '_';
+           });
+}
+
+bool is_hex(char c) {
+    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F');
+}
+
+char lower_hex(char c) {
+    return (c >= 'A' && c <= 'F') ? static_cast<char>(c - 'A' + 'a') : c;
+}
+
+const std::string* string_field(const json& j, const char* name) {
+    const auto it = j.find(name);
+    return it != j.end() && it->is_string() ? &it->get_ref<const std::string&>() : nullptr;
+}
+
+}  // namespace
+
+bool looks_signed(std::string_view payload) {
+    return payload.find("\"sig\"") != std::string_view::npos;
+}
+
+result read_signed_command(std::string_view payload) {
+    const json j = json::parse(payload, nullptr, /*allow_exceptions=*/false);
+    if (j.is_discarded() || !j.is_object()) return refuse("a signed command is not a JSON object");
+    for (const auto& item : j.items())
+        if (item.key() != "key" && item.key() != "ts" && item.key() != "nonce" && item.key() != "sig" &&
+            item.key() != "body")
+            return refuse("a signed command has an unknown key \"" + item.key().substr(0, 32) +
+                          "\" (key, ts, nonce, sig, body; the command goes in body)");
+    signed_command c;
+    const auto* key = string_field(j, "key");
+    if (!key || key->empty() || key->size() > 64) return refuse("\"key\" is not a key name");
+    c.key = *key;
+    const auto ts = j.find("ts");
+    if (ts == j.end() || !ts->is_number_integer())
+        return refuse("\"ts\" is not an integer (ms since the epoch)");
+    c.ts_ms = ts->get<std::int64_t>();
+    const auto* nonce = string_field(j, "nonce");
+    if (!nonce || !valid_nonce(*nonce)) return refuse("\"nonce\" is not 8-64 characters of [A-Za-z0-9_-]");
+    c.nonce = *nonce;
+    const auto* sig = string_field(j, "sig");
+    if (!sig || sig->size() != 64 || !std::all_of(sig->begin(), sig->end(), is_hex))
+        return refuse("\"sig\" is not 64 hexadecimal digits");
+    c.sig = *sig;
+    const auto* body = string_field(j, "body");
+    if (!body) return refuse("\"body\" is not a string (the command's JSON text)");
+    c.body = *body;
+    return c;
+}
+
+std::string signing_text(std::string_view topic, std::int64_t ts_ms, std::string_view nonce,
+                         std::string_view body) {
+    std::string text;
+    text.reserve(topic.size() + nonce.size() + body.size() + 24);
+    text.append(topic).append("\n").append(std::to_string(ts_ms)).append("\n").append(nonce).append("\n");
+    text.append(body);
+    return text;
+}
+
+std::string hmac_sha256_hex(const std::vector<std::uint8_t>& key, std::string_view text) {
+    std::array<unsigned char, EVP_MAX_MD_SIZE> mac{};
+    unsigned int size = 0;
+    HMAC(EVP_sha256(), key.data(), static_cast<int>(key.size()),
+         reinterpret_cast<const unsigned char*>(text.data()), text.size(), mac.data(), &size);
+    static constexpr char digits[] = "0123456789abcdef";
+    std::string hex;
+    hex.reserve(size * 2);
+    for (unsigned int i = 0; i < size; ++i) {
+        hex.push_back(digits[mac[i] >> 4]);
+        hex.push_back(digits[mac[i] & 0x0f]);
+    }
+    return hex;
+}
+
+bool signature_matches(const std::vector<std::uint8_t>& key, std::string_view text, std::string_view sig) {
+    const auto expected = hmac_sha256_hex(key, text);
+    if (sig.size() != expected.size()) return false;
+    std::string given(sig);
+    std::transform(given.begin(), given.end(), given.begin(), lower_hex);
+    return CRYPTO_memcmp(given.data(), expected.data(), expected.size()) == 0;
+}
+
+signature_replay_guard::verdict signature_replay_guard::admit(const std::string& key,
+                                                              const std::string& nonce, std::int64_t ts_ms,
+                                                              std::int64_t now_ms) {
+    const auto window = window_.count();
+    if (ts_ms < now_ms - window || ts_ms > now_ms + window) return verdict::stale;
+    // A pair is remembered until no command carrying it can be fresh again: its ts plus the window.
+    forget_before(now_ms);
+    auto pair = std::make_pair(key, nonce);
+    if (seen_.contains(pair)) return verdict::replayed;
+    if (seen_.size() >= max_entries_) return verdict::full;
+    seen_.insert(pair);
+    const auto expires = ts_ms + window;
+    // Kept in expiry order: admitted ts values lie within the window of a clock that only moves on,
+    // so an entry is inserted where its expiry belongs (usually at the back).
+    auto at = std::upper_bound(by_expiry_.begin(), by_expiry_.end(), expires,
+                               [](std::int64_t e, const auto& entry) { return e < entry.first; });
+    by_expiry_.insert(at, {expires, std::move(pair)});
+    return verdict::fresh;
+}
+
+void signature_replay_guard::forget_before(std::int64_t cutoff_ms) {
+    while (!by_expiry_.empty() && by_expiry_.front().first < cutoff_ms) {
+        seen_.erase(by_expiry_.front().second);
+        by_expiry_.pop_front();
+    }
+}
+
+}  // namespace gw::api

@@ -1,0 +1,78 @@
+#pragma once
+// Signed MQTT commands: a command proves its sender with an HMAC, so no reusable secret crosses the
+// broker (a bearer token in a payload could be read by anyone allowed to read the command topics, a
+// broker admin, or the wire, and then used on REST). Pure but for OpenSSL's HMAC-SHA256.
+//
+// The payload wraps the command message (the JSON text it would be unsigned) as a string:
+//   {"key": "orchestrator", "ts": 1764921600123, "nonce": "6f1c2a9b0e4d7c35", "sig": "<64 hex>",
+//    "body": "{\"id\":\"c7\",\"operation\":\"move\",\"args\":{\"axes\":{\"X\":1000}}}"}
+//   sig = hex(HMAC-SHA256(key bytes, topic + "\n" + ts + "\n" + nonce + "\n" + body))
+// "key" names an entry of mqtt.commands.signing_keys (its role is the sender's role), "ts" is the
+// sender's clock in milliseconds since the Unix epoch, "nonce" 8-64 characters of [A-Za-z0-9_-] used
+// once. The gateway takes a command whose ts is within the window of its own clock and whose
+// (key, nonce) it has not seen within the window (signature_replay_guard); the topic is signed, so a
+// command cannot be replayed to another controller. The body is parsed only after all of that.
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <set>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include <boost/system/result.hpp>
+
+namespace gw::api {
+
+struct signed_command {
+    std::string key;  // the signing key's name
+    std::int64_t ts_ms = 0;
+    std::string nonce;
+    std::string sig;   // 64 lower- or upper-case hex digits
+    std::string body;  // the command message's JSON text, not parsed yet
+};
+
+// True when the payload is meant as a signed command (a JSON object with a "sig" key); a cheap test
+// on the text, so that a bearer-token payload is told apart without being parsed twice.
+bool looks_signed(std::string_view payload);
+
+// The envelope, or why it is not one (never answered: the sender is not known yet).
+boost::system::result<signed_command, std::string> read_signed_command(std::string_view payload);
+
+// What is signed: topic, ts, nonce and body, one per line.
+std::string signing_text(std::string_view topic, std::int64_t ts_ms, std::string_view nonce,
+                         std::string_view body);
+
+// HMAC-SHA256 of `text` under `key`, as 64 lower-case hex digits.
+std::string hmac_sha256_hex(const std::vector<std::uint8_t>& key, std::string_view text);
+
+// Whether `sig` is the signature of `text` under `key`, compared in constant time.
+bool signature_matches(const std::vector<std::uint8_t>& key, std::string_view text, std::string_view sig);
+
+// Remembers the (key, nonce) pairs of accepted commands while their ts is within the window, so
+// that a captured command is refused when published again. Bounded: with max_entries remembered
+// and none expired, a new command is refused (the sender holds a key, so this is no anonymous cost).
+class signature_replay_guard {
+  public:
+    enum class verdict : std::uint8_t { fresh, stale, replayed, full };
+
+    signature_replay_guard(std::chrono::milliseconds window, std::size_t max_entries)
+        : window_(window), max_entries_(max_entries) {}
+
+    // `now_ms`: the gateway's clock, ms since the epoch. Remembers the pair when fresh.
+    verdict admit(const std::string& key, const std::string& nonce, std::int64_t ts_ms, std::int64_t now_ms);
+    std::size_t remembered() const { return seen_.size(); }
+
+  private:
+    void forget_before(std::int64_t cutoff_ms);
+
+    std::chrono::milliseconds window_;
+    std::size_t max_entries_;
+    std::set<std::pair<std::string, std::string>> seen_;
+    std::deque<std::pair<std::int64_t, std::pair<std::string, std::string>>> by_expiry_;  // admit order
+};
+
+}  // namespace gw::api
