@@ -90,7 +90,7 @@ std::string hmac_sha256_hex(const std::vector<std::uint8_t>& key, std::string_vi
          reinterpret_cast<const unsigned char*>(text.data()), text.size(), mac.data(), &size);
     static constexpr char digits[] = "0123456789abcdef";
     std::string hex;
-    hex.reserve(size * 2);
+    hex.reserve(std::size_t{size} * 2);
     for (unsigned int i = 0; i < size; ++i) {
         hex.push_back(digits[mac[i] >> 4]);
         hex.push_back(digits[mac[i] & 0x0f]);

@@ -96,12 +96,12 @@ inline std::string describe(const operation_error& e) {
 // observer, so it outlives the job_manager object while they finish.
 class manager_core final : public execution_host, public std::enable_shared_from_this<manager_core> {
   public:
-    manager_core(net::any_io_executor executor, net::any_io_executor work_executor,
+    manager_core(net::any_io_executor executor, const net::any_io_executor& work_executor,
                  controller_registry& registry, std::shared_ptr<event_hub> hub,
                  std::shared_ptr<lease_manager> leases, job_manager_settings settings,
                  std::unique_ptr<job_store> store)
         : executor_(std::move(executor)),
-          strand_(net::make_strand(std::move(work_executor))),
+          strand_(net::make_strand(work_executor)),
           registry_(registry),
           hub_(std::move(hub)),
           leases_(std::move(leases)),
@@ -172,7 +172,7 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // planner has too many plans waiting.
     bool plan_off_strand(job_type type, json spec, devices::controller_snapshot snapshot, motion_model model,
                          std::function<void(operation_result<job_plan>)> done);
-    void plan_again(std::shared_ptr<live_job> job, std::function<void(operation_result<void>)> done);
+    void plan_again(const std::shared_ptr<live_job>& job, std::function<void(operation_result<void>)> done);
 
     // Changes the state, persists it (transition) and publishes {"type":"state",...}. `waiting`: what
     // the job waits for in its new state (a run sets its own waits: on_waiting).

@@ -196,7 +196,7 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
     dispatch(r.controller);
 }
 
-void manager_core::plan_again(std::shared_ptr<live_job> job,
+void manager_core::plan_again(const std::shared_ptr<live_job>& job,
                               std::function<void(operation_result<void>)> done) {
     if (job->plan) return done({});
     const auto controller = job->record.controller;
