@@ -29,6 +29,10 @@ namespace gw::jobs {
 class job_manager;
 }
 
+namespace gw::audit {
+class audit_log;
+}
+
 namespace gw::api {
 
 class batch_text_cache;
@@ -56,6 +60,8 @@ struct api_context {
     browser_rules browser;
     // The controllers' shared ports, shown with each controller; null: none.
     const shared_ports* shares = nullptr;
+    // The audit trail of state-changing calls (gateway/audit); null: none kept (no storage directory).
+    std::shared_ptr<audit::audit_log> audit;
 };
 
 }  // namespace gw::api

@@ -1,15 +1,19 @@
 #include "api/calls.hpp"
 
+#include <chrono>
+
 #include <boost/asio/append.hpp>
 #include <boost/asio/associated_executor.hpp>
 #include <boost/asio/bind_executor.hpp>
 #include <boost/asio/post.hpp>
 
 #include "api/auth.hpp"
+#include "api/call_audit.hpp"
 #include "api/gcode_requests.hpp"
 #include "api/halt_requests.hpp"
 #include "api/lease_requests.hpp"
 #include "api/operation_requests.hpp"
+#include "gateway/audit/audit_log.hpp"
 
 namespace gw::api {
 
@@ -32,6 +36,21 @@ operation_handler operation_outcome_to(api_context& ctx, api_handler done) {
     });
 }
 
+// `done`, once the outcome is in the audit trail (recorded before the answer goes out, so that a
+// client that reads the trail after its answer finds its call there).
+api_handler audited(api_context& ctx, audit::audit_entry entry, api_handler done) {
+    auto ex = boost::asio::get_associated_executor(done, ctx.executor);
+    return boost::asio::bind_executor(
+        ex, [log = ctx.audit, entry = std::move(entry), done = std::move(done)](api_outcome out) mutable {
+            complete_audit_entry(entry, out,
+                                 std::chrono::duration_cast<std::chrono::milliseconds>(
+                                     std::chrono::system_clock::now().time_since_epoch())
+                                     .count());
+            log->record(std::move(entry));
+            std::move(done)(std::move(out));
+        });
+}
+
 }  // namespace
 
 bool is_emergency_stop(const call& c) {
@@ -50,7 +69,10 @@ gw::role role_for(const call& c, gw::role halt_role) {
     return gw::role::operator_;
 }
 
-void dispatch_call(api_context& ctx, const caller& who, call c, api_handler done) {
+namespace {
+
+// dispatch_call without the audit trail.
+void run_call(api_context& ctx, const caller& who, call c, api_handler done) {
     const auto needed = role_for(c, ctx.auth.halt_role);
     if (!has_role(auth_identity{who.name, who.role}, needed))
         return deliver(ctx, std::move(done),
@@ -92,6 +114,15 @@ void dispatch_call(api_context& ctx, const caller& who, call c, api_handler done
                        release_lease(ctx, release->controller, who.lease_id, release->force, who.request_id));
     const auto& get = std::get<lease_get_call>(c);
     deliver(ctx, std::move(done), get_lease(ctx, get.controller, who.request_id));
+}
+
+}  // namespace
+
+void dispatch_call(api_context& ctx, const caller& who, call c, api_handler done) {
+    // A new handler, not an assignment: Boost 1.81's any_completion_handler move assignment recurses.
+    std::optional<audit::audit_entry> entry = ctx.audit ? audit_entry_for(who, c) : std::nullopt;
+    if (entry) return run_call(ctx, who, std::move(c), audited(ctx, std::move(*entry), std::move(done)));
+    run_call(ctx, who, std::move(c), std::move(done));
 }
 
 }  // namespace gw::api

@@ -13,10 +13,12 @@
 #include <nlohmann/json.hpp>
 
 #include "api/auth.hpp"
+#include "api/call_audit.hpp"
 #include "api/gcode_worker.hpp"
 #include "api/json_object.hpp"
 #include "api/printable_text.hpp"
 #include "api/response_headers.hpp"
+#include "gateway/audit/audit_log.hpp"
 #include "gateway/gcode/gcode_plan_json.hpp"
 #include "gateway/gcode/gcode_plan_summary_json.hpp"
 #include "gateway/gcode/gcode_planner.hpp"
@@ -177,7 +179,16 @@ struct program_request {
     program_action action = program_action::plan;
     gcode_query query;  // plan, preview
     std::string name;   // save
+    caller who;         // save: for the audit trail (check_program_header sets name and role)
 };
+
+// A saved program in the audit trail (the store's id, or the refusal's kind).
+void audit_save(const api_context& ctx, const program_request& r, const string_response& res) {
+    if (!ctx.audit || r.action != program_action::save) return;
+    std::string target(res[http::field::location]);
+    if (const auto slash = target.rfind('/'); slash != std::string::npos) target.erase(0, slash + 1);
+    ctx.audit->record(route_audit_entry(r.who, "gcode.upload", target, res.result_int()));
+}
 
 // POST /gcode/plan, /gcode/preview.svg or /gcode/files: its route and action; nullopt for any other.
 std::optional<program_request> program_route(http::verb method, std::string_view path) {
@@ -197,6 +208,8 @@ std::optional<problem> check_program_header(const api_context& ctx, const http::
     problem p;
     auto who = identify(ctx, header, p);
     if (!who) return p;
+    r.who.name = who->name;
+    r.who.role = who->role;
     const auto needed = r.action == program_action::save ? gw::role::operator_ : gw::role::viewer;
     if (!has_role(*who, needed)) return forbidden_problem(*who, needed);
     auto q = parse_query(header.target());
@@ -242,8 +255,9 @@ struct gcode_program_intake::state {
         if (request.action == program_action::save) {
             auto saved = ctx->gcode_files->commit(std::move(*upload), request.name);
             upload.reset();
-            if (!saved) return error_of(saved.error(), meta);
-            return created_response(*saved, meta);
+            auto res = saved ? created_response(*saved, meta) : error_of(saved.error(), meta);
+            audit_save(*ctx, request, res);
+            return res;
         }
         auto path = upload->contents();
         if (!path) return error_of(path.error(), meta);
@@ -286,7 +300,8 @@ void gcode_program_intake::finish(std::shared_ptr<gcode_program_intake> self,
 
 gcode_program_admission admit_gcode_program(const std::shared_ptr<api_context>& ctx,
                                             const http::request<http::empty_body>& header,
-                                            const std::string& request_id) {
+                                            const std::string& request_id,
+                                            const std::string& client_address) {
     gcode_program_admission a;
     if (!ctx->gcode_files || !ctx->gcode_thread) return a;  // no store to stream to: bodies stay in memory
     auto r = program_route(header.method(), target_path(header.target()));
@@ -299,6 +314,8 @@ gcode_program_admission admit_gcode_program(const std::shared_ptr<api_context>& 
         return a;
     };
     if (auto p = check_program_header(*ctx, header, *r)) return refuse(std::move(*p));
+    r->who.request_id = request_id;
+    r->who.address = client_address;
     auto slot = ctx->gcode_thread->try_reserve();
     if (!slot) return refuse(planner_busy(*ctx->gcode_thread));
     meta.keep_alive = header.keep_alive();
@@ -477,14 +494,16 @@ void program_in_body(request_context& c) {
     if (!r) return c.fail(make_problem(http_error::not_found, "no route for " + std::string(c.req.target())));
     if (auto p = check_program_header(*c.ctx, c.req, *r)) return c.fail(std::move(*p));
     if (r->action == program_action::save && !need_store(c)) return;
-    run_blocking(c, [store = c.ctx->gcode_files, body = std::move(c.req.body()), r = std::move(*r),
-                     meta = c.meta()]() {
+    r->who.request_id = c.request_id;
+    r->who.address = c.client_address;
+    run_blocking(c, [ctx = c.ctx, body = std::move(c.req.body()), r = std::move(*r), meta = c.meta()]() {
         view_buf buf(body);
         std::istream in(&buf);
         if (r.action != program_action::save) return plan_or_preview(r, in, meta);
-        auto saved = store->save(in, r.name);
-        if (!saved) return error_of(saved.error(), meta);
-        return created_response(*saved, meta);
+        auto saved = ctx->gcode_files->save(in, r.name);
+        auto res = saved ? created_response(*saved, meta) : error_of(saved.error(), meta);
+        audit_save(*ctx, r, res);
+        return res;
     });
 }
 
@@ -522,10 +541,13 @@ void get_file(request_context& c) {
 }
 
 void delete_file(request_context& c) {
-    on_store(c, [id = c.params[0]](gcode_file_store& store, const response_meta& meta) {
+    on_store(c, [id = c.params[0], ctx = c.ctx, who = c.as_caller()](gcode_file_store& store,
+                                                                     const response_meta& meta) {
         auto removed = store.remove(id);
-        if (!removed) return error_of(removed.error(), meta);
-        return body_response(http::status::no_content, {}, {}, meta);
+        auto res =
+            removed ? body_response(http::status::no_content, {}, {}, meta) : error_of(removed.error(), meta);
+        if (ctx->audit) ctx->audit->record(route_audit_entry(who, "gcode.delete", id, res.result_int()));
+        return res;
     });
 }
 

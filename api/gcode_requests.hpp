@@ -101,7 +101,8 @@ struct gcode_program_admission {
 
 gcode_program_admission admit_gcode_program(const std::shared_ptr<api_context>& ctx,
                                             const http::request<http::empty_body>& header,
-                                            const std::string& request_id);
+                                            const std::string& request_id,
+                                            const std::string& client_address = {});
 
 // The /api/v1/gcode routes above, for the route table.
 std::vector<route> gcode_routes();

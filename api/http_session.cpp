@@ -3,6 +3,7 @@
 #include <spdlog/logger.h>
 
 #include "api/auth.hpp"
+#include "api/auth_failure_log.hpp"
 #include "api/gcode_requests.hpp"
 #include "api/gcode_worker.hpp"
 #include "api/halt_requests.hpp"
@@ -57,6 +58,9 @@ http_session::http_session(session_socket&& socket, std::shared_ptr<api_context>
       permit_(std::move(permit)),
       bodies_(std::move(bodies)),
       refusal_(std::move(refusal)) {
+    beast::error_code ec;
+    const auto peer = stream_.socket().remote_endpoint(ec);
+    if (!ec) client_address_ = peer.address().to_string();
     ctx_->metrics->increment("gw_http_connections", {}, 1);
 }
 
@@ -194,7 +198,7 @@ void http_session::on_header(beast::error_code ec, std::size_t) {
         return;
     }
     // A G-code program: decided from the header, streamed to the store.
-    auto program = admit_gcode_program(ctx_, header, request_id_);
+    auto program = admit_gcode_program(ctx_, header, request_id_, client_address_);
     if (program.refusal) {
         auto& r = *program.refusal;
         return do_write(std::move(r.response), std::move(r.route), true);
@@ -331,7 +335,7 @@ void http_session::on_read(beast::error_code ec, std::size_t) {
     }
 
     handle_request(ctx_, parser_->release(), request_id_, stream_.get_executor(),
-                   beast::bind_front_handler(&http_session::on_handled, shared_from_this()));
+                   beast::bind_front_handler(&http_session::on_handled, shared_from_this()), client_address_);
 }
 
 void http_session::start_upload(std::shared_ptr<gcode_program_intake> intake, std::uint64_t limit) {
@@ -404,7 +408,7 @@ void http_session::serve_halt(const http::request_header<>& header, bool body_fo
     header_parser_.reset();
     stream_.expires_never();
     handle_request(ctx_, std::move(req), request_id_, stream_.get_executor(),
-                   beast::bind_front_handler(&http_session::on_handled, shared_from_this()));
+                   beast::bind_front_handler(&http_session::on_handled, shared_from_this()), client_address_);
 }
 
 void http_session::on_handled(routed_response r) {
@@ -431,6 +435,8 @@ void http_session::do_write(string_response res, std::string route, bool close_a
     // must not flood the log.
     if (status >= 500 && refusal_.empty())
         ctx_->log->warn("{} {} -> {} [{}]", method_, route, status, request_id_);
+    else if (status == 401)
+        log_failed_authentication(ctx_->log, client_address_, method_, route);
     else
         ctx_->log->debug("{} {} -> {} [{}] {:.1f} ms", method_, route, status, request_id_, elapsed * 1e3);
 

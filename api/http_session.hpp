@@ -81,7 +81,8 @@ class http_session : public std::enable_shared_from_this<http_session>, public t
     std::shared_ptr<api_context> ctx_;
     std::shared_ptr<connection_permit> permit_;
     std::shared_ptr<body_budget> bodies_;
-    std::string refusal_;  // not empty: the limits refused this connection (a HALT reserve slot)
+    std::string refusal_;         // not empty: the limits refused this connection (a HALT reserve slot)
+    std::string client_address_;  // the peer's address, for the audit trail
     std::optional<boost::asio::steady_timer> reserve_timer_;  // a reserve slot's wait for its request
     bool reserve_expired_ = false;
     bool first_request_ = true;

@@ -49,13 +49,6 @@ std::optional<std::string> percent_decode(std::string_view s) {
     return out;
 }
 
-std::optional<std::size_t> parse_count(std::string_view s) {
-    std::size_t n = 0;
-    auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), n);
-    if (ec != std::errc{} || end != s.data() + s.size() || s.empty()) return std::nullopt;
-    return n;
-}
-
 template <typename Names>
 std::string joined(const Names& names) {
     std::string list;
@@ -133,6 +126,13 @@ operation_result<void> check_known_parameters(const query_params& q,
         }
     }
     return {};
+}
+
+std::optional<std::size_t> parse_count(std::string_view s) {
+    std::size_t n = 0;
+    auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), n);
+    if (ec != std::errc{} || end != s.data() + s.size() || s.empty()) return std::nullopt;
+    return n;
 }
 
 std::optional<std::string> query_value(const query_params& q, std::string_view name) {

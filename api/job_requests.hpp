@@ -59,6 +59,8 @@ operation_result<void> check_known_parameters(const query_params& q,
 
 // The value of a parameter, if given.
 std::optional<std::string> query_value(const query_params& q, std::string_view name);
+// A decimal count ("25"): digits only; nullopt otherwise.
+std::optional<std::size_t> parse_count(std::string_view s);
 
 // "true"/"1"/"" (present without value) -> true, "false"/"0" -> false, absent -> `fallback`.
 operation_result<bool> query_flag(const query_params& q, std::string_view name, bool fallback);

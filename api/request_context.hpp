@@ -16,6 +16,7 @@
 
 #include "api/api_context.hpp"
 #include "api/auth.hpp"
+#include "api/caller.hpp"
 #include "api/job_requests.hpp"
 #include "api/net.hpp"
 #include "api/response_headers.hpp"
@@ -32,6 +33,17 @@ struct request_context {
     std::string route;                 // the template, for metrics: "/api/v1/controllers/{id}/move"
     std::vector<std::string> params;   // the path's {placeholders}, in order
     std::optional<auth_identity> who;  // the caller, when the route needs a role
+    std::string client_address;        // the peer's address ("127.0.0.1")
+
+    // The caller of a call this request makes (api/calls.hpp), over REST.
+    caller as_caller() const {
+        return caller{who ? who->name : "anonymous",
+                      who ? who->role : gw::role::viewer,
+                      request_id,
+                      std::nullopt,
+                      "rest",
+                      client_address};
+    }
 
     response_meta meta() const { return meta_of(req, request_id); }
 

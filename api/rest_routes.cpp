@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "api/audit_requests.hpp"
 #include "api/calls.hpp"
 #include "api/lease_requests.hpp"
 #include "api/operation_requests.hpp"
@@ -102,7 +103,7 @@ void operation(request_context& c, const std::string& name) {
     if (!body) return;
     // Known controller? (a clear 404 before any body field is judged)
     if (!c.ctx->registry.get(c.params[0])) return c.fail(unknown_controller(c.params[0]));
-    caller who{c.who->name, c.who->role, c.request_id, {}};
+    caller who = c.as_caller();
     if (!c.key_header("Lease-Id", who.lease_id)) return;
     dispatch_call(*c.ctx, who, operation_call{c.params[0], name, std::move(*body)}, c.async_reply());
 }
@@ -110,8 +111,7 @@ void operation(request_context& c, const std::string& name) {
 // POST /halt: HALT ALL (api/halt_requests.hpp); a body, if any, is ignored: nothing may stand in
 // the way of an emergency stop.
 void halt_all(request_context& c) {
-    dispatch_call(*c.ctx, caller{c.who->name, c.who->role, c.request_id, {}}, halt_all_call{},
-                  c.async_reply());
+    dispatch_call(*c.ctx, c.as_caller(), halt_all_call{}, c.async_reply());
 }
 
 // ---- leases ----
@@ -122,21 +122,19 @@ void list_all_leases(request_context& c) {
 
 void get_controller_lease(request_context& c) {
     if (!c.query_with({})) return;
-    dispatch_call(*c.ctx, caller{c.who->name, c.who->role, c.request_id, {}}, lease_get_call{c.params[0]},
-                  c.async_reply());
+    dispatch_call(*c.ctx, c.as_caller(), lease_get_call{c.params[0]}, c.async_reply());
 }
 
 void take_lease(request_context& c) {
     if (!c.query_with({})) return;
     auto body = c.json_body();
     if (!body) return;
-    dispatch_call(*c.ctx, caller{c.who->name, c.who->role, c.request_id, {}},
-                  lease_take_call{c.params[0], std::move(*body)}, c.async_reply());
+    dispatch_call(*c.ctx, c.as_caller(), lease_take_call{c.params[0], std::move(*body)}, c.async_reply());
 }
 
 void renew_controller_lease(request_context& c) {
     if (!c.query_with({})) return;
-    caller who{c.who->name, c.who->role, c.request_id, {}};
+    caller who = c.as_caller();
     if (!c.key_header("Lease-Id", who.lease_id)) return;
     auto body = c.json_body();
     if (!body) return;
@@ -148,7 +146,7 @@ void release_controller_lease(request_context& c) {
     if (!q) return;
     auto force = query_flag(*q, "force", false);
     if (!force) return c.fail(force.error());
-    caller who{c.who->name, c.who->role, c.request_id, {}};
+    caller who = c.as_caller();
     if (!c.key_header("Lease-Id", who.lease_id)) return;
     dispatch_call(*c.ctx, who, lease_release_call{c.params[0], *force}, c.async_reply());
 }
@@ -179,7 +177,7 @@ void submit(request_context& c) {
     auto dry_run = query_flag(*q, "dry_run", false);
     if (!dry_run) return c.fail(dry_run.error());
     job_submit_call submit{{}, *dry_run, {}};
-    caller who{c.who->name, c.who->role, c.request_id, {}};
+    caller who = c.as_caller();
     if (!c.key_header("Idempotency-Key", submit.idempotency_key) || !c.key_header("Lease-Id", who.lease_id))
         return;
     auto body = c.json_body();
@@ -209,13 +207,22 @@ void get_job_events(request_context& c) {
     c.reply_outcome(job_events(*c.ctx, c.params[0], *limit, c.request_id));
 }
 
+// GET /audit (admin): the audit trail (api/audit_requests.hpp).
+void audit_trail(request_context& c) {
+    auto q = c.query();
+    if (!q) return;
+    auto filter = parse_audit_filter(*q);
+    if (!filter) return c.fail(filter.error());
+    query_audit(*c.ctx, std::move(*filter), c.async_reply());
+}
+
 void job_command_route(request_context& c, job_command command) {
     if (!plausible_job(c) || !c.query_with({})) return;
     auto body = c.json_body();
     if (!body) return;
     if (!body->is_null() && !(body->is_object() && body->empty()))
         return c.fail(make_error(operation_error_kind::invalid_value, "this request takes no body (or {})"));
-    caller who{c.who->name, c.who->role, c.request_id, {}};
+    caller who = c.as_caller();
     if (!c.key_header("Lease-Id", who.lease_id)) return;
     dispatch_call(*c.ctx, who, job_action_call{c.params[0], command}, c.async_reply());
 }
@@ -229,6 +236,7 @@ std::vector<route> rest_routes() {
         {verb::get, v1 + "/ready", std::nullopt, ready},
         {verb::get, v1 + "/metrics", gw::role::viewer, metrics},
         {verb::get, v1 + "/whoami", gw::role::viewer, whoami},
+        {verb::get, v1 + "/audit", gw::role::admin, audit_trail},
         {verb::get, v1 + "/controllers", gw::role::viewer, list_controllers},
         {verb::get, v1 + "/controllers/{id}", gw::role::viewer, get_controller},
         // The route lets every token holder in; dispatch_call checks auth.halt_role.

@@ -101,10 +101,12 @@ std::optional<routed_response> refusal_from_header(const api_context& ctx,
 }
 
 void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& req, std::string request_id,
-                    net::any_io_executor session_executor, response_handler done) {
+                    net::any_io_executor session_executor, response_handler done,
+                    std::string client_address) {
     const std::string path(target_path(req.target()));
     request_context c{ctx, std::move(req), std::move(request_id), std::move(session_executor),
                       std::move(done)};
+    c.client_address = std::move(client_address);
     if (auto refused = browser_refusal(c.req, ctx->browser, false)) return c.fail(std::move(*refused));
     if (is_static_asset_path(path)) {  // the dashboard, api/static_assets.hpp
         c.route = static_asset_route(path);

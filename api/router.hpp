@@ -56,6 +56,7 @@ std::optional<routed_response> refusal_from_header(const api_context& ctx,
                                                    const std::string& request_id);
 
 void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& request, std::string request_id,
-                    net::any_io_executor session_executor, response_handler done);
+                    net::any_io_executor session_executor, response_handler done,
+                    std::string client_address = {});
 
 }  // namespace gw::api

@@ -11,6 +11,7 @@
 #include "api/listener.hpp"
 #include "api/port_scan_worker.hpp"
 #include "api/share_json.hpp"
+#include "gateway/audit/audit_log.hpp"
 #include "gateway/common/metrics.hpp"
 #include "gateway/config/logging.hpp"
 #include "gateway/controllers/controller_registry.hpp"
@@ -24,6 +25,18 @@ namespace {
 std::shared_ptr<gcode_file_store> make_gcode_store(const gateway_config& config) {
     return std::make_shared<gcode_file_store>(gcode_file_store_settings{
         std::filesystem::path(config.storage.path) / "gcode", config.gcode.max_file_mb * 1024 * 1024});
+}
+
+// The audit trail next to the job database: <storage.path>/audit.sqlite3. Without a storage directory
+// (some tests) there is none, and GET /api/v1/audit answers 503.
+std::shared_ptr<audit::audit_log> make_audit_log(const gateway_config& config) {
+    if (config.storage.path.empty()) return nullptr;
+    auto log = audit::audit_log::open(config.storage.path, get_logger("api"));
+    if (!log) {
+        get_logger("api")->error("no audit trail: {}", log.error());
+        return nullptr;
+    }
+    return std::move(*log);
 }
 
 }  // namespace
@@ -40,7 +53,7 @@ server::server(const io_executor& executor, const gateway_config& config, contro
           std::make_shared<api::gcode_worker>(), std::make_shared<api::port_scan_worker>(),
           std::move(state_texts), std::make_shared<batch_text_cache>(),
           browser_rules{config.http.allowed_origins, config.http.allowed_hosts, config.auth.tokens.empty()},
-          shares})) {
+          shares, make_audit_log(config)})) {
     // main holds the storage lock by now: no other gateway uploads into this store.
     if (auto stale = ctx_->gcode_files->remove_stale_temporaries())
         ctx_->log->info("removed {} unfinished G-code uploads from {}", stale,

@@ -74,7 +74,11 @@ websocket_session::websocket_session(session_stream&& stream, std::shared_ptr<ap
       watchdog_(ws_.get_executor()),
       permit_(std::move(permit)),
       batch_window_(batch_window),
-      batch_timer_(ws_.get_executor()) {}
+      batch_timer_(ws_.get_executor()) {
+    beast::error_code ec;
+    const auto peer = beast::get_lowest_layer(ws_).socket().remote_endpoint(ec);
+    if (!ec) client_address_ = peer.address().to_string();
+}
 
 websocket_session::~websocket_session() {
     // Normally finish() ran already; this covers an io_context torn down mid-session.
@@ -276,7 +280,8 @@ void websocket_session::run_call(const json& id, std::optional<std::string> leas
 
 void websocket_session::start_call(const json& id, std::optional<std::string> lease, call c) {
     ++commands_in_flight_;
-    caller who{who_.name, who_.role, ws_request_id(connection_, id), std::move(lease)};
+    caller who{who_.name,        who_.role,   ws_request_id(connection_, id),
+               std::move(lease), "websocket", client_address_};
     dispatch_call(*ctx_, who, std::move(c),
                   net::bind_executor(ws_.get_executor(), [self = shared_from_this(), id](api_outcome out) {
                       self->on_call_done(id, std::move(out));

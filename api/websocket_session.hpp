@@ -125,7 +125,8 @@ class websocket_session final : public gw::event_sink,
     std::shared_ptr<api_context> ctx_;
     auth_identity who_;
     websocket_limits limits_;
-    std::string connection_;  // "ws-<n>": log context and request-id prefix
+    std::string connection_;      // "ws-<n>": log context and request-id prefix
+    std::string client_address_;  // the peer's address, for the audit trail
     http::request<http::string_body> upgrade_;
     std::uint64_t subscriber_ = 0;
     bool hub_closed_ = false;  // the hub dropped us; no remove_subscriber needed

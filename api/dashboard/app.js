@@ -13,6 +13,7 @@ route("/jobs", () => import("./jobs_view.js"));
 route("/jobs/new", () => import("./job_forms.js"));  // before /jobs/:id, which would take "new"
 route("/jobs/:id", () => import("./job_view.js"));
 route("/gcode", () => import("./gcode_view.js"));
+route("/audit", () => import("./audit_view.js"));
 
 let started = false;
 

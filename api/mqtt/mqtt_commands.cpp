@@ -208,7 +208,7 @@ void mqtt_commands::run(mqtt_request& request, const auth_identity& who, const r
         return;  // parse_mqtt_request only builds commands, jobs, G-code checks and HALT ALL
     }
     ++in_flight_;
-    dispatch_call(*ctx_, caller{who.name, who.role, request_id, std::move(lease)}, std::move(*c),
+    dispatch_call(*ctx_, caller{who.name, who.role, request_id, std::move(lease), "mqtt", {}}, std::move(*c),
                   net::bind_executor(strand_, [self = shared_from_this(), to, id, topic](api_outcome out) {
                       --self->in_flight_;
                       if (out.error) return self->answer_error(to, id, std::move(*out.error), topic);

@@ -211,7 +211,12 @@ TEST_F(controller_sync_test, a_line_read_with_an_answer_is_not_taken_for_the_nex
     // W X's answer and a stray line arrive in one read, with a HALT waiting behind W X. The HALT goes
     // out only once the whole read is handled: the stray line finds no command and the HALT waits for
     // its own answer (held back by the fake here) instead of taking the stray line for it.
-    start(settings());
+    // The fake holds W X's answer until this thread has queued the HALT: however long the scheduler
+    // keeps it from getting there (it took more than the 300 ms of settings() in a loaded CI run),
+    // W X must still be waiting then, so its timeout is far beyond any such stall.
+    auto s = settings();
+    s.command_timeout = 20s;
+    start(s);
     ASSERT_TRUE(observer_->wait_state(connection_state::connected));
     fake_.set_responder([](const std::string& c) -> std::vector<std::string> {
         if (c == "W X") return {":A 1.0 \r\n:A \r\n"};

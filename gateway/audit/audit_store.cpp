@@ -1,0 +1,164 @@
+#include "gateway/audit/audit_store.hpp"
+
+#include <filesystem>
+#include <sqlite3.h>
+
+namespace gw::audit {
+
+namespace {
+
+constexpr const char* schema = R"sql(
+CREATE TABLE IF NOT EXISTS audit (
+  id INTEGER PRIMARY KEY AUTOINCREMENT,
+  time_ms INTEGER NOT NULL,
+  principal TEXT NOT NULL,
+  role TEXT NOT NULL,
+  transport TEXT NOT NULL,
+  address TEXT NOT NULL,
+  action TEXT NOT NULL,
+  controller TEXT NOT NULL,
+  target TEXT NOT NULL,
+  request_id TEXT NOT NULL,
+  status INTEGER NOT NULL,
+  outcome TEXT NOT NULL,
+  detail TEXT NOT NULL);
+CREATE INDEX IF NOT EXISTS audit_time ON audit(time_ms);
+CREATE INDEX IF NOT EXISTS audit_controller ON audit(controller, id);
+CREATE INDEX IF NOT EXISTS audit_principal ON audit(principal, id);
+)sql";
+
+// A prepared statement, finalized on every path.
+struct statement {
+    sqlite3_stmt* s = nullptr;
+    ~statement() { sqlite3_finalize(s); }
+};
+
+std::string error_of(sqlite3* db, const std::string& path, const char* what) {
+    return path + ": " + what + ": " + sqlite3_errmsg(db);
+}
+
+void bind_text(sqlite3_stmt* s, int index, const std::string& text) {
+    sqlite3_bind_text(s, index, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
+}
+
+std::string column_text(sqlite3_stmt* s, int column) {
+    const auto* text = reinterpret_cast<const char*>(sqlite3_column_text(s, column));
+    return text ? std::string(text, static_cast<std::size_t>(sqlite3_column_bytes(s, column)))
+                : std::string();
+}
+
+}  // namespace
+
+boost::system::result<std::unique_ptr<audit_store>, std::string> audit_store::open(
+    const std::string& directory) {
+    using result = boost::system::result<std::unique_ptr<audit_store>, std::string>;
+    std::error_code ec;
+    std::filesystem::create_directories(directory, ec);
+    const auto path = (std::filesystem::path(directory) / "audit.sqlite3").string();
+    if (ec)
+        return result(boost::system::in_place_error, path + ": cannot create the directory: " + ec.message());
+    sqlite3* db = nullptr;
+    if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
+                        nullptr) != SQLITE_OK) {
+        auto why = error_of(db, path, "cannot open");
+        sqlite3_close(db);
+        return result(boost::system::in_place_error, std::move(why));
+    }
+    sqlite3_busy_timeout(db, 5000);
+    for (const char* sql : {"PRAGMA journal_mode = WAL", "PRAGMA synchronous = NORMAL", schema}) {
+        if (sqlite3_exec(db, sql, nullptr, nullptr, nullptr) != SQLITE_OK) {
+            auto why = error_of(db, path, "cannot prepare the audit table");
+            sqlite3_close(db);
+            return result(boost::system::in_place_error, std::move(why));
+        }
+    }
+    return std::unique_ptr<audit_store>(new audit_store(db, path));
+}
+
+audit_store::~audit_store() {
+    sqlite3_close(db_);
+}
+
+boost::system::result<void, std::string> audit_store::append(std::vector<audit_entry>& entries) {
+    using result = boost::system::result<void, std::string>;
+    if (entries.empty()) return {};
+    if (sqlite3_exec(db_, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr) != SQLITE_OK)
+        return result(boost::system::in_place_error, error_of(db_, path_, "cannot begin"));
+    statement insert;
+    sqlite3_prepare_v2(db_,
+                       "INSERT INTO audit (time_ms, principal, role, transport, address, action, controller, "
+                       "target, request_id, status, outcome, detail) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)",
+                       -1, &insert.s, nullptr);
+    for (auto& e : entries) {
+        sqlite3_reset(insert.s);
+        sqlite3_bind_int64(insert.s, 1, e.time_ms);
+        bind_text(insert.s, 2, e.principal);
+        bind_text(insert.s, 3, e.role);
+        bind_text(insert.s, 4, e.transport);
+        bind_text(insert.s, 5, e.address);
+        bind_text(insert.s, 6, e.action);
+        bind_text(insert.s, 7, e.controller);
+        bind_text(insert.s, 8, e.target);
+        bind_text(insert.s, 9, e.request_id);
+        sqlite3_bind_int(insert.s, 10, e.status);
+        bind_text(insert.s, 11, e.outcome);
+        bind_text(insert.s, 12, e.detail.dump());
+        if (!insert.s || sqlite3_step(insert.s) != SQLITE_DONE) {
+            auto why = error_of(db_, path_, "cannot append");
+            sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+            return result(boost::system::in_place_error, std::move(why));
+        }
+        e.id = sqlite3_last_insert_rowid(db_);
+    }
+    if (sqlite3_exec(db_, "COMMIT", nullptr, nullptr, nullptr) != SQLITE_OK) {
+        auto why = error_of(db_, path_, "cannot commit");
+        sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+        return result(boost::system::in_place_error, std::move(why));
+    }
+    return {};
+}
+
+boost::system::result<audit_page, std::string> audit_store::query(const audit_filter& f) const {
+    using result = boost::system::result<audit_page, std::string>;
+    // Every condition is always there, switched off by a NULL parameter: one statement for every filter.
+    statement q;
+    if (sqlite3_prepare_v2(
+            db_,
+            "SELECT id, time_ms, principal, role, transport, address, action, controller, target, "
+            "request_id, status, outcome, detail FROM audit "
+            "WHERE (?1 IS NULL OR controller = ?1) AND (?2 IS NULL OR principal = ?2) "
+            "AND (?3 IS NULL OR time_ms >= ?3) AND (?4 IS NULL OR time_ms < ?4) "
+            "AND (?5 IS NULL OR id < ?5) ORDER BY id DESC LIMIT ?6",
+            -1, &q.s, nullptr) != SQLITE_OK)
+        return result(boost::system::in_place_error, error_of(db_, path_, "cannot query"));
+    if (f.controller) bind_text(q.s, 1, *f.controller);
+    if (f.principal) bind_text(q.s, 2, *f.principal);
+    if (f.since_ms) sqlite3_bind_int64(q.s, 3, *f.since_ms);
+    if (f.until_ms) sqlite3_bind_int64(q.s, 4, *f.until_ms);
+    if (f.before_id) sqlite3_bind_int64(q.s, 5, *f.before_id);
+    sqlite3_bind_int64(q.s, 6, static_cast<sqlite3_int64>(f.limit));
+    audit_page page;
+    int rc = SQLITE_ROW;
+    while ((rc = sqlite3_step(q.s)) == SQLITE_ROW) {
+        audit_entry e;
+        e.id = sqlite3_column_int64(q.s, 0);
+        e.time_ms = sqlite3_column_int64(q.s, 1);
+        e.principal = column_text(q.s, 2);
+        e.role = column_text(q.s, 3);
+        e.transport = column_text(q.s, 4);
+        e.address = column_text(q.s, 5);
+        e.action = column_text(q.s, 6);
+        e.controller = column_text(q.s, 7);
+        e.target = column_text(q.s, 8);
+        e.request_id = column_text(q.s, 9);
+        e.status = sqlite3_column_int(q.s, 10);
+        e.outcome = column_text(q.s, 11);
+        e.detail = nlohmann::json::parse(column_text(q.s, 12), nullptr, false);
+        page.entries.push_back(std::move(e));
+    }
+    if (rc != SQLITE_DONE) return result(boost::system::in_place_error, error_of(db_, path_, "cannot read"));
+    if (page.entries.size() == f.limit && !page.entries.empty()) page.next_before = page.entries.back().id;
+    return page;
+}
+
+}  // namespace gw::audit

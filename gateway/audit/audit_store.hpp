@@ -1,0 +1,38 @@
+#pragma once
+// The audit trail on disk: <storage>/audit.sqlite3, one table, appended in batches. Not thread-safe:
+// audit_log owns it and uses it from its own thread only. A file of its own, so that the trail
+// neither waits for nor fills the job store.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <boost/system/result.hpp>
+
+#include "gateway/audit/audit_entry.hpp"
+
+struct sqlite3;
+
+namespace gw::audit {
+
+class audit_store {
+  public:
+    // Creates the directory and the file if needed; the error names the file.
+    static boost::system::result<std::unique_ptr<audit_store>, std::string> open(
+        const std::string& directory);
+    ~audit_store();
+    audit_store(const audit_store&) = delete;
+    audit_store& operator=(const audit_store&) = delete;
+
+    // In one transaction; the entries' ids are set. The error says why nothing was written.
+    boost::system::result<void, std::string> append(std::vector<audit_entry>& entries);
+    // Newest first; limit outside 1..500 is clamped by the caller (api/).
+    boost::system::result<audit_page, std::string> query(const audit_filter& filter) const;
+
+  private:
+    audit_store(sqlite3* db, std::string path) : db_(db), path_(std::move(path)) {}
+    sqlite3* db_;
+    std::string path_;
+};
+
+}  // namespace gw::audit
