@@ -15,15 +15,21 @@ std::string string_field(const nlohmann::json& j, const char* key) {
     return it != j.end() && it->is_string() ? it->get<std::string>() : std::string();
 }
 
-}  // namespace
-
-std::optional<audit::audit_entry> audit_entry_for(const caller& who, const call& c) {
+// An entry with who, from where and under which request id; the rest is the caller's to fill in.
+audit::audit_entry entry_by(const caller& who) {
     audit::audit_entry e;
     e.principal = who.name;
     e.role = std::string(to_string(who.role));
     e.transport = who.transport;
     e.address = who.address;
     e.request_id = who.request_id;
+    return e;
+}
+
+}  // namespace
+
+std::optional<audit::audit_entry> audit_entry_for(const caller& who, const call& c) {
+    auto e = entry_by(who);
     if (const auto* op = std::get_if<operation_call>(&c)) {
         e.action = op->operation;
         e.controller = op->controller;
@@ -66,12 +72,7 @@ void complete_audit_entry(audit::audit_entry& e, const api_outcome& out, std::in
 
 audit::audit_entry route_audit_entry(const caller& who, std::string action, std::string target,
                                      unsigned status) {
-    audit::audit_entry e;
-    e.principal = who.name;
-    e.role = std::string(to_string(who.role));
-    e.transport = who.transport;
-    e.address = who.address;
-    e.request_id = who.request_id;
+    auto e = entry_by(who);
     e.action = std::move(action);
     e.target = std::move(target);
     e.detail = nlohmann::json::object();
