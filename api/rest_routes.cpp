@@ -15,6 +15,7 @@
 #include "gateway/events/controller_state_texts.hpp"
 #include "gateway/events/event_hub.hpp"
 #include "gateway/events/event_json.hpp"
+#include "gateway/jobs/job_manager.hpp"
 #include "gateway/version.hpp"
 
 namespace gw::api {
@@ -62,6 +63,10 @@ void ready(request_context& c) {
 void metrics(request_context& c) {
     copy_hub_counters(*c.ctx);
     copy_share_counters(*c.ctx);
+    if (c.ctx->jobs) {
+        if (auto fill = c.ctx->jobs->store_fill_ratio())
+            c.ctx->metrics->set("gw_job_store_fill_ratio", {}, *fill);
+    }
     c.reply_body(http::status::ok, c.ctx->metrics->exposition(), "text/plain; version=0.0.4; charset=utf-8");
 }
 

@@ -59,6 +59,9 @@ server::server(const io_executor& executor, const gateway_config& config, contro
         ctx_->log->info("removed {} unfinished G-code uploads from {}", stale,
                         ctx_->gcode_files->settings().directory.string());
     controller_metrics::describe(*ctx_->metrics);
+    ctx_->metrics->describe(
+        "gw_job_store_fill_ratio", metric_type::gauge,
+        "How full the job store is against storage.max_size_mb (0..1); the log warns at 0.8");
     describe_share_metrics(*ctx_);
     // Gauges exist from the start (a scrape before the first client sees 0, not nothing).
     ctx_->metrics->set("gw_http_connections", {}, 0);

@@ -120,6 +120,10 @@ std::optional<job_hold> job_manager::holding(const std::string& controller) cons
     return impl_->core->holds().find(controller);
 }
 
+std::optional<double> job_manager::store_fill_ratio() const {
+    return impl_->core->store_fill_ratio();
+}
+
 operation_result<job_page> job_manager::list(const job_filter& filter) const {
     return impl_->core->list(filter);
 }

@@ -64,6 +64,8 @@ struct job_manager_settings {
     // An ended job's hub topic (jobs/<id>) is retired this long after its last event: the hub does not
     // keep every job's replay buffer for ever (its history is in the store).
     std::chrono::milliseconds ended_job_topic_ttl{600'000};
+    // The job store's fill (store_fill_ratio, the 80 % warning) is read after writes at most this often.
+    std::chrono::milliseconds store_fill_check{5000};
     // Called on the planner's thread as each plan starts (tests hold a plan there to show that the
     // manager goes on meanwhile); empty in the gateway.
     std::function<void(const std::string& controller)> on_plan_started;
@@ -139,6 +141,9 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
     operation_result<job_record> get(const std::string& id) const;
     // The job that holds `controller` (running or paused there) and its lease; any thread.
     std::optional<job_hold> holding(const std::string& controller) const;
+    // How full the job store is against storage.max_size_mb (0..1), as last checked (after writes, at
+    // most every few seconds); nullopt before the first check or without a size limit. Any thread.
+    std::optional<double> store_fill_ratio() const;
     operation_result<job_page> list(const job_filter& filter) const;
     // The stored events of a job, oldest first (history survives restarts).
     operation_result<std::vector<nlohmann::json>> events(const std::string& id, std::size_t limit) const;

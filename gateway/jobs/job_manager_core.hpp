@@ -62,6 +62,9 @@ inline constexpr std::chrono::milliseconds shutdown_grace{5000};
 // How often writes that the job store refused are tried again.
 inline constexpr std::chrono::milliseconds store_retry_interval{1000};
 
+// Above this part of storage.max_size_mb the log warns (once per crossing), before writes start failing.
+inline constexpr double store_fill_warning = 0.8;
+
 // Seconds the steps from `first` on still need: their motion, settle and dwell estimates. A step that
 // waits for a trigger counts without its wait, which no one can predict (waiting_for shows it).
 inline double remaining_from(const job_plan& plan, std::size_t first) {
@@ -139,6 +142,10 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void controller_halt_latch_changed(const std::string& controller, std::optional<std::string> by);
     // Whether a run on the controller counts its report frames as TTL edges (any thread).
     bool counts_ttl_edges(std::string_view controller) const { return ttl_listeners_.listening(controller); }
+    std::optional<double> store_fill_ratio() const {
+        const double r = store_fill_.load();
+        return r < 0 ? std::nullopt : std::optional<double>(r);
+    }
 
     // execution_host
     void on_step_started(live_job& job, std::size_t index) override;
@@ -201,6 +208,9 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // a write of its progress, a running job pauses at its next checkpoint (nothing may run unrecorded).
     void store_refused(const std::string& id, const operation_error& e, bool progress);
     void retry_unstored_later();
+    // Reads how full the store is (at most every settings_.store_fill_check unless `now`), keeps it for
+    // store_fill_ratio() and warns once when it crosses store_fill_warning.
+    void note_store_fill(bool now = false);
     // Persists the job's restore commands (empty: removes them); a storage error is logged.
     void store_restore_commands(const std::string& id, const std::vector<std::string>& commands);
     // On the hub, for the job's topic (after save: a client never sees what is not stored first); the
@@ -290,6 +300,9 @@ class manager_core final : public execution_host, public std::enable_shared_from
     job_journal journal_{store_, settings_.max_unstored_writes_per_job, log_};
     net::steady_timer store_retry_{strand_};
     bool store_retry_armed_ = false;
+    std::atomic<double> store_fill_{-1};  // -1: not known (no limit, or not checked yet)
+    bool store_fill_high_ = false;        // above store_fill_warning at the last check
+    std::chrono::steady_clock::time_point store_fill_checked_{};
 
     std::shared_ptr<devices::controller_observer> observer_;
 

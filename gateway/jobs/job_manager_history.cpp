@@ -26,6 +26,30 @@ void manager_core::save(const std::string& id, std::optional<job_record> record,
 
 void manager_core::store_write(const std::string& id, job_journal::write w, bool progress) {
     if (auto stored = journal_.append(id, std::move(w)); !stored) store_refused(id, stored.error(), progress);
+    note_store_fill();
+}
+
+void manager_core::note_store_fill(bool now) {
+    const auto t = std::chrono::steady_clock::now();
+    if (!now && t - store_fill_checked_ < settings_.store_fill_check) return;
+    store_fill_checked_ = t;
+    auto store = store_.get();
+    auto fill =
+        store ? store->fill()
+              : operation_result<job_store::fill_level>(make_error(kind::storage_unavailable, "closed"));
+    if (!fill || fill->limit_bytes <= 0) return;
+    const double ratio = static_cast<double>(fill->used_bytes) / static_cast<double>(fill->limit_bytes);
+    store_fill_.store(ratio);
+    const bool high = ratio >= store_fill_warning;
+    if (high && !store_fill_high_)
+        log_->warn(
+            "the job store is {:.0f} % full ({:.1f} of {:.1f} MiB): at 100 % submissions are refused and "
+            "running jobs pause; raise storage.max_size_mb or move old history away",
+            ratio * 100, static_cast<double>(fill->used_bytes) / 1048576.0,
+            static_cast<double>(fill->limit_bytes) / 1048576.0);
+    else if (!high && store_fill_high_)
+        log_->info("the job store is {:.0f} % full again", ratio * 100);
+    store_fill_high_ = high;
 }
 
 operation_result<void> manager_core::write_unstored(const std::string& id) {

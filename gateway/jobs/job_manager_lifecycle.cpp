@@ -9,6 +9,7 @@ void manager_core::start() {
     net::post(strand_, [self = shared_from_this()] {
         if (self->started_ || self->abandoned_) return;
         self->started_ = true;
+        self->note_store_fill(true);
         auto store = self->store_.get();
         if (!store) return;
         auto active = store->in_states({job_state::running, job_state::paused});

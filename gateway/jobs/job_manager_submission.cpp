@@ -168,6 +168,7 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
         auto inserted =
             store ? store->insert(rec, queued_event)
                   : operation_result<void>(make_error(kind::storage_unavailable, "the job store is closed"));
+        note_store_fill();
         if (!inserted) {
             auto e = inserted.error();
             if (e.kind != kind::storage_unavailable) e.kind = kind::storage_unavailable;

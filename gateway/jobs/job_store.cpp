@@ -739,4 +739,23 @@ operation_result<void> job_store::flush() {
     return {};
 }
 
+operation_result<job_store::fill_level> job_store::fill() const {
+    std::lock_guard lock(mutex_);
+    connection c{db_, path_};
+    auto pages = pragma_integer(c, "PRAGMA page_count", "read page count");
+    if (!pages) return pages.error();
+    // Free pages (history deleted, a table dropped) are taken again before the file grows.
+    auto free = pragma_integer(c, "PRAGMA freelist_count", "read free pages");
+    if (!free) return free.error();
+    auto size = pragma_integer(c, "PRAGMA page_size", "read page size");
+    if (!size) return size.error();
+    auto limit = pragma_integer(c, "PRAGMA max_page_count", "read max page count");
+    if (!limit) return limit.error();
+    fill_level f;
+    f.used_bytes = (*pages - *free) * *size;
+    // SQLite's default maximum (about 4 billion pages) means no limit was set.
+    f.limit_bytes = *limit >= 0xFFFFFFFE ? 0 : *limit * *size;
+    return f;
+}
+
 }  // namespace gw::jobs

@@ -94,6 +94,14 @@ class job_store {
     // Checkpoints the WAL into the main file (clean shutdown).
     operation_result<void> flush();
 
+    // How full the file is against storage.max_size_mb (limit_bytes 0: SQLite's own limit only); free
+    // pages do not count, since they are used again before the file grows.
+    struct fill_level {
+        std::int64_t used_bytes = 0;
+        std::int64_t limit_bytes = 0;
+    };
+    operation_result<fill_level> fill() const;
+
     // <directory>/jobs.sqlite3
     const std::string& path() const { return path_; }
 

@@ -136,6 +136,7 @@ class manager_fixture : public ::testing::Test {
         s.max_unstored_writes_per_job = max_unstored_writes_;
         s.ended_job_topic_ttl = ended_job_topic_ttl_;
         s.on_plan_started = on_plan_started_;
+        s.store_fill_check = store_fill_check_;
         return s;
     }
 
@@ -342,6 +343,7 @@ class manager_fixture : public ::testing::Test {
     std::size_t storage_max_size_mb_ = 64;
     std::size_t max_unstored_writes_ = 10000;
     std::function<void(const std::string&)> on_plan_started_;  // settings().on_plan_started
+    std::chrono::milliseconds store_fill_check_{5000};         // settings().store_fill_check
     std::chrono::milliseconds ended_job_topic_ttl_{600'000};
 };
 

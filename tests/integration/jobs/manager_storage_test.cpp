@@ -131,6 +131,40 @@ class filler {
     sqlite3* db_ = nullptr;
 };
 
+// The store never fills silently: the manager reads its fill after writes (store_fill_ratio, the
+// gw_job_store_fill_ratio metric; the log warns above 80 %).
+TEST_F(manager_storage_failure_test, the_fill_of_the_store_is_known_before_it_is_full) {
+    storage_max_size_mb_ = 1;
+    store_fill_check_ = 0ms;  // every write
+    add_sim("sim1", "full", 50);
+    start();
+    auto first = submit("sim1", job_type::array, next_row(2));
+    ASSERT_TRUE(first) << first.error().message;
+    ASSERT_TRUE(wait_until([&] { return manager_->store_fill_ratio().has_value(); }));
+    const double empty = *manager_->store_fill_ratio();
+    EXPECT_GT(empty, 0.0);
+    EXPECT_LT(empty, 0.5);
+    // Another program takes the file to about 85 % of the 1 MB (room left for the writes below); the
+    // next write shows it.
+    {
+        filler other(database());
+        const auto blob_kib = static_cast<int>((0.85 - empty) * 1024);
+        other.exec(("CREATE TABLE filler (b BLOB); INSERT INTO filler VALUES (zeroblob(" +
+                    std::to_string(blob_kib) + " * 1024))")
+                       .c_str());
+    }
+    ASSERT_TRUE(submit("sim1", job_type::array, next_row(2)));
+    ASSERT_TRUE(wait_until([&] { return manager_->store_fill_ratio().value_or(0) >= 0.8; }))
+        << "fill " << manager_->store_fill_ratio().value_or(-1);
+    {
+        filler other(database());
+        other.exec("DROP TABLE filler");  // free pages, used again before the file grows
+    }
+    ASSERT_TRUE(submit("sim1", job_type::array, next_row(2)));
+    EXPECT_TRUE(wait_until([&] { return manager_->store_fill_ratio().value_or(1) < 0.5; }))
+        << "fill " << manager_->store_fill_ratio().value_or(-1);
+}
+
 TEST_F(manager_storage_failure_test, a_store_that_fills_up_pauses_the_running_job_until_it_has_room) {
     constexpr std::size_t wells = 24;
     storage_max_size_mb_ = 1;
