@@ -12,6 +12,7 @@ what and how it ended, and nothing else does:
   - GET /api/v1/audit is admin only, filters by controller, principal and time, pages with before,
     refuses a bad parameter (422);
   - failed authentications are logged at info with the address, rate-limited (100 tries: a few lines);
+  - the job store's fill is in /api/v1/metrics (gw_job_store_fill_ratio);
   - the trail is on disk: after a restart of the gateway the entries are still there.
 
 Run by ctest with Debian's /usr/bin/python3. Exit code 0 when every check passed.
@@ -180,6 +181,14 @@ def test_failed_authentications_logged(fx, c):
     check(1 <= len(lines) <= 8, f"{len(lines)} log lines for 100 failed authentications")
 
 
+def test_store_fill_metric(c):
+    text = c.request("GET", "/api/v1/metrics", token=VIEW).body
+    lines = [line for line in text.splitlines() if line.startswith("gw_job_store_fill_ratio ")]
+    check(len(lines) == 1, f"gw_job_store_fill_ratio: {lines}")
+    value = float(lines[0].split()[1])
+    check(0 < value < 0.01, f"a new store is a small part of 1024 MB: {value}")
+
+
 def test_durable(fx, args, config, c):
     count = len(trail(c, "?limit=500")["entries"])
     fx.gateway.terminate()
@@ -220,6 +229,7 @@ def main():
         fx.run("WebSocket and MQTT calls", test_websocket_and_mqtt, c, port, broker, gateway_topic)
         fx.run("GET /api/v1/audit: admin only, filters, paging", test_query, c)
         fx.run("failed authentications are logged, rate-limited", test_failed_authentications_logged, fx, c)
+        fx.run("the job store's fill is a metric", test_store_fill_metric, c)
         fx.run("the trail outlives a restart", test_durable, fx, args, config, c)
         fx.finish_log(60)
         return fx.report()
