@@ -41,8 +41,43 @@ const std::string* string_field(const json& j, const char* name) {
 
 }  // namespace
 
+namespace {
+
+// Reads a JSON text until it knows whether the top-level object has a "sig" key: nothing is built, and
+// the scan stops at that key (the rest of a large body is not read twice).
+class top_level_sig_finder : public nlohmann::json_sax<json> {
+  public:
+    bool found = false;
+
+    bool key(string_t& k) override {
+        if (depth_ == 1 && k == "sig") found = true;
+        return !found;
+    }
+    bool start_object(std::size_t) override { return ++depth_ > 0; }
+    bool end_object() override { return --depth_ >= 0; }
+    bool start_array(std::size_t) override { return ++depth_ > 0; }
+    bool end_array() override { return --depth_ >= 0; }
+    bool null() override { return true; }
+    bool boolean(bool) override { return true; }
+    bool number_integer(number_integer_t) override { return true; }
+    bool number_unsigned(number_unsigned_t) override { return true; }
+    bool number_float(number_float_t, const string_t&) override { return true; }
+    bool string(string_t&) override { return true; }
+    bool binary(binary_t&) override { return true; }
+    bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override {
+        return false;
+    }
+
+  private:
+    int depth_ = 0;
+};
+
+}  // namespace
+
 bool looks_signed(std::string_view payload) {
-    return payload.find("\"sig\"") != std::string_view::npos;
+    top_level_sig_finder finder;
+    json::sax_parse(payload, &finder);
+    return finder.found;
 }
 
 result read_signed_command(std::string_view payload) {

@@ -35,8 +35,8 @@ struct signed_command {
     std::string body;  // the command message's JSON text, not parsed yet
 };
 
-// True when the payload is meant as a signed command (a JSON object with a "sig" key); a cheap test
-// on the text, so that a bearer-token payload is told apart without being parsed twice.
+// True when the payload is meant as a signed command: a JSON object with a "sig" key at its top
+// level (a "sig" deeper in a bearer-token payload's arguments does not count). Builds nothing.
 bool looks_signed(std::string_view payload);
 
 // The envelope, or why it is not one (never answered: the sender is not known yet).

@@ -1,5 +1,6 @@
 // The signed MQTT command envelope (api/mqtt/mqtt_signature.hpp) on arbitrary payloads, and the
-// replay guard on arbitrary (nonce, ts) sequences. Checks: an envelope read has the documented
+// replay guard on arbitrary (nonce, ts) sequences. Checks: an envelope that reads is one that
+// looks_signed tells apart from a bearer payload; it has the documented
 // shapes (a key of 1-64 characters, a nonce of 8-64 of [A-Za-z0-9_-], 64 hex digits of signature);
 // a signature made for its text matches and one for another key does not; the replay guard never
 // remembers more than its bound, never admits a nonce twice within the window, and admits nothing
@@ -25,8 +26,10 @@ void check(bool condition, int line = __builtin_LINE()) {
 }
 
 void envelope(std::string_view payload) {
+    const bool looks = gw::api::looks_signed(payload);
     auto c = gw::api::read_signed_command(payload);
     if (!c) return;
+    check(looks);  // every envelope that reads is taken for a signed command
     check(!c->key.empty() && c->key.size() <= 64);
     check(c->nonce.size() >= 8 && c->nonce.size() <= 64);
     check(c->sig.size() == 64);

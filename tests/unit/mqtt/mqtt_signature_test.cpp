@@ -68,7 +68,13 @@ TEST(mqtt_signature, reads_the_envelope_and_refuses_what_is_not_one) {
 
 TEST(mqtt_signature, a_signed_payload_is_told_from_a_bearer_one) {
     EXPECT_TRUE(looks_signed(R"({"key":"k","sig":"00"})"));
+    EXPECT_TRUE(looks_signed(R"({"body":"{}","nonce":"abcdefgh","sig":"00","key":"k"})"));
     EXPECT_FALSE(looks_signed(R"({"operation":"halt","token":"t"})"));
+    // "sig" deeper down, or in a string, is a bearer payload's business.
+    EXPECT_FALSE(looks_signed(R"({"operation":"command","args":{"sig":1},"token":"t"})"));
+    EXPECT_FALSE(looks_signed(R"({"operation":"command","args":{"command":""sig""},"token":"t"})"));
+    EXPECT_FALSE(looks_signed(R"([{"sig":1}])"));
+    EXPECT_FALSE(looks_signed("not json"));
 }
 
 TEST(mqtt_signature, the_replay_guard_takes_a_nonce_once_within_the_window) {
