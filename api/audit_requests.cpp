@@ -7,14 +7,6 @@
 
 namespace gw::api {
 
-namespace {
-
-operation_error invalid_parameter(std::string name, std::string what) {
-    return invalid_field(std::move(name), std::move(what));
-}
-
-}  // namespace
-
 operation_result<audit::audit_filter> parse_audit_filter(const query_params& q) {
     if (auto known =
             check_known_parameters(q, {"controller", "principal", "since", "until", "limit", "before"});
@@ -36,14 +28,13 @@ operation_result<audit::audit_filter> parse_audit_filter(const query_params& q) 
         if (!v) continue;
         auto n = parse_count(*v);
         if (!n || *n > static_cast<std::size_t>(INT64_MAX))
-            return invalid_parameter(p.name, std::string(p.name) + " must be " + p.what);
+            return invalid_field(p.name, std::string(p.name) + " must be " + p.what);
         *p.into = static_cast<std::int64_t>(*n);
     }
     if (auto v = query_value(q, "limit")) {
         auto n = parse_count(*v);
         if (!n || *n < 1 || *n > max_audit_limit)
-            return invalid_parameter("limit",
-                                     "limit must be an integer 1.." + std::to_string(max_audit_limit));
+            return invalid_field("limit", "limit must be an integer 1.." + std::to_string(max_audit_limit));
         f.limit = *n;
     }
     return f;

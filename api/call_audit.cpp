@@ -3,6 +3,7 @@
 #include <chrono>
 #include <string>
 
+#include "gateway/common/timestamp.hpp"
 #include "gateway/config/config.hpp"
 
 namespace gw::api {
@@ -78,9 +79,7 @@ audit::audit_entry route_audit_entry(const caller& who, std::string action, std:
     e.detail = nlohmann::json::object();
     e.status = static_cast<int>(status);
     e.outcome = status < 400 ? "ok" : status < 500 ? "refused" : "failed";
-    e.time_ms = std::chrono::duration_cast<std::chrono::milliseconds>(
-                    std::chrono::system_clock::now().time_since_epoch())
-                    .count();
+    e.time_ms = epoch_ms(std::chrono::system_clock::now());
     return e;
 }
 

@@ -14,6 +14,7 @@
 #include "api/lease_requests.hpp"
 #include "api/operation_requests.hpp"
 #include "gateway/audit/audit_log.hpp"
+#include "gateway/common/timestamp.hpp"
 
 namespace gw::api {
 
@@ -42,10 +43,7 @@ api_handler audited(api_context& ctx, audit::audit_entry entry, api_handler done
     auto ex = boost::asio::get_associated_executor(done, ctx.executor);
     return boost::asio::bind_executor(
         ex, [log = ctx.audit, entry = std::move(entry), done = std::move(done)](api_outcome out) mutable {
-            complete_audit_entry(entry, out,
-                                 std::chrono::duration_cast<std::chrono::milliseconds>(
-                                     std::chrono::system_clock::now().time_since_epoch())
-                                     .count());
+            complete_audit_entry(entry, out, epoch_ms(std::chrono::system_clock::now()));
             log->record(std::move(entry));
             std::move(done)(std::move(out));
         });

@@ -182,14 +182,6 @@ struct program_request {
     caller who;         // save: for the audit trail (check_program_header sets name and role)
 };
 
-// A saved program in the audit trail (the store's id, or the refusal's kind).
-void audit_save(const api_context& ctx, const program_request& r, const string_response& res) {
-    if (!ctx.audit || r.action != program_action::save) return;
-    std::string target(res[http::field::location]);
-    if (const auto slash = target.rfind('/'); slash != std::string::npos) target.erase(0, slash + 1);
-    ctx.audit->record(route_audit_entry(r.who, "gcode.upload", target, res.result_int()));
-}
-
 // POST /gcode/plan, /gcode/preview.svg or /gcode/files: its route and action; nullopt for any other.
 std::optional<program_request> program_route(http::verb method, std::string_view path) {
     if (method != http::verb::post || !path.starts_with(gcode_prefix)) return std::nullopt;
@@ -235,6 +227,15 @@ string_response created_response(const gcode_file_info& info, const response_met
     return res;
 }
 
+// The answer to a save (201 with the file, or the store's refusal), recorded in the audit trail.
+string_response saved_response(const api_context& ctx, const program_request& r,
+                               const operation_result<gcode_file_info>& saved, const response_meta& meta) {
+    auto res = saved ? created_response(*saved, meta) : error_of(saved.error(), meta);
+    if (ctx.audit)
+        ctx.audit->record(route_audit_entry(r.who, "gcode.upload", saved ? saved->id : "", res.result_int()));
+    return res;
+}
+
 // The route's work on a program held in `in` (plan, preview) or in memory (save, in-memory bodies).
 string_response plan_or_preview(const program_request& r, std::istream& in, const response_meta& m) {
     return r.action == program_action::plan ? plan_response(in, r.query, m)
@@ -255,9 +256,7 @@ struct gcode_program_intake::state {
         if (request.action == program_action::save) {
             auto saved = ctx->gcode_files->commit(std::move(*upload), request.name);
             upload.reset();
-            auto res = saved ? created_response(*saved, meta) : error_of(saved.error(), meta);
-            audit_save(*ctx, request, res);
-            return res;
+            return saved_response(*ctx, request, saved, meta);
         }
         auto path = upload->contents();
         if (!path) return error_of(path.error(), meta);
@@ -500,10 +499,7 @@ void program_in_body(request_context& c) {
         view_buf buf(body);
         std::istream in(&buf);
         if (r.action != program_action::save) return plan_or_preview(r, in, meta);
-        auto saved = ctx->gcode_files->save(in, r.name);
-        auto res = saved ? created_response(*saved, meta) : error_of(saved.error(), meta);
-        audit_save(*ctx, r, res);
-        return res;
+        return saved_response(*ctx, r, ctx->gcode_files->save(in, r.name), meta);
     });
 }
 

@@ -12,6 +12,7 @@
 #include "api/mqtt/mqtt_request.hpp"
 #include "api/websocket_protocol.hpp"
 #include "gateway/common/metrics.hpp"
+#include "gateway/common/timestamp.hpp"
 
 namespace gw::api {
 
@@ -148,9 +149,7 @@ std::optional<std::pair<auth_identity, std::string>> mqtt_commands::verify_signe
         drop(in.topic, "unauthenticated", "the signature of key \"" + c.key + "\" does not match");
         return std::nullopt;
     }
-    const auto now_ms = std::chrono::duration_cast<std::chrono::milliseconds>(
-                            std::chrono::system_clock::now().time_since_epoch())
-                            .count();
+    const auto now_ms = epoch_ms(std::chrono::system_clock::now());
     switch (replays_.admit(c.key, c.nonce, c.ts_ms, now_ms)) {
         case signature_replay_guard::verdict::fresh:
             break;

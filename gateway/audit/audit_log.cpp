@@ -6,16 +6,11 @@
 #include <spdlog/spdlog.h>
 
 #include "gateway/audit/audit_store.hpp"
+#include "gateway/common/timestamp.hpp"
 
 namespace gw::audit {
 
 namespace {
-
-std::int64_t now_ms() {
-    return std::chrono::duration_cast<std::chrono::milliseconds>(
-               std::chrono::system_clock::now().time_since_epoch())
-        .count();
-}
 
 // Queries waiting at most: each holds a caller's connection anyway, so the bound is generous.
 constexpr std::size_t max_queries_waiting = 256;
@@ -46,7 +41,7 @@ void audit_log::record(audit_entry entry) {
         std::lock_guard lock(mutex_);
         if (entries_waiting_ >= max_waiting) {
             ++lost_;
-            const auto now = now_ms();
+            const auto now = epoch_ms(std::chrono::system_clock::now());
             if (log_ && now - last_loss_logged_ms_ >= 1000) {
                 last_loss_logged_ms_ = now;
                 log_->warn("audit: {} entries not recorded so far: the writer is {} entries behind", lost_,
@@ -80,6 +75,12 @@ std::uint64_t audit_log::lost() const {
 
 void audit_log::run() {
     std::vector<audit_entry> batch;
+    // One transaction for what has gathered; a store that refuses it loses those entries (logged).
+    auto write_batch = [&] {
+        if (auto r = store_->append(batch); !r && log_)
+            log_->error("audit: {} entries lost: {}", batch.size(), r.error());
+        batch.clear();
+    };
     while (true) {
         std::deque<work> taken;
         {
@@ -95,15 +96,11 @@ void audit_log::run() {
                 batch.push_back(std::move(*e));
                 continue;
             }
-            if (auto r = store_->append(batch); !r && log_)
-                log_->error("audit: {} entries lost: {}", batch.size(), r.error());
-            batch.clear();
+            write_batch();
             auto& q = std::get<query_request>(w);
             q.done(store_->query(q.filter));
         }
-        if (auto r = store_->append(batch); !r && log_)
-            log_->error("audit: {} entries lost: {}", batch.size(), r.error());
-        batch.clear();
+        write_batch();
     }
 }
 

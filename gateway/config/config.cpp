@@ -142,6 +142,9 @@ E read_enum(const json& j, const std::string& path,
     fail(path, "must be one of " + names);
 }
 
+const std::initializer_list<std::pair<std::string_view, role>> role_table = {
+    {"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}};
+
 const std::initializer_list<std::pair<std::string_view, log_level>> level_table = {
     {"trace", log_level::trace}, {"debug", log_level::debug}, {"info", log_level::info},
     {"warn", log_level::warn},   {"error", log_level::error}, {"critical", log_level::critical},
@@ -343,10 +346,7 @@ void read_tokens(const json& tokens, const std::string& path, std::vector<auth_t
                 fail(t.path("token_sha256"), "must be 64 hexadecimal digits (asi-gateway token new)");
             tok.digest = *digest;
         }
-        if (auto* v = t.get("role"))
-            tok.role = read_enum<role>(
-                *v, t.path("role"),
-                {{"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}});
+        if (auto* v = t.get("role")) tok.role = read_enum<role>(*v, t.path("role"), role_table);
         for (const auto& other : out) {
             if (other.name == tok.name) fail(t.path("name"), "duplicate name \"" + tok.name + "\"");
             if (other.digest == tok.digest)
@@ -358,10 +358,7 @@ void read_tokens(const json& tokens, const std::string& path, std::vector<auth_t
 
 void read_auth(const json& j, auth_config& out) {
     object_reader r(j, "auth", {"tokens", "tokens_file", "halt_role"});
-    if (auto* v = r.get("halt_role"))
-        out.halt_role = read_enum<role>(
-            *v, r.path("halt_role"),
-            {{"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}});
+    if (auto* v = r.get("halt_role")) out.halt_role = read_enum<role>(*v, r.path("halt_role"), role_table);
     if (auto* v = r.get("tokens_file")) {
         out.tokens_file = read_string(*v, r.path("tokens_file"));
         if (out.tokens_file.empty()) fail(r.path("tokens_file"), "must not be empty");
@@ -401,10 +398,7 @@ void read_signing_keys(const json& keys, const std::string& path, std::vector<mq
         if (!name) fail(k.path("name"), "required");
         entry.name = read_string(*name, k.path("name"));
         if (entry.name.empty() || entry.name.size() > 64) fail(k.path("name"), "must be 1..64 characters");
-        if (auto* v = k.get("role"))
-            entry.role = read_enum<role>(
-                *v, k.path("role"),
-                {{"viewer", role::viewer}, {"operator", role::operator_}, {"admin", role::admin}});
+        if (auto* v = k.get("role")) entry.role = read_enum<role>(*v, k.path("role"), role_table);
         auto* key = k.get("key");
         if (!key) fail(k.path("key"), "required (openssl rand -hex 32)");
         const auto hex = read_string(*key, k.path("key"));
