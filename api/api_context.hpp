@@ -36,6 +36,7 @@ class audit_log;
 namespace gw::api {
 
 class batch_text_cache;
+class tls_server_context;
 class gcode_worker;
 class port_scan_worker;
 
@@ -62,6 +63,10 @@ struct api_context {
     const shared_ports* shares = nullptr;
     // The audit trail of state-changing calls (gateway/audit); null: none kept (no storage directory).
     std::shared_ptr<audit::audit_log> audit;
+    // Reverse proxies whose X-Forwarded-For names the client (http.trusted_proxies).
+    trusted_proxies proxies;
+    // HTTPS and WSS (http.tls); null: plain HTTP.
+    std::shared_ptr<tls_server_context> tls;
 };
 
 }  // namespace gw::api

@@ -5,14 +5,17 @@
 namespace gw::api {
 
 connection_table::connection_table(settings s)
-    : settings_(s),
+    : settings_(std::move(s)),
       per_address_(
-          std::min(s.max_per_address, std::max<std::size_t>(1, s.max_connections - s.max_connections / 8))) {}
+          std::min(settings_.max_per_address,
+                   std::max<std::size_t>(1, settings_.max_connections - settings_.max_connections / 8))),
+      per_proxy_(std::max<std::size_t>(1, settings_.max_connections - settings_.max_connections / 8)) {}
 
 connection_table::admission connection_table::admit(const net::ip::address& from, clock::time_point now) {
     admission a;
     std::lock_guard lock(mutex_);
-    if (auto it = per_address_open_.find(from); it != per_address_open_.end() && it->second >= per_address_) {
+    const auto limit = settings_.proxies.contains(from) ? per_proxy_ : per_address_;
+    if (auto it = per_address_open_.find(from); it != per_address_open_.end() && it->second >= limit) {
         a.refused = refusal::address_limit;
         a.detail = from.to_string() + " has " + std::to_string(it->second) +
                    " connections open, the most one address may; try again later (a HALT is still served)";

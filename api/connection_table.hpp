@@ -33,6 +33,7 @@
 
 #include "api/connection_permit.hpp"
 #include "api/net.hpp"
+#include "gateway/config/trusted_proxies.hpp"
 
 namespace gw::api {
 
@@ -45,6 +46,8 @@ class connection_table : public std::enable_shared_from_this<connection_table> {
         std::size_t max_per_address = 64;
         std::chrono::milliseconds patience{5000};  // idleness or body reading that may be shed
         std::size_t halt_reserve = 8;              // slots beyond the limits, for a HALT alone
+        // Reverse proxies speak for many clients: held to 7/8 of all slots, not to max_per_address.
+        trusted_proxies proxies;
     };
 
     enum class refusal : std::uint8_t { none, connection_limit, address_limit };
@@ -92,6 +95,7 @@ class connection_table : public std::enable_shared_from_this<connection_table> {
 
     settings settings_;
     std::size_t per_address_;
+    std::size_t per_proxy_;  // a trusted proxy's share
     mutable std::mutex mutex_;
     std::uint64_t next_id_ = 1;
     std::size_t open_ = 0;          // counted entries

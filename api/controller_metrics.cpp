@@ -70,6 +70,8 @@ void controller_metrics::describe(gw::metrics& m) {
                "Open HTTP connections (WebSocket ones included until upgraded)");
     m.describe("gw_http_connections_refused_total", counter,
                "Connections refused with 503 by reason: limit (every slot serving), address (its share)");
+    m.describe("gw_http_tls_handshake_failures_total", counter,
+               "TLS handshakes that failed or did not finish within the header timeout (http.tls)");
     m.describe("gw_http_connections_shed_total", counter,
                "Connections closed while waiting for a request header, to make room for a new client");
     m.describe("gw_websocket_clients", gauge, "Connected WebSocket clients");

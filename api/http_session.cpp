@@ -8,6 +8,7 @@
 #include "api/gcode_worker.hpp"
 #include "api/halt_requests.hpp"
 #include "api/request_id.hpp"
+#include "api/tls_server_context.hpp"
 #include "api/websocket_protocol.hpp"
 #include "api/websocket_session.hpp"
 #include "gateway/common/metrics.hpp"
@@ -53,14 +54,17 @@ std::string method_label(http::verb method) {
 http_session::http_session(session_socket&& socket, std::shared_ptr<api_context> ctx,
                            std::shared_ptr<connection_permit> permit, std::shared_ptr<body_budget> bodies,
                            std::string refusal)
-    : stream_(std::move(socket)),
+    : stream_(std::move(socket), ctx->tls ? ctx->tls->current() : nullptr),
       ctx_(std::move(ctx)),
       permit_(std::move(permit)),
       bodies_(std::move(bodies)),
       refusal_(std::move(refusal)) {
     beast::error_code ec;
     const auto peer = stream_.socket().remote_endpoint(ec);
-    if (!ec) client_address_ = peer.address().to_string();
+    if (!ec) {
+        peer_address_ = peer.address();
+        client_address_ = peer_address_.to_string();
+    }
     ctx_->metrics->increment("gw_http_connections", {}, 1);
 }
 
@@ -101,6 +105,17 @@ void http_session::set_phase(connection_phase phase) {
 }
 
 void http_session::on_run() {
+    if (!stream_.is_tls()) return on_handshake({});
+    // A client that does not finish its handshake in time is one that waits for its header.
+    stream_.expires_after(ctx_->limits.header_timeout);
+    stream_.async_handshake(beast::bind_front_handler(&http_session::on_handshake, shared_from_this()));
+}
+
+void http_session::on_handshake(beast::error_code ec) {
+    if (ec) {
+        ctx_->metrics->increment("gw_http_tls_handshake_failures_total", {});
+        return fail(ec, "TLS handshake");
+    }
     if (!permit_) {
         request_id_ = make_request_id();
         method_ = "-";
@@ -181,6 +196,9 @@ void http_session::on_header(beast::error_code ec, std::size_t) {
     set_phase(connection_phase::serving);
     request_id_ = request_id_of(header);
     method_ = method_label(header.method());
+    // Behind a trusted reverse proxy, each request names its own client.
+    if (!ctx_->proxies.empty())
+        client_address_ = ctx_->proxies.client_address(peer_address_, header["X-Forwarded-For"]);
     stream_.expires_after(ctx_->limits.read_timeout);  // the body's deadline
     const bool has_body = !header_parser_->is_done();
 

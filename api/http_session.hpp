@@ -8,6 +8,7 @@
 // upload thread), never held whole in memory. One request at a time (no pipelining).
 // The session reports its phase to the connection table through its permit (waiting for a header,
 // idle, reading a body, serving), so a waiting or slow connection can be shed for a newcomer.
+// With http.tls, a TLS handshake comes first, within the header timeout.
 // All I/O runs on the session's own strand (the socket's executor); owned by its pending
 // operations (shared_from_this), tracked weakly by the connection table for shedding and stop().
 
@@ -22,6 +23,7 @@
 #include "api/api_context.hpp"
 #include "api/body_budget.hpp"
 #include "api/connection_permit.hpp"
+#include "api/http_stream.hpp"
 #include "api/net.hpp"
 #include "api/router.hpp"
 #include "gateway/common/metrics.hpp"
@@ -47,6 +49,7 @@ class http_session : public std::enable_shared_from_this<http_session>, public t
 
   private:
     void on_run();
+    void on_handshake(beast::error_code ec);
     void do_read();
     void on_first_bytes(beast::error_code ec, std::size_t bytes);
     void do_read_header();
@@ -76,13 +79,15 @@ class http_session : public std::enable_shared_from_this<http_session>, public t
     void fail(beast::error_code ec, const char* what);
     void set_phase(connection_phase phase);
 
-    session_stream stream_;
+    http_stream stream_;  // plain or TLS (http.tls)
     beast::flat_buffer buffer_;
     std::shared_ptr<api_context> ctx_;
     std::shared_ptr<connection_permit> permit_;
     std::shared_ptr<body_budget> bodies_;
-    std::string refusal_;         // not empty: the limits refused this connection (a HALT reserve slot)
-    std::string client_address_;  // the peer's address, for the audit trail
+    std::string refusal_;  // not empty: the limits refused this connection (a HALT reserve slot)
+    net::ip::address peer_address_;
+    std::string client_address_;  // the request's client (the peer, or whom a trusted proxy names), for the
+                                  // audit trail
     std::optional<boost::asio::steady_timer> reserve_timer_;  // a reserve slot's wait for its request
     bool reserve_expired_ = false;
     bool first_request_ = true;

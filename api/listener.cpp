@@ -15,8 +15,10 @@ listener::listener(const io_executor& executor, const net::ip::tcp::endpoint& en
       retry_timer_(strand_),
       ctx_(std::move(ctx)),
       connections_(std::make_shared<connection_table>(
-          connection_table::settings{ctx_->limits.max_connections, ctx_->limits.max_connections_per_address,
-                                     ctx_->limits.header_timeout})),
+          connection_table::settings{.max_connections = ctx_->limits.max_connections,
+                                     .max_per_address = ctx_->limits.max_connections_per_address,
+                                     .patience = ctx_->limits.header_timeout,
+                                     .proxies = ctx_->proxies})),
       bodies_(std::make_shared<body_budget>(ctx_->limits.max_buffered_body_bytes)) {
     acceptor_.open(endpoint.protocol());
     acceptor_.set_option(net::socket_base::reuse_address(true));

@@ -44,7 +44,8 @@ std::shared_ptr<audit::audit_log> make_audit_log(const gateway_config& config) {
 server::server(const io_executor& executor, const gateway_config& config, controller_registry& registry,
                std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
                std::shared_ptr<jobs::job_manager> jobs, std::shared_ptr<lease_manager> leases,
-               std::shared_ptr<const controller_state_texts> state_texts, const shared_ports* shares)
+               std::shared_ptr<const controller_state_texts> state_texts, const shared_ports* shares,
+               std::shared_ptr<tls_server_context> tls)
     : executor_(executor),
       http_(config.http),
       ctx_(std::make_shared<api_context>(api_context{
@@ -53,7 +54,7 @@ server::server(const io_executor& executor, const gateway_config& config, contro
           std::make_shared<api::gcode_worker>(), std::make_shared<api::port_scan_worker>(),
           std::move(state_texts), std::make_shared<batch_text_cache>(),
           browser_rules{config.http.allowed_origins, config.http.allowed_hosts, config.auth.tokens.empty()},
-          shares, make_audit_log(config)})) {
+          shares, make_audit_log(config), config.http.proxies, std::move(tls)})) {
     // main holds the storage lock by now: no other gateway uploads into this store.
     if (auto stale = ctx_->gcode_files->remove_stale_temporaries())
         ctx_->log->info("removed {} unfinished G-code uploads from {}", stale,
@@ -89,12 +90,13 @@ void server::start() {
     }
     listener_->run();
     auto ep = listener_->local_endpoint();
+    const char* scheme = ctx_->tls ? "https" : "http";
     if (ctx_->auth.tokens.empty())
-        ctx_->log->info("listening on http://{}:{} (no auth tokens: loopback only, every client is admin)",
-                        ep.address().to_string(), ep.port());
+        ctx_->log->info("listening on {}://{}:{} (no auth tokens: loopback only, every client is admin)",
+                        scheme, ep.address().to_string(), ep.port());
     else
-        ctx_->log->info("listening on http://{}:{} ({} auth tokens)", ep.address().to_string(), ep.port(),
-                        ctx_->auth.tokens.size());
+        ctx_->log->info("listening on {}://{}:{} ({} auth tokens)", scheme, ep.address().to_string(),
+                        ep.port(), ctx_->auth.tokens.size());
 }
 
 void server::stop() {

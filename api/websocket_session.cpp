@@ -52,7 +52,7 @@ websocket_limits websocket_limits_from(const http_limits& limits) {
     return l;
 }
 
-void start_websocket_session(session_stream&& stream, http::request<http::string_body>&& request,
+void start_websocket_session(http_stream&& stream, http::request<http::string_body>&& request,
                              std::shared_ptr<api_context> context, auth_identity who,
                              std::shared_ptr<connection_permit> permit,
                              std::optional<std::chrono::milliseconds> batch_window) {
@@ -62,7 +62,7 @@ void start_websocket_session(session_stream&& stream, http::request<http::string
     session->run(std::move(request));
 }
 
-websocket_session::websocket_session(session_stream&& stream, std::shared_ptr<api_context> context,
+websocket_session::websocket_session(http_stream&& stream, std::shared_ptr<api_context> context,
                                      auth_identity who, websocket_limits limits,
                                      std::shared_ptr<connection_permit> permit,
                                      std::optional<std::chrono::milliseconds> batch_window)
@@ -74,11 +74,7 @@ websocket_session::websocket_session(session_stream&& stream, std::shared_ptr<ap
       watchdog_(ws_.get_executor()),
       permit_(std::move(permit)),
       batch_window_(batch_window),
-      batch_timer_(ws_.get_executor()) {
-    beast::error_code ec;
-    const auto peer = beast::get_lowest_layer(ws_).socket().remote_endpoint(ec);
-    if (!ec) client_address_ = peer.address().to_string();
-}
+      batch_timer_(ws_.get_executor()) {}
 
 websocket_session::~websocket_session() {
     // Normally finish() ran already; this covers an io_context torn down mid-session.
@@ -88,6 +84,9 @@ websocket_session::~websocket_session() {
 
 void websocket_session::run(http::request<http::string_body> request) {
     upgrade_ = std::move(request);
+    beast::error_code ec;
+    const auto peer = beast::get_lowest_layer(ws_).socket().remote_endpoint(ec);
+    if (!ec) client_address_ = ctx_->proxies.client_address(peer.address(), upgrade_["X-Forwarded-For"]);
     net::dispatch(ws_.get_executor(), [self = shared_from_this()] {
         if (self->ctx_->metrics) describe_metrics(*self->ctx_->metrics);
         // Beast's own timers govern the WebSocket from here; the HTTP stream's must be off.

@@ -34,6 +34,7 @@
 #include "api/auth.hpp"
 #include "api/calls.hpp"
 #include "api/connection_permit.hpp"
+#include "api/http_stream.hpp"
 #include "api/net.hpp"
 #include "api/operation_requests.hpp"
 #include "gateway/events/event.hpp"
@@ -47,7 +48,7 @@ struct api_outcome;
 // Takes over the connection: accepts the upgrade `request` (already read, already authenticated as
 // `who`) and runs the session until it closes. The session keeps the connection's `permit` (its slot
 // in http.limits.max_connections) until it ends. `batch_window`: the client's batch_ms.
-void start_websocket_session(session_stream&& stream, http::request<http::string_body>&& request,
+void start_websocket_session(http_stream&& stream, http::request<http::string_body>&& request,
                              std::shared_ptr<api_context> context, auth_identity who,
                              std::shared_ptr<connection_permit> permit = nullptr,
                              std::optional<std::chrono::milliseconds> batch_window = std::nullopt);
@@ -72,7 +73,7 @@ websocket_limits websocket_limits_from(const http_limits& limits);
 class websocket_session final : public gw::event_sink,
                                 public std::enable_shared_from_this<websocket_session> {
   public:
-    websocket_session(session_stream&& stream, std::shared_ptr<api_context> context, auth_identity who,
+    websocket_session(http_stream&& stream, std::shared_ptr<api_context> context, auth_identity who,
                       websocket_limits limits, std::shared_ptr<connection_permit> permit = nullptr,
                       std::optional<std::chrono::milliseconds> batch_window = std::nullopt);
     ~websocket_session() override;
@@ -121,7 +122,7 @@ class websocket_session final : public gw::event_sink,
     void finish(std::string_view why);
     void fail(beast::error_code ec, std::string_view what);
 
-    websocket::stream<session_stream> ws_;
+    websocket::stream<http_stream> ws_;
     std::shared_ptr<api_context> ctx_;
     auth_identity who_;
     websocket_limits limits_;

@@ -11,6 +11,7 @@
 
 #include "api/mqtt/mqtt_bridge.hpp"
 #include "api/server.hpp"
+#include "api/tls_server_context.hpp"
 #include "gateway/app/crash_halt.hpp"
 #include "gateway/app/startup_summary.hpp"
 #include "gateway/common/metrics.hpp"
@@ -58,11 +59,7 @@ application::~application() {
 
 int application::run() {
     if (!start()) return 1;
-    signals_.async_wait([this](boost::system::error_code ec, int signal) {
-        if (ec) return;
-        log_->info("signal {}: stopping", signal);
-        shutdown();
-    });
+    wait_for_signal();
     serve();
     {
         std::lock_guard lock(mutex_);
@@ -74,10 +71,38 @@ int application::run() {
     return 0;
 }
 
+void application::wait_for_signal() {
+    signals_.async_wait([this](boost::system::error_code ec, int signal) {
+        if (ec) return;
+        if (signal == SIGHUP && !from_terminal_) {
+            if (!tls_) {
+                log_->info("SIGHUP: nothing to reload (no http.tls)");
+            } else if (auto problem = tls_->reload(); !problem.empty()) {
+                log_->error("SIGHUP: TLS certificate not reloaded, the previous one stays: {}", problem);
+            } else {
+                log_->info("SIGHUP: TLS certificate reloaded from {}", launch_.config.http.tls.cert_file);
+            }
+            return wait_for_signal();
+        }
+        log_->info("signal {}: stopping", signal);
+        shutdown();
+    });
+}
+
 bool application::start() {
     // Before any port is opened: a crash from here on halts the stages (crash_halt.hpp).
     install_crash_halt();
     const auto& config = launch_.config;
+    from_terminal_ = ::isatty(STDIN_FILENO) == 1;
+    // The certificate before anything else: a wrong path ends the start with the file named.
+    if (config.http.tls.enabled()) {
+        try {
+            tls_ = std::make_shared<api::tls_server_context>(config.http.tls);
+        } catch (const std::exception& e) {
+            log_->error("{}", e.what());
+            return false;
+        }
+    }
     if (config.controllers.empty() && config.simulate.count == 0)
         log_->warn("no controllers configured: give --simulate N, --serial ID=PATH or a config file");
     if (config.auth.tokens.empty())
@@ -118,7 +143,7 @@ bool application::start() {
     jobs_ = std::move(*jobs);
     shares_ = std::make_unique<shared_ports>(ioc_.get_executor(), config, *registry_, leases_, jobs_);
     http_ = std::make_unique<api::server>(ioc_.get_executor(), config, *registry_, hub_, metrics_, jobs_,
-                                          leases_, state_texts_, shares_.get());
+                                          leases_, state_texts_, shares_.get(), tls_);
 
     try {
         registry_->start();
@@ -155,7 +180,8 @@ bool application::start() {
         }
     }
     log_->info("asi-gateway {} {}", version,
-               startup_summary(http_->local_endpoint(), config.storage.path, registry_->list(),
+               startup_summary(http_url(http_->local_endpoint(), tls_ != nullptr), config.storage.path,
+                               registry_->list(),
                                config.mqtt.enabled ? config.mqtt.brokers : std::vector<std::string>{},
                                shares_->places()));
     return true;

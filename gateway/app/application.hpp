@@ -1,9 +1,9 @@
 #pragma once
 // The composition root: the one object that sees every layer. It owns the services (controller
 // registry, event hub, leases, job manager, HTTP/WebSocket server, MQTT bridge) on one io_context,
-// starts them in dependency order, runs until SIGINT/SIGTERM, and stops them in one readable order.
-// The job manager works on a second thread of its own: its store commits wait for the disk (fsync),
-// which must not stall the I/O thread.
+// starts them in dependency order, runs until SIGINT/SIGTERM (SIGHUP reloads the TLS certificate), and stops
+// them in one readable order. The job manager works on a second thread of its own: its store commits wait for
+// the disk (fsync), which must not stall the I/O thread.
 //
 //   gw::application app(std::move(launch));
 //   return app.run();  // 0 after a clean stop, 1 when a service could not start
@@ -38,6 +38,7 @@ class job_manager;
 namespace api {
 class server;
 class mqtt_bridge;
+class tls_server_context;
 }  // namespace api
 
 // An io_context that can drop what is still queued on it (shutdown()) before it is destroyed. The
@@ -68,6 +69,7 @@ class application {
     void stop_after_failed_start();
     void shutdown();
     void serve();
+    void wait_for_signal();
     // Runs `io` until it is stopped or out of work; a handler that throws is logged, not fatal.
     void run_logging_exceptions(boost::asio::io_context& io);
 
@@ -85,11 +87,14 @@ class application {
     std::shared_ptr<lease_manager> leases_;
     std::shared_ptr<jobs::job_manager> jobs_;
     std::unique_ptr<shared_ports> shares_;
+    std::shared_ptr<api::tls_server_context> tls_;  // http.tls; null: plain HTTP
     std::unique_ptr<api::server> http_;
     std::shared_ptr<api::mqtt_bridge> mqtt_;
-    // A controlled stop (HALT to the stages it was moving, jobs interrupted, the store closed). SIGHUP
-    // too: a closed terminal or session must not leave a stage moving.
+    // SIGINT, SIGTERM: a controlled stop (HALT to the stages it was moving, jobs interrupted, the store
+    // closed). SIGHUP: a service (no terminal) reloads its TLS certificate; a gateway started from a
+    // terminal stops, since then SIGHUP means the terminal closed and no one watches the stages.
     boost::asio::signal_set signals_{ioc_, SIGINT, SIGTERM, SIGHUP};
+    bool from_terminal_ = false;  // stdin was a terminal at start
 
     // After shutdown, run() ends when the last handler has run; the watchdog (a thread, not a timer on
     // ioc_, which would itself keep run() going) stops it if something lingers.

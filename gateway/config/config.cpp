@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gateway/config/config_files_check.hpp"
+#include "gateway/config/secret_file_path.hpp"
 #include "gateway/config/tokens_file.hpp"
 
 namespace gw {
@@ -158,7 +159,24 @@ bool valid_logger_name(std::string_view name) {
 }
 
 void read_http(const json& j, http_config& out) {
-    object_reader r(j, "http", {"listen_address", "port", "limits", "allowed_origins", "allowed_hosts"});
+    object_reader r(
+        j, "http",
+        {"listen_address", "port", "limits", "allowed_origins", "allowed_hosts", "tls", "trusted_proxies"});
+    if (auto* v = r.get("trusted_proxies")) {
+        const auto entries = read_string_list(*v, r.path("trusted_proxies"), [](std::string_view e) {
+            auto one = trusted_proxies::parse({std::string(e)});
+            return one ? std::string() : one.error();
+        });
+        out.proxies = *trusted_proxies::parse(entries);  // each entry is valid by now
+    }
+    if (auto* v = r.get("tls")) {
+        object_reader t(*v, "http.tls", {"cert_file", "key_file"});
+        auto* cert = t.get("cert_file");
+        auto* key = t.get("key_file");
+        if (!cert || !key) fail("http.tls", "needs both cert_file and key_file (PEM files)");
+        out.tls.cert_file = read_string(*cert, t.path("cert_file"));
+        out.tls.key_file = read_string(*key, t.path("key_file"));
+    }
     if (auto* v = r.get("allowed_origins"))
         out.allowed_origins = read_allowed_origins(*v, r.path("allowed_origins"));
     if (auto* v = r.get("allowed_hosts")) out.allowed_hosts = read_allowed_hosts(*v, r.path("allowed_hosts"));
@@ -705,12 +723,15 @@ std::string validate_config(const gateway_config& config) {
 
 namespace {
 
+std::optional<std::string> credentials_directory() {
+    const char* credentials = std::getenv("CREDENTIALS_DIRECTORY");
+    return credentials ? std::optional<std::string>(credentials) : std::nullopt;
+}
+
 // Adds auth.tokens_file's entries to auth.tokens; an error message, or empty.
 std::string add_file_tokens(auth_config& auth, std::string_view config_directory) {
-    const char* credentials = std::getenv("CREDENTIALS_DIRECTORY");
-    auto path =
-        resolve_tokens_file_path(auth.tokens_file, config_directory,
-                                 credentials ? std::optional<std::string>(credentials) : std::nullopt);
+    auto path = resolve_secret_file_path("auth.tokens_file", auth.tokens_file, config_directory,
+                                         credentials_directory());
     if (!path) return path.error().message;
     auto text = read_tokens_file(*path);
     if (!text) return "auth.tokens_file: " + text.error().message;
@@ -744,6 +765,14 @@ boost::system::result<gateway_config, std::string> parse_config(std::string_view
     }
     if (!c.auth.tokens_file.empty()) {
         if (auto problem = add_file_tokens(c.auth, config_directory); !problem.empty()) return problem;
+    }
+    if (c.http.tls.enabled()) {
+        for (auto [key, file] : {std::pair{"http.tls.cert_file", &c.http.tls.cert_file},
+                                 std::pair{"http.tls.key_file", &c.http.tls.key_file}}) {
+            auto path = resolve_secret_file_path(key, *file, config_directory, credentials_directory());
+            if (!path) return path.error().message;
+            *file = std::move(*path);
+        }
     }
     if (auto problem = validate_config(c); !problem.empty()) return problem;
     return c;

@@ -26,6 +26,7 @@
 #include "devices/serial/controller_settings.hpp"
 #include "devices/share/share_settings.hpp"
 #include "gateway/config/token_secret.hpp"
+#include "gateway/config/trusted_proxies.hpp"
 
 namespace gw {
 
@@ -43,6 +44,14 @@ struct http_limits {
     std::size_t max_buffered_body_bytes = std::size_t{64} * 1024 * 1024;
 };
 
+// HTTPS and WSS on the HTTP port (api/tls_server_context.hpp): PEM files, read at start and again on
+// SIGHUP. Both empty: plain HTTP.
+struct http_tls_config {
+    std::string cert_file;  // the certificate, then its chain
+    std::string key_file;   // its private key, unencrypted
+    bool enabled() const { return !cert_file.empty(); }
+};
+
 struct http_config {
     std::string listen_address = "127.0.0.1";
     std::uint16_t port = 8080;  // 0 = any free port (tests)
@@ -51,6 +60,9 @@ struct http_config {
     // the gateway's own; and host names a gateway without tokens answers to, besides loopback.
     std::vector<std::string> allowed_origins;
     std::vector<std::string> allowed_hosts;
+    http_tls_config tls;
+    // Reverse proxies whose X-Forwarded-For names the client (gateway/config/trusted_proxies.hpp).
+    trusted_proxies proxies;
 };
 
 struct simulate_config {

@@ -54,7 +54,9 @@ std::vector<config_finding> check_config_files(const gateway_config& config) {
     for (const auto& [key, path] :
          {std::pair<const char*, const std::string&>{"mqtt.tls.ca_file", tls.ca_file},
           {"mqtt.tls.cert_file", tls.cert_file},
-          {"mqtt.tls.key_file", tls.key_file}}) {
+          {"mqtt.tls.key_file", tls.key_file},
+          {"http.tls.cert_file", config.http.tls.cert_file},
+          {"http.tls.key_file", config.http.tls.key_file}}) {
         if (path.empty()) continue;
         if (auto problem = pem_problem(path); !problem.empty())
             out.push_back({true, std::string(key) + ": " + problem});

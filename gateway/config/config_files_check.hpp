@@ -1,8 +1,8 @@
 #pragma once
-// What `--check-config` checks beyond the config's syntax: the files it names. The MQTT TLS files
-// (CA, certificate, key) must exist, be readable regular files and look like PEM (an error each);
-// a serial port that does not exist now is a warning (an adapter may be plugged in later), and so is
-// one this user may not open. Reads the file system only.
+// What `--check-config` checks beyond the config's syntax: the files it names. The TLS files of MQTT
+// (CA, certificate, key) and HTTP (certificate, key) must exist, be readable regular files and look like PEM
+// (an error each); a serial port that does not exist now is a warning (an adapter may be plugged in later),
+// and so is one this user may not open. Reads the file system only.
 
 #include <string>
 #include <vector>

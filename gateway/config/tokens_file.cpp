@@ -12,7 +12,6 @@ namespace gw {
 
 namespace {
 
-constexpr std::string_view credentials_variable = "$CREDENTIALS_DIRECTORY";
 constexpr std::size_t max_tokens_file_bytes = std::size_t{1} << 20;
 
 bool holds_plain_token(const nlohmann::json& j) {
@@ -25,26 +24,6 @@ bool holds_plain_token(const nlohmann::json& j) {
 }
 
 }  // namespace
-
-boost::system::result<std::string, tokens_file_problem> resolve_tokens_file_path(
-    std::string_view given, std::string_view config_directory,
-    std::optional<std::string> credentials_directory) {
-    std::string path(given);
-    if (given.starts_with(credentials_variable)) {
-        const auto rest = given.substr(credentials_variable.size());
-        if (!rest.empty() && rest.front() != '/')
-            return tokens_file_problem{"auth.tokens_file: " + std::string(given) +
-                                       ": only \"$CREDENTIALS_DIRECTORY/<name>\" is expanded"};
-        if (!credentials_directory || credentials_directory->empty())
-            return tokens_file_problem{
-                "auth.tokens_file: " + std::string(given) +
-                ": CREDENTIALS_DIRECTORY is not set (systemd sets it for LoadCredential=)"};
-        path = *credentials_directory + std::string(rest);
-    } else if (!path.empty() && path.front() != '/' && !config_directory.empty()) {
-        path = std::string(config_directory) + "/" + path;
-    }
-    return {boost::system::in_place_value, path};
-}
 
 bool holds_plain_tokens(std::string_view json_text) {
     const auto j = nlohmann::json::parse(json_text, nullptr, false);

@@ -3,12 +3,10 @@
 // (a systemd credential, a Docker secret, a 0640 file). It holds a JSON array of entries shaped like
 // auth.tokens ([{"name", "role", "token_sha256"}]); they are added to auth.tokens.
 //
-//   - "$CREDENTIALS_DIRECTORY/tokens": systemd's LoadCredential= directory, from the environment;
-//   - a relative path: from the config file's directory (like storage.path);
+//   - its path is resolved like every secret file's (gateway/config/secret_file_path.hpp);
 //   - a file that holds plain "token" values and that every user may read is refused: whoever reads
 //     it could drive the stages (hashes, token_sha256, may be read: they cannot be used as tokens).
 
-#include <optional>
 #include <string>
 #include <string_view>
 
@@ -19,11 +17,6 @@ namespace gw {
 struct tokens_file_problem {
     std::string message;
 };
-
-// The file's path, or why there is none (the variable it names is unset).
-boost::system::result<std::string, tokens_file_problem> resolve_tokens_file_path(
-    std::string_view given, std::string_view config_directory,
-    std::optional<std::string> credentials_directory);
 
 // The file's text, or why it cannot be used (unreadable, too large, plain tokens readable by all).
 boost::system::result<std::string, tokens_file_problem> read_tokens_file(const std::string& path);

@@ -25,11 +25,11 @@ def find_chromium():
 
 
 class Browser:
-    def __init__(self, chromium, profile_dir, debug_port, width=1400, height=1000):
+    def __init__(self, chromium, profile_dir, debug_port, width=1400, height=1000, extra_args=()):
         args = [chromium, "--headless=new", "--disable-gpu", "--no-first-run", "--no-default-browser-check",
                 "--disable-extensions", "--disable-background-networking", "--mute-audio",
                 f"--user-data-dir={profile_dir}", f"--remote-debugging-port={debug_port}",
-                f"--window-size={width},{height}", "about:blank"]
+                f"--window-size={width},{height}", *extra_args, "about:blank"]
         if os.geteuid() == 0:
             args.insert(1, "--no-sandbox")  # chromium refuses to run as root with its sandbox
         self.proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -95,9 +95,24 @@ def signed_if_token(topic, payload):
     return payload
 
 
-def http_request(port, method, path, body=None, token=TOKENS["admin"]):
-    """(status, body text) of one request on its own connection; no Authorization without a token."""
-    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=WAIT)
+def self_signed_certificate(directory, name="server", host="localhost"):
+    """Writes <name>.crt and <name>.key (a new P-256 key, a one-day certificate for `host` and
+    127.0.0.1) with Debian's openssl; returns their paths."""
+    cert, key = os.path.join(directory, name + ".crt"), os.path.join(directory, name + ".key")
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:P-256", "-nodes",
+                    "-keyout", key, "-out", cert, "-days", "1", "-subj", "/CN=" + host,
+                    "-addext", f"subjectAltName=DNS:{host},IP:127.0.0.1"],
+                   check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return cert, key
+
+
+def http_request(port, method, path, body=None, token=TOKENS["admin"], tls=None):
+    """(status, body text) of one request on its own connection; no Authorization without a token.
+    `tls`: an ssl.SSLContext for an HTTPS gateway."""
+    if tls:
+        conn = http.client.HTTPSConnection("127.0.0.1", port, timeout=WAIT, context=tls)
+    else:
+        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=WAIT)
     headers = {"Authorization": f"Bearer {token}"} if token else {}
     data = None
     if body is not None:
@@ -171,10 +186,11 @@ class Fixture:
         wait_until(f"ms2000-sim {name}", lambda: all(os.path.exists(p) for p in paths))
         return Sim(link, report_link, control_path)
 
-    def start_gateway(self, gateway, config, extra_args=()):
+    def start_gateway(self, gateway, config, extra_args=(), tls=None):
         """Writes `config`, starts the gateway (with `extra_args` after --config) with its output in a
-        log file and waits until /api/v1/ready answers 200. Returns the process. Called again after
-        the gateway stopped (a restart), the log continues in the same file."""
+        log file and waits until /api/v1/ready answers 200 (over HTTPS with the ssl.SSLContext `tls`).
+        Returns the process. Called again after the gateway stopped (a restart), the log continues in
+        the same file. Its stdin is not a terminal, as for a service (SIGHUP reloads, not stops)."""
         # Every test gateway gets its own job store: one gateway per storage directory (storage lock).
         config = dict(config)
         config.setdefault("storage", {"path": os.path.join(self.tmp, "store")})
@@ -185,8 +201,8 @@ class Fixture:
         if self._log:
             self._log.close()
         self._log = open(self.log_path, "a")
-        self.gateway = subprocess.Popen([gateway, "--config", cfg, *extra_args], stdout=self._log,
-                                        stderr=subprocess.STDOUT)
+        self.gateway = subprocess.Popen([gateway, "--config", cfg, *extra_args], stdin=subprocess.DEVNULL,
+                                        stdout=self._log, stderr=subprocess.STDOUT)
         self.procs.append(self.gateway)
         port = config["http"]["port"]
         proc = self.gateway
@@ -196,7 +212,7 @@ class Fixture:
                 with open(self.log_path) as log:
                     tail = log.read()[-2000:]
                 raise Failure(f"the gateway exited with {proc.returncode} at start-up:\n{tail}")
-            return http_request(port, "GET", "/api/v1/ready", token=None)[0] == 200
+            return http_request(port, "GET", "/api/v1/ready", token=None, tls=tls)[0] == 200
 
         wait_until("gateway ready", ready)
         return self.gateway

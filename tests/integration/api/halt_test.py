@@ -16,6 +16,7 @@ Exit code 0 when every check passed; the failures are listed otherwise.
 """
 
 import argparse
+import fcntl
 import json
 import os
 import signal
@@ -23,6 +24,7 @@ import socket
 import subprocess
 import sys
 import threading
+import termios
 import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree
@@ -512,15 +514,24 @@ class SoloGateway:
         self.store = os.path.join(fx.tmp, name + "-store")
         self.proc = None
 
-    def start(self, http_extra=None):
+    def start(self, http_extra=None, terminal=False):
+        """Starts the gateway; `terminal`: on a new pseudo-terminal that is its controlling terminal
+        (as when started from a shell), whose master end self.terminal holds."""
         config = {"http": {"listen_address": "127.0.0.1", "port": self.port, **(http_extra or {})}, "auth": auth_tokens(),
                   "storage": {"path": self.store}, "controllers": [{"id": self.name, "port": self.sim.link}]}
         cfg = os.path.join(self.fx.tmp, self.name + ".json")
         with open(cfg, "w") as f:
             json.dump(config, f)
         self.log = os.path.join(self.fx.tmp, self.name + ".log")
+        stdin, self.terminal = subprocess.DEVNULL, None
+        if terminal:
+            self.terminal, stdin = os.openpty()
         with open(self.log, "a") as log:
-            self.proc = subprocess.Popen([self.args.gateway, "--config", cfg], stdout=log, stderr=log)
+            self.proc = subprocess.Popen([self.args.gateway, "--config", cfg], stdin=stdin, stdout=log, stderr=log,
+                                         start_new_session=terminal,
+                                         preexec_fn=(lambda: fcntl.ioctl(0, termios.TIOCSCTTY, 0)) if terminal else None)
+        if terminal:
+            os.close(stdin)
         self.fx.procs.append(self.proc)
         self.c = Client(self.port, self.args.contract)
         wait_until(f"{self.name} ready", lambda: self.c.request("GET", "/api/v1/ready", validate=False).status == 200, 30)
@@ -532,13 +543,18 @@ class SoloGateway:
         return sim_state(self.sim)["busy"]
 
 
-def test_crash_halts(fx, args, signal_number, name):
+def test_crash_halts(fx, args, signal_number, name, terminal=False):
+    """Starts a gateway, moves its stage far, then sends it `signal_number`, or with `terminal`
+    closes its terminal (the kernel sends SIGHUP); the exit code, once the stage is checked halted."""
     g = SoloGateway(fx, args, name)
-    g.start()
+    g.start(terminal=terminal)
     r = g.c.request("POST", f"/api/v1/controllers/{name}/move", {"axes": {"X": 100000}}, token=OP)
     check(r.status == 200, f"move: {r.status} {r.body[:200]}")
     wait_until("the stage moving", g.moving, 10)
-    os.kill(g.proc.pid, signal_number)
+    if terminal:
+        os.close(g.terminal)  # the terminal window closes
+    else:
+        os.kill(g.proc.pid, signal_number)
     code = g.proc.wait(timeout=30)
     wait_until("the stage stopped after the gateway died", lambda: not g.moving(), 5)
     check(g.x() < 90000, f"the stage went on to X={g.x()} um")
@@ -546,8 +562,12 @@ def test_crash_halts(fx, args, signal_number, name):
 
 
 def test_hangup_halts(fx, args):
-    code = test_crash_halts(fx, args, signal.SIGHUP, "hup")
+    """A gateway started from a terminal: the terminal closing (SIGHUP) stops it with a HALT, since no
+    one watches the stages any more. (As a service, SIGHUP reloads the TLS certificate: tls_test.)"""
+    code = test_crash_halts(fx, args, signal.SIGHUP, "hup", terminal=True)
     check(code == 0, f"SIGHUP: a controlled stop with exit code 0, got {code}")
+    with open(os.path.join(fx.tmp, "hup.log")) as f:
+        check("signal 1: stopping" in f.read(), "the log does not say SIGHUP stopped it")
 
 
 def test_fatal_signals_halt(fx, args):
@@ -623,7 +643,7 @@ def main():
         fx.run("HALT with every connection slot taken", test_halt_with_every_connection_slot_taken, fx, args)
         fx.run("HALT while a large G-code program is uploaded and planned",
                test_halt_while_gcode_is_uploaded_and_planned, c)
-        fx.run("SIGHUP stops with a HALT", test_hangup_halts, fx, args)
+        fx.run("the terminal closing (SIGHUP) stops with a HALT", test_hangup_halts, fx, args)
         fx.run("a crash (SIGSEGV, SIGABRT) halts the moving stage", test_fatal_signals_halt, fx, args)
         fx.run("after a kill -9, the restart sends HALT first", test_restart_halts_first, fx, args)
         fx.finish_log(80)

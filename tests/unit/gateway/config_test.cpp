@@ -158,6 +158,16 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
         {R"({"http": {"listen_address": "localhost"}})",
          "http.listen_address: must be an IPv4 or IPv6 address"},
         {R"({"http": {"listen_address": ""}})", "http.listen_address: must not be empty"},
+        {R"({"http": {"tls": {"cert_file": "c.pem"}}})",
+         "http.tls: needs both cert_file and key_file (PEM files)"},
+        {R"({"http": {"tls": {"cert_file": "c.pem", "key_file": ""}}})",
+         "http.tls.key_file: must not be empty"},
+        {R"({"http": {"tls": {"cert_file": "c", "key_file": "k", "ciphers": "x"}}})",
+         "http.tls.ciphers: unknown key"},
+        {R"({"http": {"trusted_proxies": ["127.0.0.1", "proxy.lab"]}})",
+         "http.trusted_proxies[1]: \"proxy.lab\" must be an address (10.0.0.5, ::1) or a network "
+         "(10.0.0.0/8, "
+         "fd00::/8)"},
         {R"({"http": {"listen_address": 127}})", "http.listen_address: must be a string"},
         {R"({"http": {"port": 65536}})", "http.port: must be an integer from 0 to 65535"},
         {R"({"http": {"port": -1}})", "http.port: must be an integer from 0 to 65535"},
@@ -275,6 +285,21 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
         ASSERT_FALSE(r) << "accepted";
         EXPECT_EQ(r.error(), c.error);
     }
+}
+
+TEST(config, tls_files_are_found_from_the_config_directory_and_credentials) {
+    auto c = parse_config(R"({"http": {"tls": {"cert_file": "tls/server.crt", "key_file": "/etc/k.pem"}}})",
+                          "/etc/asi-gateway");
+    ASSERT_TRUE(c) << c.error();
+    EXPECT_TRUE(c->http.tls.enabled());
+    EXPECT_EQ(c->http.tls.cert_file, "/etc/asi-gateway/tls/server.crt");
+    EXPECT_EQ(c->http.tls.key_file, "/etc/k.pem");
+    EXPECT_FALSE(parse_config("{}")->http.tls.enabled());
+    ::unsetenv("CREDENTIALS_DIRECTORY");
+    auto unset = parse_config(
+        R"({"http": {"tls": {"cert_file": "$CREDENTIALS_DIRECTORY/crt", "key_file": "$CREDENTIALS_DIRECTORY/key"}}})");
+    ASSERT_FALSE(unset);
+    EXPECT_NE(unset.error().find("http.tls.cert_file"), std::string::npos) << unset.error();
 }
 
 TEST(config, reads_a_controllers_share) {

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "gateway/config/config.hpp"
+#include "gateway/config/secret_file_path.hpp"
 #include "gateway/config/token_secret.hpp"
 
 namespace gw {
@@ -134,14 +135,18 @@ TEST_F(tokens_file_test, errors_name_the_file_and_the_entry) {
     }
 }
 
-TEST(tokens_file_path, resolves_credentials_relative_and_absolute_paths) {
-    EXPECT_EQ(*resolve_tokens_file_path("/etc/x.json", "/cfg", std::nullopt), "/etc/x.json");
-    EXPECT_EQ(*resolve_tokens_file_path("x.json", "/cfg", std::nullopt), "/cfg/x.json");
-    EXPECT_EQ(*resolve_tokens_file_path("x.json", "", std::nullopt), "x.json");
-    EXPECT_EQ(*resolve_tokens_file_path("$CREDENTIALS_DIRECTORY/t", "/cfg", "/run/credentials/u"),
-              "/run/credentials/u/t");
-    EXPECT_FALSE(resolve_tokens_file_path("$CREDENTIALS_DIRECTORYt", "/cfg", "/run/c"));
-    EXPECT_FALSE(resolve_tokens_file_path("$CREDENTIALS_DIRECTORY/t", "/cfg", ""));
+TEST(secret_file_path, resolves_credentials_relative_and_absolute_paths) {
+    const auto resolve = [](std::string_view given, std::string_view dir, std::optional<std::string> cred) {
+        return resolve_secret_file_path("auth.tokens_file", given, dir, std::move(cred));
+    };
+    EXPECT_EQ(*resolve("/etc/x.json", "/cfg", std::nullopt), "/etc/x.json");
+    EXPECT_EQ(*resolve("x.json", "/cfg", std::nullopt), "/cfg/x.json");
+    EXPECT_EQ(*resolve("x.json", "", std::nullopt), "x.json");
+    EXPECT_EQ(*resolve("$CREDENTIALS_DIRECTORY/t", "/cfg", "/run/credentials/u"), "/run/credentials/u/t");
+    EXPECT_FALSE(resolve("$CREDENTIALS_DIRECTORYt", "/cfg", "/run/c"));
+    const auto unset = resolve("$CREDENTIALS_DIRECTORY/t", "/cfg", "");
+    ASSERT_FALSE(unset);
+    EXPECT_NE(unset.error().message.find("auth.tokens_file"), std::string::npos);
 }
 
 TEST(tokens_file_path, plain_tokens_are_found_in_any_entry) {
