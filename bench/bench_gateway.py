@@ -22,9 +22,10 @@ def parse_time(text):
 
 
 class Gateway:
-    def __init__(self, binary, workdir, config):
+    def __init__(self, binary, workdir, config, tls=None):
         """Starts `binary` with `config` (its http address and port, storage and logging are filled in) in
-        `workdir`."""
+        `workdir`. `tls`: the ssl.SSLContext its requests use when the config has http.tls."""
+        self.tls = tls
         self.port = free_port()
         config = dict(config)
         config["http"] = {**config.get("http", {}), "listen_address": "127.0.0.1", "port": self.port}
@@ -38,7 +39,10 @@ class Gateway:
         self.proc = subprocess.Popen([binary, "--config", cfg], stdout=self.log, stderr=subprocess.STDOUT)
 
     def request(self, method, path, body=None, timeout=60):
-        conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout)
+        if self.tls:
+            conn = http.client.HTTPSConnection("127.0.0.1", self.port, timeout=timeout, context=self.tls)
+        else:
+            conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout)
         data = json.dumps(body) if body is not None else None
         conn.request(method, path, body=data, headers={"Content-Type": "application/json"} if data else {})
         r = conn.getresponse()

@@ -10,11 +10,14 @@ gateway, nginx ...) so that a change in the machine's load touches both alike. T
 from its one I/O thread, nginx from its one worker.
 
 Paths: GET /api/v1/controllers/sim1 (the controller's state, about 1 kB) and GET /api/v1/health.
+With --tls (issue 34) both serve HTTPS with the same self-signed P-256 certificate (Debian's openssl):
+the gateway through http.tls, nginx with `ssl_protocols TLSv1.2 TLSv1.3`; wrk keeps its connections,
+so this measures the encrypted requests, not handshakes (the issue's goal: a figure, no ratio set).
 It prints one markdown table (median over the rounds of req/s, p50 and p99 latency as wrk reports
 them, and the ratio gateway / nginx) and, with --results, appends it to bench/RESULTS.md.
 Needs wrk and nginx-light (bench/setup installs them). Standard library only:
 
-  scripts/build && bench/setup && /usr/bin/python3 bench/http_vs_nginx.py [--rounds 5] [--seconds 5]
+  scripts/build && bench/setup && /usr/bin/python3 bench/http_vs_nginx.py [--rounds 5] [--seconds 5] [--tls]
 """
 
 import argparse
@@ -22,6 +25,7 @@ import http.client
 import os
 import re
 import shutil
+import ssl
 import statistics
 import subprocess
 import sys
@@ -40,8 +44,11 @@ GOALS = {"/api/v1/controllers/sim1": 0.6, "/api/v1/health": 0.8}
 MAX_P99_RATIO = 1.2
 
 
-def fetch(port, path):
-    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+def fetch(port, path, tls=None):
+    if tls:
+        conn = http.client.HTTPSConnection("127.0.0.1", port, timeout=10, context=tls)
+    else:
+        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
     conn.request("GET", path)
     r = conn.getresponse()
     body = r.read()
@@ -55,7 +62,8 @@ def fetch(port, path):
 class Nginx:
     """nginx (one worker) serving `files` {path: (bytes, headers)} from a scratch root."""
 
-    def __init__(self, workdir, files):
+    def __init__(self, workdir, files, tls_files=None, tls=None):
+        """`tls_files`: (certificate, key) for HTTPS; `tls`: the client context that trusts it."""
         self.port = free_port()
         # nginx started as root reads as its worker user: the scratch tree must be readable by all.
         os.chmod(workdir, 0o755)
@@ -70,6 +78,10 @@ class Nginx:
         headers = next(iter(files.values()))[1]
         extra = "\n".join(f"    add_header {name} {headers[name]};" for name in ("Cache-Control", "X-Request-Id")
                           if name in headers)
+        tls_lines = ""
+        if tls_files:
+            tls_lines = (f"    ssl_certificate {tls_files[0]};\n    ssl_certificate_key {tls_files[1]};\n"
+                         "    ssl_protocols TLSv1.2 TLSv1.3;")
         conf = os.path.join(workdir, "nginx.conf")
         with open(conf, "w") as f:
             f.write(f"""worker_processes 1;
@@ -87,7 +99,8 @@ http {{
   uwsgi_temp_path {workdir}/tmp;
   scgi_temp_path {workdir}/tmp;
   server {{
-    listen 127.0.0.1:{self.port};
+    listen 127.0.0.1:{self.port}{" ssl" if tls_files else ""};
+{tls_lines}
     root {root};
 {extra}
   }}
@@ -98,7 +111,7 @@ http {{
         deadline = time.monotonic() + 10
         while True:
             try:
-                fetch(self.port, PATHS[-1])
+                fetch(self.port, PATHS[-1], tls)
                 return
             except OSError:
                 if self.proc.poll() is not None or time.monotonic() > deadline:
@@ -113,10 +126,10 @@ http {{
 UNITS = {"us": 1e-3, "ms": 1.0, "s": 1e3}
 
 
-def wrk(port, path, seconds, threads, connections):
+def wrk(port, path, seconds, threads, connections, scheme="http"):
     """{'rps', 'p50', 'p99'} (latencies in ms) from one wrk run."""
     out = subprocess.run(["wrk", f"-t{threads}", f"-c{connections}", f"-d{seconds}s", "--latency",
-                          f"http://127.0.0.1:{port}{path}"], capture_output=True, text=True, check=True).stdout
+                          f"{scheme}://127.0.0.1:{port}{path}"], capture_output=True, text=True, check=True).stdout
     r = {"rps": float(re.search(r"Requests/sec:\s+([\d.]+)", out).group(1))}
     for pct, key in (("50", "p50"), ("99", "p99")):
         m = re.search(rf"^\s+{pct}%\s+([\d.]+)(us|ms|s)\s*$", out, re.M)
@@ -159,6 +172,7 @@ def main():
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--connections", type=int, default=64)
     p.add_argument("--results", default="", help="append the table to this file (e.g. bench/RESULTS.md)")
+    p.add_argument("--tls", action="store_true", help="HTTPS on both (the gateway's http.tls)")
     args = p.parse_args()
     for tool in ("wrk", "nginx"):
         if not shutil.which(tool):
@@ -166,19 +180,32 @@ def main():
 
     tmp = tempfile.mkdtemp(prefix="gw-http-bench-")
     gw = nginx = None
+    tls_files, tls = None, None
+    scheme = "https" if args.tls else "http"
     try:
+        http_config = {"limits": {"max_connections_per_address": 200}}
+        if args.tls:
+            tls_files = (os.path.join(tmp, "server.crt"), os.path.join(tmp, "server.key"))
+            subprocess.run(["openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:P-256",
+                            "-nodes", "-keyout", tls_files[1], "-out", tls_files[0], "-days", "1", "-subj",
+                            "/CN=localhost", "-addext", "subjectAltName=IP:127.0.0.1"], check=True,
+                           capture_output=True)
+            for f in tls_files:
+                os.chmod(f, 0o644)  # nginx's worker reads them as its own user
+            tls = ssl.create_default_context(cafile=tls_files[0])
+            http_config["tls"] = {"cert_file": tls_files[0], "key_file": tls_files[1]}
         # Every load comes from 127.0.0.1: the per-address connection limit (64) must not refuse wrk's.
         gw = Gateway(args.gateway, tmp, {"simulate": {"count": 1, "directory": os.path.join(tmp, "sim")},
-                                         "http": {"limits": {"max_connections_per_address": 200}}})
+                                         "http": http_config}, tls=tls)
         gw.wait_ready()
-        files = {path: fetch(gw.port, path) for path in PATHS}
-        nginx = Nginx(tmp, files)
+        files = {path: fetch(gw.port, path, tls) for path in PATHS}
+        nginx = Nginx(tmp, files, tls_files, tls)
         load_before = os.getloadavg()
         results = {}
         for r in range(args.rounds):
             for path in PATHS:
                 for name, port in (("gateway", gw.port), ("nginx", nginx.port)):
-                    run = wrk(port, path, args.seconds, args.threads, args.connections)
+                    run = wrk(port, path, args.seconds, args.threads, args.connections, scheme)
                     results.setdefault((path, name), []).append(run)
                     print(f"round {r + 1}: {name:8} {path:28} {run['rps']:>10,.0f} req/s  p50 {run['p50']:.2f} ms"
                           f"  p99 {run['p99']:.2f} ms", flush=True)
@@ -192,8 +219,9 @@ def main():
 
     text, met = table(results, args.rounds, args.seconds, args.threads, args.connections)
     bodies = f"Bodies: {len(files[PATHS[0]][0])} and {len(files[PATHS[1]][0])} bytes."
-    return publish_section("HTTP against nginx", "bench/http_vs_nginx.py", bodies, load_before, load_after, text,
-                           met, args.results)
+    title = "HTTPS against nginx with TLS" if args.tls else "HTTP against nginx"
+    script = "bench/http_vs_nginx.py --tls" if args.tls else "bench/http_vs_nginx.py"
+    return publish_section(title, script, bodies, load_before, load_after, text, met, args.results)
 
 
 if __name__ == "__main__":
