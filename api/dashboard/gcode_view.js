@@ -477,7 +477,8 @@ class GcodeView {
     const t = this.trace;
     if (!t || job.id !== t.id) return;
     if (t.ended && !TRACE_ENDS.has(job.state)) return;  // an older record arriving late
-    t.job = job;
+    // A state event's record comes without its spec (it never changes): keep the one we have.
+    t.job = !job.spec && t.job ? { ...job, spec: t.job.spec } : job;
     if (TRACE_ENDS.has(job.state) && !t.ended) {
       t.ended = true;
       const p = store.controllers.get(t.controller)?.position;

@@ -105,9 +105,11 @@ class JobView {
     clearInterval(this.tickTimer);
   }
 
-  // A job record (REST, an action's answer or a state event); an older one than shown is ignored.
+  // A job record (REST, an action's answer or a state event); an older one than shown is ignored. A
+  // state event's record comes without its spec (it never changes): the one shown keeps it.
   setJob(job) {
     if (this.job && job.updated < this.job.updated) return;
+    if (!job.spec && this.job) job = { ...job, spec: this.job.spec };
     const first = !this.job;
     this.job = job;
     if (first) this.buildPlate(job);

@@ -69,7 +69,10 @@ json measured_position_json(const position_um& p) {
     return out;
 }
 
-json to_json(const job_record& job, job_clock::time_point now) {
+namespace {
+
+// The record as to_json gives it, but for its spec.
+json record_without_spec(const job_record& job, job_clock::time_point now) {
     const auto& p = job.progress;
     json progress = {
         {"steps_done", p.steps_done},        {"steps_total", p.steps_total},
@@ -82,7 +85,6 @@ json to_json(const job_record& job, job_clock::time_point now) {
         {"controller", job.controller},
         {"type", std::string(to_string(job.type))},
         {"state", std::string(to_string(job.state))},
-        {"spec", job.spec.is_null() ? json::object() : job.spec},
         {"progress", std::move(progress)},
         {"estimated_s", rounded(job.estimated_s, 1000)},
         {"path", job.plan_path},
@@ -95,6 +97,14 @@ json to_json(const job_record& job, job_clock::time_point now) {
         {"finished", optional_time(job.finished)},
         {"updated", format_timestamp(job.updated)},
     };
+}
+
+}  // namespace
+
+json to_json(const job_record& job, job_clock::time_point now) {
+    auto record = record_without_spec(job, now);
+    record["spec"] = job.spec.is_null() ? json::object() : job.spec;
+    return record;
 }
 
 json to_json(const job_plan& plan, std::size_t max_steps) {
@@ -133,7 +143,7 @@ json state_event(const job_record& job, job_clock::time_point now) {
     // The record goes under "job": its own "type" (the job type) would clash with the event's.
     return {{"type", "state"},      {"state", std::string(to_string(job.state))},
             {"reason", job.reason}, {"waiting_for", waiting_of(job)},
-            {"eta", eta_of(job)},   {"job", to_json(job, now)}};
+            {"eta", eta_of(job)},   {"job", record_without_spec(job, now)}};
 }
 
 json step_event(const job_record& job, std::size_t index, const std::string& name, const json& detail,

@@ -10,7 +10,7 @@
 //   to_json(plan, 1000) -> {"path","summary","steps_total","steps":[{"name","target","estimated_s"}],
 //                          "commands","commands_omitted","estimated_s","bounds","warnings"}
 //   state_event(job, now) -> {"type":"state","state":"running","reason":"","waiting_for":null,
-//                          "eta":"2026-11-22T05:31:20.500Z","job":{...to_json(job)}}
+//                          "eta":"2026-11-22T05:31:20.500Z","job":{...to_json(job) without "spec"}}
 //   step_event(job, index, name, detail, now) -> {"type":"step","index","name","steps_done",
 //                          "steps_total","percent","remaining_s","elapsed_s","waiting_for","eta",
 //                          "at", ...detail}
@@ -43,7 +43,9 @@ nlohmann::json to_json(const job_plan& plan, std::size_t max_steps = 1000);
 // The dry-run answer: {"dry_run":true,"controller","type","plan":to_json(plan)}.
 nlohmann::json dry_run_json(const std::string& controller, job_type type, const job_plan& plan);
 
-// The state event repeats state, reason, waiting_for and eta of the record next to it.
+// The state event repeats state, reason, waiting_for and eta of the record next to it. The record goes
+// without its spec: the spec never changes after the submission, and an inline G-code program would
+// otherwise be sent and stored again with every transition (up to 4 MiB each).
 nlohmann::json state_event(const job_record& job, job_clock::time_point now);
 // "at": `now`, when the step ended (the stored history keeps no other time for it).
 nlohmann::json step_event(const job_record& job, std::size_t index, const std::string& name,

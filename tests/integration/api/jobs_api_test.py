@@ -413,6 +413,34 @@ def test_cancel_pause_resume_next(c):
     c.problem("POST", "/api/v1/jobs/j-01NOSUCHJOB0000000000000000/cancel", 404, "unknown-job", token=OP)
 
 
+def test_state_events_without_the_program(c):
+    """Issue 34: a job's state events carry its record without the spec, so an inline G-code program is
+    stored once (with the job), not again with every transition (before: 0.6 MiB per state event)."""
+    padding = "".join(f"(padding line {i:05d} so that the program is large: ................)\n"
+                      for i in range(8000))
+    moves = "".join("G01 X2 F60\nG01 X0\n" for _ in range(40))
+    program = "G21 G90\n" + padding + moves
+    check(len(program) > 500_000, f"program of {len(program)} bytes")
+    job = submit(c, {"controller": "sim3", "type": "gcode", "spec": {"program": program}}).json()
+    for _ in range(2):  # two pauses and resumes: each adds state events
+        wait_state(c, job["id"], "running")
+        control(c, job["id"], "pause")
+        wait_state(c, job["id"], "paused")
+        control(c, job["id"], "resume")
+    control(c, job["id"], "cancel")
+    wait_state(c, job["id"], TERMINAL)
+    r = c.request("GET", f"/api/v1/jobs/{job['id']}/events", token=VIEW)
+    check(r.status == 200, f"events: {r.status}")
+    events = r.json()["events"]
+    states = [e for e in events if e["type"] == "state"]
+    check(len(states) >= 6, f"{len(states)} state events")
+    check(all("spec" not in e["job"] for e in states), "a state event carries the spec")
+    size = len(r.body)
+    check(size < 100_000, f"the job's events take {size} bytes for a {len(program)}-byte program")
+    stored = get_job(c, job["id"])
+    check(stored["spec"]["program"] == program, "the job itself lost its program")
+
+
 def test_waiting_for_and_eta(c):
     """A job that waits for `next` says so (waiting_for), keeps the motion ahead in remaining_s and has no
     eta; a `next` gives it an eta of now + remaining_s; the waits are events on its history; the list
@@ -742,6 +770,7 @@ def main():
         run("a lease waits for earlier jobs", test_lease_waits_for_earlier_jobs, c)
         run("cancel, pause, resume, next", test_cancel_pause_resume_next, c)
         run("waiting_for and eta", test_waiting_for_and_eta, c)
+        run("state events without the program", test_state_events_without_the_program, c)
         run("websocket job commands and events", test_websocket, c, port)
         run("every openapi example (dry run and real run)", test_examples, c, contract, results,
             set(filter(None, args.skip_examples.split(","))))
