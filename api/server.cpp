@@ -31,7 +31,7 @@ std::shared_ptr<gcode_file_store> make_gcode_store(const gateway_config& config)
 // (some tests) there is none, and GET /api/v1/audit answers 503.
 std::shared_ptr<audit::audit_log> make_audit_log(const gateway_config& config) {
     if (config.storage.path.empty()) return nullptr;
-    auto log = audit::audit_log::open(config.storage.path, get_logger("api"));
+    auto log = audit::audit_log::open(config.storage.path, get_logger("api"), config.storage.retention);
     if (!log) {
         get_logger("api")->error("no audit trail: {}", log.error());
         return nullptr;

@@ -18,14 +18,15 @@ constexpr std::size_t max_queries_waiting = 256;
 }  // namespace
 
 boost::system::result<std::unique_ptr<audit_log>, std::string> audit_log::open(
-    const std::string& directory, std::shared_ptr<spdlog::logger> log) {
+    const std::string& directory, std::shared_ptr<spdlog::logger> log, history_retention retention) {
     auto store = audit_store::open(directory);
     if (!store) return store.error();
-    return std::unique_ptr<audit_log>(new audit_log(std::move(*store), std::move(log)));
+    return std::unique_ptr<audit_log>(new audit_log(std::move(*store), std::move(log), retention));
 }
 
-audit_log::audit_log(std::unique_ptr<audit_store> store, std::shared_ptr<spdlog::logger> log)
-    : store_(std::move(store)), log_(std::move(log)), writer_([this] { run(); }) {}
+audit_log::audit_log(std::unique_ptr<audit_store> store, std::shared_ptr<spdlog::logger> log,
+                     history_retention retention)
+    : store_(std::move(store)), log_(std::move(log)), retention_(retention), writer_([this] { run(); }) {}
 
 audit_log::~audit_log() {
     {
@@ -73,8 +74,25 @@ std::uint64_t audit_log::lost() const {
     return lost_;
 }
 
+bool audit_log::sweep_batch() {
+    std::optional<std::int64_t> before_ms;
+    if (retention_.max_age) before_ms = epoch_ms(std::chrono::system_clock::now() - *retention_.max_age);
+    auto deleted = store_->delete_old(before_ms, retention_.max_audit_entries, retention_batch);
+    if (!deleted && log_)
+        log_->warn("storage.retention: cannot delete old audit entries: {}", deleted.error());
+    const std::size_t n = deleted ? *deleted : 0;
+    swept_ += n;
+    if (n == retention_batch) return true;
+    if (swept_ > 0 && log_) log_->info("storage.retention: deleted {} audit entries", swept_);
+    swept_ = 0;
+    return false;
+}
+
 void audit_log::run() {
     std::vector<audit_entry> batch;
+    const bool retains = !retention_.keeps_all_audit();
+    bool sweeping = retains;  // a sweep at start
+    auto next_sweep = std::chrono::steady_clock::now();
     // One transaction for what has gathered; a store that refuses it loses those entries (logged).
     auto write_batch = [&] {
         if (auto r = store_->append(batch); !r && log_)
@@ -85,7 +103,13 @@ void audit_log::run() {
         std::deque<work> taken;
         {
             std::unique_lock lock(mutex_);
-            wake_.wait(lock, [&] { return stopping_ || !waiting_.empty(); });
+            const auto ready = [&] { return stopping_ || !waiting_.empty(); };
+            // While a sweep is in progress, one batch per turn: no waiting between them.
+            if (!retains)
+                wake_.wait(lock, ready);
+            else if (!sweeping)
+                wake_.wait_until(lock, next_sweep, ready);
+            if (retains && !sweeping && std::chrono::steady_clock::now() >= next_sweep) sweeping = true;
             if (waiting_.empty() && stopping_) return;
             taken.swap(waiting_);
             entries_waiting_ = 0;
@@ -101,6 +125,10 @@ void audit_log::run() {
             q.done(store_->query(q.filter));
         }
         write_batch();
+        if (sweeping && !sweep_batch()) {
+            sweeping = false;
+            next_sweep = std::chrono::steady_clock::now() + retention_.sweep_interval;
+        }
     }
 }
 

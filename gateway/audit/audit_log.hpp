@@ -17,6 +17,7 @@
 #include <boost/system/result.hpp>
 
 #include "gateway/audit/audit_entry.hpp"
+#include "gateway/common/history_retention.hpp"
 
 namespace spdlog {
 class logger;
@@ -32,8 +33,10 @@ class audit_log {
     using query_handler = std::function<void(boost::system::result<audit_page, std::string>)>;
 
     // Opens <directory>/audit.sqlite3 and starts the writer; the error names the file.
+    // `retention`: storage.retention, swept on the writer's thread at start and every sweep_interval,
+    // one small transaction between the writes.
     static boost::system::result<std::unique_ptr<audit_log>, std::string> open(
-        const std::string& directory, std::shared_ptr<spdlog::logger> log);
+        const std::string& directory, std::shared_ptr<spdlog::logger> log, history_retention retention = {});
     ~audit_log();  // writes what waits, then stops
     audit_log(const audit_log&) = delete;
     audit_log& operator=(const audit_log&) = delete;
@@ -52,11 +55,16 @@ class audit_log {
     };
     using work = std::variant<audit_entry, query_request>;
 
-    audit_log(std::unique_ptr<audit_store> store, std::shared_ptr<spdlog::logger> log);
+    audit_log(std::unique_ptr<audit_store> store, std::shared_ptr<spdlog::logger> log,
+              history_retention retention);
     void run();
+    // One batch of storage.retention's deletions; false when none are left.
+    bool sweep_batch();
 
     std::unique_ptr<audit_store> store_;
     std::shared_ptr<spdlog::logger> log_;
+    const history_retention retention_;
+    std::size_t swept_ = 0;  // entries deleted by the sweep in progress (writer thread)
     mutable std::mutex mutex_;
     std::condition_variable wake_;
     std::deque<work> waiting_;

@@ -161,4 +161,24 @@ boost::system::result<audit_page, std::string> audit_store::query(const audit_fi
     return page;
 }
 
+boost::system::result<std::size_t, std::string> audit_store::delete_old(
+    std::optional<std::int64_t> before_ms, std::optional<std::size_t> keep_newest, std::size_t batch) {
+    using result = boost::system::result<std::size_t, std::string>;
+    if (!before_ms && !keep_newest) return std::size_t{0};
+    // Ids grow with time: the newest entries are those of the highest ids. -1: no limit of that kind.
+    statement st;
+    if (sqlite3_prepare_v2(
+            db_,
+            "DELETE FROM audit WHERE id IN (SELECT id FROM audit WHERE time_ms < ?1 OR id NOT IN "
+            "(SELECT id FROM audit ORDER BY id DESC LIMIT ?2) ORDER BY id LIMIT ?3)",
+            -1, &st.s, nullptr) != SQLITE_OK)
+        return result(boost::system::in_place_error, error_of(db_, path_, "delete old entries"));
+    sqlite3_bind_int64(st.s, 1, before_ms.value_or(-1));
+    sqlite3_bind_int64(st.s, 2, keep_newest ? static_cast<std::int64_t>(*keep_newest) : -1);
+    sqlite3_bind_int64(st.s, 3, static_cast<std::int64_t>(batch));
+    if (sqlite3_step(st.s) != SQLITE_DONE)
+        return result(boost::system::in_place_error, error_of(db_, path_, "delete old entries"));
+    return static_cast<std::size_t>(sqlite3_changes(db_));
+}
+
 }  // namespace gw::audit

@@ -3,7 +3,9 @@
 // audit_log owns it and uses it from its own thread only. A file of its own, so that the trail
 // neither waits for nor fills the job store.
 
+#include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,6 +28,12 @@ class audit_store {
 
     // In one transaction; the entries' ids are set. The error says why nothing was written.
     boost::system::result<void, std::string> append(std::vector<audit_entry>& entries);
+    // Deletes up to `batch` entries in one transaction, oldest first: those recorded before
+    // `before_ms` (epoch ms) and those beyond the newest `keep_newest`. How many were deleted (fewer
+    // than `batch`: none are left).
+    boost::system::result<std::size_t, std::string> delete_old(std::optional<std::int64_t> before_ms,
+                                                               std::optional<std::size_t> keep_newest,
+                                                               std::size_t batch);
     // Newest first; limit outside 1..500 is clamped by the caller (api/).
     boost::system::result<audit_page, std::string> query(const audit_filter& filter) const;
 

@@ -158,6 +158,20 @@ bool valid_logger_name(std::string_view name) {
     return name.starts_with(prefix) && is_valid_controller_id(name.substr(prefix.size()));
 }
 
+// storage.retention: {"max_age_days", "max_ended_jobs", "max_audit_entries", "sweep_interval_s"}.
+void read_retention(const json& j, history_retention& out) {
+    object_reader r(j, "storage.retention",
+                    {"max_age_days", "max_ended_jobs", "max_audit_entries", "sweep_interval_s"});
+    if (auto* v = r.get("max_age_days"))
+        out.max_age = std::chrono::hours(24 * read_uint(*v, r.path("max_age_days"), 1, 36500));
+    if (auto* v = r.get("max_ended_jobs"))
+        out.max_ended_jobs = read_uint(*v, r.path("max_ended_jobs"), 1, 100'000'000);
+    if (auto* v = r.get("max_audit_entries"))
+        out.max_audit_entries = read_uint(*v, r.path("max_audit_entries"), 1, 1'000'000'000);
+    if (auto* v = r.get("sweep_interval_s"))
+        out.sweep_interval = std::chrono::seconds(read_uint(*v, r.path("sweep_interval_s"), 1, 86400));
+}
+
 void read_http(const json& j, http_config& out) {
     object_reader r(
         j, "http",
@@ -584,10 +598,11 @@ gateway_config read_config(const json& j) {
     }
     if (auto* v = r.get("simulate")) read_simulate(*v, c.simulate);
     if (auto* v = r.get("storage")) {
-        object_reader s(*v, "storage", {"path", "max_size_mb"});
+        object_reader s(*v, "storage", {"path", "max_size_mb", "retention"});
         if (auto* p = s.get("path")) c.storage.path = read_string(*p, s.path("path"));
         if (auto* m = s.get("max_size_mb"))
             c.storage.max_size_mb = read_uint(*m, s.path("max_size_mb"), 1, max_storage_size_mb);
+        if (auto* k = s.get("retention")) read_retention(*k, c.storage.retention);
     }
     if (auto* v = r.get("jobs")) {
         object_reader s(*v, "jobs", {"restart_queued", "max_queued_per_controller"});

@@ -25,6 +25,7 @@
 
 #include "devices/serial/controller_settings.hpp"
 #include "devices/share/share_settings.hpp"
+#include "gateway/common/history_retention.hpp"
 #include "gateway/config/token_secret.hpp"
 #include "gateway/config/trusted_proxies.hpp"
 
@@ -77,6 +78,7 @@ struct storage_config {
     // gateway/storage/storage_path.hpp ($STATE_DIRECTORY, $XDG_STATE_HOME/asi-gateway, ~/.local/state/...).
     std::string path;
     std::size_t max_size_mb = 1024;  // bound on jobs.sqlite3; beyond it submissions fail (503)
+    history_retention retention;     // storage.retention: nothing deleted unless set
 };
 
 struct jobs_config {

@@ -35,6 +35,7 @@
 #include <boost/asio/any_io_executor.hpp>
 #include <nlohmann/json.hpp>
 
+#include "gateway/common/history_retention.hpp"
 #include "gateway/common/operation_error.hpp"
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_holds.hpp"
@@ -66,6 +67,8 @@ struct job_manager_settings {
     std::chrono::milliseconds ended_job_topic_ttl{600'000};
     // The job store's fill (store_fill_ratio, the 80 % warning) is read after writes at most this often.
     std::chrono::milliseconds store_fill_check{5000};
+    // storage.retention: which ended jobs are deleted, at start and every sweep_interval.
+    history_retention retention;
     // Called on the planner's thread as each plan starts (tests hold a plan there to show that the
     // manager goes on meanwhile); empty in the gateway.
     std::function<void(const std::string& controller)> on_plan_started;

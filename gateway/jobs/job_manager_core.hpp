@@ -211,6 +211,9 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // Reads how full the store is (at most every settings_.store_fill_check unless `now`), keeps it for
     // store_fill_ratio() and warns once when it crosses store_fill_warning.
     void note_store_fill(bool now = false);
+    // storage.retention: deletes ended jobs one small transaction per turn of the strand (other work
+    // runs between them), then sweeps again settings_.retention.sweep_interval later.
+    void sweep_history(std::size_t deleted_so_far = 0);
     // Persists the job's restore commands (empty: removes them); a storage error is logged.
     void store_restore_commands(const std::string& id, const std::vector<std::string>& commands);
     // On the hub, for the job's topic (after save: a client never sees what is not stored first); the
@@ -300,6 +303,7 @@ class manager_core final : public execution_host, public std::enable_shared_from
     job_journal journal_{store_, settings_.max_unstored_writes_per_job, log_};
     net::steady_timer store_retry_{strand_};
     bool store_retry_armed_ = false;
+    net::steady_timer retention_sweep_{strand_};
     std::atomic<double> store_fill_{-1};  // -1: not known (no limit, or not checked yet)
     bool store_fill_high_ = false;        // above store_fill_warning at the last check
     std::chrono::steady_clock::time_point store_fill_checked_{};

@@ -52,6 +52,29 @@ void manager_core::note_store_fill(bool now) {
     store_fill_high_ = high;
 }
 
+void manager_core::sweep_history(std::size_t deleted_so_far) {
+    const auto& retention = settings_.retention;
+    if (abandoned_ || shutting_down_ || retention.keeps_all_jobs()) return;
+    auto store = store_.get();
+    if (!store) return;
+    std::optional<job_clock::time_point> ended_before;
+    if (retention.max_age) ended_before = job_clock::now() - *retention.max_age;
+    auto deleted = store->delete_ended(ended_before, retention.max_ended_jobs, retention_batch);
+    if (!deleted) log_->warn("storage.retention: cannot delete ended jobs: {}", deleted.error().message);
+    const std::size_t n = deleted ? *deleted : 0;
+    if (n == retention_batch)  // more left: the next batch after what else waits on the strand
+        return net::post(
+            strand_, [self = shared_from_this(), total = deleted_so_far + n] { self->sweep_history(total); });
+    if (deleted_so_far + n > 0) {
+        log_->info("storage.retention: deleted {} ended job(s) with their history", deleted_so_far + n);
+        note_store_fill(true);
+    }
+    retention_sweep_.expires_after(retention.sweep_interval);
+    retention_sweep_.async_wait([self = shared_from_this()](boost::system::error_code ec) {
+        if (!ec) self->sweep_history();
+    });
+}
+
 operation_result<void> manager_core::write_unstored(const std::string& id) {
     bool ended = false;
     auto stored = journal_.write_pending(id, &ended);

@@ -10,6 +10,7 @@ void manager_core::start() {
         if (self->started_ || self->abandoned_) return;
         self->started_ = true;
         self->note_store_fill(true);
+        self->sweep_history();
         auto store = self->store_.get();
         if (!store) return;
         auto active = store->in_states({job_state::running, job_state::paused});
@@ -102,6 +103,7 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
     if (running_ > 0) log_->warn("shutdown: {} job(s) did not stop in time", running_);
     // A last try for what the store refused; what it still refuses is lost, and said so.
     store_retry_.cancel();
+    retention_sweep_.cancel();
     for (const auto& id : journal_.jobs_pending())
         if (auto stored = write_unstored(id); !stored)
             log_->error(
@@ -125,6 +127,7 @@ void manager_core::abandon() {
     }
     net::post(strand_, [self = shared_from_this()] {
         self->store_retry_.cancel();
+        self->retention_sweep_.cancel();
         for (auto& [id, job] : self->jobs_)
             if (job->exec) job->exec->abandon();
     });

@@ -11,6 +11,7 @@ job_manager_settings make_job_manager_settings(const gateway_config& config) {
     s.restart_queued = config.jobs.restart_queued;
     s.max_queued_per_controller = config.jobs.max_queued_per_controller;
     s.ended_job_topic_ttl = config.events.ended_job_topic_ttl;
+    s.retention = config.storage.retention;
     return s;
 }
 

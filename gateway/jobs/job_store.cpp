@@ -541,6 +541,31 @@ operation_result<void> job_store::append_event(const std::string& job_id, const 
     return tx.commit();
 }
 
+operation_result<std::size_t> job_store::delete_ended(std::optional<job_clock::time_point> ended_before,
+                                                      std::optional<std::size_t> keep_newest,
+                                                      std::size_t batch) {
+    if (!ended_before && !keep_newest) return std::size_t{0};
+    std::lock_guard lock(mutex_);
+    connection c{db_, path_};
+    transaction tx(c);
+    if (auto r = tx.begin(true); !r) return r.error();
+    // Ids are time-ordered: the newest ended jobs are those of the highest ids. -1: no age limit, and
+    // SQLite's LIMIT -1: no count limit. Events, transitions and restore commands go by ON DELETE CASCADE.
+    auto s = c.prepare(
+        "DELETE FROM jobs WHERE id IN (SELECT id FROM jobs WHERE state IN ('succeeded', 'failed', "
+        "'cancelled') "
+        "AND (finished_ms < ?1 OR id NOT IN (SELECT id FROM jobs WHERE state IN ('succeeded', 'failed', "
+        "'cancelled') ORDER BY id DESC LIMIT ?2)) ORDER BY id LIMIT ?3)");
+    if (!s) return s.error();
+    s->integer(1, ended_before ? epoch_ms(*ended_before) : std::int64_t{-1})
+        .integer(2, keep_newest ? to_int64(*keep_newest) : std::int64_t{-1})
+        .integer(3, to_int64(batch));
+    if (s->step() != SQLITE_DONE) return c.error("delete ended jobs");
+    const auto deleted = static_cast<std::size_t>(sqlite3_changes(c.db));
+    if (auto r = tx.commit(); !r) return r.error();
+    return deleted;
+}
+
 operation_result<std::optional<job_record>> job_store::find(const std::string& id) const {
     std::lock_guard lock(read_mutex_);
     return find_one(connection{reader_, path_}, "id", id);

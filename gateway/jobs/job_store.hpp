@@ -91,6 +91,12 @@ class job_store {
     // The jobs that have restore commands stored, the least recently updated first.
     operation_result<std::vector<std::string>> jobs_with_restore_commands() const;
 
+    // Deletes up to `batch` ended jobs (succeeded, failed, cancelled) with their events, transitions and
+    // restore commands, in one transaction: those that ended before `ended_before`, and those beyond
+    // the newest `keep_newest` ended jobs. How many were deleted (fewer than `batch`: none are left).
+    operation_result<std::size_t> delete_ended(std::optional<job_clock::time_point> ended_before,
+                                               std::optional<std::size_t> keep_newest, std::size_t batch);
+
     // Checkpoints the WAL into the main file (clean shutdown).
     operation_result<void> flush();
 

@@ -164,6 +164,9 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
          "http.tls.key_file: must not be empty"},
         {R"({"http": {"tls": {"cert_file": "c", "key_file": "k", "ciphers": "x"}}})",
          "http.tls.ciphers: unknown key"},
+        {R"({"storage": {"retention": {"max_age_days": 0}}})",
+         "storage.retention.max_age_days: must be an integer from 1 to 36500"},
+        {R"({"storage": {"retention": {"keep": 3}}})", "storage.retention.keep: unknown key"},
         {R"({"http": {"trusted_proxies": ["127.0.0.1", "proxy.lab"]}})",
          "http.trusted_proxies[1]: \"proxy.lab\" must be an address (10.0.0.5, ::1) or a network "
          "(10.0.0.0/8, "
@@ -285,6 +288,19 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
         ASSERT_FALSE(r) << "accepted";
         EXPECT_EQ(r.error(), c.error);
     }
+}
+
+TEST(config, retention_is_off_unless_set) {
+    auto none = parse_config("{}");
+    EXPECT_TRUE(none->storage.retention.keeps_all_jobs());
+    EXPECT_TRUE(none->storage.retention.keeps_all_audit());
+    auto c = parse_config(
+        R"({"storage": {"retention": {"max_age_days": 30, "max_audit_entries": 1000, "sweep_interval_s": 60}}})");
+    ASSERT_TRUE(c) << c.error();
+    EXPECT_EQ(c->storage.retention.max_age, std::chrono::hours(24 * 30));
+    EXPECT_FALSE(c->storage.retention.max_ended_jobs);
+    EXPECT_EQ(c->storage.retention.max_audit_entries, 1000U);
+    EXPECT_EQ(c->storage.retention.sweep_interval, std::chrono::seconds(60));
 }
 
 TEST(config, tls_files_are_found_from_the_config_directory_and_credentials) {

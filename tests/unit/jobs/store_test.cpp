@@ -97,6 +97,46 @@ void expect_same(const job_record& a, const job_record& b) {
     EXPECT_EQ(a.updated, b.updated);
 }
 
+// storage.retention: ended jobs (only those) go by age and by count, with their events and transitions,
+// in batches of at most `batch`.
+TEST_F(store_test, delete_ended_removes_old_and_surplus_ended_jobs_with_their_history) {
+    auto store = open_store();
+    ASSERT_TRUE(store);
+    const job_state states[] = {job_state::succeeded, job_state::failed,  job_state::cancelled,
+                                job_state::succeeded, job_state::running, job_state::interrupted,
+                                job_state::succeeded, job_state::queued,  job_state::paused};
+    std::vector<std::string> ids;
+    for (std::size_t i = 0; i < std::size(states); ++i) {
+        auto j = make_job(id_at(1'700'000'000'000 + static_cast<std::int64_t>(i) * 1000));
+        ASSERT_TRUE(store->insert(j, {{"type", "state"}}));
+        j.state = states[i];
+        if (is_terminal(j.state)) j.finished = at_ms(1'700'000'000'000 + static_cast<std::int64_t>(i) * 1000);
+        ASSERT_TRUE(store->save(j, {{"type", "state"}, {"n", i}}));
+        ids.push_back(j.id);
+    }
+    const auto present = [&](std::size_t i) { return store->find(ids[i])->has_value(); };
+    // Nothing asked: nothing deleted.
+    EXPECT_EQ(*store->delete_ended(std::nullopt, std::nullopt, 100), 0U);
+    // By age: the ended jobs that finished before job 2's end (jobs 0 and 1), one batch of one at a time.
+    EXPECT_EQ(*store->delete_ended(at_ms(1'700'000'002'000), std::nullopt, 1), 1U);
+    EXPECT_EQ(*store->delete_ended(at_ms(1'700'000'002'000), std::nullopt, 1), 1U);
+    EXPECT_EQ(*store->delete_ended(at_ms(1'700'000'002'000), std::nullopt, 1), 0U);
+    EXPECT_FALSE(present(0));
+    EXPECT_FALSE(present(1));
+    EXPECT_TRUE(present(2));
+    // Their history went with them.
+    EXPECT_TRUE(store->events(ids[0], 100)->empty());
+    EXPECT_TRUE(store->transitions(ids[0])->empty());
+    // By count: the newest two ended jobs stay (6 and 3); 2 goes. Running, interrupted (it may be resumed),
+    // queued and paused jobs are never deleted.
+    EXPECT_EQ(*store->delete_ended(std::nullopt, 2, 100), 1U);
+    for (std::size_t i : {2U})
+        EXPECT_FALSE(present(i)) << i;
+    for (std::size_t i : {3U, 4U, 5U, 6U, 7U, 8U})
+        EXPECT_TRUE(present(i)) << i;
+    EXPECT_EQ(store->events(ids[6], 100)->size(), 2U);
+}
+
 TEST_F(store_test, creates_the_directory_and_the_database_file) {
     dir_ /= "nested/deeper";
     auto store = open_store();
