@@ -224,16 +224,25 @@ void shared_port::run_line(const std::shared_ptr<client_session>& from, std::str
         return answer(refusal_reply(refusal_code::unreadable));
     }
     const auto effect = ms2000::effect_of(*cmd);
+    // What moves or changes something, and HALT, goes into the gateway's audit trail, sent or refused.
+    const bool halt = effect == ms2000::command_effect::halts;
+    const bool audited = gate_ && (needs_control(effect) || halt);
+    const auto audit = [&](std::string outcome, std::string reason) {
+        if (audited)
+            gate_->record(settings_.controller,
+                          {from->name(), line, settings_.role, std::move(outcome), std::move(reason), halt});
+    };
     if (!role_allows(settings_.role, effect)) {
-        refuse(*from,
-               {refusal_code::role, std::string("a command that ") + ms2000::to_string(effect) +
-                                        " needs a higher share.role than " + to_string(settings_.role)},
-               line);
+        refusal why{refusal_code::role, std::string("a command that ") + ms2000::to_string(effect) +
+                                            " needs a higher share.role than " + to_string(settings_.role)};
+        refuse(*from, why, line);
+        audit("forbidden", why.reason);
         return answer(refusal_reply(refusal_code::role));
     }
     if (needs_control(effect) && gate_) {
         if (auto refused = gate_->admit(settings_.controller)) {
             refuse(*from, *refused, line);
+            audit("held-elsewhere", refused->reason);
             return answer(refusal_reply(refused->code));
         }
     }
@@ -250,6 +259,7 @@ void shared_port::run_line(const std::shared_ptr<client_session>& from, std::str
     if (effect != ms2000::command_effect::halts && std::chrono::steady_clock::now() > answer_by) {
         from->count_late();
         publish();
+        audit("late", "waited longer than the command timeout behind the client's earlier lines: not sent");
         return answer({});
     }
     from->count_sent();
@@ -257,10 +267,18 @@ void shared_port::run_line(const std::shared_ptr<client_session>& from, std::str
     const auto request_id = "share-" + std::to_string(++line_sequence_);
     controller_->async_command(
         std::move(*cmd), request_id,
-        net::bind_executor(strand_, [self = shared_from_this(), from, answer = std::move(answer), answer_by](
-                                        error_code ec, const ms2000::reply& reply) {
+        net::bind_executor(strand_, [self = shared_from_this(), from, answer = std::move(answer), answer_by,
+                                     audited, halt, line](error_code ec, const ms2000::reply& reply) {
             self->publish();
             const bool answered = !ec || ec == ms2000::error::controller_rejected;
+            if (audited)
+                self->gate_->record(self->settings_.controller,
+                                    {from->name(),
+                                     line,
+                                     self->settings_.role,
+                                     !ec ? "ok" : (answered ? "controller-error" : "no-answer"),
+                                     {},
+                                     halt});
             if (answered && std::chrono::steady_clock::now() > answer_by) {
                 from->count_late();
                 return answer({});

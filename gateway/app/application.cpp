@@ -14,7 +14,9 @@
 #include "api/tls_server_context.hpp"
 #include "gateway/app/crash_halt.hpp"
 #include "gateway/app/startup_summary.hpp"
+#include "gateway/audit/audit_log.hpp"
 #include "gateway/common/metrics.hpp"
+#include "gateway/common/timestamp.hpp"
 #include "gateway/config/logging.hpp"
 #include "gateway/controllers/log_observer.hpp"
 #include "gateway/events/controller_events_bridge.hpp"
@@ -75,18 +77,38 @@ void application::wait_for_signal() {
     signals_.async_wait([this](boost::system::error_code ec, int signal) {
         if (ec) return;
         if (signal == SIGHUP && !from_terminal_) {
-            if (!tls_) {
-                log_->info("SIGHUP: nothing to reload (no http.tls)");
-            } else if (auto problem = tls_->reload(); !problem.empty()) {
-                log_->error("SIGHUP: TLS certificate not reloaded, the previous one stays: {}", problem);
-            } else {
-                log_->info("SIGHUP: TLS certificate reloaded from {}", launch_.config.http.tls.cert_file);
-            }
+            reload_tls();
             return wait_for_signal();
         }
         log_->info("signal {}: stopping", signal);
         shutdown();
     });
+}
+
+void application::reload_tls() {
+    if (!tls_) {
+        log_->info("SIGHUP: nothing to reload (no http.tls)");
+        return;
+    }
+    auto problem = tls_->reload();
+    if (!problem.empty())
+        log_->error("SIGHUP: TLS certificate not reloaded, the previous one stays: {}", problem);
+    else
+        log_->info("SIGHUP: TLS certificate reloaded from {}", launch_.config.http.tls.cert_file);
+    // A configuration reload is in the audit trail like any change.
+    if (auto audit = http_->context()->audit) {
+        audit::audit_entry e;
+        e.time_ms = epoch_ms(std::chrono::system_clock::now());
+        e.principal = "SIGHUP";
+        e.role = "admin";
+        e.transport = "signal";
+        e.action = "tls.reload";
+        e.target = launch_.config.http.tls.cert_file;
+        e.status = problem.empty() ? 200 : 500;
+        e.outcome = problem.empty() ? "ok" : "failed";
+        e.detail = problem.empty() ? nlohmann::json::object() : nlohmann::json{{"error", problem}};
+        audit->record(std::move(e));
+    }
 }
 
 bool application::start() {
@@ -144,6 +166,7 @@ bool application::start() {
     shares_ = std::make_unique<shared_ports>(ioc_.get_executor(), config, *registry_, leases_, jobs_);
     http_ = std::make_unique<api::server>(ioc_.get_executor(), config, *registry_, hub_, metrics_, jobs_,
                                           leases_, state_texts_, shares_.get(), tls_);
+    shares_->set_audit(http_->context()->audit);
 
     try {
         registry_->start();

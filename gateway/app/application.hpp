@@ -70,6 +70,8 @@ class application {
     void shutdown();
     void serve();
     void wait_for_signal();
+    // SIGHUP as a service: the TLS certificate read again, logged and audited.
+    void reload_tls();
     // Runs `io` until it is stopped or out of work; a handler that throws is logged, not fatal.
     void run_logging_exceptions(boost::asio::io_context& io);
 

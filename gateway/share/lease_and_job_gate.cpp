@@ -6,6 +6,8 @@
 #include <boost/asio/dispatch.hpp>
 #include <spdlog/spdlog.h>
 
+#include "gateway/audit/audit_log.hpp"
+#include "gateway/common/timestamp.hpp"
 #include "gateway/config/logging.hpp"
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/jobs/job_manager.hpp"
@@ -52,6 +54,33 @@ std::optional<refusal> lease_and_job_gate::admit(const std::string& controller) 
         if (!allowed) return refusal{refusal_code::held_elsewhere, allowed.error().message};
     }
     return std::nullopt;
+}
+
+void lease_and_job_gate::record(const std::string& controller,
+                                const devices::share::shared_command_record& r) {
+    if (!audit_) return;
+    audit::audit_entry e;
+    e.time_ms = epoch_ms(std::chrono::system_clock::now());
+    e.principal = "shared-port";
+    e.role = devices::share::to_string(r.role);
+    e.transport = "share";
+    // "tcp 127.0.0.1:50412": the client's address; a pty client has none.
+    if (r.client.starts_with("tcp ")) {
+        const auto endpoint = r.client.substr(4);
+        const auto colon = endpoint.rfind(':');
+        e.address = endpoint.substr(0, colon);
+        if (e.address.size() > 2 && e.address.front() == '[')
+            e.address = e.address.substr(1, e.address.size() - 2);
+    }
+    e.action = r.halt ? "halt" : "command";
+    e.controller = controller;
+    e.request_id = r.client;
+    const bool refused = r.outcome != "ok" && r.outcome != "controller-error" && r.outcome != "no-answer";
+    e.status = r.outcome == "ok" ? 200 : refused ? (r.outcome == "forbidden" ? 403 : 409) : 502;
+    e.outcome = r.outcome;
+    e.detail = audit::bounded_detail({{"command", r.command}, {"client", r.client}});
+    if (!r.reason.empty()) e.detail["reason"] = r.reason;
+    audit_->record(std::move(e));
 }
 
 void lease_and_job_gate::halting(const std::string& controller, const std::string& client) {

@@ -3,6 +3,7 @@
 // setting commands are refused while another party holds the controller's lease or a job runs there; a
 // shared client's HALT latches the controller as every HALT does (its jobs pause); with share.lease, the
 // port holds the controller's lease while a client is connected, renewed until the last one leaves.
+// What a shared client moves or changes (and its HALTs) goes into the audit trail like any call.
 //
 // Thread-safe: shared ports call it from their strands; the renewal runs on its own strand.
 
@@ -32,6 +33,9 @@ class lease_manager;
 namespace jobs {
 class job_manager;
 }
+namespace audit {
+class audit_log;
+}
 
 class lease_and_job_gate : public devices::share::share_gate,
                            public std::enable_shared_from_this<lease_and_job_gate> {
@@ -45,6 +49,12 @@ class lease_and_job_gate : public devices::share::share_gate,
     std::optional<devices::share::refusal> admit(const std::string& controller) override;
     void halting(const std::string& controller, const std::string& client) override;
     bool clients_changed(const std::string& controller, std::size_t connected) override;
+    // Into the audit trail (when set_audit gave one): principal "shared-port", transport "share",
+    // the client's address for a TCP client, action "command" (or "halt"), the line in the detail.
+    void record(const std::string& controller, const devices::share::shared_command_record& r) override;
+
+    // The audit trail; before the ports open (null: none kept).
+    void set_audit(std::shared_ptr<audit::audit_log> audit) { audit_ = std::move(audit); }
 
     // Ends the renewals and releases every lease the ports hold.
     void stop();
@@ -61,6 +71,7 @@ class lease_and_job_gate : public devices::share::share_gate,
     std::shared_ptr<lease_manager> leases_;
     std::shared_ptr<jobs::job_manager> jobs_;
     std::shared_ptr<spdlog::logger> log_;
+    std::shared_ptr<audit::audit_log> audit_;
 
     std::mutex mutex_;
     std::map<std::string, std::size_t> connected_;    // controllers whose port wants the lease

@@ -49,6 +49,10 @@ shared_ports::~shared_ports() {
     stop();
 }
 
+void shared_ports::set_audit(std::shared_ptr<audit::audit_log> audit) {
+    gate_->set_audit(std::move(audit));
+}
+
 std::string shared_ports::start() {
     for (const auto& [id, port] : ports_) {
         if (auto why = port->start(); !why.empty()) return why.insert(0, id + ": ");

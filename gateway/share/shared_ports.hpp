@@ -35,6 +35,9 @@ struct gateway_config;
 namespace jobs {
 class job_manager;
 }
+namespace audit {
+class audit_log;
+}
 
 class shared_ports {
   public:
@@ -45,6 +48,8 @@ class shared_ports {
     shared_ports(const shared_ports&) = delete;
     shared_ports& operator=(const shared_ports&) = delete;
 
+    // The audit trail for the shared clients' commands (call before start; null: none kept).
+    void set_audit(std::shared_ptr<audit::audit_log> audit);
     // Opens every port; returns "" or why one could not be opened (the gateway does not start then).
     std::string start();
     void stop();

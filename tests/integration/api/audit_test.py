@@ -8,6 +8,8 @@ what and how it ended, and nothing else does:
     raw command, a job submitted (its id as the target) and cancelled, a lease taken and broken by an
     admin, HALT ALL, a G-code program uploaded and deleted;
   - WebSocket: a HALT (transport websocket); MQTT: a signed HALT (transport mqtt, the key's name);
+  - a shared port (pyserial on sim2's shared pty): a move (transport share, its line), a move refused
+    while REST holds the lease (held-elsewhere, with the reason) and a HALT; its queries leave nothing;
   - reads, dry runs and G-code checks leave nothing;
   - GET /api/v1/audit is admin only, filters by controller, principal and time, pages with before,
     refuses a bad parameter (422);
@@ -83,6 +85,40 @@ def test_reads_leave_nothing(c):
                   {"controller": "sim1", "type": "array", "spec": {"plate": "96", "a1": "current"}}, token=OP)
     check(r.status == 200, f"a dry run: {r.status} {r.body[:200]}")
     check(trail(c, "?limit=1")["entries"][0]["id"] == last, "reads and a dry run added an entry")
+
+
+def test_shared_port_commands(fx, c):
+    import serial  # python3-serial
+
+    port = serial.Serial(os.path.join(fx.tmp, "sims", "sim2", "share"), 115200, timeout=10)
+    try:
+        def send(line):
+            port.write(line.encode() + b"\r")
+            return port.readline().decode(errors="replace").strip()
+
+        check(send("W X").startswith(":A"), "a query through the shared port")
+        answer = send("M X=50")
+        check(answer.startswith(":A"), f"a move through the shared port: {answer!r}")
+        e = newest(c, action="command", transport="share")
+        check(e["controller"] == "sim2" and e["detail"]["command"] == "M X=50" and e["outcome"] == "ok"
+              and e["principal"] == "shared-port" and e["role"] == "admin" and e["status"] == 200,
+              f"the shared move: {e}")
+        r = c.request("POST", "/api/v1/controllers/sim2/lease", {"ttl_s": 60, "holder": "rest"}, token=OP)
+        check(r.status in (200, 201), f"lease: {r.status} {r.body[:200]}")
+        answer = send("M X=60")
+        check(answer.startswith(":N-90"), f"a move while REST holds the lease: {answer!r}")
+        e = newest(c, action="command", transport="share")
+        check(e["detail"]["command"] == "M X=60" and e["outcome"] == "held-elsewhere" and e["status"] == 409
+              and "rest" in e["detail"].get("reason", ""), f"the refused shared move: {e}")
+        c.request("DELETE", "/api/v1/controllers/sim2/lease?force=true", token=ADMIN)
+        send("\\")
+        e = newest(c, action="halt", transport="share")
+        check(e["controller"] == "sim2" and e["outcome"] == "ok", f"the shared HALT: {e}")
+        queries = [x for x in trail(c, "?limit=500")["entries"]
+                   if x["transport"] == "share" and x["detail"].get("command") == "W X"]
+        check(not queries, f"a query through the shared port was audited: {queries}")
+    finally:
+        port.close()
 
 
 def test_jobs_and_leases(c):
@@ -225,6 +261,7 @@ def main():
         fx.run("REST calls: who, from where, what, how it ended", test_rest_calls, c)
         fx.run("reads and dry runs leave nothing", test_reads_leave_nothing, c)
         fx.run("jobs, leases and HALT ALL", test_jobs_and_leases, c)
+        fx.run("shared port commands: moves, refusals and HALT, not queries", test_shared_port_commands, fx, c)
         fx.run("G-code uploads and deletes", test_gcode_files, c)
         fx.run("WebSocket and MQTT calls", test_websocket_and_mqtt, c, port, broker, gateway_topic)
         fx.run("GET /api/v1/audit: admin only, filters, paging", test_query, c)

@@ -11,7 +11,8 @@ Checks:
   - a client that connects and never finishes its handshake is closed after the header timeout and
     counted (gw_http_tls_handshake_failures_total);
   - SIGHUP reloads the certificate: new connections get the new one, an open keep-alive connection
-    keeps working; a SIGHUP with a broken key keeps the previous certificate and logs why;
+    keeps working; a SIGHUP with a broken key keeps the previous certificate and logs why; both
+    reloads are in the audit trail;
   - a wrong certificate path stops the start with the file named (exit 1), and --check-config
     names it too.
 
@@ -199,6 +200,12 @@ def test_sighup_reloads(fx, port, ctx_for, cert, key):
     check(peer_fingerprint(port, ctx_for(cert)) == new, "a failed reload changed the certificate")
     line = next(l for l in open(fx.log_path) if "TLS certificate not reloaded" in l)
     check(key in line, f"the log line does not name the key file: {line}")
+    # Both reloads are in the audit trail.
+    status, text = http_request(port, "GET", "/api/v1/audit?limit=50", tls=ctx_for(cert))
+    reloads = [e for e in json.loads(text)["entries"] if e["action"] == "tls.reload"]
+    check(status == 200 and [e["outcome"] for e in reloads] == ["failed", "ok"]
+          and reloads[0]["transport"] == "signal" and key in reloads[0]["detail"]["error"],
+          f"the reloads in the audit trail: {status} {reloads}")
 
 
 def test_wrong_path_fails_at_start(fx, gateway):
