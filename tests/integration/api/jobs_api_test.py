@@ -693,11 +693,10 @@ def test_full_store(fx, args, contract):
     extra = ["--simulate", "3", "--time-scale", str(TIME_SCALE), "--sim-dir", os.path.join(fx.tmp, "sims-full")]
     gateway = fx.start_gateway(args.gateway, config, extra)
     c = Client(port, contract)
-    # Every well of a 16 x 24 grid named: the job's first event is over 1 KiB, more than a page of the
-    # events index holds, so storing it needs a new page (a fresh store has room in the pages it has).
-    wells = [f"{chr(ord('A') + r)}{col + 1}" for r in range(16) for col in range(24)]
-    body = job_body("sim2", "array", {"grid": {"columns": 24, "rows": 16, "column_step_mm": 0.2, "row_step_mm": -0.2},
-                                      "a1": {"X": 0, "Y": 0}, "wells": wells, "advance": "next", "mode": "host"})
+    # A program of 20 KiB inline: the job's row takes more than a page, so storing it needs new pages
+    # (a fresh store has room in the pages it has for anything smaller).
+    program = "G21 G90\n" + "".join(f"(comment {i:04d} making the program longer .........)\n" for i in range(400))
+    body = job_body("sim2", "gcode", {"program": program + "G01 X1 F60\n"})
     submit(c, body, status=200, query="?dry_run=true")  # a valid job: only the store can refuse it
     filler = sqlite3.connect(os.path.join(store, "jobs.sqlite3"), timeout=10)
     try:

@@ -177,7 +177,11 @@ TEST(job_json, events_carry_the_type_and_the_progress) {
     EXPECT_EQ(state["type"], "state");
     EXPECT_EQ(state["state"], "running");
     EXPECT_EQ(state["reason"], "");
-    EXPECT_EQ(state["job"], to_json(job, at(11200ms)));
+    // The record without its spec (it never changes; an inline program would be stored each time).
+    auto record = to_json(job, at(11200ms));
+    record.erase("spec");
+    EXPECT_EQ(state["job"], record);
+    EXPECT_FALSE(state["job"].contains("spec"));
     EXPECT_EQ(state["job"]["type"], "array");
     EXPECT_TRUE(state["waiting_for"].is_null());
     EXPECT_TRUE(state["eta"].is_null());
