@@ -552,10 +552,10 @@ operation_result<std::size_t> job_store::delete_ended(std::optional<job_clock::t
     // Ids are time-ordered: the newest ended jobs are those of the highest ids. -1: no age limit, and
     // SQLite's LIMIT -1: no count limit. Events, transitions and restore commands go by ON DELETE CASCADE.
     auto s = c.prepare(
-        "DELETE FROM jobs WHERE id IN (SELECT id FROM jobs WHERE state IN ('succeeded', 'failed', "
-        "'cancelled') "
-        "AND (finished_ms < ?1 OR id NOT IN (SELECT id FROM jobs WHERE state IN ('succeeded', 'failed', "
-        "'cancelled') ORDER BY id DESC LIMIT ?2)) ORDER BY id LIMIT ?3)");
+        "DELETE FROM jobs WHERE id IN (SELECT id FROM jobs"
+        " WHERE state IN ('succeeded', 'failed', 'cancelled') AND (finished_ms < ?1 OR id NOT IN"
+        " (SELECT id FROM jobs WHERE state IN ('succeeded', 'failed', 'cancelled') ORDER BY id DESC LIMIT ?2))"
+        " ORDER BY id LIMIT ?3)");
     if (!s) return s.error();
     s->integer(1, ended_before ? epoch_ms(*ended_before) : std::int64_t{-1})
         .integer(2, keep_newest ? to_int64(*keep_newest) : std::int64_t{-1})

@@ -106,14 +106,19 @@ def self_signed_certificate(directory, name="server", host="localhost"):
     return cert, key
 
 
-def http_request(port, method, path, body=None, token=TOKENS["admin"], tls=None):
+def http_request(port, method, path, body=None, token=TOKENS["admin"], tls=None, headers=None, source=None,
+                 host="127.0.0.1"):
     """(status, body text) of one request on its own connection; no Authorization without a token.
-    `tls`: an ssl.SSLContext for an HTTPS gateway."""
+    `tls`: an ssl.SSLContext for an HTTPS gateway; `headers`: more request headers; `source`: the
+    local address to connect from (another loopback address, as a second machine would)."""
+    source_address = (source, 0) if source else None
     if tls:
-        conn = http.client.HTTPSConnection("127.0.0.1", port, timeout=WAIT, context=tls)
+        conn = http.client.HTTPSConnection(host, port, timeout=WAIT, context=tls, source_address=source_address)
     else:
-        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=WAIT)
-    headers = {"Authorization": f"Bearer {token}"} if token else {}
+        conn = http.client.HTTPConnection(host, port, timeout=WAIT, source_address=source_address)
+    headers = dict(headers or {})
+    if token:
+        headers["Authorization"] = f"Bearer {token}"
     data = None
     if body is not None:
         data = json.dumps(body)
@@ -249,6 +254,14 @@ class Fixture:
                 p.kill()
                 p.wait()
         shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def stop_and_report(self, tail_lines=60):
+        """The end of a test script: SIGTERM to the gateway (recorded as "SIGTERM exits 0"), the log's
+        tail when something failed, the summary; the exit code."""
+        self.gateway.terminate()
+        self.expect_exit_0()
+        self.finish_log(tail_lines)
+        return self.report()
 
     def report(self, extra=""):
         """Prints the summary; the exit code."""

@@ -123,10 +123,7 @@ def main():
         fx.run("the audit trail is cut back to its newest entries", test_audit_cut_back, port)
         fx.run("the log says what was deleted", test_log_says_so, fx)
         fx.run("the bound holds after a restart", test_bound_holds_after_restart, fx, args.gateway, config, port)
-        fx.gateway.terminate()
-        fx.expect_exit_0()
-        fx.finish_log(60)
-        return fx.report()
+        return fx.stop_and_report()
     finally:
         fx.cleanup()
 

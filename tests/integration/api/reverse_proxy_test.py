@@ -19,7 +19,6 @@ Run by ctest with Debian's /usr/bin/python3 (python3-websockets). Exit code 0 wh
 
 import argparse
 import asyncio
-import http.client
 import json
 import os
 import shutil
@@ -32,34 +31,18 @@ import websockets
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gateway_fixture import (TOKENS, WAIT, Fixture, auth_tokens, check, free_port, run_main,  # noqa: E402
-                             self_signed_certificate, wait_until)
+from gateway_fixture import (TOKENS, WAIT, Fixture, auth_tokens, check, free_port, http_request,  # noqa: E402
+                             run_main, self_signed_certificate, wait_until)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 EXAMPLE = os.path.join(HERE, "..", "..", "..", "docker", "reverse-proxy", "nginx.conf")
 CLIENT = "127.0.0.2"
 
 
-class SourceHTTPSConnection(http.client.HTTPSConnection):
-    """An HTTPS connection from CLIENT."""
-
-    def __init__(self, port, ctx):
-        super().__init__("localhost", port, timeout=WAIT, context=ctx, source_address=(CLIENT, 0))
-
-
 def request(port, ctx, method, path, body=None, headers=None, token=TOKENS["admin"]):
-    conn = SourceHTTPSConnection(port, ctx) if ctx else http.client.HTTPConnection(
-        "127.0.0.1", port, timeout=WAIT, source_address=(CLIENT, 0))
-    h = {"Authorization": f"Bearer {token}", **(headers or {})}
-    data = None
-    if body is not None:
-        data = json.dumps(body)
-        h["Content-Type"] = "application/json"
-    conn.request(method, path, body=data, headers=h)
-    r = conn.getresponse()
-    text = r.read().decode()
-    conn.close()
-    return r.status, text
+    """One request from CLIENT: over HTTPS to nginx with `ctx`, else plain to the gateway."""
+    return http_request(port, method, path, body, token=token, tls=ctx, headers=headers, source=CLIENT,
+                        host="localhost" if ctx else "127.0.0.1")
 
 
 def start_nginx(fx, gateway_port, proxy_port, cert, key):
@@ -205,10 +188,7 @@ def main():
                proxy_port, ctx)
         fx.run("the proxy is not held to one address's connections", test_proxy_not_held_to_one_address,
                proxy_port, ctx)
-        fx.gateway.terminate()
-        fx.expect_exit_0()
-        fx.finish_log(60)
-        return fx.report()
+        return fx.stop_and_report()
     finally:
         fx.cleanup()
 

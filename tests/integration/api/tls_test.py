@@ -255,10 +255,7 @@ def main():
                cert, key)
         fx.run("a wrong certificate path fails at start with the file named", test_wrong_path_fails_at_start, fx,
                args.gateway)
-        fx.gateway.terminate()
-        fx.expect_exit_0()
-        fx.finish_log(60)
-        return fx.report()
+        return fx.stop_and_report()
     finally:
         fx.cleanup()
 
