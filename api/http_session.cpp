@@ -224,7 +224,7 @@ void http_session::on_header(beast::error_code ec, std::size_t) {
     // What the header decides (route, caller, browser rules, media type) is answered before the body
     // costs anything; the connection closes without reading it.
     if (has_body && !program.intake) {
-        if (auto refused = refusal_from_header(*ctx_, header, request_id_))
+        if (auto refused = refusal_from_header(*ctx_, header, request_id_, client_address_))
             return do_write(std::move(refused->response), std::move(refused->route), true);
     }
     // Any other body is held in memory: it must fit in the budget of all bodies (a chunked one may

@@ -1,7 +1,9 @@
 #include "api/route_table.hpp"
 
+#include "api/call_audit.hpp"
 #include "api/path_segments.hpp"
 #include "api/router.hpp"
+#include "gateway/audit/audit_log.hpp"
 
 namespace gw::api {
 
@@ -94,8 +96,28 @@ route_table::decision route_table::decide(const api_context& ctx, const http::re
     return d;
 }
 
+void route_table::audit_refusal(const api_context& ctx, const http::request_header<>& req, const decision& d,
+                                const std::string& request_id, const std::string& client_address) {
+    const bool changes = req.method() != http::verb::get && req.method() != http::verb::head &&
+                         req.method() != http::verb::options;
+    if (!ctx.audit || !changes || !d.refusal || !d.who || d.refusal->result() != http::status::forbidden)
+        return;
+    caller who;
+    who.name = d.who->name;
+    who.role = d.who->role;
+    who.request_id = request_id;
+    who.address = client_address;
+    auto e = route_audit_entry(who, std::string(req.method_string()) + " " + d.label, "",
+                               static_cast<unsigned>(http::status::forbidden));
+    e.outcome = "forbidden";
+    // The controller a /api/v1/controllers/{id}/... route names.
+    if (d.label.starts_with("/api/v1/controllers/{id}") && !d.params.empty()) e.controller = d.params.front();
+    ctx.audit->record(std::move(e));
+}
+
 void route_table::dispatch(request_context& c) const {
     auto d = decide(*c.ctx, c.req, c.req.keep_alive(), c.request_id);
+    if (d.refusal) audit_refusal(*c.ctx, c.req, d, c.request_id, c.client_address);
     c.route = std::move(d.label);
     if (d.refusal) return c.reply(std::move(*d.refusal));
     c.params = std::move(d.params);

@@ -48,6 +48,12 @@ class route_table {
     };
     decision decide(const api_context& ctx, const http::request_header<>& request, bool keep_alive,
                     const std::string& request_id) const;
+    // A request that may change something, refused by `d` because its caller's role is too low for the
+    // route (403): recorded in the audit trail like any refused call, its action the route
+    // ("POST /api/v1/controllers/{id}/command"). Nothing for any other decision.
+    static void audit_refusal(const api_context& ctx, const http::request_header<>& request,
+                              const decision& d, const std::string& request_id,
+                              const std::string& client_address);
 
     // True when some template matches the path (whatever the method).
     bool serves(std::string_view path) const;

@@ -83,7 +83,8 @@ std::optional<auth_identity> identify(const api_context& ctx, const http::reques
 
 std::optional<routed_response> refusal_from_header(const api_context& ctx,
                                                    const http::request<http::empty_body>& header,
-                                                   const std::string& request_id) {
+                                                   const std::string& request_id,
+                                                   const std::string& client_address) {
     const std::string path(target_path(header.target()));
     auto refused = [&](problem p, std::string route) {
         return routed_response{problem_response(std::move(p), header.version(), header.keep_alive(),
@@ -93,7 +94,10 @@ std::optional<routed_response> refusal_from_header(const api_context& ctx,
     if (auto p = browser_refusal(header, ctx.browser, false)) return refused(std::move(*p), "unmatched");
     if (is_static_asset_path(path)) return std::nullopt;
     auto d = api_routes().decide(ctx, header, header.keep_alive(), request_id);
-    if (d.refusal) return routed_response{std::move(*d.refusal), std::move(d.label)};
+    if (d.refusal) {
+        route_table::audit_refusal(ctx, header, d, request_id, client_address);
+        return routed_response{std::move(*d.refusal), std::move(d.label)};
+    }
     const bool may_be_program = header.method() == http::verb::post && is_gcode_path(path);  // text
     if (!may_be_program && !is_json_content_type(header[http::field::content_type]))
         return refused(unsupported_media_type_problem(), std::move(d.label));

@@ -53,7 +53,8 @@ std::optional<auth_identity> identify(const api_context& ctx, const http::reques
 // programs are admitted by their own rules (admit_gcode_program) before this.
 std::optional<routed_response> refusal_from_header(const api_context& ctx,
                                                    const http::request<http::empty_body>& header,
-                                                   const std::string& request_id);
+                                                   const std::string& request_id,
+                                                   const std::string& client_address);
 
 void handle_request(const std::shared_ptr<api_context>& ctx, string_request&& request, std::string request_id,
                     net::any_io_executor session_executor, response_handler done,

@@ -4,7 +4,8 @@ and a real mosquitto for signed MQTT commands.
 
 Checks that every state-changing call leaves one entry with who, from where, over which transport,
 what and how it ended, and nothing else does:
-  - REST: a move (operator1, 127.0.0.1, 200 ok, its arguments), a viewer's move (403 forbidden), a
+  - REST: a move (operator1, 127.0.0.1, 200 ok, its arguments), a viewer's raw command and lease
+    release refused from the header (403, the route as the action), a
     raw command, a job submitted (its id as the target) and cancelled, a lease taken and broken by an
     admin, HALT ALL, a G-code program uploaded and deleted;
   - WebSocket: a HALT (transport websocket); MQTT: a signed HALT (transport mqtt, the key's name);
@@ -64,8 +65,7 @@ def test_rest_calls(c):
     check(e["detail"] == {"axes": {"X": 100}}, f"the arguments: {e['detail']}")
     check(e["request_id"] == r.header("X-Request-Id"), f"request id {e['request_id']} vs {r.header('X-Request-Id')}")
     check(not before or e["id"] > before[0]["id"], "ids grow")
-    # Refused calls are in the trail too (those that reach the call: a role refused from the
-    # request's header alone is answered before, and not in the trail).
+    # Refused calls are in the trail too.
     r = c.request("POST", "/api/v1/controllers/sim1/move", {"axes": {"Q": 5}}, token=OP)
     check(r.status == 422, f"a move of an axis that is not there: {r.status}")
     e = newest(c, action="move", principal="operator1", status=422)
@@ -74,6 +74,16 @@ def test_rest_calls(c):
     check(r.status == 200, f"raw command: {r.status}")
     e = newest(c, action="command", principal="admin1")
     check(e["detail"] == {"command": "W X"}, f"the raw command: {e}")
+    # A role too low for the route, refused from the header: with a body (not read) and without one.
+    r = c.request("POST", "/api/v1/controllers/sim1/command", {"command": "W X"}, token=VIEW)
+    check(r.status == 403, f"a viewer's raw command: {r.status}")
+    e = newest(c, action="POST /api/v1/controllers/{id}/command")
+    check(e["principal"] == "viewer1" and e["outcome"] == "forbidden" and e["status"] == 403
+          and e["controller"] == "sim1" and e["address"] == "127.0.0.1", f"the viewer's raw command: {e}")
+    r = c.request("DELETE", "/api/v1/controllers/sim2/lease", token=VIEW)
+    check(r.status == 403, f"a viewer's lease release: {r.status}")
+    e = newest(c, action="DELETE /api/v1/controllers/{id}/lease")
+    check(e["principal"] == "viewer1" and e["controller"] == "sim2", f"the viewer's lease release: {e}")
 
 
 def test_reads_leave_nothing(c):
