@@ -69,9 +69,6 @@ json measured_position_json(const position_um& p) {
     return out;
 }
 
-namespace {
-
-// The record as to_json gives it, but for its spec.
 json record_without_spec(const job_record& job, job_clock::time_point now) {
     const auto& p = job.progress;
     json progress = {
@@ -98,8 +95,6 @@ json record_without_spec(const job_record& job, job_clock::time_point now) {
         {"updated", format_timestamp(job.updated)},
     };
 }
-
-}  // namespace
 
 json to_json(const job_record& job, job_clock::time_point now) {
     auto record = record_without_spec(job, now);

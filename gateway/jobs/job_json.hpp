@@ -43,6 +43,8 @@ nlohmann::json to_json(const job_plan& plan, std::size_t max_steps = 1000);
 // The dry-run answer: {"dry_run":true,"controller","type","plan":to_json(plan)}.
 nlohmann::json dry_run_json(const std::string& controller, job_type type, const job_plan& plan);
 
+// The record as to_json gives it, but for its spec.
+nlohmann::json record_without_spec(const job_record& job, job_clock::time_point now);
 // The state event repeats state, reason, waiting_for and eta of the record next to it. The record goes
 // without its spec: the spec never changes after the submission, and an inline G-code program would
 // otherwise be sent and stored again with every transition (up to 4 MiB each).

@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "gateway/common/timestamp.hpp"
+#include "gateway/jobs/job_json.hpp"
 
 namespace gw::jobs {
 
@@ -261,18 +262,26 @@ operation_result<std::vector<job_record>> read_jobs(statement& s, const connecti
     }
 }
 
-operation_result<std::optional<job_record>> find_one(const connection& c, std::string_view where,
-                                                     std::string_view value) {
-    transaction tx(c);
-    if (auto r = tx.begin(false); !r) return r.error();
+// In the caller's transaction.
+operation_result<std::optional<job_record>> find_one_in(const connection& c, std::string_view where,
+                                                        std::string_view value) {
     auto s = c.prepare(fmt::format("SELECT {} FROM jobs WHERE {} = ?1", job_columns, where));
     if (!s) return s.error();
     s->text(1, value);
     auto jobs = read_jobs(*s, c);
     if (!jobs) return jobs.error();
-    if (auto r = tx.commit(); !r) return r.error();
     if (jobs->empty()) return std::optional<job_record>{};
     return std::optional<job_record>{std::move(jobs->front())};
+}
+
+operation_result<std::optional<job_record>> find_one(const connection& c, std::string_view where,
+                                                     std::string_view value) {
+    transaction tx(c);
+    if (auto r = tx.begin(false); !r) return r.error();
+    auto job = find_one_in(c, where, value);
+    if (!job) return job.error();
+    if (auto r = tx.commit(); !r) return r.error();
+    return job;
 }
 
 operation_result<std::int64_t> pragma_integer(const connection& c, const char* sql, std::string_view doing) {
@@ -369,6 +378,28 @@ bool is_constraint(sqlite3* db, int extended) {
     return sqlite3_extended_errcode(db) == extended;
 }
 
+// The fields of a job record that never change after the submission. A state event is stored without
+// them (the jobs row has them) and read back with them: the history keeps what changed.
+constexpr std::string_view fixed_record_fields[] = {"id",           "controller", "type",           "created",
+                                                    "submitted_by", "request_id", "idempotency_key"};
+
+// A state event as stored: its record without the fixed fields. Other events as they are.
+std::string stored_event_text(const nlohmann::json& event) {
+    const auto job = event.find("job");
+    if (job == event.end() || !job->is_object() || event.value("type", "") != "state") return dump(event);
+    nlohmann::json slim = nlohmann::json::object();
+    for (const auto& [key, value] : event.items()) {
+        if (key != "job") slim[key] = value;
+    }
+    auto& record = slim["job"] = nlohmann::json::object();
+    for (const auto& [key, value] : job->items()) {
+        if (std::find(std::begin(fixed_record_fields), std::end(fixed_record_fields), key) ==
+            std::end(fixed_record_fields))
+            record[key] = value;
+    }
+    return dump(slim);
+}
+
 // Appends an event numbered after the job's last one, in the caller's transaction.
 operation_result<void> insert_event(const connection& c, const std::string& job_id,
                                     const nlohmann::json& event) {
@@ -376,7 +407,7 @@ operation_result<void> insert_event(const connection& c, const std::string& job_
         "INSERT INTO job_events (job_id, seq, event, at_ms) "
         "SELECT ?1, COALESCE(MAX(seq), 0) + 1, ?2, ?3 FROM job_events WHERE job_id = ?1");
     if (!s) return s.error();
-    s->text(1, job_id).text(2, dump(event)).integer(3, epoch_ms(job_clock::now()));
+    s->text(1, job_id).text(2, stored_event_text(event)).integer(3, epoch_ms(job_clock::now()));
     if (s->step() != SQLITE_DONE) {
         if (is_constraint(c.db, SQLITE_CONSTRAINT_FOREIGNKEY))
             return make_error(operation_error_kind::unknown_job, fmt::format("no job {}", job_id));
@@ -554,7 +585,8 @@ operation_result<std::size_t> job_store::delete_ended(std::optional<job_clock::t
     auto s = c.prepare(
         "DELETE FROM jobs WHERE id IN (SELECT id FROM jobs"
         " WHERE state IN ('succeeded', 'failed', 'cancelled') AND (finished_ms < ?1 OR id NOT IN"
-        " (SELECT id FROM jobs WHERE state IN ('succeeded', 'failed', 'cancelled') ORDER BY id DESC LIMIT ?2))"
+        " (SELECT id FROM jobs WHERE state IN ('succeeded', 'failed', 'cancelled') ORDER BY id DESC LIMIT "
+        "?2))"
         " ORDER BY id LIMIT ?3)");
     if (!s) return s.error();
     s->integer(1, ended_before ? epoch_ms(*ended_before) : std::int64_t{-1})
@@ -630,12 +662,24 @@ operation_result<std::vector<nlohmann::json>> job_store::events(const std::strin
     if (!s) return s.error();
     s->text(1, job_id).integer(2, to_int64(limit));
     std::vector<nlohmann::json> events;
+    nlohmann::json fixed;  // the record's fixed fields, read once when a state event needs them
     for (;;) {
         int rc = s->step();
         if (rc == SQLITE_DONE) break;
         if (rc != SQLITE_ROW) return c.error(fmt::format("read events of job {}", job_id));
         auto e = nlohmann::json::parse(s->text(0), nullptr, false);
         if (e.is_discarded()) return corrupt(path_, fmt::format("an event of job {} is not JSON", job_id));
+        // A state event stored without its record's fixed fields gets them back from the job's row.
+        if (auto job = e.find("job"); job != e.end() && job->is_object() && !job->contains("id")) {
+            if (fixed.is_null()) {
+                auto record = find_one_in(c, "id", job_id);
+                if (!record) return record.error();
+                fixed = *record ? record_without_spec(**record, job_clock::now()) : nlohmann::json::object();
+            }
+            for (const auto key : fixed_record_fields) {
+                if (auto it = fixed.find(key); it != fixed.end()) (*job)[std::string(key)] = *it;
+            }
+        }
         events.push_back(std::move(e));
     }
     if (auto r = tx.commit(); !r) return r.error();

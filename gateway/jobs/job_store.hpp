@@ -74,7 +74,9 @@ class job_store {
     // Newest first (descending id: ids are time-ordered), filtered; `before` pages (any string works
     // as a cursor). invalid_value (field "limit") when limit is outside 1..500.
     operation_result<job_page> list(const job_filter& filter) const;
-    // The stored event objects, oldest first; at most `limit`.
+    // The stored event objects, oldest first; at most `limit`. A state event's record is stored without
+    // the fields that never change (id, controller, type, created, submitted_by, request_id,
+    // idempotency_key) and read back with them from the job's row.
     operation_result<std::vector<nlohmann::json>> events(const std::string& job_id, std::size_t limit) const;
     // Transitions of a job, oldest first: {"from":..,"to":..,"reason":..,"at":"RFC 3339"}.
     operation_result<std::vector<nlohmann::json>> transitions(const std::string& job_id) const;

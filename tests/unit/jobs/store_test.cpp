@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "gateway/common/job_id.hpp"
+#include "gateway/jobs/job_json.hpp"
 #include "gateway/jobs/job_store.hpp"
 
 namespace gw::jobs {
@@ -135,6 +136,43 @@ TEST_F(store_test, delete_ended_removes_old_and_surplus_ended_jobs_with_their_hi
     for (std::size_t i : {3U, 4U, 5U, 6U, 7U, 8U})
         EXPECT_TRUE(present(i)) << i;
     EXPECT_EQ(store->events(ids[6], 100)->size(), 2U);
+}
+
+// A state event keeps what changes: its record's fixed fields are stored once, in the job's row, and
+// put back when the events are read.
+TEST_F(store_test, state_events_are_stored_without_the_fixed_fields_and_read_back_whole) {
+    auto store = open_store();
+    ASSERT_TRUE(store);
+    auto j = make_job(id_at(1'700'000'000'000));
+    j.idempotency_key = "plate-7";
+    ASSERT_TRUE(store->insert(j, state_event(j, j.created)));
+    j.state = job_state::running;
+    j.started = at_ms(1'700'000'001'000);
+    j.updated = *j.started;
+    const auto running = state_event(j, j.updated);
+    ASSERT_TRUE(store->save(j, running));
+    ASSERT_TRUE(store->append_event(j.id, {{"type", "step"}, {"index", 0}}));
+
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((dir_ / job_store_file_name).string().c_str(), &db), SQLITE_OK);
+    sqlite3_stmt* st = nullptr;
+    ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT event FROM job_events WHERE seq = 2", -1, &st, nullptr),
+              SQLITE_OK);
+    ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
+    const auto stored = nlohmann::json::parse(reinterpret_cast<const char*>(sqlite3_column_text(st, 0)));
+    sqlite3_finalize(st);
+    sqlite3_close(db);
+    for (const char* fixed :
+         {"id", "controller", "type", "created", "submitted_by", "request_id", "idempotency_key"})
+        EXPECT_FALSE(stored["job"].contains(fixed)) << fixed;
+    EXPECT_EQ(stored["job"]["state"], "running");
+
+    auto events = store->events(j.id, 10);
+    ASSERT_TRUE(events);
+    ASSERT_EQ(events->size(), 3U);
+    EXPECT_EQ((*events)[1], running);  // whole again
+    EXPECT_EQ((*events)[0]["job"]["idempotency_key"], "plate-7");
+    EXPECT_EQ((*events)[2], (nlohmann::json{{"type", "step"}, {"index", 0}}));
 }
 
 TEST_F(store_test, creates_the_directory_and_the_database_file) {
