@@ -49,8 +49,9 @@ audit_entry entry_at(std::int64_t time_ms, std::string action) {
 std::vector<std::string> actions(const audit_store& store) {
     audit_filter f;
     f.limit = 500;
+    const auto page = store.query(f);  // kept: a range-for over a temporary's member would outlive it
     std::vector<std::string> out;
-    for (const auto& e : store.query(f)->entries)
+    for (const auto& e : page->entries)
         out.push_back(e.action);
     return out;  // newest first
 }
