@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "api/dashboard_files.hpp"
+#include "devices/ms2000/ascii.hpp"
 
 namespace gw::api {
 
@@ -45,14 +46,6 @@ std::string_view file_name_of(std::string_view path) {
     return {};
 }
 
-std::string_view trim(std::string_view s) {
-    while (!s.empty() && (s.front() == ' ' || s.front() == '\t'))
-        s.remove_prefix(1);
-    while (!s.empty() && (s.back() == ' ' || s.back() == '\t'))
-        s.remove_suffix(1);
-    return s;
-}
-
 // True when Accept-Encoding accepts gzip: named with a non-zero weight, or not named and "*" accepted
 // (an explicit "gzip;q=0" wins over "*", RFC 9110 12.5.3).
 bool accepts_gzip(std::string_view header) {
@@ -60,11 +53,11 @@ bool accepts_gzip(std::string_view header) {
     std::optional<bool> any;
     while (!header.empty()) {
         const auto comma = header.find(',');
-        auto item = trim(header.substr(0, comma));
+        auto item = devices::ms2000::trim_blanks(header.substr(0, comma));
         const auto semicolon = item.find(';');
-        const auto coding = trim(item.substr(0, semicolon));
-        const auto params =
-            trim(semicolon == std::string_view::npos ? std::string_view{} : item.substr(semicolon + 1));
+        const auto coding = devices::ms2000::trim_blanks(item.substr(0, semicolon));
+        const auto params = devices::ms2000::trim_blanks(
+            semicolon == std::string_view::npos ? std::string_view{} : item.substr(semicolon + 1));
         // "q=0", "q=0.0", "q=0.000": refused.
         const bool refused =
             params.starts_with("q=0") && params.substr(3).find_first_not_of(".0") == std::string_view::npos;
@@ -80,7 +73,7 @@ bool accepts_gzip(std::string_view header) {
 bool none_match_hits(std::string_view header, std::string_view etag) {
     while (!header.empty()) {
         auto comma = header.find(',');
-        auto tag = trim(header.substr(0, comma));
+        auto tag = devices::ms2000::trim_blanks(header.substr(0, comma));
         if (tag == "*") return true;
         if (tag.starts_with("W/")) tag.remove_prefix(2);
         if (tag == etag) return true;

@@ -4,6 +4,7 @@
 #include <array>
 #include <charconv>
 
+#include "devices/ms2000/ascii.hpp"
 #include "devices/ms2000/error.hpp"
 
 namespace gw::devices::ms2000 {
@@ -46,18 +47,10 @@ constexpr std::string_view hardware_key = "Hdwr REV.";
 constexpr std::string_view tracer_suffix = "_TRACER";
 constexpr int default_ring_buffer_size = 50;
 
-std::string_view trim(std::string_view s) {
-    while (!s.empty() && (s.front() == ' ' || s.front() == '\t'))
-        s.remove_prefix(1);
-    while (!s.empty() && (s.back() == ' ' || s.back() == '\t'))
-        s.remove_suffix(1);
-    return s;
-}
-
 // Upper case, '_' read as a space, runs of spaces collapsed: "ttl_report  int" -> "TTL REPORT INT".
 std::string normalise(std::string_view s) {
     std::string out;
-    for (char c : trim(s)) {
+    for (char c : trim_blanks(s)) {
         if (c == '_' || c == '\t') c = ' ';
         if (c >= 'a' && c <= 'z') c = static_cast<char>(c - 'a' + 'A');
         if (c == ' ' && (out.empty() || out.back() == ' ')) continue;
@@ -124,7 +117,7 @@ boost::system::result<build_info> parse_build_x(std::string_view text) {
     std::vector<std::string_view> lines;
     while (!text.empty()) {
         const auto end = std::min(text.find_first_of("\r\n"), text.size());
-        const std::string_view line = trim(text.substr(0, end));
+        const std::string_view line = trim_blanks(text.substr(0, end));
         if (!line.empty()) lines.push_back(line);
         text.remove_prefix(std::min(end + 1, text.size()));
     }
@@ -133,7 +126,7 @@ boost::system::result<build_info> parse_build_x(std::string_view text) {
     build_info info;
     std::string_view name = lines.front();
     // Whether an MS-2000 prefixes the build name with ":A " is unknown; accept both.
-    if (name.starts_with(":A ")) name = trim(name.substr(3));
+    if (name.starts_with(":A ")) name = trim_blanks(name.substr(3));
     if (name.empty() || name.starts_with(":")) return make_error_code(error::unrecognized_reply);
     info.name = std::string(name);
     if (name.size() > tracer_suffix.size() && name.ends_with(tracer_suffix)) set(info, module::tracer);
@@ -151,9 +144,9 @@ boost::system::result<build_info> parse_build_x(std::string_view text) {
                 if (c != ' ' && c != '\t') info.command_axes.push_back(c);
             }
         } else if (line.starts_with(bootloader_key)) {
-            info.bootloader = std::string(trim(line.substr(bootloader_key.size())));
+            info.bootloader = std::string(trim_blanks(line.substr(bootloader_key.size())));
         } else if (line.starts_with(hardware_key)) {
-            info.hardware_revision = std::string(trim(line.substr(hardware_key.size())));
+            info.hardware_revision = std::string(trim_blanks(line.substr(hardware_key.size())));
         } else {
             info.module_lines.emplace_back(line);
             if (const auto r = recognise(line)) {

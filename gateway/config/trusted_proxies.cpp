@@ -2,6 +2,8 @@
 
 #include <boost/asio/ip/address_v4.hpp>
 
+#include "devices/ms2000/ascii.hpp"
+
 namespace gw {
 
 namespace ip = boost::asio::ip;
@@ -12,14 +14,6 @@ namespace {
 ip::address unmapped(const ip::address& a) {
     if (a.is_v6() && a.to_v6().is_v4_mapped()) return ip::make_address_v4(ip::v4_mapped, a.to_v6());
     return a;
-}
-
-std::string_view trimmed(std::string_view s) {
-    while (!s.empty() && (s.front() == ' ' || s.front() == '\t'))
-        s.remove_prefix(1);
-    while (!s.empty() && (s.back() == ' ' || s.back() == '\t'))
-        s.remove_suffix(1);
-    return s;
 }
 
 }  // namespace
@@ -64,8 +58,8 @@ std::string trusted_proxies::client_address(const ip::address& peer, std::string
     // From the right: each hop a trusted proxy, until the first that is not.
     while (!forwarded_for.empty()) {
         const auto comma = forwarded_for.rfind(',');
-        const auto item =
-            trimmed(comma == std::string_view::npos ? forwarded_for : forwarded_for.substr(comma + 1));
+        const auto item = devices::ms2000::trim_blanks(
+            comma == std::string_view::npos ? forwarded_for : forwarded_for.substr(comma + 1));
         forwarded_for = comma == std::string_view::npos ? std::string_view{} : forwarded_for.substr(0, comma);
         boost::system::error_code ec;
         const auto hop = ip::make_address(std::string(item), ec);
