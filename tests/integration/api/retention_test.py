@@ -28,6 +28,12 @@ def rest(port, method, path, body=None):
     return status, (json.loads(text) if text else None)
 
 
+def ended_jobs(port):
+    """The ended jobs the gateway lists (at most 100)."""
+    return [j for j in rest(port, "GET", "/api/v1/jobs?limit=100")[1]["jobs"]
+            if j["state"] in ("succeeded", "failed", "cancelled")]
+
+
 def run_job(port):
     status, job = rest(port, "POST", "/api/v1/jobs", ARRAY)
     check(status == 201, f"submit: {status} {job}")
@@ -98,9 +104,7 @@ def test_bound_holds_after_restart(fx, gateway, config, port):
     fx.gateway.wait(timeout=60)
     fx.start_gateway(gateway, config)
     run_job(port)
-    wait_until("at most two ended jobs after the restart", lambda: len([
-        j for j in rest(port, "GET", "/api/v1/jobs?limit=100")[1]["jobs"]
-        if j["state"] in ("succeeded", "failed", "cancelled")]) <= 2)
+    wait_until("at most two ended jobs after the restart", lambda: len(ended_jobs(port)) <= 2)
 
 
 def main():
