@@ -20,6 +20,7 @@ std::string error_label(const boost::system::error_code& ec) {
         case error::controller_rejected:
             return "controller_rejected";
         case error::invalid_argument:
+        case error::binary_reply:
             return "invalid_argument";
         case error::queue_full:
             return "queue_full";

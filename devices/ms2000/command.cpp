@@ -73,6 +73,17 @@ std::string letters_if_all(const std::vector<std::string>& words, char suffix) {
     return letters;
 }
 
+// The axis letters of "X Y Z" or "XYZ" (the firmware reads letters run together one by one); empty when
+// any word is something else ("X=1", "X?"), whose answer the count of letters cannot predict.
+std::string axis_letters(std::string_view args) {
+    std::string letters;
+    for (const std::string& w : upper_words(args)) {
+        if (!std::all_of(w.begin(), w.end(), is_ascii_letter)) return {};
+        letters += w;
+    }
+    return letters;
+}
+
 // What the wire says after the verb, without the closing CR: " X? Y?" of "RS X? Y?\r".
 std::string_view arguments_of(const command& cmd) {
     // A verbatim line may begin with spaces; built commands begin with their verb.
@@ -86,7 +97,8 @@ std::string_view arguments_of(const command& cmd) {
 }  // namespace
 
 bool only_reads(const command& cmd) {
-    if (is_one_of(cmd.verb, {"W", "WHERE", "/", "STATUS", "RS", "RDSTAT", "V", "VERSION", "WHO"}))
+    if (is_one_of(cmd.verb,
+                  {"W", "WHERE", "/", "STATUS", "RS", "RDSTAT", "RB", "RDSBYTE", "V", "VERSION", "WHO"}))
         return true;
     const auto words = upper_words(arguments_of(cmd));
     if (is_one_of(cmd.verb, {"BU", "BUILD", "INFO"})) return words.size() <= 1;
@@ -188,6 +200,9 @@ reply_form infer_form(std::string_view verb, std::string_view args) {
                           "WAIT", "E",      "ERROR", "LED",   "J",  "JOYSTICK"})) {
         form.axes = letters_if_all(words, '?');
         if (!form.axes.empty()) form.what = reply_form::kind::axis_values;
+    } else if (is_one_of(verb, {"RB", "RDSBYTE"})) {
+        form.axes = axis_letters(args);
+        if (!form.axes.empty()) form.what = reply_form::kind::status_bytes;
     } else if (is_one_of(verb, {"TTL", "RS", "RDSTAT", "LK", "LOCK"})) {
         form.axes = letters_if_all(words, '?');
         if (!form.axes.empty()) {
@@ -253,6 +268,7 @@ reply_shape infer_shape(std::string_view verb, std::string_view args) {
     if ((verb == "BU" || verb == "BUILD") && (first.empty() || first == "X")) return reply_shape::multiline;
     if (verb == "INFO" || verb == "I" || verb == "WHO" || verb == "N") return reply_shape::multiline;
     if ((verb == "SS" || verb == "SAVESET") && first == "Z") return reply_shape::two_phase;
+    if ((verb == "RB" || verb == "RDSBYTE") && !axis_letters(args).empty()) return reply_shape::status_bytes;
     return reply_shape::standard;
 }
 
@@ -316,9 +332,7 @@ boost::system::result<command> make_command(std::string_view verb, std::span<con
 namespace {
 
 // A line typed by a person or a program: its upper-cased verb and what follows it, spaces around
-// trimmed. Printable ASCII only, at most max_raw_command_bytes, a verb the controller could read; not
-// RDSBYTE, whose raw-byte answer the line framing cannot carry (a status byte may be a line feed;
-// RDSTAT "RS X" gives the same byte in ASCII).
+// trimmed. Printable ASCII only, at most max_raw_command_bytes, a verb the controller could read.
 struct typed_line {
     std::string verb;
     std::string_view args;
@@ -338,7 +352,7 @@ boost::system::result<typed_line> read_typed_line(std::string_view line) {
     // "/" and "\" may be followed directly by arguments; other verbs end at the first space.
     const std::size_t verb_end = is_single_char_verb(rest[0]) ? 1 : std::min(rest.find(' '), rest.size());
     std::string verb = checked_verb(rest.substr(0, verb_end));
-    if (verb.empty() || verb == "RB" || verb == "RDSBYTE") return make_error_code(error::invalid_argument);
+    if (verb.empty()) return make_error_code(error::invalid_argument);
     return typed_line{std::move(verb), rest.substr(verb_end)};
 }
 
@@ -347,6 +361,7 @@ boost::system::result<typed_line> read_typed_line(std::string_view line) {
 boost::system::result<command> raw_command(std::string_view line) {
     auto typed = read_typed_line(line);
     if (!typed) return typed.error();
+    if (typed->verb == "RB" || typed->verb == "RDSBYTE") return make_error_code(error::binary_reply);
     std::string wire = typed->verb;
     wire.append(typed->args);
     const reply_shape expect = infer_shape(typed->verb, typed->args);

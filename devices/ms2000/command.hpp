@@ -20,6 +20,9 @@ enum class reply_shape : std::uint8_t {
     status,     // "N" or "B" (STATUS, "/")
     multiline,  // CR-separated lines ending CR LF (BUILD X, INFO, WHO); ":N-<code>" is still an error
     two_phase,  // SAVESET "SS Z": ":" at once, "A" + CR LF when the flash write is done
+    // RDSBYTE "RB X Y": ":" then each axis's status byte as one raw byte, CR LF; ":N-<code>" is an
+    // error. The bytes may be CR or LF, so the line framer is told how many to take (line_framer).
+    status_bytes,
 };
 
 // What a reply must hold to be taken as the answer to its command, beyond its shape. A reply of the
@@ -29,13 +32,14 @@ enum class reply_shape : std::uint8_t {
 // builder (raw lines too), so a command of a verb whose reply is not known gets kind::any.
 struct reply_form {
     enum class kind : std::uint8_t {
-        any,          // the shape alone
-        bare_ack,     // ":A" with nothing after it: moves, HERE, ZERO, HOME, HALT
-        numbers,      // ":A" then exactly one number per letter of `axes` (WHERE)
-        axis_values,  // "L=value" for every letter of `axes` (parameter queries "S X? Y?")
-        version,      // ":A Version: USB-9.52" or ":A v9.54" (VERSION)
-        build_text,   // the multi-line BUILD X text, not a one-line ":A .." reply
-        integers,     // ":A" then any number of integers, none "L=": the error log (DU Y)
+        any,           // the shape alone
+        bare_ack,      // ":A" with nothing after it: moves, HERE, ZERO, HOME, HALT
+        numbers,       // ":A" then exactly one number per letter of `axes` (WHERE)
+        axis_values,   // "L=value" for every letter of `axes` (parameter queries "S X? Y?")
+        version,       // ":A Version: USB-9.52" or ":A v9.54" (VERSION)
+        build_text,    // the multi-line BUILD X text, not a one-line ":A .." reply
+        integers,      // ":A" then any number of integers, none "L=": the error log (DU Y)
+        status_bytes,  // ":" then one raw byte per letter of `axes` (RDSBYTE)
     };
     kind what = kind::any;
     std::string axes;  // upper-case letters in request order (numbers, axis_values)
@@ -76,7 +80,8 @@ boost::system::result<command> make_command(std::string_view verb, std::span<con
 // One line typed by an expert ("W X Y"): printable ASCII only (0x20..0x7E), at most
 // max_raw_command_bytes, no CR/LF anywhere (a single trailing CR is not accepted either: the builder
 // adds it). The reply shape is inferred from the verb (/, STATUS -> status; BU X, INFO, WHO ->
-// multiline; SS Z -> two_phase).
+// multiline; SS Z -> two_phase). RDSBYTE ("RB") is refused with error::binary_reply: its answer is raw
+// bytes, not text (RDSTAT "RS X" gives the same byte in ASCII).
 inline constexpr std::size_t max_raw_command_bytes = 256;
 boost::system::result<command> raw_command(std::string_view line);
 
@@ -84,7 +89,8 @@ boost::system::result<command> raw_command(std::string_view line);
 // as it came with a CR added: the firmware's own parser decides, since clients in the wild send forms
 // the manual does not show ("w x", "MOVE X=1"). Printable ASCII only, at most max_raw_command_bytes,
 // a first word the controller could read as a verb. Reply shape and form are inferred from the
-// upper-cased verb as for raw_command. RDSBYTE ("RB") is refused: its binary answer cannot be framed.
+// upper-cased verb as for raw_command. RDSBYTE ("RB X Y") is taken too: its answer of raw bytes goes
+// back to the program as it came (raw_command refuses it: a JSON reply cannot carry those bytes).
 boost::system::result<command> verbatim_command(std::string_view line);
 
 // What a command may do to the controller, for deciding who may send it (a shared port's role).
@@ -99,7 +105,7 @@ enum class command_effect : std::uint8_t {
 command_effect effect_of(const command& cmd);
 const char* to_string(command_effect effect);
 
-// True when the command only reads the controller (WHERE, STATUS, RS, VERSION, BUILD, WHO, INFO, or
+// True when the command only reads the controller (WHERE, STATUS, RS, RB, VERSION, BUILD, WHO, INFO, or
 // parameter queries whose every argument is "L?"): it cannot start a move or change a setting. The
 // driver polls less often while the stage is idle and nothing but such commands ran.
 bool only_reads(const command& cmd);

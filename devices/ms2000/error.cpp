@@ -73,6 +73,8 @@ class ms2000_category final : public boost::system::error_category {
                 return "cancelled";
             case error::halted:
                 return "a HALT was sent after this command was decided";
+            case error::binary_reply:
+                return "the command answers raw bytes, not text";
         }
         return "unknown ms2000 error";
     }

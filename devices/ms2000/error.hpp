@@ -36,6 +36,7 @@ enum class error {
     disconnected,         // the port went away while the command was in flight
     cancelled,            // the controller was stopped
     halted,               // a guarded command whose caller's HALT count is stale: a HALT came after it
+    binary_reply,         // RDSBYTE typed where the answer must be text: it answers raw bytes
 };
 
 const boost::system::error_category& error_category() noexcept;

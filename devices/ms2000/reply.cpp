@@ -177,6 +177,16 @@ boost::system::result<reply> parse_reply(reply_shape expected, std::string_view 
         }
         case reply_shape::multiline:
             return parse_multiline(line);
+        case reply_shape::status_bytes: {
+            // ":" then raw bytes, kept only in `raw` (reply_fits counts them); a byte may be a space.
+            if (const auto code = to_error_code(body)) {
+                reply r = make(reply::kind::error, line);
+                r.error_code = *code;
+                return r;
+            }
+            if (line.size() >= 2 && line.front() == ':') return make(reply::kind::ack, line);
+            return unrecognized();
+        }
         case reply_shape::two_phase: {
             // ":" then "A" after the flash write; the framer may hand over ":A" or, if the ":" was
             // consumed on its own, "A".

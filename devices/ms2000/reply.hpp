@@ -9,6 +9,7 @@
 //   "N" / "B"                        -> status (reply_shape::status only)
 //   "STD_XYZ\rMotor Axes: X Y Z\r.." -> text, lines (reply_shape::multiline)
 //   ":A" after ":" (SS Z)            -> ack (reply_shape::two_phase)
+//   ":" + raw bytes (RB X Y)          -> ack, the bytes only in raw (reply_shape::status_bytes)
 
 #include <cstdint>
 #include <optional>

@@ -50,6 +50,8 @@ bool reply_fits(const reply_form& form, const reply& r) {
             return parse_version(r).has_value();
         case reply_form::kind::build_text:
             return r.what == reply::kind::text;
+        case reply_form::kind::status_bytes:
+            return r.what == reply::kind::ack && r.raw.size() == 1 + form.axes.size();
         case reply_form::kind::integers:
             return r.what == reply::kind::ack && r.axes.empty() &&
                    std::all_of(r.values.begin(), r.values.end(), [](const std::string& v) {
@@ -61,7 +63,9 @@ bool reply_fits(const reply_form& form, const reply& r) {
 }
 
 boost::system::result<reply> accept_reply(const command& cmd, std::string_view line) {
-    if (!is_reply_text(line)) return make_error_code(error::unrecognized_reply);
+    // RDSBYTE's answer is the one made of raw bytes; its length is checked instead (reply_fits).
+    const bool binary = cmd.expect == reply_shape::status_bytes;
+    if (!binary && !is_reply_text(line)) return make_error_code(error::unrecognized_reply);
     auto parsed = parse_reply(cmd.expect, line);
     if (!parsed) return parsed.error();
     if (!reply_fits(cmd.form, *parsed)) return make_error_code(error::unrecognized_reply);

@@ -11,8 +11,9 @@ namespace gw::devices::ms2000 {
 // True when `r` can answer a command of `form`. An error reply (":N-<code>") fits every form.
 bool reply_fits(const reply_form& form, const reply& r);
 
-// The whole test a received line must pass to be the answer to `cmd`: printable ASCII, the shape
-// cmd.expect, the content cmd.form. error::unrecognized_reply otherwise (the link is then out of step).
+// The whole test a received line must pass to be the answer to `cmd`: printable ASCII (but for RDSBYTE's
+// raw bytes), the shape cmd.expect, the content cmd.form. error::unrecognized_reply otherwise (the link is
+// then out of step).
 boost::system::result<reply> accept_reply(const command& cmd, std::string_view line);
 
 // True when every byte of a received line is printable ASCII (0x20..0x7E) or a CR between the lines

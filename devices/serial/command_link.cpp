@@ -338,6 +338,8 @@ void command_link::do_write(std::uint64_t sequence, bool input_just_flushed) {
         return;
     }
     framer_.reset();
+    if (const auto& cmd = in_flight_->job.cmd; cmd.expect == ms2000::reply_shape::status_bytes)
+        framer_.expect_status_bytes(cmd.form.axes.size());
     in_flight_->accepting = true;
     in_flight_->started = steady_clock::now();
 

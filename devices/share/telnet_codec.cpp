@@ -38,9 +38,6 @@ enum com_port_command : std::uint8_t {
 constexpr std::uint8_t server_offset = 100;
 
 // What the real link is, for queries.
-constexpr std::uint8_t line_datasize = 8;
-constexpr std::uint8_t line_parity_none = 1;
-constexpr std::uint8_t line_stopsize_one = 1;
 constexpr std::uint8_t line_state_quiet = 0;
 
 void send_option(std::string& reply, std::uint8_t verb, std::uint8_t option) {
@@ -68,34 +65,18 @@ void send_com_port(std::string& reply, std::uint8_t command, std::uint8_t value)
     send_com_port(reply, command, std::string_view(&byte, 1));
 }
 
-// The answer to a SET-CONTROL value; none for a value the RFC leaves undefined (20..255).
-std::optional<std::uint8_t> control_answer(std::uint8_t value) {
-    switch (value) {
-        case 0:
-            return 1;  // flow control (outbound/both): none
-        case 4:
-            return 6;  // BREAK: off
-        case 7:
-            return 8;  // DTR: on
-        case 10:
-            return 11;  // RTS: on
-        case 13:
-            return 14;  // inbound flow control: none
-        default:
-            if (value <= 19) return value;  // a setting: acknowledged as asked
-            return std::nullopt;
-    }
-}
-
-// The answer to SET-DATASIZE/PARITY/STOPSIZE: the real value for a query or an undefined value.
-std::uint8_t setting_answer(std::uint8_t value, std::uint8_t lowest, std::uint8_t highest,
-                            std::uint8_t real) {
-    return value >= lowest && value <= highest ? value : real;
+// SET-DATASIZE/PARITY/STOPSIZE: a value in the RFC's table is kept; the answer is what is kept (a query,
+// 0, or a value outside the table gets the current one).
+std::uint8_t take_setting(std::uint8_t value, std::uint8_t lowest, std::uint8_t highest, std::uint8_t& kept) {
+    if (value >= lowest && value <= highest) kept = value;
+    return kept;
 }
 
 }  // namespace
 
-telnet_codec::telnet_codec(std::uint32_t line_baud) : line_baud_(line_baud) {}
+telnet_codec::telnet_codec(std::uint32_t line_baud) {
+    port_.baud = line_baud;
+}
 
 bool telnet_codec::com_port_agreed() const {
     const option_state& com_port = options_[com_port_index];
@@ -251,28 +232,28 @@ void telnet_codec::end_sub(std::string& reply) {
             for (const char c : value)
                 asked = (asked << 8) | static_cast<std::uint8_t>(c);
             if (asked != 0) {
-                requested_baud_ = asked;
+                port_.baud = asked;
                 send_com_port(reply, answer, value);
                 break;
             }
-            const std::array<char, 4> real = {
-                static_cast<char>(line_baud_ >> 24), static_cast<char>(line_baud_ >> 16),
-                static_cast<char>(line_baud_ >> 8), static_cast<char>(line_baud_)};
-            send_com_port(reply, answer, std::string_view(real.data(), real.size()));
+            const std::array<char, 4> baud = {
+                static_cast<char>(port_.baud >> 24), static_cast<char>(port_.baud >> 16),
+                static_cast<char>(port_.baud >> 8), static_cast<char>(port_.baud)};
+            send_com_port(reply, answer, std::string_view(baud.data(), baud.size()));
             break;
         }
         case com_set_datasize:
-            if (byte) send_com_port(reply, answer, setting_answer(*byte, 5, 8, line_datasize));
+            if (byte) send_com_port(reply, answer, take_setting(*byte, 5, 8, port_.datasize));
             break;
         case com_set_parity:
-            if (byte) send_com_port(reply, answer, setting_answer(*byte, 1, 5, line_parity_none));
+            if (byte) send_com_port(reply, answer, take_setting(*byte, 1, 5, port_.parity));
             break;
         case com_set_stopsize:
-            if (byte) send_com_port(reply, answer, setting_answer(*byte, 1, 3, line_stopsize_one));
+            if (byte) send_com_port(reply, answer, take_setting(*byte, 1, 3, port_.stopsize));
             break;
         case com_set_control:
             if (byte) {
-                if (const auto control = control_answer(*byte)) send_com_port(reply, answer, *control);
+                if (const auto control = take_control(*byte)) send_com_port(reply, answer, *control);
             }
             break;
         case com_notify_linestate:
@@ -292,6 +273,20 @@ void telnet_codec::end_sub(std::string& reply) {
         default:  // FLOWCONTROL-SUSPEND/RESUME (no answer defined), unknown commands
             break;
     }
+}
+
+std::optional<std::uint8_t> telnet_codec::take_control(std::uint8_t value) {
+    // RFC 2217 section 3, SET-CONTROL: each group has a query value and the values that set it.
+    auto group = [&](std::uint8_t& kept, std::uint8_t query) {
+        if (value != query) kept = value;
+        return kept;
+    };
+    if (value <= 3 || value == 17 || value == 19) return group(port_.outbound_flow, 0);
+    if (value <= 6) return group(port_.brk, 4);
+    if (value <= 9) return group(port_.dtr, 7);
+    if (value <= 12) return group(port_.rts, 10);
+    if (value <= 16 || value == 18) return group(port_.inbound_flow, 13);
+    return std::nullopt;  // 20..255: undefined
 }
 
 void telnet_codec::encode(std::string_view data, std::string& out) const {

@@ -21,14 +21,18 @@
 // there).
 //
 // RFC 2217 requests (IAC SB 44 <command> <value> IAC SE, accepted once option 44 is agreed either way) are
-// answered with command + 100 and never change the real serial link, which the gateway owns:
-// - a setting with a value is acknowledged by echoing it (SET-BAUDRATE, any value; SET-DATASIZE 5..8,
-//   SET-PARITY 1..5, SET-STOPSIZE 1..3; a value outside the RFC's table is answered with the real one,
-//   i.e. refused); SET-CONTROL 1..3, 5, 6, 8, 9, 11, 12, 14..19, SET-LINESTATE-MASK, SET-MODEMSTATE-MASK
-//   and PURGE-DATA 1..3 are echoed;
-// - a query tells the real link: SET-BAUDRATE 0 -> line_baud, SET-DATASIZE/PARITY/STOPSIZE 0 -> 8, NONE,
-//   1; SET-CONTROL 0 -> no flow control, 4 -> BREAK off, 7 -> DTR on, 10 -> RTS on, 13 -> no inbound flow
-//   control; SIGNATURE with no text -> `signature`; NOTIFY-MODEMSTATE / NOTIFY-LINESTATE with no value
+// answered with command + 100 and never change the real serial link, which the gateway owns. The client
+// sees a port of its own (port_settings) that keeps what it set, as a serial port would: a virtual COM
+// driver that sets 9600 7E1 and reads the settings back finds them, while the controller's link stays as
+// it is:
+// - a setting with a value is kept and acknowledged by echoing it (SET-BAUDRATE, any value;
+//   SET-DATASIZE 5..8, SET-PARITY 1..5, SET-STOPSIZE 1..3; SET-CONTROL 1..3, 5, 6, 8, 9, 11, 12, 14..19);
+//   a value outside the RFC's table is answered with the current one, i.e. refused;
+//   SET-LINESTATE-MASK, SET-MODEMSTATE-MASK and PURGE-DATA 1..3 are echoed;
+// - a query tells the current setting: SET-BAUDRATE 0, SET-DATASIZE/PARITY/STOPSIZE 0, SET-CONTROL 0
+//   (outbound flow control), 4 (BREAK), 7 (DTR), 10 (RTS), 13 (inbound flow control); before any setting
+//   that is the real link (line_baud, 8, NONE, 1) with no flow control, BREAK off, DTR and RTS on;
+//   SIGNATURE with no text -> `signature`; NOTIFY-MODEMSTATE / NOTIFY-LINESTATE with no value
 //   (pyserial's poll_modem) -> modem_state / 0;
 // - once option 44 is first agreed, one NOTIFY-MODEMSTATE (modem_state) is sent unasked, so that
 //   pyserial's cts/dsr/cd have a value (the state never changes afterwards, so none follows);
@@ -73,8 +77,19 @@ class telnet_codec {
     bool telnet_seen() const { return telnet_seen_; }
     // RFC 2217's option 44 is agreed in at least one direction.
     bool com_port_agreed() const;
-    // The last non-zero SET-BAUDRATE the client asked for (for display; the link keeps line_baud).
-    std::optional<std::uint32_t> requested_baud() const { return requested_baud_; }
+    // The port as the client set it (RFC 2217 values); the real link keeps its own.
+    struct port_settings {
+        std::uint32_t baud = 0;
+        std::uint8_t datasize = 8;
+        std::uint8_t parity = 1;         // NONE
+        std::uint8_t stopsize = 1;       // 1
+        std::uint8_t outbound_flow = 1;  // none
+        std::uint8_t brk = 6;            // BREAK off
+        std::uint8_t dtr = 8;            // on
+        std::uint8_t rts = 11;           // on
+        std::uint8_t inbound_flow = 14;  // none
+    };
+    const port_settings& settings() const { return port_; }
 
   private:
     // Where the byte stream stands between feed() calls.
@@ -92,8 +107,11 @@ class telnet_codec {
     void take_sub(char byte);
     void end_sub(std::string& reply);
     option_state* state_of(std::uint8_t option);
+    // A SET-CONTROL value: kept in its group unless it is the group's query; the answer is the group's
+    // setting. None for a value the RFC leaves undefined (20..255).
+    std::optional<std::uint8_t> take_control(std::uint8_t value);
 
-    std::uint32_t line_baud_;
+    port_settings port_;
     parse parse_ = parse::data;
     std::uint8_t verb_ = 0;                             // WILL/WONT/DO/DONT waiting for its option byte
     std::array<char, max_subnegotiation_bytes> sub_{};  // option, command, value (IAC IAC as one 0xFF)
@@ -103,7 +121,6 @@ class telnet_codec {
     bool telnet_seen_ = false;
     bool after_cr_ = false;  // the last data byte was CR: a NUL now is NVT padding
     bool modem_state_sent_ = false;
-    std::optional<std::uint32_t> requested_baud_;
 };
 
 }  // namespace gw::devices::share

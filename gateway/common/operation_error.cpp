@@ -73,6 +73,7 @@ operation_error from_driver_error(boost::system::error_code ec, int code, std::s
         case ms2000::error::queue_full:
             return make_error(operation_error_kind::queue_full, who + ": too many commands waiting");
         case ms2000::error::invalid_argument:
+        case ms2000::error::binary_reply:
             return make_error(operation_error_kind::invalid_value, who + ": " + ec.message());
         case ms2000::error::controller_rejected: {
             auto e = make_error(operation_error_kind::controller_error,

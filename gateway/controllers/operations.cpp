@@ -294,6 +294,10 @@ operation_result<ms2000::command> plan(const raw_command_request& r, const contr
     if (auto e = check_connected(s)) return *e;
     if (r.command.empty()) return invalid_field("command", "must not be empty");
     auto c = ms2000::raw_command(r.command);
+    if (!c && c.error() == ms2000::error::binary_reply)
+        return invalid_field("command",
+                             "RDSBYTE (RB) answers raw bytes, which a JSON reply cannot carry: "
+                             "RDSTAT (\"RS X\") gives the same status byte as a number");
     if (!c)
         return invalid_field("command",
                              fmt::format("must be one line of at most {} printable ASCII characters",

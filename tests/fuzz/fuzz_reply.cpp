@@ -1,4 +1,4 @@
-// parse_reply() on arbitrary bytes, in all four shapes, plus the helpers that read a reply.
+// parse_reply() on arbitrary bytes, in all five shapes, plus the helpers that read a reply.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -46,8 +46,9 @@ void inspect(ms2000::reply_shape shape, std::string_view line) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     const std::string_view line(reinterpret_cast<const char*>(data), size);
-    for (auto shape : {ms2000::reply_shape::standard, ms2000::reply_shape::status,
-                       ms2000::reply_shape::multiline, ms2000::reply_shape::two_phase}) {
+    for (auto shape :
+         {ms2000::reply_shape::standard, ms2000::reply_shape::status, ms2000::reply_shape::multiline,
+          ms2000::reply_shape::two_phase, ms2000::reply_shape::status_bytes}) {
         inspect(shape, line);
     }
     (void)ms2000::parse_position_report(line);

@@ -157,6 +157,45 @@ def test_pty_answers_like_the_controller(s):
     check(share["role"] == "operator" and share["commands"] >= 4, f"share counts: {share}")
 
 
+def read_exact(port, n, timeout=REPLY_WAIT):
+    """n bytes from a pyserial port, whatever they are (RDSBYTE's answer may hold CR and LF)."""
+    port.timeout = timeout
+    return port.read(n)
+
+
+def test_rdsbyte_answers_raw_bytes(s):
+    """RB's answer is a colon and one raw status byte per axis, then CR LF: bytes that may be a CR or a
+    LF themselves (10, axis enabled and joystick on, is a line feed), framed by count, not by line."""
+    raw(s.c, "s1", "H X=0 Y=0")
+    with s.open_pty("s1") as p:
+        p.write(b"RB X Y\r")
+        idle = read_exact(p, 5)
+        check(len(idle) == 5 and idle[:1] == b":" and idle[3:] == b"\r\n", f"RB X Y: {idle!r}")
+        rs_x, rs_y = (int(ask(p, f"RS {axis}").split()[1]) for axis in "XY")
+        check((idle[1], idle[2]) == (rs_x, rs_y), f"RB X Y {idle!r} is RS X, RS Y ({rs_x}, {rs_y}) in binary")
+        check(idle[1] & 1 == 0 and idle[1] & 2, f"idle and enabled: {idle[1]:#x}")
+        check(ask(p, "W X").startswith(b":A "), "the next line is framed as usual")
+        check(ask(p, "M X=500000") == b":A\r\n", "a long move starts")
+        p.write(b"rb x\r")
+        moving = read_exact(p, 4)
+        check(len(moving) == 4 and moving[1] & 1, f"RB X during a commanded move has bit 0: {moving!r}")
+        check(ask(p, "\\") == b":N-21\r\n", "HALT")
+        check(ask(p, "RB Q") == b":N-2\r\n", "an unknown axis is the controller's own refusal")
+    tcp = TcpClient(s.tcp["s1"])
+    try:
+        tcp.sock.sendall(b"RB X\r")
+        deadline = time.monotonic() + REPLY_WAIT
+        while len(tcp.buffer) < 4 and time.monotonic() < deadline:
+            tcp.buffer += tcp.sock.recv(16)
+        check(len(tcp.buffer) == 4 and tcp.buffer[:1] == b":" and tcp.buffer[2:] == b"\r\n",
+              f"RB X through TCP: {tcp.buffer!r}")
+    finally:
+        tcp.close()
+    r = s.c.request("POST", "/api/v1/controllers/s1/command", {"command": "RB X"}, token=ADMIN)
+    check(r.status == 422 and "RS X" in r.json()["detail"],
+          f"REST refuses RB (its answer is not text) and says what to use: {r.status} {r.body[:300]}")
+
+
 def test_the_pty_has_the_mode_and_group_configured(s):
     st = os.stat(s.pty["s2"])  # the slave the link points to
     check(stat.S_IMODE(st.st_mode) == 0o640, f"mode {oct(stat.S_IMODE(st.st_mode))}")
@@ -466,6 +505,7 @@ def main():
         s = Scene(fx, args)
         for name, fn in [
             ("the pty answers like the controller", test_pty_answers_like_the_controller),
+            ("RDSBYTE answers raw bytes", test_rdsbyte_answers_raw_bytes),
             ("the pty has the mode and group configured", test_the_pty_has_the_mode_and_group_configured),
             ("replies go to their own client", test_replies_go_to_their_own_client),
             ("several clients and the limit", test_several_clients_and_the_limit),

@@ -252,16 +252,18 @@ INSTANTIATE_TEST_SUITE_P(
 
 TEST(raw_command, refuses_injection_and_non_printable) {
     const std::vector<std::string> bad{
-        "",       "   ",        "X=1\rM Y=2",      "W X\r",
-        "W X\n",  "W X\r\n",    "M X=1\nM Y=2",    std::string("W\0X", 3),
-        "W\tX",   "W X\x7f",    "W \x1b[2J",       "W \xc3\xa9",
-        "W \x80", "M=3 X",      "ABCDEFGHIJKLM X", std::string(max_raw_command_bytes + 1, 'W'),
-        "RB X",   "rdsbyte X Y"};  // a raw-byte reply the line framing cannot carry
+        "",       "   ",     "X=1\rM Y=2",      "W X\r",
+        "W X\n",  "W X\r\n", "M X=1\nM Y=2",    std::string("W\0X", 3),
+        "W\tX",   "W X\x7f", "W \x1b[2J",       "W \xc3\xa9",
+        "W \x80", "M=3 X",   "ABCDEFGHIJKLM X", std::string(max_raw_command_bytes + 1, 'W')};
     for (const std::string& line : bad) {
         const auto c = raw_command(line);
         ASSERT_FALSE(c.has_value()) << line;
         EXPECT_EQ(c.error(), make_error_code(error::invalid_argument));
     }
+    // RDSBYTE answers raw bytes, which a JSON answer cannot carry.
+    for (const std::string line : {"RB X", "rdsbyte X Y"})
+        EXPECT_EQ(raw_command(line).error(), make_error_code(error::binary_reply)) << line;
 }
 
 TEST(raw_command, accepts_the_longest_line) {
@@ -335,6 +337,9 @@ TEST(verbatim_command, sends_the_line_as_it_came) {
         {"bu x", "BU", reply_shape::multiline, reply_form::kind::build_text},
         {"ss z", "SS", reply_shape::two_phase, reply_form::kind::any},
         {"s x?", "S", reply_shape::standard, reply_form::kind::axis_values},
+        {"RB X", "RB", reply_shape::status_bytes, reply_form::kind::status_bytes},
+        {"rdsbyte xy z", "RDSBYTE", reply_shape::status_bytes, reply_form::kind::status_bytes},
+        {"RB X=1", "RB", reply_shape::standard, reply_form::kind::any},  // no byte count to expect
     };
     for (const auto& r : rows) {
         auto cmd = verbatim_command(r.line);
@@ -346,11 +351,11 @@ TEST(verbatim_command, sends_the_line_as_it_came) {
     }
     EXPECT_TRUE(verbatim_command("\\")->is_halt);
     EXPECT_TRUE(verbatim_command("halt")->is_halt);
+    EXPECT_EQ(verbatim_command("rdsbyte xy z")->form.axes, "XYZ");
 }
 
 TEST(verbatim_command, refuses_what_cannot_be_one_line_of_ascii) {
-    for (std::string_view line :
-         {"", "   ", "W X\r", "W\nX", "W \x01", "RB X", "rdsbyte x", "M=X", "ABCDEFGHIJKLM X"})
+    for (std::string_view line : {"", "   ", "W X\r", "W\nX", "W \x01", "M=X", "ABCDEFGHIJKLM X"})
         EXPECT_FALSE(verbatim_command(line)) << line;
     EXPECT_FALSE(verbatim_command(std::string(max_raw_command_bytes + 1, 'W')));
     const std::string high = "W \xC3\xA9";
@@ -363,16 +368,27 @@ TEST(command_effect, tells_what_a_line_may_do) {
         command_effect effect;
     };
     const row rows[] = {
-        {"W X", command_effect::reads},         {"/", command_effect::reads},
-        {"S X? Y?", command_effect::reads},     {"BU X", command_effect::reads},
-        {"\\", command_effect::halts},          {"HALT", command_effect::halts},
-        {"M X=10", command_effect::acts},       {"r x=1", command_effect::acts},
-        {"S X=2", command_effect::acts},        {"UM X=-10000 Y=10000", command_effect::acts},
-        {"TTL X=1", command_effect::acts},      {"CCA Y", command_effect::acts},
-        {"SS Z", command_effect::writes_flash}, {"SAVESET X", command_effect::writes_flash},
-        {"SP", command_effect::writes_flash},   {"~", command_effect::breaks_link},
-        {"RESET", command_effect::breaks_link}, {"BAUD X=9600", command_effect::breaks_link},
-        {"FOO X=1", command_effect::unknown},   {"XYZZY", command_effect::unknown},
+        {"W X", command_effect::reads},
+        {"/", command_effect::reads},
+        {"RB X Y", command_effect::reads},
+        {"S X? Y?", command_effect::reads},
+        {"BU X", command_effect::reads},
+        {"\\", command_effect::halts},
+        {"HALT", command_effect::halts},
+        {"M X=10", command_effect::acts},
+        {"r x=1", command_effect::acts},
+        {"S X=2", command_effect::acts},
+        {"UM X=-10000 Y=10000", command_effect::acts},
+        {"TTL X=1", command_effect::acts},
+        {"CCA Y", command_effect::acts},
+        {"SS Z", command_effect::writes_flash},
+        {"SAVESET X", command_effect::writes_flash},
+        {"SP", command_effect::writes_flash},
+        {"~", command_effect::breaks_link},
+        {"RESET", command_effect::breaks_link},
+        {"BAUD X=9600", command_effect::breaks_link},
+        {"FOO X=1", command_effect::unknown},
+        {"XYZZY", command_effect::unknown},
     };
     for (const auto& r : rows) {
         auto cmd = verbatim_command(r.line);

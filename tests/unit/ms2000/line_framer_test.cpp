@@ -138,6 +138,56 @@ TEST(line_framer, saveset_two_phase_reply) {
     EXPECT_EQ(r->what, reply::kind::ack);
 }
 
+// RDSBYTE: ":" then one raw status byte per axis, which may be CR or LF, then CR LF.
+TEST(line_framer, status_bytes_hold_cr_and_lf) {
+    struct row {
+        std::size_t count;
+        std::string input;
+        lines_t lines;
+    };
+    const row rows[] = {
+        {1, ":\n\r\n", {":\n"}},                        // 10: enabled, joystick on
+        {1, ":\r\r\n", {":\r"}},                        // 13
+        {2, ":\n\r\r\n", {":\n\r"}},                    // a CR LF inside, then its own
+        {2, ":\x8a\x0a\r\nN\r\n", {":\x8a\x0a", "N"}},  // then ordinary lines again
+        {1, ":N-2\r\n", {":N-2"}},                      // the controller refused it
+        {4, ":N-21\r\n", {":N-21"}},                    // shorter than 4 bytes would be
+        {2, ":N-\r\n", {":N-"}},                        // bytes 'N' and '-', not an error
+        {1, "T: 1 2\r\n:\n\r\n", {"T: 1 2", ":\n"}},    // a report line first is framed as usual
+        {1, ":AB\r\n", {":AB"}},                        // too long: ordinary framing takes it
+    };
+    for (const auto& r : rows) {
+        // In one feed and byte by byte: the same lines.
+        for (const bool bytewise : {false, true}) {
+            line_framer framer;
+            framer.expect_status_bytes(r.count);
+            lines_t lines;
+            if (bytewise) {
+                for (char c : r.input)
+                    framer.feed(std::string_view(&c, 1), lines);
+            } else {
+                framer.feed(r.input, lines);
+            }
+            EXPECT_EQ(lines, r.lines) << r.count << " bytes, input of " << r.input.size();
+            EXPECT_EQ(framer.partial(), "");
+        }
+    }
+}
+
+TEST(line_framer, status_bytes_end_with_the_answer_or_a_reset) {
+    line_framer framer;
+    lines_t lines;
+    framer.expect_status_bytes(1);
+    framer.feed(":\n\r\n:\n\r\n", lines);  // only the first line is RDSBYTE's answer
+    EXPECT_EQ(lines, (lines_t{":\n", ":"}));
+    EXPECT_EQ(framer.discarded_bytes(), 1u);  // the second one's first LF was a stray
+    lines.clear();
+    framer.expect_status_bytes(1);
+    framer.reset();
+    framer.feed(":\n\r\n", lines);
+    EXPECT_EQ(lines, lines_t{":"});
+}
+
 TEST(line_framer, reset_drops_the_partial_line) {
     line_framer framer;
     lines_t lines;

@@ -110,6 +110,28 @@ TEST(reply_form, typed_builders_carry_the_form_of_their_reply) {
     EXPECT_EQ(status().form.what, reply_form::kind::any);  // "/": the status shape says it all
 }
 
+// RDSBYTE (only from a shared port's program): a colon and one raw byte per axis, any byte value.
+TEST(accept_reply, rdsbyte_takes_raw_bytes_one_per_axis) {
+    const auto one = verbatim_command("RB X");
+    const auto two = verbatim_command("RB X Y");
+    ASSERT_TRUE(one && two);
+    EXPECT_TRUE(accept_reply(*one, ":\n"));
+    EXPECT_TRUE(accept_reply(*one, std::string(":\x8a", 2)));  // 138: a lower limit
+    EXPECT_TRUE(accept_reply(*one, ": "));                     // a byte that is a space is kept
+    EXPECT_TRUE(accept_reply(*two, std::string(":\n\0", 3)));
+    EXPECT_FALSE(accept_reply(*one, std::string(":\n\n", 3)));  // one byte too many
+    EXPECT_FALSE(accept_reply(*two, ":\n"));                    // one too few
+    EXPECT_FALSE(accept_reply(*one, ":"));
+    EXPECT_FALSE(accept_reply(*one, "A\n"));
+    const auto refused = accept_reply(*one, ":N-2");
+    ASSERT_TRUE(refused);
+    EXPECT_EQ(refused->what, reply::kind::error);
+    EXPECT_EQ(refused->error_code, -2);
+    EXPECT_EQ(accept_reply(*two, std::string(":\n\x0b", 3))->raw, std::string(":\n\x0b", 3));
+    // Any other command still takes only text.
+    EXPECT_FALSE(accept_reply(*verbatim_command("RS X"), std::string(":A \x0a", 4)));
+}
+
 TEST(reply_text, only_printable_ascii_and_the_cr_between_lines) {
     EXPECT_TRUE(is_reply_text(":A 1234.5 0 "));
     EXPECT_TRUE(is_reply_text("STD_XYZ\rMotor Axes: X Y Z"));

@@ -175,11 +175,11 @@ INSTANTIATE_TEST_SUITE_P(
         codec_case{"baud_wrong_size", agreed_then(com_port(1, "\x00\x25\x80"s) + com_port(1, "")), "",
                    com_port_agreed},
         codec_case{"datasize", agreed_then(com_port(2, "\x00"s) + com_port(2, "\x07") + com_port(2, "\x09")),
-                   "", agreed_reply(com_port(102, "\x08") + com_port(102, "\x07") + com_port(102, "\x08"))},
+                   "", agreed_reply(com_port(102, "\x08") + com_port(102, "\x07") + com_port(102, "\x07"))},
         codec_case{"parity", agreed_then(com_port(3, "\x00"s) + com_port(3, "\x03") + com_port(3, "\x06")),
-                   "", agreed_reply(com_port(103, "\x01") + com_port(103, "\x03") + com_port(103, "\x01"))},
+                   "", agreed_reply(com_port(103, "\x01") + com_port(103, "\x03") + com_port(103, "\x03"))},
         codec_case{"stopsize", agreed_then(com_port(4, "\x00"s) + com_port(4, "\x02") + com_port(4, "\x04")),
-                   "", agreed_reply(com_port(104, "\x01") + com_port(104, "\x02") + com_port(104, "\x01"))},
+                   "", agreed_reply(com_port(104, "\x01") + com_port(104, "\x02") + com_port(104, "\x02"))},
         codec_case{"one_byte_setting_wrong_size", agreed_then(com_port(2, "") + com_port(3, "\x01\x01")), "",
                    com_port_agreed},
         codec_case{"control_queries",
@@ -194,6 +194,19 @@ INSTANTIATE_TEST_SUITE_P(
                    "",
                    agreed_reply(com_port(105, "\x03") + com_port(105, "\x05") + com_port(105, "\x09") +
                                 com_port(105, "\x0c") + com_port(105, "\x10") + com_port(105, "\x13"))},
+        // What a virtual COM driver set is what it reads back (the real link is not touched).
+        codec_case{"queries_tell_what_was_set",
+                   agreed_then(com_port(1, "\x00\x00\x4b\x00"s) + com_port(1, "\x00\x00\x00\x00"s) +
+                               com_port(5, "\x03") + com_port(5, "\x00"s) + com_port(5, "\x05") +
+                               com_port(5, "\x04") + com_port(5, "\x09") + com_port(5, "\x07") +
+                               com_port(5, "\x0c") + com_port(5, "\x0a") + com_port(5, "\x12") +
+                               com_port(5, "\x0d") + com_port(5, "\x13") + com_port(5, "\x00"s)),
+                   "",
+                   agreed_reply(com_port(101, "\x00\x00\x4b\x00"s) + com_port(101, "\x00\x00\x4b\x00"s) +
+                                com_port(105, "\x03") + com_port(105, "\x03") + com_port(105, "\x05") +
+                                com_port(105, "\x05") + com_port(105, "\x09") + com_port(105, "\x09") +
+                                com_port(105, "\x0c") + com_port(105, "\x0c") + com_port(105, "\x12") +
+                                com_port(105, "\x12") + com_port(105, "\x13") + com_port(105, "\x13"))},
         codec_case{"control_undefined_ignored", agreed_then(com_port(5, "\x14") + com_port(5, "\x08\x08")),
                    "", com_port_agreed},
         codec_case{"signature_asked", agreed_then(com_port(0, "")), "",
@@ -273,20 +286,20 @@ TEST(telnet_codec, flags_follow_the_negotiation) {
     telnet_codec codec(line_baud);
     std::string data;
     std::string reply;
-    EXPECT_FALSE(codec.requested_baud());
+    EXPECT_EQ(codec.settings().baud, line_baud);
     codec.feed(will_com_port, data, reply);
     EXPECT_TRUE(codec.telnet_seen());
     EXPECT_TRUE(codec.com_port_agreed());
     codec.feed(com_port(1, "\x00\x01\xc2\x00"s), data, reply);
-    EXPECT_EQ(codec.requested_baud(), 115200u);
+    EXPECT_EQ(codec.settings().baud, 115200u);
     codec.feed(com_port(1, "\x00\x00\x00\x00"s), data, reply);  // a query asks nothing
-    EXPECT_EQ(codec.requested_baud(), 115200u);
+    EXPECT_EQ(codec.settings().baud, 115200u);
     codec.feed("\xff\xfc\x2c", data, reply);
     EXPECT_FALSE(codec.com_port_agreed());
     reply.clear();
     codec.feed(com_port(1, "\x00\x00\x25\x80"s), data, reply);  // no longer agreed: ignored
     EXPECT_EQ(reply, "");
-    EXPECT_EQ(codec.requested_baud(), 115200u);
+    EXPECT_EQ(codec.settings().baud, 115200u);
 }
 
 TEST(telnet_codec, line_baud_is_told_to_a_query) {
