@@ -99,7 +99,7 @@ void run_call(api_context& ctx, const caller& who, call c, api_handler done) {
         return control_job(ctx, action->command, std::move(a), std::move(done));
     }
     if (const auto* get = std::get_if<job_get_call>(&c))
-        return deliver(ctx, std::move(done), get_job(ctx, get->job_id, who.request_id));
+        return get_job(ctx, get->job_id, who.request_id, std::move(done));
     if (auto* take = std::get_if<lease_take_call>(&c))
         return acquire_lease(ctx, take->controller, take->body, who.name, who.request_id, std::move(done));
     if (const auto* renew = std::get_if<lease_renew_call>(&c))

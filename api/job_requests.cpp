@@ -323,36 +323,61 @@ void control_job(api_context& ctx, job_command command, jobs::job_action action,
     }
 }
 
-api_outcome get_job(api_context& ctx, const std::string& id, const std::string& request_id) {
-    if (!ctx.jobs) return failed(no_jobs_problem(), request_id);
-    auto job = ctx.jobs->get(id);
-    if (!job) return failed(job.error(), request_id);
-    api_outcome out;
-    out.body = jobs::to_json(*job, jobs::job_clock::now());
-    return out;
+namespace {
+
+// The job manager's handler for one of its history reads: the result made an outcome by `to_body`
+// and handed to `handler` on its executor.
+template <typename T, typename ToBody>
+auto history_reply(api_context& ctx, const std::string& request_id, api_handler handler, ToBody to_body) {
+    auto shared = std::make_shared<api_handler>(std::move(handler));
+    auto ex = ctx.executor;
+    return net::bind_executor(
+        ex, [shared, ex, request_id, to_body = std::move(to_body)](operation_result<T> res) mutable {
+            api_outcome out;
+            if (!res)
+                out = failed(res.error(), request_id);
+            else
+                out.body = to_body(std::move(*res));
+            net::dispatch(ex, net::append(std::move(*shared), std::move(out)));
+        });
 }
 
-api_outcome list_jobs(api_context& ctx, const jobs::job_filter& filter, const std::string& request_id) {
-    if (!ctx.jobs) return failed(no_jobs_problem(), request_id);
-    auto page = ctx.jobs->list(filter);
-    if (!page) return failed(page.error(), request_id);
-    const auto now = jobs::job_clock::now();
-    json list = json::array();
-    for (const auto& j : page->jobs)
-        list.push_back(jobs::to_json(j, now));
-    api_outcome out;
-    out.body = {{"jobs", std::move(list)}, {"next", page->next ? json(*page->next) : json(nullptr)}};
-    return out;
+void no_jobs(api_context& ctx, const std::string& request_id, api_handler& handler) {
+    net::post(ctx.executor, net::append(std::move(handler), failed(no_jobs_problem(), request_id)));
 }
 
-api_outcome job_events(api_context& ctx, const std::string& id, std::size_t limit,
-                       const std::string& request_id) {
-    if (!ctx.jobs) return failed(no_jobs_problem(), request_id);
-    auto events = ctx.jobs->events(id, limit);
-    if (!events) return failed(events.error(), request_id);
-    api_outcome out;
-    out.body = {{"events", json(std::move(*events))}};
-    return out;
+}  // namespace
+
+void get_job(api_context& ctx, std::string id, const std::string& request_id, api_handler handler) {
+    if (!ctx.jobs) return no_jobs(ctx, request_id, handler);
+    ctx.jobs->async_get(std::move(id), history_reply<jobs::job_record>(
+                                           ctx, request_id, std::move(handler), [](jobs::job_record job) {
+                                               return jobs::to_json(job, jobs::job_clock::now());
+                                           }));
+}
+
+void list_jobs(api_context& ctx, jobs::job_filter filter, const std::string& request_id,
+               api_handler handler) {
+    if (!ctx.jobs) return no_jobs(ctx, request_id, handler);
+    ctx.jobs->async_list(
+        std::move(filter),
+        history_reply<jobs::job_page>(ctx, request_id, std::move(handler), [](jobs::job_page page) {
+            const auto now = jobs::job_clock::now();
+            json list = json::array();
+            for (const auto& j : page.jobs)
+                list.push_back(jobs::to_json(j, now));
+            return json{{"jobs", std::move(list)}, {"next", page.next ? json(*page.next) : json(nullptr)}};
+        }));
+}
+
+void job_events(api_context& ctx, std::string id, std::size_t limit, const std::string& request_id,
+                api_handler handler) {
+    if (!ctx.jobs) return no_jobs(ctx, request_id, handler);
+    ctx.jobs->async_events(
+        std::move(id), limit,
+        history_reply<std::vector<json>>(ctx, request_id, std::move(handler), [](std::vector<json> events) {
+            return json{{"events", json(std::move(events))}};
+        }));
 }
 
 }  // namespace gw::api

@@ -113,10 +113,11 @@ void submit_job(api_context& ctx, const nlohmann::json& body, submit_options opt
 // cancel / pause / resume / next: 200 with the job. The same calling rules as submit_job.
 void control_job(api_context& ctx, job_command command, jobs::job_action action, api_handler handler);
 
-// The synchronous reads.
-api_outcome get_job(api_context& ctx, const std::string& id, const std::string& request_id);
-api_outcome list_jobs(api_context& ctx, const jobs::job_filter& filter, const std::string& request_id);
-api_outcome job_events(api_context& ctx, const std::string& id, std::size_t limit,
-                       const std::string& request_id);
+// The reads of the job history (the store is read off the I/O thread). The same calling rules as
+// submit_job.
+void get_job(api_context& ctx, std::string id, const std::string& request_id, api_handler handler);
+void list_jobs(api_context& ctx, jobs::job_filter filter, const std::string& request_id, api_handler handler);
+void job_events(api_context& ctx, std::string id, std::size_t limit, const std::string& request_id,
+                api_handler handler);
 
 }  // namespace gw::api

@@ -173,7 +173,7 @@ void find_jobs(request_context& c) {
     if (!q) return;
     auto filter = parse_job_filter(*q);
     if (!filter) return c.fail(filter.error());
-    c.reply_outcome(list_jobs(*c.ctx, *filter, c.request_id));
+    list_jobs(*c.ctx, std::move(*filter), c.request_id, c.async_reply());
 }
 
 void submit(request_context& c) {
@@ -200,7 +200,7 @@ bool plausible_job(request_context& c) {
 
 void get_one_job(request_context& c) {
     if (!plausible_job(c) || !c.query_with({})) return;
-    c.reply_outcome(get_job(*c.ctx, c.params[0], c.request_id));
+    get_job(*c.ctx, c.params[0], c.request_id, c.async_reply());
 }
 
 void get_job_events(request_context& c) {
@@ -209,7 +209,7 @@ void get_job_events(request_context& c) {
     if (!q) return;
     auto limit = parse_event_limit(*q);
     if (!limit) return c.fail(limit.error());
-    c.reply_outcome(job_events(*c.ctx, c.params[0], *limit, c.request_id));
+    job_events(*c.ctx, c.params[0], *limit, c.request_id, c.async_reply());
 }
 
 // GET /audit (admin): the audit trail (api/audit_requests.hpp).

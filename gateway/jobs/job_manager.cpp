@@ -133,6 +133,18 @@ operation_result<std::vector<nlohmann::json>> job_manager::events(const std::str
     return impl_->core->events(id, limit);
 }
 
+void job_manager::async_get(std::string id, handler<job_record> h) {
+    impl_->core->async_get(std::move(id), std::move(h));
+}
+
+void job_manager::async_list(job_filter filter, handler<job_page> h) {
+    impl_->core->async_list(std::move(filter), std::move(h));
+}
+
+void job_manager::async_events(std::string id, std::size_t limit, handler<std::vector<nlohmann::json>> h) {
+    impl_->core->async_events(std::move(id), limit, std::move(h));
+}
+
 void job_manager::async_cancel(job_action a, handler<job_record> h) {
     impl_->core->cancel(std::move(a), std::move(h));
 }

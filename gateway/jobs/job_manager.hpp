@@ -150,6 +150,11 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
     operation_result<job_page> list(const job_filter& filter) const;
     // The stored events of a job, oldest first (history survives restarts).
     operation_result<std::vector<nlohmann::json>> events(const std::string& id, std::size_t limit) const;
+    // get, list and events for an I/O thread: the store is read on the job manager's history reader
+    // thread (at most 32 reads waiting, then queue_full), the handler runs on its associated executor.
+    void async_get(std::string id, handler<job_record> h);
+    void async_list(job_filter filter, handler<job_page> h);
+    void async_events(std::string id, std::size_t limit, handler<std::vector<nlohmann::json>> h);
 
     void async_cancel(job_action a, handler<job_record> h);  // queued/running/paused/interrupted
     void async_pause(job_action a, handler<job_record> h);   // running (takes effect after the step)

@@ -44,10 +44,10 @@
 #include "gateway/jobs/job_store.hpp"
 #include "gateway/jobs/job_store_handle.hpp"
 #include "gateway/jobs/motion_probe.hpp"
-#include "gateway/jobs/plan_worker.hpp"
 #include "gateway/jobs/restore_ledger.hpp"
 #include "gateway/jobs/safe_outputs.hpp"
 #include "gateway/jobs/ttl_edge_listeners.hpp"
+#include "gateway/jobs/worker_thread.hpp"
 #include "gateway/leases/lease_manager.hpp"
 
 namespace gw::jobs {
@@ -129,6 +129,11 @@ class manager_core final : public execution_host, public std::enable_shared_from
     const job_holds& holds() const { return holds_; }
     operation_result<job_page> list(const job_filter& f) const;
     operation_result<std::vector<json>> events(const std::string& id, std::size_t limit) const;
+    // The same on the history reader's thread (SQLite reads stay off the caller's I/O thread); the
+    // handler runs on its associated executor. queue_full when too many reads wait.
+    void async_get(std::string id, job_manager::handler<job_record> h);
+    void async_list(job_filter f, job_manager::handler<job_page> h);
+    void async_events(std::string id, std::size_t limit, job_manager::handler<std::vector<json>> h);
 
     // Registry observer events (controller strands): posted here.
     void controller_snapshot_changed(const devices::controller_snapshot& s);
@@ -161,6 +166,26 @@ class manager_core final : public execution_host, public std::enable_shared_from
     template <typename T>
     void deliver(job_manager::handler<T> h, operation_result<T> r) {
         net::post(executor_, net::append(std::move(h), std::move(r)));
+    }
+
+    // Runs read(*this) on the history reader's thread and delivers its result.
+    template <typename T, typename Read>
+    void read_history(job_manager::handler<T> h, Read read) {
+        auto shared_h = std::make_shared<job_manager::handler<T>>(std::move(h));
+        const bool queued =
+            reader_.post([self = shared_from_this(), shared_h, read = std::move(read)]() mutable {
+                operation_result<T> result = read(*self);
+                // The core's reference moves on with the result: the reader's thread never holds the last
+                // one.
+                auto& executor = self->executor_;
+                net::post(executor, [self = std::move(self), shared_h, result = std::move(result)]() mutable {
+                    self->deliver<T>(std::move(*shared_h), std::move(result));
+                });
+            });
+        if (!queued)
+            deliver<T>(std::move(*shared_h),
+                       make_error(operation_error_kind::queue_full,
+                                  "too many reads of the job history waiting: ask again shortly"));
     }
 
     operation_result<std::shared_ptr<live_job>> find_live(const std::string& id);
@@ -310,8 +335,10 @@ class manager_core final : public execution_host, public std::enable_shared_from
 
     std::shared_ptr<devices::controller_observer> observer_;
 
-    // Last: destroyed first, it waits for a plan being computed while the rest still exists.
-    plan_worker planner_;
+    // Last: destroyed first, they wait for a plan being computed or a read of the history while the rest
+    // still exists.
+    worker_thread reader_{32};
+    worker_thread planner_{16};
 
     friend class job_manager;
 };

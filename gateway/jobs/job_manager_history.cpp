@@ -222,6 +222,23 @@ operation_result<job_page> manager_core::list(const job_filter& f) const {
     return page;
 }
 
+void manager_core::async_get(std::string id, job_manager::handler<job_record> h) {
+    read_history<job_record>(std::move(h),
+                             [id = std::move(id)](const manager_core& core) { return core.get(id); });
+}
+
+void manager_core::async_list(job_filter f, job_manager::handler<job_page> h) {
+    read_history<job_page>(std::move(h),
+                           [f = std::move(f)](const manager_core& core) { return core.list(f); });
+}
+
+void manager_core::async_events(std::string id, std::size_t limit,
+                                job_manager::handler<std::vector<json>> h) {
+    read_history<std::vector<json>>(std::move(h), [id = std::move(id), limit](const manager_core& core) {
+        return core.events(id, limit);
+    });
+}
+
 operation_result<std::vector<json>> manager_core::events(const std::string& id, std::size_t limit) const {
     auto store = store_.get();
     if (!store) return make_error(kind::storage_unavailable, "the job store is closed");

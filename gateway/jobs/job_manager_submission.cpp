@@ -112,7 +112,7 @@ void manager_core::plan_submission(submit_request r, job_manager::handler<submit
             std::move(*shared_h),
             make_error(kind::queue_full, fmt::format("the job planner has {} plans waiting: "
                                                      "submit again shortly",
-                                                     plan_worker::max_waiting)));
+                                                     planner_.max_waiting())));
 }
 
 void manager_core::submit_planned(submit_request r, job_manager::handler<submit_result> h,

@@ -1,8 +1,8 @@
-#include "gateway/jobs/plan_worker.hpp"
+#include "gateway/jobs/worker_thread.hpp"
 
 namespace gw::jobs {
 
-plan_worker::~plan_worker() {
+worker_thread::~worker_thread() {
     pool_.stop();
     pool_.join();
 }
