@@ -47,26 +47,27 @@ struct api_context {
     std::shared_ptr<gw::metrics> metrics;
     http_limits limits;
     auth_config auth;  // no tokens: every client is admin, and the listener is loopback-only
-    std::shared_ptr<spdlog::logger> log;            // "api"
-    std::shared_ptr<jobs::job_manager> jobs;        // null: the job routes answer 503
-    std::shared_ptr<lease_manager> leases;          // null: no leases (every check passes)
-    std::shared_ptr<gcode_file_store> gcode_files;  // null: the /api/v1/gcode/files routes answer 503
-    std::shared_ptr<gcode_worker> gcode_thread;     // plans and uploads run here; null: inline
-    std::shared_ptr<port_scan_worker> port_scans;  // GET /api/v1/ports runs here; null: the route answers 503
+    std::shared_ptr<spdlog::logger> log;              // "api"
+    std::shared_ptr<jobs::job_manager> jobs;          // null: the job routes answer 503
+    std::shared_ptr<lease_manager> leases;            // null: no leases (every check passes)
+    std::shared_ptr<gcode_file_store> gcode_files{};  // null: the /api/v1/gcode/files routes answer 503
+    std::shared_ptr<gcode_worker> gcode_thread{};     // plans and uploads run here; null: inline
+    std::shared_ptr<port_scan_worker>
+        port_scans{};  // GET /api/v1/ports runs here; null: the route answers 503
     // Each controller's state JSON text, built once per snapshot; null: built per request.
-    std::shared_ptr<const controller_state_texts> state_texts;
+    std::shared_ptr<const controller_state_texts> state_texts{};
     // Batch messages shared by the WebSocket sessions that get the same events; null: one per session.
-    std::shared_ptr<batch_text_cache> batch_texts;
+    std::shared_ptr<batch_text_cache> batch_texts{};
     // What a browser page of another site may not do (api/browser_guard.hpp).
-    browser_rules browser;
+    browser_rules browser{};
     // The controllers' shared ports, shown with each controller; null: none.
     const shared_ports* shares = nullptr;
     // The audit trail of state-changing calls (gateway/audit); null: none kept (no storage directory).
-    std::shared_ptr<audit::audit_log> audit;
+    std::shared_ptr<audit::audit_log> audit{};
     // Reverse proxies whose X-Forwarded-For names the client (http.trusted_proxies).
-    trusted_proxies proxies;
+    trusted_proxies proxies{};
     // HTTPS and WSS (http.tls); null: plain HTTP.
-    std::shared_ptr<tls_server_context> tls;
+    std::shared_ptr<tls_server_context> tls{};
 };
 
 }  // namespace gw::api

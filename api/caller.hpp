@@ -16,7 +16,7 @@ struct caller {
     std::string request_id;
     std::optional<std::string> lease_id;  // the lease the caller holds on the controller, if any
     std::string transport = "rest";       // rest, websocket, mqtt: for the audit trail
-    std::string address;                  // the client's address; "" when not known (MQTT)
+    std::string address{};                // the client's address; "" when not known (MQTT)
 };
 
 }  // namespace gw::api

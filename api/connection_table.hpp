@@ -47,7 +47,7 @@ class connection_table : public std::enable_shared_from_this<connection_table> {
         std::chrono::milliseconds patience{5000};  // idleness or body reading that may be shed
         std::size_t halt_reserve = 8;              // slots beyond the limits, for a HALT alone
         // Reverse proxies speak for many clients: held to 7/8 of all slots, not to max_per_address.
-        trusted_proxies proxies;
+        trusted_proxies proxies{};
     };
 
     enum class refusal : std::uint8_t { none, connection_limit, address_limit };

@@ -179,7 +179,7 @@ struct program_request {
     program_action action = program_action::plan;
     gcode_query query;  // plan, preview
     std::string name;   // save
-    caller who;         // save: for the audit trail (check_program_header sets name and role)
+    caller who{};       // save: for the audit trail (check_program_header sets name and role)
 };
 
 // POST /gcode/plan, /gcode/preview.svg or /gcode/files: its route and action; nullopt for any other.

@@ -30,10 +30,10 @@ struct request_context {
     std::string request_id;
     net::any_io_executor session_executor;
     response_handler done;
-    std::string route;                 // the template, for metrics: "/api/v1/controllers/{id}/move"
-    std::vector<std::string> params;   // the path's {placeholders}, in order
-    std::optional<auth_identity> who;  // the caller, when the route needs a role
-    std::string client_address;        // the peer's address ("127.0.0.1")
+    std::string route{};                 // the template, for metrics: "/api/v1/controllers/{id}/move"
+    std::vector<std::string> params{};   // the path's {placeholders}, in order
+    std::optional<auth_identity> who{};  // the caller, when the route needs a role
+    std::string client_address{};        // the peer's address ("127.0.0.1")
 
     // The caller of a call this request makes (api/calls.hpp), over REST.
     caller as_caller() const {

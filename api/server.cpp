@@ -24,7 +24,7 @@ namespace {
 // Uploaded G-code programs live next to the job database: <storage.path>/gcode/.
 std::shared_ptr<gcode_file_store> make_gcode_store(const gateway_config& config) {
     return std::make_shared<gcode_file_store>(gcode_file_store_settings{
-        std::filesystem::path(config.storage.path) / "gcode", config.gcode.max_file_mb * 1024 * 1024});
+        gcode_directory(config.storage.path), config.gcode.max_file_mb * 1024 * 1024});
 }
 
 // The audit trail next to the job database: <storage.path>/audit.sqlite3. Without a storage directory

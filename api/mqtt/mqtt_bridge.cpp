@@ -12,6 +12,7 @@
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/events/event_hub.hpp"
 #include "gateway/events/event_json.hpp"
+#include "gateway/events/topic.hpp"
 
 namespace gw::api {
 
@@ -19,18 +20,6 @@ namespace net = boost::asio;
 using nlohmann::json;
 
 namespace {
-
-// "controllers/sim1/state" -> {"controllers", "sim1", "state"}, views into the topic.
-std::vector<std::string_view> split(std::string_view topic) {
-    std::vector<std::string_view> out;
-    std::size_t start = 0;
-    while (true) {
-        const auto slash = topic.find('/', start);
-        out.push_back(topic.substr(start, slash == std::string::npos ? std::string::npos : slash - start));
-        if (slash == std::string::npos) return out;
-        start = slash + 1;
-    }
-}
 
 void describe_metrics(gw::metrics& m) {
     m.describe("gw_mqtt_connected", metric_type::gauge, "1 while connected to the MQTT broker");
@@ -249,7 +238,7 @@ void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& ba
     if (stopped_) return;
     const auto& qos = settings_.config.qos;
     for (const auto& e : batch) {
-        const auto l = split(e->topic);
+        const auto l = topic_levels(e->topic);
         const bool stream = (l.size() == 3 && l[0] == "controllers" &&
                              (l[2] == "reports" || l[2] == "ttl" || l[2] == "errors")) ||
                             (l.size() == 2 && l[0] == "jobs");

@@ -20,17 +20,6 @@ constexpr std::array<std::pair<mqtt_command_kind, std::string_view>, 5> job_comm
 constexpr std::array<std::string_view, 5> controller_leaves = {"state", "position", "reports", "ttl",
                                                                "errors"};
 
-// The levels of `s` (no validation).
-std::vector<std::string_view> levels(std::string_view s) {
-    std::vector<std::string_view> out;
-    while (true) {
-        const auto slash = s.find('/');
-        out.push_back(s.substr(0, slash));
-        if (slash == std::string_view::npos) return out;
-        s.remove_prefix(slash + 1);
-    }
-}
-
 bool is_id_level(std::string_view s) {
     return !s.empty() && s.find_first_of("+#") == std::string_view::npos;
 }
@@ -105,7 +94,7 @@ std::vector<std::string> mqtt_topics::command_filters() const {
 std::optional<mqtt_command_target> mqtt_topics::parse_command_topic(std::string_view topic) const {
     if (!topic.starts_with(base_) || topic.size() <= base_.size() || topic[base_.size()] != '/')
         return std::nullopt;
-    const auto rest = levels(topic.substr(base_.size() + 1));
+    const auto rest = topic_levels(topic.substr(base_.size() + 1));
     if (rest.size() == 3 && rest[0] == "controllers" && is_id_level(rest[1]) && rest[2] == "cmd")
         return mqtt_command_target{mqtt_command_kind::controller, std::string(rest[1])};
     if (rest.size() == 2 && rest[0] == "jobs")
@@ -118,7 +107,7 @@ std::optional<mqtt_command_target> mqtt_topics::parse_command_topic(std::string_
 }
 
 std::optional<std::string> mqtt_topics::for_hub_topic(std::string_view hub_topic) const {
-    const auto l = levels(hub_topic);
+    const auto l = topic_levels(hub_topic);
     if (l.size() == 3 && l[0] == "controllers" && is_id_level(l[1]))
         for (auto leaf : controller_leaves)
             if (l[2] == leaf) return controller(l[1], leaf);

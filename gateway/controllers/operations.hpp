@@ -40,7 +40,7 @@ struct move_request {
     std::chrono::milliseconds wait_timeout = default_wait_timeout;
     // Set by a caller that must not act after a HALT it did not see (a job's run): the controller's
     // halts_accepted() when it decided; the move, and its waits, fail with kind halted after a HALT.
-    std::optional<std::uint64_t> halts_seen;
+    std::optional<std::uint64_t> halts_seen{};
 };
 
 struct move_result {
@@ -115,7 +115,7 @@ struct autofocus_result {
 
 struct raw_command_request {  // one line typed by an expert: "W X Y"
     std::string command;
-    std::optional<std::uint64_t> halts_seen;  // as move_request::halts_seen
+    std::optional<std::uint64_t> halts_seen{};  // as move_request::halts_seen
     // A command that resets or recalibrates the controller (ms2000::resets_or_recalibrates) is
     // refused without it; with it, the controller is identified again once it answered.
     bool force = false;

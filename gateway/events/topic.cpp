@@ -110,4 +110,12 @@ topic_class classify_topic(std::string_view name) {
     return leaf == "state" || leaf == "position" ? topic_class::latest_value : topic_class::stream;
 }
 
+std::vector<std::string_view> topic_levels(std::string_view topic) {
+    std::vector<std::string_view> out;
+    bool more = true;
+    while (more)
+        out.push_back(next_level(topic, more));
+    return out;
+}
+
 }  // namespace gw

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <string_view>
 #include <type_traits>
+#include <vector>
 
 #include <boost/system/error_code.hpp>
 
@@ -38,6 +39,10 @@ boost::system::error_code validate_topic_name(std::string_view name);
 
 // Both arguments are assumed valid (validate first); false for anything else.
 bool topic_matches(std::string_view filter, std::string_view name);
+
+// The levels of a topic, views into it: "controllers/sim1/state" -> {"controllers", "sim1", "state"};
+// "a//b" -> {"a", "", "b"}. No validation. The one topic splitter (the MQTT side uses it too).
+std::vector<std::string_view> topic_levels(std::string_view topic);
 
 // How the hub treats a topic's events.
 enum class topic_class : std::uint8_t {

@@ -49,6 +49,7 @@
 #include "gateway/jobs/ttl_edge_listeners.hpp"
 #include "gateway/jobs/worker_thread.hpp"
 #include "gateway/leases/lease_manager.hpp"
+#include "gateway/storage/gcode_files.hpp"
 
 namespace gw::jobs {
 
@@ -86,9 +87,9 @@ inline void estimate_end(job_record& r, job_clock::time_point now) {
                           std::chrono::duration<double>(std::max(0.0, *p.remaining_s)));
 }
 
-// gcode_file_store's directory (api/server.cpp makes the API's store on the same one).
+// Where uploaded G-code programs are (gateway/storage/gcode_files: the API's store uses the same).
 inline std::filesystem::path gcode_files_directory(const job_manager_settings& s) {
-    return s.storage_path.empty() ? std::filesystem::path{} : std::filesystem::path(s.storage_path) / "gcode";
+    return gcode_directory(s.storage_path);
 }
 
 inline std::string describe(const operation_error& e) {

@@ -24,8 +24,8 @@ struct axis_motion_params {
     double backlash_mm = 0;       // BACKLASH (B X?): a move down runs this far past and comes back
     double overshoot_mm = 0;      // OVERSHOOT (OS X?): every move runs this far past and comes back
     // Where the travel ends (SL X?, SU X?): the leg of a move that ends near them is shorter.
-    std::optional<double> lower_limit_mm;
-    std::optional<double> upper_limit_mm;
+    std::optional<double> lower_limit_mm{};
+    std::optional<double> upper_limit_mm{};
 };
 
 struct axis_delta_mm {

@@ -15,6 +15,10 @@
 
 namespace gw {
 
+std::filesystem::path gcode_directory(const std::filesystem::path& storage_path) {
+    return storage_path.empty() ? std::filesystem::path{} : storage_path / "gcode";
+}
+
 namespace fs = std::filesystem;
 
 namespace {

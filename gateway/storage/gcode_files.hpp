@@ -31,6 +31,10 @@
 
 namespace gw {
 
+// <storage.path>/gcode: where uploaded programs are kept (the API's store and the gcode job read the
+// same). Empty when there is no storage path.
+std::filesystem::path gcode_directory(const std::filesystem::path& storage_path);
+
 struct gcode_file_info {
     std::string id;
     std::string name;             // given at upload ("untitled" when none)

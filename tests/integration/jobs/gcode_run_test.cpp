@@ -224,7 +224,9 @@ TEST_F(gcode_run_test, the_traced_path_stays_on_the_ideal_path_and_the_ttl_switc
     EXPECT_NEAR(sim_state("sim1")["axes"]["Y"]["speed"].get<double>(), 5.5, 1e-6);
     // Z (not in the program) was never commanded.
     for (const auto& c : commands_of(id))
-        if (c.starts_with("M ")) EXPECT_EQ(c.find('Z'), std::string::npos) << c;
+        if (c.starts_with("M ")) {
+            EXPECT_EQ(c.find('Z'), std::string::npos) << c;
+        }
 
     ASSERT_TRUE(wait_until([&] { return steps_of(id).size() >= 10; }));
     const auto steps = steps_of(id);
@@ -320,7 +322,9 @@ TEST_F(gcode_run_test, a_crash_with_the_ttl_on_gets_the_output_low_after_the_res
         if (rid == safe_output_request_id(id)) {
             // HALT first, then the output, then the job's restore commands (its SPEEDs; its own
             // "TTL Y=0" is not sent twice).
-            if (halts == 0) EXPECT_EQ(wire, "\\\\") << "HALT before anything else";
+            if (halts == 0) {
+                EXPECT_EQ(wire, "\\\\") << "HALT before anything else";
+            }
             if (wire == "\\\\") {
                 ++halts;
                 continue;
@@ -412,7 +416,9 @@ TEST_F(gcode_run_test, pause_waits_between_lines_with_the_ttl_off_and_resume_con
     for (const auto& s : trace) {
         ASSERT_LE(distance_to_path(path, s.x_um, s.y_um, std::nullopt), path_tolerance_um)
             << s.x_um << "," << s.y_um;
-        if (s.ttl) ASSERT_LE(distance_to_path(path, s.x_um, s.y_um, true), path_tolerance_um);
+        if (s.ttl) {
+            ASSERT_LE(distance_to_path(path, s.x_um, s.y_um, true), path_tolerance_um);
+        }
     }
     EXPECT_NEAR(sim_um("sim1", 'X'), 1000, 0.1);
     EXPECT_NEAR(sim_um("sim1", 'Y'), 1000, 0.1);

@@ -212,9 +212,11 @@ TEST_F(manager_storage_failure_test, a_store_that_fills_up_pauses_the_running_jo
     EXPECT_EQ(stored_states(id),
               (std::vector<std::string>{"queued", "running", "paused", "queued", "running", "succeeded"}));
     // The pause and its reason are stored with the rest.
-    for (const auto& e : stored_events(id))
-        if (e.value("state", "") == "paused")
+    for (const auto& e : stored_events(id)) {
+        if (e.value("state", "") == "paused") {
             EXPECT_TRUE(e.value("reason", "").starts_with("storage unavailable: ")) << e.dump();
+        }
+    }
 }
 
 class manager_failing_writes_test : public manager_storage_failure_test {

@@ -761,17 +761,23 @@ def test_cyclades_session(s, run):
     session(s, run, conn, agent, device, cyclades=True)
 
 
-def test_cyclades_answers(s, run):
-    check(run.relay and run.relay.conns, "no cyclades-ser-cli connection was recorded")
+def check_answers(s, run, who, at_least):
+    """Once the client has stopped: every Telnet request of its whole connection (it sent at least
+    `at_least` COM-PORT requests) had exactly its answer; the bytes are kept for the replay printout."""
+    check(run.relay and run.relay.conns, f"no {who} connection was recorded")
     conn = run.relay.only()
     if run.proc and run.proc.poll() is None:
         run.proc.send_signal(signal.SIGTERM)
         run.proc.wait(timeout=30)
-    wait_until("the cyclades connection closed", lambda: conn.open == 0)
+    wait_until(f"the {who} connection closed", lambda: conn.open == 0)
     up, down = run.relay.snapshot(conn)
-    s.captures["cyclades-ser-cli"] = (up, down)
-    check(len(com_requests(up)) >= 10, f"cyclades-ser-cli sent {len(com_requests(up))} COM-PORT requests")
-    check_exchange(up, down, "cyclades-ser-cli")
+    s.captures[who] = (up, down)
+    check(len(com_requests(up)) >= at_least, f"{who} sent {len(com_requests(up))} COM-PORT requests")
+    check_exchange(up, down, who)
+
+
+def test_cyclades_answers(s, run):
+    check_answers(s, run, "cyclades-ser-cli", 10)
 
 
 # --------------------------------------------------------------------------------------------
@@ -799,16 +805,7 @@ def test_gensiot_session(s, run):
 
 
 def test_gensiot_answers(s, run):
-    check(run.relay and run.relay.conns, "no gensiot connection was recorded")
-    conn = run.relay.only()
-    if run.proc and run.proc.poll() is None:
-        run.proc.send_signal(signal.SIGTERM)
-        run.proc.wait(timeout=30)
-    wait_until("the gensiot connection closed", lambda: conn.open == 0)
-    up, down = run.relay.snapshot(conn)
-    s.captures["gensiot"] = (up, down)
-    check(len(com_requests(up)) >= 8, f"gensiot sent {len(com_requests(up))} COM-PORT requests")
-    check_exchange(up, down, "gensiot")
+    check_answers(s, run, "gensiot", 8)
 
 
 # --------------------------------------------------------------------------------------------

@@ -276,7 +276,9 @@ TEST(websocket_protocol, batch_window_from_the_upgrade_query) {
             continue;
         }
         ASSERT_EQ(options->batch_window.has_value(), r.window_ms.has_value()) << r.target;
-        if (r.window_ms) EXPECT_EQ(options->batch_window->count(), *r.window_ms) << r.target;
+        if (r.window_ms) {
+            EXPECT_EQ(options->batch_window->count(), *r.window_ms) << r.target;
+        }
     }
 }
 

@@ -37,6 +37,11 @@ class gcode_files_test : public ::testing::Test {
     fs::path root_ = fs::temp_directory_path() / ("gw-gcode-files-" + std::to_string(::getpid()));
 };
 
+TEST(gcode_directory, is_the_gcode_folder_of_the_storage_path) {
+    EXPECT_EQ(gcode_directory("/var/lib/asi-gateway"), std::filesystem::path("/var/lib/asi-gateway/gcode"));
+    EXPECT_TRUE(gcode_directory("").empty());
+}
+
 TEST_F(gcode_files_test, a_saved_program_is_listed_read_back_and_deleted) {
     auto s = store();
     std::istringstream program("G21 G90\nG01 X1 F60\nM03\nG01 Y1\nM05");  // no final newline

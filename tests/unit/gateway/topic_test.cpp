@@ -1,6 +1,8 @@
 #include "gateway/events/topic.hpp"
 
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -72,6 +74,14 @@ struct match_case {
     const char* name;
     bool matches;
 };
+
+TEST(topic, levels) {
+    using levels = std::vector<std::string_view>;
+    EXPECT_EQ(gw::topic_levels("controllers/sim1/state"), (levels{"controllers", "sim1", "state"}));
+    EXPECT_EQ(gw::topic_levels("jobs"), (levels{"jobs"}));
+    EXPECT_EQ(gw::topic_levels("a//b/"), (levels{"a", "", "b", ""}));
+    EXPECT_EQ(gw::topic_levels(""), (levels{""}));
+}
 
 TEST(topic, matching_table) {
     const match_case cases[] = {

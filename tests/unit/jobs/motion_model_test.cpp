@@ -145,9 +145,9 @@ struct agreement_row {
     std::vector<std::string> settings;  // sent before the move
     std::string move;                   // "M X=.. Y=.." in tenths of a micron
     std::vector<axis_delta_mm> deltas;
-    std::optional<double> speed, ramp, pc;  // what the settings set on X and Y
-    double backlash = 0, overshoot = 0;     // likewise
-    std::optional<double> lower, upper;     // SL / SU on X and Y
+    std::optional<double> speed, ramp, pc;   // what the settings set on X and Y
+    double backlash = 0, overshoot = 0;      // likewise
+    std::optional<double> lower{}, upper{};  // SL / SU on X and Y
 };
 
 const agreement_row agreement_table[] = {
