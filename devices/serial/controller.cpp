@@ -288,6 +288,8 @@ void controller::identify() {
                                    if (identify_failed(ec)) return disconnect(ec, "identify (SU)");
                                    if (!ec) apply_axis_numbers(snapshot_, r, &axis_state::upper_limit_mm);
                                });
+        for (const auto verb : motion_setting_verbs)
+            read_motion_setting(verb, "identify");
         // reply: ":A X=0 Y=0"
         link_.enqueue_internal(ms2000::query("TTL", "XY"), "identify",
                                [this](error_code ec, const ms2000::reply& r) {
@@ -330,6 +332,14 @@ void controller::refresh_soft_limits() {
                            });
 }
 
+void controller::read_motion_setting(std::string_view verb, const char* tag) {
+    // reply: ":A X=5.745760 Y=5.745760" (S, PC), ":X=20 Y=20 A" (AC, B), ":A X=0 Y=0" (OS)
+    link_.enqueue_internal(ms2000::query(verb, snapshot_.motor_axes()), tag,
+                           [this, verb](error_code ec, const ms2000::reply& r) {
+                               if (!ec) apply_motion_setting(snapshot_, verb, r);
+                           });
+}
+
 void controller::reidentify(const ms2000::command& cause) {
     if (!link_.is_open() || snapshot_.state != connection_state::connected) return;
     log_->info("\"{}\": {}; identifying the controller again", escape_control(cause.wire),
@@ -363,6 +373,8 @@ void controller::client_command_finished(const ms2000::command& cmd, error_code 
                                          const ms2000::reply* reply) {
     if (!ec && sets_ttl_mode(cmd)) refresh_ttl_modes();
     if (!ec && sets_soft_limit(cmd)) refresh_soft_limits();
+    if (const auto verb = motion_setting_set_by(cmd); !ec && !verb.empty())
+        read_motion_setting(verb, "refresh");
     poller_.client_command_finished(cmd, ec, reply);
     // A controller that restarts may answer late or with noise: it may have done it all the same.
     const bool may_have_acted =

@@ -136,6 +136,9 @@ class controller : public std::enable_shared_from_this<controller>,
     void on_identified();
     void refresh_ttl_modes();
     void refresh_soft_limits();  // SL/SU after a client set one
+    // Reads one motion setting (S, AC, PC, B or OS) of every axis into the snapshot, at identification
+    // and after a client set it; an error leaves it unset (the job planner then uses its defaults).
+    void read_motion_setting(std::string_view verb, const char* tag);
     // After a reset or a recalibration (ms2000::resets_or_recalibrates): everything identification
     // read may be stale, so it is read again; commands wait behind it.
     void reidentify(const ms2000::command& cause);

@@ -46,6 +46,15 @@ struct axis_state {
     std::optional<double> counts_per_mm;   // CNTS <axis>?
     std::optional<double> lower_limit_mm;  // SL <axis>?
     std::optional<double> upper_limit_mm;  // SU <axis>?
+    // The motion settings a job's plan times its moves by, read at identification and again after a
+    // command sets one (as the soft limits are), so a submission needs no serial round trip. Unset when
+    // the controller did not answer.
+    std::optional<double> speed_mm_s{};       // S <axis>?
+    std::optional<double> ramp_ms{};          // AC <axis>?
+    std::optional<double> finish_error_mm{};  // PC <axis>?
+    double finish_error_printed_step_mm = 0;  // half the last digit PC printed ("0.000005": 5e-7)
+    std::optional<double> backlash_mm{};      // B <axis>?
+    std::optional<double> overshoot_mm{};     // OS <axis>?
 
     bool operator==(const axis_state&) const = default;
 };

@@ -1,5 +1,6 @@
 #include "devices/serial/snapshot_update.hpp"
 
+#include <cmath>
 #include <string>
 #include <utility>
 
@@ -45,6 +46,42 @@ void apply_axis_numbers(controller_snapshot& s, const ms2000::reply& r,
                         std::optional<double> axis_state::*field) {
     for (auto& a : s.axes)
         a.*field = axis_number(r, a.axis);
+}
+
+void apply_finish_errors(controller_snapshot& s, const ms2000::reply& r) {
+    for (auto& a : s.axes) {
+        const auto* v = r.axis(a.axis);
+        a.finish_error_mm = v ? v->number : std::nullopt;
+        a.finish_error_printed_step_mm = 0;
+        if (!a.finish_error_mm) continue;
+        // Half a unit of the last decimal printed: "0.000005" -> 5e-7 (a finish error that prints as a
+        // lead screw's default then counts as that default).
+        const auto dot = v->text.find('.');
+        std::size_t decimals = 0;
+        for (std::size_t i = dot == std::string::npos ? v->text.size() : dot + 1;
+             i < v->text.size() && v->text[i] >= '0' && v->text[i] <= '9'; ++i)
+            ++decimals;
+        a.finish_error_printed_step_mm = 0.5 * std::pow(10.0, -static_cast<double>(decimals));
+    }
+}
+
+void apply_motion_setting(controller_snapshot& s, std::string_view verb, const ms2000::reply& r) {
+    if (verb == "PC") return apply_finish_errors(s, r);
+    if (verb == "S") return apply_axis_numbers(s, r, &axis_state::speed_mm_s);
+    if (verb == "AC") return apply_axis_numbers(s, r, &axis_state::ramp_ms);
+    if (verb == "B") return apply_axis_numbers(s, r, &axis_state::backlash_mm);
+    if (verb == "OS") apply_axis_numbers(s, r, &axis_state::overshoot_mm);
+}
+
+std::string_view motion_setting_set_by(const ms2000::command& cmd) {
+    if (cmd.wire.find('=') == std::string::npos) return {};
+    const std::string_view v = cmd.verb;
+    if (v == "S" || v == "SPEED") return "S";
+    if (v == "AC" || v == "ACCEL") return "AC";
+    if (v == "PC" || v == "PCROS") return "PC";
+    if (v == "B" || v == "BACKLASH") return "B";
+    if (v == "OS" || v == "O" || v == "OVERSHOOT") return "OS";
+    return {};
 }
 
 void apply_ttl_modes(controller_snapshot& s, const ms2000::reply& r) {

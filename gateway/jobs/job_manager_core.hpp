@@ -43,9 +43,9 @@
 #include "gateway/jobs/job_manager.hpp"
 #include "gateway/jobs/job_store.hpp"
 #include "gateway/jobs/job_store_handle.hpp"
-#include "gateway/jobs/motion_probe.hpp"
 #include "gateway/jobs/restore_ledger.hpp"
 #include "gateway/jobs/safe_outputs.hpp"
+#include "gateway/jobs/snapshot_motion_model.hpp"
 #include "gateway/jobs/ttl_edge_listeners.hpp"
 #include "gateway/jobs/worker_thread.hpp"
 #include "gateway/leases/lease_manager.hpp"
@@ -196,6 +196,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
     // "j-1 running, j-2 queued": the jobs that hold the controller or wait for it; empty when none.
     std::string jobs_in_lane(const std::string& controller) const;
 
+    // The planner's motion model of a controller, from its snapshot and its link's baud rate.
+    motion_model motion_model_for(const devices::controller_snapshot& snapshot) const;
     // On the strand, once the motion model is read: the checks, then the plan on the planner's thread.
     void plan_submission(submit_request r, job_manager::handler<submit_result> h, motion_model model);
     // On the strand, with the plan: stored and queued (or, for a dry run, answered).

@@ -53,17 +53,9 @@ void manager_core::submit(submit_request r, job_manager::handler<submit_result> 
             if (!found) return self->deliver<submit_result>(std::move(h), found.error());
             if (*found) return self->deliver<submit_result>(std::move(h), replay(std::move(**found), r));
         }
-        const auto controller = r.controller;
-        const auto rid = r.request_id;
-        // std::function needs a copyable callable: the handler travels in a shared_ptr.
-        auto shared_h = std::make_shared<job_manager::handler<submit_result>>(std::move(h));
-        async_read_motion_model(
-            self->registry_, controller, rid, [self, r = std::move(r), shared_h](motion_model model) mutable {
-                net::post(self->strand_,
-                          [self, r = std::move(r), shared_h, model = std::move(model)]() mutable {
-                              self->plan_submission(std::move(r), std::move(*shared_h), std::move(model));
-                          });
-            });
+        // The motion settings come from the snapshot: no serial round trip before the job is stored.
+        auto model = self->motion_model_for(*snapshot);
+        self->plan_submission(std::move(r), std::move(h), std::move(model));
     });
 }
 
@@ -200,34 +192,33 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
 void manager_core::plan_again(const std::shared_ptr<live_job>& job,
                               std::function<void(operation_result<void>)> done) {
     if (job->plan) return done({});
-    const auto controller = job->record.controller;
-    async_read_motion_model(
-        registry_, controller, "job-" + job->record.id,
-        [self = shared_from_this(), job, done = std::move(done)](motion_model model) mutable {
-            net::post(self->strand_, [self, job, done = std::move(done), model = std::move(model)]() mutable {
-                auto snapshot = self->registry_.get(job->record.controller);
-                if (!snapshot || snapshot->state != devices::connection_state::connected ||
-                    !snapshot->identity)
-                    return done(
-                        make_error(kind::not_connected, job->record.controller + " is not connected"));
-                auto shared_done =
-                    std::make_shared<std::function<void(operation_result<void>)>>(std::move(done));
-                const bool queued = self->plan_off_strand(
-                    job->record.type, job->record.spec, std::move(*snapshot), std::move(model),
-                    [self, job, shared_done](operation_result<job_plan> plan) {
-                        if (!plan) return (*shared_done)(plan.error());
-                        if (plan->steps.size() != job->record.progress.steps_total)
-                            self->log_->warn("job {}: the plan now has {} steps, it had {}", job->record.id,
-                                             plan->steps.size(), job->record.progress.steps_total);
-                        job->record.progress.steps_total = plan->steps.size();
-                        job->plan = std::move(*plan);
-                        (*shared_done)({});
-                    });
-                if (!queued)
-                    (*shared_done)(
-                        make_error(kind::queue_full, "the job planner has too many plans waiting"));
+    // Answered later on the strand, as every plan is.
+    net::post(strand_, [self = shared_from_this(), job, done = std::move(done)]() mutable {
+        auto snapshot = self->registry_.get(job->record.controller);
+        if (!snapshot || snapshot->state != devices::connection_state::connected || !snapshot->identity)
+            return done(make_error(kind::not_connected, job->record.controller + " is not connected"));
+        auto model = self->motion_model_for(*snapshot);
+        auto shared_done = std::make_shared<std::function<void(operation_result<void>)>>(std::move(done));
+        const bool queued = self->plan_off_strand(
+            job->record.type, job->record.spec, std::move(*snapshot), std::move(model),
+            [self, job, shared_done](operation_result<job_plan> plan) {
+                if (!plan) return (*shared_done)(plan.error());
+                if (plan->steps.size() != job->record.progress.steps_total)
+                    self->log_->warn("job {}: the plan now has {} steps, it had {}", job->record.id,
+                                     plan->steps.size(), job->record.progress.steps_total);
+                job->record.progress.steps_total = plan->steps.size();
+                job->plan = std::move(*plan);
+                (*shared_done)({});
             });
-        });
+        if (!queued)
+            (*shared_done)(make_error(kind::queue_full, "the job planner has too many plans waiting"));
+    });
+}
+
+motion_model manager_core::motion_model_for(const devices::controller_snapshot& snapshot) const {
+    std::optional<unsigned> baud;
+    if (const auto c = registry_.controller(snapshot.id)) baud = c->settings().baud;
+    return motion_model_of(snapshot, baud);
 }
 
 }  // namespace gw::jobs

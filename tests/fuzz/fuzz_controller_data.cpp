@@ -55,6 +55,8 @@ const std::vector<ms2000::command>& commands() {
                                        ms2000::crisp_offset_query()};
         for (const char* line : {"INFO X", "RM X?", "LED X?", "BU"})
             c.push_back(ms2000::raw_command(line).value());
+        for (const auto verb : devices::motion_setting_verbs)  // from index 19 on
+            c.push_back(ms2000::query(verb, "XYZ"));
         return c;
     }();
     return list;
@@ -101,6 +103,11 @@ void apply(devices::controller_snapshot& s, std::size_t index, const ms2000::rep
             if (const auto v = ms2000::single_reading(r)) check(std::isfinite(*v));
             break;
         default:
+            if (index >= 19) {
+                devices::apply_motion_setting(s, devices::motion_setting_verbs[index - 19], r);
+                for (const auto& a : s.axes)
+                    check(a.finish_error_printed_step_mm >= 0 && a.finish_error_printed_step_mm <= 0.5);
+            }
             break;
     }
 }

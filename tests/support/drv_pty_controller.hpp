@@ -143,6 +143,12 @@ class drv_pty_controller {
         if (command == "SL X? Y?") return {":A X=-50 Y=-25\r\n"};
         if (command == "SU X? Y?") return {":A X=50 Y=25\r\n"};
         if (command == "TTL X? Y?") return {":A X=0 Y=2\r\n"};
+        // The motion settings (S, AC, PC, B, OS): the firmware's defaults of a B lead screw.
+        if (command == "S X? Y?") return {":A X=5.5 Y=5.5\r\n"};
+        if (command == "AC X? Y?") return {":X=20 Y=20 A\r\n"};
+        if (command == "PC X? Y?") return {":A X=0.000022 Y=0.000022\r\n"};
+        if (command == "B X? Y?") return {":X=0.04 Y=0.04 A\r\n"};
+        if (command == "OS X? Y?") return {":A X=0 Y=0\r\n"};
         if (command == "W X Y") return {":A 100.0 -20.0 \r\n"};
         if (command == "/") return {"N\r\n"};
         return {":A\r\n"};

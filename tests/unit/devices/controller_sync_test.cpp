@@ -32,6 +32,11 @@ std::vector<std::string> xyz_reply(const std::string& c) {
     if (c == "CNTS X? Y? Z?") return {":A X=10000 Y=10000 Z=10000\r\n"};
     if (c == "SL X? Y? Z?") return {":A X=-50 Y=-25 Z=-5\r\n"};
     if (c == "SU X? Y? Z?") return {":A X=50 Y=25 Z=5\r\n"};
+    if (c == "S X? Y? Z?") return {":A X=5.5 Y=5.5 Z=5.5\r\n"};
+    if (c == "AC X? Y? Z?") return {":X=20 Y=20 Z=20 A\r\n"};
+    if (c == "PC X? Y? Z?") return {":A X=0.000022 Y=0.000022 Z=0.000022\r\n"};
+    if (c == "B X? Y? Z?") return {":X=0 Y=0 Z=0 A\r\n"};
+    if (c == "OS X? Y? Z?") return {":A X=0 Y=0 Z=0\r\n"};
     if (c == "W X Y Z") return {":A 1.0 2.0 3.0 \r\n"};
     return test::drv_pty_controller::default_reply(c);
 }

@@ -97,9 +97,16 @@ TEST_F(controller_test, identifies_the_controller_on_connect) {
     EXPECT_EQ(s.axes[1].upper_limit_mm, 25.0);
     EXPECT_EQ(s.ttl_in0_mode, 0);
     EXPECT_EQ(s.ttl_out0_mode, 2);
+    EXPECT_EQ(s.axes[0].speed_mm_s, 5.5);
+    EXPECT_EQ(s.axes[1].ramp_ms, 20.0);
+    EXPECT_EQ(s.axes[0].finish_error_mm, 0.000022);
+    EXPECT_DOUBLE_EQ(s.axes[0].finish_error_printed_step_mm, 0.0000005);
+    EXPECT_EQ(s.axes[1].backlash_mm, 0.04);
+    EXPECT_EQ(s.axes[1].overshoot_mm, 0.0);
     // The resynchronisation probe that proves a fresh port in step, then the identification.
-    const std::vector<std::string> expected{"V",        "V",        "BU X",      "CNTS X? Y?",
-                                            "SL X? Y?", "SU X? Y?", "TTL X? Y?", "DU Y"};
+    const std::vector<std::string> expected{"V",        "V",         "BU X",     "CNTS X? Y?", "SL X? Y?",
+                                            "SU X? Y?", "S X? Y?",   "AC X? Y?", "PC X? Y?",   "B X? Y?",
+                                            "OS X? Y?", "TTL X? Y?", "DU Y"};
     EXPECT_EQ(fake_.commands(), expected);
 }
 

@@ -1,9 +1,10 @@
-// The motion probe against an in-process simulator on a real pty: it reads SPEED/ACCEL/PC as the
-// simulator has them (after "S X=..", "AC X=..", "PC X=.."), falls back to the defaults when it
-// cannot, and the model it builds predicts the simulator's busy time of real moves within 2 %. The
-// busy time is read in SIMULATED time from the simulator's own state (each axis's motion start and
-// settle times), so the check is about the model, not about wall-clock speed.
-#include "gateway/jobs/motion_probe.hpp"
+// The planner's motion model from the controller's snapshot, against an in-process simulator on a real
+// pty: the driver reads SPEED/ACCEL/PC/BACKLASH/OVERSHOOT at identification and again after a command
+// sets one ("S X=..", "AC X=..", "PC X=.."), so the model has the simulator's values without asking,
+// and it predicts the simulator's busy time of real moves within 2 %. The busy time is read in
+// SIMULATED time from the simulator's own state (each axis's motion start and settle times), so the
+// check is about the model, not about wall-clock speed.
+#include "gateway/jobs/snapshot_motion_model.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -22,6 +23,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "devices/ms2000/reply.hpp"
+#include "devices/serial/snapshot_update.hpp"
 #include "devices/sim/sim_config.hpp"
 #include "devices/sim/simulator.hpp"
 #include "gateway/controllers/controller_registry.hpp"
@@ -45,7 +48,7 @@ struct io_thread {
     ~io_thread() { join(); }
 };
 
-class motion_probe_test : public ::testing::Test {
+class snapshot_motion_model_test : public ::testing::Test {
   protected:
     void SetUp() override {
         dir_ = (std::filesystem::temp_directory_path() /
@@ -99,16 +102,42 @@ class motion_probe_test : public ::testing::Test {
         std::filesystem::remove_all(dir_, ec);
     }
 
-    std::optional<motion_model> probe(const std::string& id = "m1") {
-        std::promise<motion_model> p;
-        auto f = p.get_future();
-        async_read_motion_model(*registry_, id, "test-probe",
-                                [&p](motion_model m) { p.set_value(std::move(m)); });
-        if (f.wait_for(60s) != std::future_status::ready) {
-            ADD_FAILURE() << "the probe did not complete";
-            return std::nullopt;
+    // The model a submission would plan with now: from the snapshot, once it holds the motion settings
+    // the controller answers to direct queries (a command that set one is read back after it).
+    std::optional<motion_model> probe() {
+        devices::controller_snapshot asked;
+        if (auto s = registry_->get("m1")) asked = *s;
+        for (const auto verb : devices::motion_setting_verbs) {
+            auto reply = devices::ms2000::parse_reply(devices::ms2000::reply_shape::standard,
+                                                      raw(std::string(verb) + " X? Y? Z?"));
+            if (!reply) {
+                ADD_FAILURE() << verb << ": no readable answer";
+                return std::nullopt;
+            }
+            devices::apply_motion_setting(asked, verb, *reply);
         }
-        return f.get();
+        const auto deadline = std::chrono::steady_clock::now() + 10s;
+        while (std::chrono::steady_clock::now() < deadline) {
+            const auto s = registry_->get("m1");
+            if (s && same_motion_settings(*s, asked)) return motion_model_of(*s, 115200);
+            std::this_thread::sleep_for(10ms);
+        }
+        ADD_FAILURE() << "the snapshot never held the controller's motion settings";
+        return std::nullopt;
+    }
+
+    static bool same_motion_settings(const devices::controller_snapshot& a,
+                                     const devices::controller_snapshot& b) {
+        if (a.axes.size() != b.axes.size()) return false;
+        for (std::size_t i = 0; i < a.axes.size(); ++i) {
+            const auto& x = a.axes[i];
+            const auto& y = b.axes[i];
+            if (x.speed_mm_s != y.speed_mm_s || x.ramp_ms != y.ramp_ms ||
+                x.finish_error_mm != y.finish_error_mm || x.backlash_mm != y.backlash_mm ||
+                x.overshoot_mm != y.overshoot_mm)
+                return false;
+        }
+        return true;
     }
 
     std::string raw(const std::string& line) {
@@ -154,7 +183,7 @@ class motion_probe_test : public ::testing::Test {
     std::unique_ptr<controller_registry> registry_;
 };
 
-TEST_F(motion_probe_test, reads_the_simulators_defaults) {
+TEST_F(snapshot_motion_model_test, reads_the_simulators_defaults) {
     start();
     const auto m = probe();
     ASSERT_TRUE(m);
@@ -168,7 +197,7 @@ TEST_F(motion_probe_test, reads_the_simulators_defaults) {
     }
 }
 
-TEST_F(motion_probe_test, reads_values_changed_on_the_controller) {
+TEST_F(snapshot_motion_model_test, reads_values_changed_on_the_controller) {
     start();
     EXPECT_EQ(raw("S X=2.5 Y=1.25"), ":A");
     EXPECT_EQ(raw("AC X=75 Z=150"), ":A");
@@ -187,7 +216,7 @@ TEST_F(motion_probe_test, reads_values_changed_on_the_controller) {
     EXPECT_NEAR(m->axis('Z').settle_ms, 1.4, 1e-6);
 }
 
-TEST_F(motion_probe_test, picks_the_lead_screw_from_counts_per_mm) {
+TEST_F(snapshot_motion_model_test, picks_the_lead_screw_from_counts_per_mm) {
     start("plain", 'A');
     const auto m = probe();
     ASSERT_TRUE(m);
@@ -196,24 +225,17 @@ TEST_F(motion_probe_test, picks_the_lead_screw_from_counts_per_mm) {
     EXPECT_DOUBLE_EQ(m->axis('X').max_speed_mm_s, 1.7);
 }
 
-TEST_F(motion_probe_test, falls_back_to_defaults_for_an_unknown_controller) {
+TEST_F(snapshot_motion_model_test, the_identification_reads_the_motion_settings) {
     start();
-    const auto m = probe("no-such-controller");
-    ASSERT_TRUE(m);
-    EXPECT_DOUBLE_EQ(m->axis('X').speed_mm_s, 5.5);
-    EXPECT_DOUBLE_EQ(m->axis('Y').ramp_ms, 20);
-    EXPECT_NEAR(m->axis('Z').settle_ms, 14, 1e-6);
-}
-
-TEST_F(motion_probe_test, falls_back_when_the_controller_is_unplugged) {
-    start();
-    EXPECT_EQ(raw("S X=2.5"), ":A");
-    sim_->unplug();
-    const auto m = probe();
-    ASSERT_TRUE(m);
-    // Nothing could be read: every axis has the default screw's values, not the 2.5 set before.
-    EXPECT_DOUBLE_EQ(m->axis('X').speed_mm_s, 5.5);
-    EXPECT_DOUBLE_EQ(m->axis('X').ramp_ms, 20);
+    const auto s = registry_->get("m1");
+    ASSERT_TRUE(s);
+    for (const auto& a : s->axes) {
+        EXPECT_EQ(a.speed_mm_s, 5.5) << a.axis;
+        EXPECT_EQ(a.ramp_ms, 20) << a.axis;
+        EXPECT_TRUE(a.finish_error_mm) << a.axis;
+        EXPECT_TRUE(a.backlash_mm) << a.axis;
+        EXPECT_TRUE(a.overshoot_mm) << a.axis;
+    }
 }
 
 // A move in micrometres; the expected busy time comes from the probed model.
@@ -223,7 +245,7 @@ struct move_row {
     std::vector<axis_value_um> targets;
 };
 
-TEST_F(motion_probe_test, estimate_agrees_with_the_simulated_busy_time) {
+TEST_F(snapshot_motion_model_test, estimate_agrees_with_the_simulated_busy_time) {
     start();
     const move_row table[] = {
         {"nine_mm", {}, {{'X', 9000}}},
