@@ -350,10 +350,11 @@ void no_jobs(api_context& ctx, const std::string& request_id, api_handler& handl
 
 void get_job(api_context& ctx, std::string id, const std::string& request_id, api_handler handler) {
     if (!ctx.jobs) return no_jobs(ctx, request_id, handler);
-    ctx.jobs->async_get(std::move(id), history_reply<jobs::job_record>(
-                                           ctx, request_id, std::move(handler), [](jobs::job_record job) {
-                                               return jobs::to_json(job, jobs::job_clock::now());
-                                           }));
+    ctx.jobs->async_get(
+        std::move(id),
+        history_reply<jobs::job_record>(ctx, request_id, std::move(handler), [](const jobs::job_record& job) {
+            return jobs::to_json(job, jobs::job_clock::now());
+        }));
 }
 
 void list_jobs(api_context& ctx, jobs::job_filter filter, const std::string& request_id,

@@ -183,9 +183,10 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
                rec.controller, rec.progress.steps_total, rec.estimated_s);
     lanes_.enqueue(r.controller, rec.id);
     out.plan = std::move(*plan);
-    deliver<submit_result>(std::move(h), std::move(out));
-    // A submission is someone's decision to move the stage again: it releases a HALT latch there.
+    // A submission is someone's decision to move the stage again: it releases a HALT latch there,
+    // before the answer goes out (a client that reads the controller after its 201 sees it released).
     registry_.release_halt_latch(r.controller);
+    deliver<submit_result>(std::move(h), std::move(out));
     dispatch(r.controller);
 }
 
