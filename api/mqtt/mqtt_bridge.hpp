@@ -38,7 +38,7 @@
 #include <boost/asio/strand.hpp>
 #include <nlohmann/json.hpp>
 
-#include "api/api_context.hpp"
+#include "api/common/api_context.hpp"
 #include "api/mqtt/mqtt_client.hpp"
 #include "api/mqtt/mqtt_payloads.hpp"
 #include "api/mqtt/mqtt_topics.hpp"

@@ -8,9 +8,9 @@
 #include <boost/asio/bind_executor.hpp>
 #include <spdlog/logger.h>
 
-#include "api/job_requests.hpp"
+#include "api/calls/job_requests.hpp"
 #include "api/mqtt/mqtt_request.hpp"
-#include "api/websocket_protocol.hpp"
+#include "api/ws/websocket_protocol.hpp"
 #include "gateway/common/metrics.hpp"
 #include "gateway/common/timestamp.hpp"
 

@@ -28,12 +28,12 @@
 #include <boost/asio/strand.hpp>
 #include <nlohmann/json.hpp>
 
-#include "api/api_context.hpp"
-#include "api/auth.hpp"
+#include "api/common/api_context.hpp"
+#include "api/common/auth.hpp"
+#include "api/common/problem.hpp"
 #include "api/mqtt/mqtt_client.hpp"
 #include "api/mqtt/mqtt_signature.hpp"
 #include "api/mqtt/mqtt_topics.hpp"
-#include "api/problem.hpp"
 #include "gateway/config/config.hpp"
 
 namespace gw::api {

@@ -30,9 +30,9 @@
 #include <boost/system/result.hpp>
 #include <nlohmann/json.hpp>
 
+#include "api/common/problem.hpp"
 #include "api/mqtt/mqtt_topics.hpp"
-#include "api/problem.hpp"
-#include "api/websocket_protocol.hpp"
+#include "api/ws/websocket_protocol.hpp"
 
 namespace gw::api {
 

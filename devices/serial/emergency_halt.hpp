@@ -3,7 +3,7 @@
 // table that a fatal-signal handler can walk. serial_port registers a port once it is open and
 // removes it before it is closed (so a descriptor number reused by something else is never written).
 // halt_every_open_port() writes HALT ("\" CR) to each with write(2): async-signal-safe, no locks, no
-// allocation. gateway/app installs the handlers (crash_halt.hpp).
+// allocation. api/app installs the handlers (crash_halt.hpp).
 
 namespace gw::devices::emergency_halt {
 

@@ -1,6 +1,6 @@
 #pragma once
 // One line of the audit trail: who changed what, when, through which transport, and how it ended.
-// Written for every state-changing call (api/calls.hpp) and G-code upload or delete, from any
+// Written for every state-changing call (api/calls/calls.hpp) and G-code upload or delete, from any
 // transport; read back by GET /api/v1/audit (admin).
 
 #include <cstdint>

@@ -45,7 +45,7 @@ struct http_limits {
     std::size_t max_buffered_body_bytes = std::size_t{64} * 1024 * 1024;
 };
 
-// HTTPS and WSS on the HTTP port (api/tls_server_context.hpp): PEM files, read at start and again on
+// HTTPS and WSS on the HTTP port (api/http/tls_server_context.hpp): PEM files, read at start and again on
 // SIGHUP. Both empty: plain HTTP.
 struct http_tls_config {
     std::string cert_file;  // the certificate, then its chain

@@ -1,4 +1,4 @@
-#include "api/auth.hpp"
+#include "api/common/auth.hpp"
 
 #include <optional>
 #include <string>

@@ -1,4 +1,4 @@
-#include "api/batch_text_cache.hpp"
+#include "api/ws/batch_text_cache.hpp"
 
 #include <chrono>
 #include <memory>
@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "api/websocket_protocol.hpp"
+#include "api/ws/websocket_protocol.hpp"
 
 namespace gw::api {
 namespace {

@@ -1,4 +1,4 @@
-#include "api/body_budget.hpp"
+#include "api/common/body_budget.hpp"
 
 #include <thread>
 #include <vector>

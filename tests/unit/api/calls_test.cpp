@@ -1,4 +1,4 @@
-#include "api/calls.hpp"
+#include "api/calls/calls.hpp"
 
 #include <filesystem>
 #include <optional>
@@ -8,7 +8,7 @@
 #include <boost/asio/io_context.hpp>
 #include <gtest/gtest.h>
 
-#include "api/gcode_worker.hpp"
+#include "api/common/gcode_worker.hpp"
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/storage/gcode_files.hpp"
 

@@ -1,4 +1,4 @@
-#include "api/connection_table.hpp"
+#include "api/common/connection_table.hpp"
 
 #include <gtest/gtest.h>
 

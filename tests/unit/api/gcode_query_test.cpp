@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "api/gcode_requests.hpp"
+#include "api/calls/gcode_check.hpp"
 
 namespace gw::api {
 namespace {

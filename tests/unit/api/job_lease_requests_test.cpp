@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "api/lease_requests.hpp"
+#include "api/calls/lease_requests.hpp"
 
 namespace gw::api {
 namespace {

@@ -1,4 +1,4 @@
-#include "api/job_requests.hpp"
+#include "api/calls/job_requests.hpp"
 
 #include <string>
 #include <string_view>

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "api/websocket_protocol.hpp"
+#include "api/ws/websocket_protocol.hpp"
 
 namespace gw::api {
 namespace {

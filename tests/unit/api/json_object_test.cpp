@@ -1,4 +1,4 @@
-#include "api/json_object.hpp"
+#include "api/common/json_object.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

@@ -1,4 +1,4 @@
-#include "api/operation_requests.hpp"
+#include "api/calls/operation_requests.hpp"
 
 #include <optional>
 

@@ -1,4 +1,4 @@
-#include "api/printable_text.hpp"
+#include "api/common/printable_text.hpp"
 
 #include <string>
 #include <string_view>

@@ -1,4 +1,4 @@
-#include "api/problem.hpp"
+#include "api/common/problem.hpp"
 
 #include <iterator>
 

@@ -1,4 +1,4 @@
-#include "api/request_id.hpp"
+#include "api/common/request_id.hpp"
 
 #include <set>
 

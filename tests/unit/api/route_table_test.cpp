@@ -1,4 +1,4 @@
-#include "api/route_table.hpp"
+#include "api/http/route_table.hpp"
 
 #include <optional>
 #include <string>
@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "api/path_segments.hpp"
+#include "api/common/path_segments.hpp"
 #include "gateway/controllers/controller_registry.hpp"
 
 namespace gw::api {

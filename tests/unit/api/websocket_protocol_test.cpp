@@ -1,4 +1,4 @@
-#include "api/websocket_protocol.hpp"
+#include "api/ws/websocket_protocol.hpp"
 
 #include <chrono>
 #include <memory>

@@ -1,4 +1,4 @@
-#include "gateway/app/startup_summary.hpp"
+#include "api/app/startup_summary.hpp"
 
 #include <gtest/gtest.h>
 

@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "api/api_context.hpp"
+#include "api/common/api_context.hpp"
 #include "api/mqtt/mqtt_bridge.hpp"
 #include "gateway/common/metrics.hpp"
 #include "gateway/controllers/controller_registry.hpp"
