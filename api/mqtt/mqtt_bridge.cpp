@@ -238,10 +238,9 @@ void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& ba
     if (stopped_) return;
     const auto& qos = settings_.config.qos;
     for (const auto& e : batch) {
-        const auto l = topic_levels(e->topic);
-        const bool stream = (l.size() == 3 && l[0] == "controllers" &&
-                             (l[2] == "reports" || l[2] == "ttl" || l[2] == "errors")) ||
-                            (l.size() == 2 && l[0] == "jobs");
+        const auto kind = e->address.kind;
+        const bool stream = kind == topic_kind::controller_reports || kind == topic_kind::controller_ttl ||
+                            kind == topic_kind::controller_errors || kind == topic_kind::job;
         if (e->kind == event_kind::retired) {
             // The topic left the hub (an ended job's, after events.ended_job_topic_ttl_s): nothing to
             // resume there any more. A job's retained state goes on its own clock (clear_at).
@@ -252,26 +251,34 @@ void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& ba
             auto& seen = stream_seq_[e->topic];
             seen = std::max(seen, e->kind == event_kind::gap ? e->gap_to : e->sequence);
         }
-        if (l.size() == 3 && l[0] == "controllers") {
-            const std::string id(l[1]);
-            const auto leaf = l[2];
-            if (leaf == "state") {
+        const std::string id(e->key());
+        switch (kind) {
+            case topic_kind::controller_state:
                 if (e->kind == event_kind::data) on_state(id, e);
-            } else if (leaf == "reports") {
+                break;
+            case topic_kind::controller_reports:
                 controllers_[id].reports.add(*e);
-            } else if (leaf == "position" || leaf == "ttl" || leaf == "errors") {
+                break;
+            case topic_kind::controller_position:
+            case topic_kind::controller_ttl:
+            case topic_kind::controller_errors: {
                 // The controller's own error log is rare and matters: delivered like state changes.
-                const int level = leaf == "errors" ? qos.state : qos.telemetry;
+                const auto leaf = controller_leaf(kind);
+                const int level = kind == topic_kind::controller_errors ? qos.state : qos.telemetry;
                 if (e->kind == event_kind::gap)
                     drop(leaf, e->missed());
                 else
                     send({topics_.controller(id, leaf), *e->message, level, false, {}}, leaf);
+                break;
             }
-        } else if (l.size() == 2 && l[0] == "jobs") {
-            if (e->kind == event_kind::gap)
-                drop("jobs", e->missed());
-            else
-                on_job(std::string(l[1]), e);
+            case topic_kind::job:
+                if (e->kind == event_kind::gap)
+                    drop("jobs", e->missed());
+                else
+                    on_job(id, e);
+                break;
+            case topic_kind::other:
+                break;
         }
     }
     flush_reports();
@@ -299,8 +306,8 @@ void mqtt_bridge::open_batch_window() {
 void mqtt_bridge::on_state(const std::string& id, const std::shared_ptr<const event>& e) {
     auto& c = controllers_[id];
     c.state = e;
-    const auto data = json::parse(*e->data, nullptr, false);
-    const auto connection = data.is_object() ? data.value("state", "") : std::string();
+    const auto connection =
+        e->document && e->document->is_object() ? e->document->value("state", "") : std::string();
     const bool changed = connection != c.connection;
     c.connection = connection;
     if (!client_->connected()) return;  // republished on reconnect
@@ -336,9 +343,8 @@ void mqtt_bridge::flush_reports() {
 }
 
 void mqtt_bridge::on_job(const std::string& id, const std::shared_ptr<const event>& e) {
-    const auto data = json::parse(*e->data, nullptr, false);
     auto& j = jobs_[id];
-    if (!j.state.apply(data)) {
+    if (!e->document || !j.state.apply(*e->document)) {
         if (!j.state.known()) {  // a step of a job we never saw a state of
             jobs_.erase(id);
             stream_seq_.erase(e->topic);

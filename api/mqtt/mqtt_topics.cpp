@@ -17,9 +17,6 @@ constexpr std::array<std::pair<mqtt_command_kind, std::string_view>, 5> job_comm
     {mqtt_command_kind::job_next, "next"},
 }};
 
-constexpr std::array<std::string_view, 5> controller_leaves = {"state", "position", "reports", "ttl",
-                                                               "errors"};
-
 bool is_id_level(std::string_view s) {
     return !s.empty() && s.find_first_of("+#") == std::string_view::npos;
 }
@@ -106,12 +103,10 @@ std::optional<mqtt_command_target> mqtt_topics::parse_command_topic(std::string_
     return std::nullopt;
 }
 
-std::optional<std::string> mqtt_topics::for_hub_topic(std::string_view hub_topic) const {
-    const auto l = topic_levels(hub_topic);
-    if (l.size() == 3 && l[0] == "controllers" && is_id_level(l[1]))
-        for (auto leaf : controller_leaves)
-            if (l[2] == leaf) return controller(l[1], leaf);
-    if (l.size() == 2 && l[0] == "jobs" && is_id_level(l[1])) return job_state(l[1]);
+std::optional<std::string> mqtt_topics::for_hub_topic(topic_kind kind, std::string_view key) const {
+    if (!is_id_level(key)) return std::nullopt;
+    if (kind == topic_kind::job) return job_state(key);
+    if (const auto leaf = controller_leaf(kind); !leaf.empty()) return controller(key, leaf);
     return std::nullopt;
 }
 

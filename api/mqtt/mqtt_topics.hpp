@@ -18,6 +18,8 @@
 #include <string_view>
 #include <vector>
 
+#include "gateway/events/topic.hpp"
+
 namespace gw::api {
 
 enum class mqtt_command_kind {
@@ -65,9 +67,10 @@ class mqtt_topics {
     // of this gateway.
     std::optional<mqtt_command_target> parse_command_topic(std::string_view topic) const;
 
-    // The MQTT topic of an event hub topic: "controllers/<id>/<leaf>" -> controller(id, leaf),
-    // "jobs/<job>" -> job_state(job). nullopt for anything else.
-    std::optional<std::string> for_hub_topic(std::string_view hub_topic) const;
+    // The MQTT topic of an event hub topic (an event's address: its kind and key):
+    // "controllers/<id>/<leaf>" -> controller(id, leaf), "jobs/<job>" -> job_state(job). nullopt for
+    // anything else.
+    std::optional<std::string> for_hub_topic(topic_kind kind, std::string_view key) const;
 
     // Where a response may go: a valid topic name (no wildcards, not "$..."), outside the fleet tree
     // "<prefix>/..." so that no client can make the gateway overwrite a state or status topic.

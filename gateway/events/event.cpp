@@ -19,8 +19,10 @@ void append_time(std::string& out, std::chrono::system_clock::time_point time) {
 
 std::shared_ptr<const event> make_data_event(std::string topic, std::uint64_t sequence,
                                              std::chrono::system_clock::time_point time,
-                                             std::shared_ptr<const std::string> data) {
+                                             std::shared_ptr<const std::string> data,
+                                             std::shared_ptr<const nlohmann::json> document) {
     auto e = std::make_shared<event>();
+    e->document = std::move(document);
     e->kind = event_kind::data;
     e->sequence = sequence;
     e->time = time;
@@ -35,6 +37,7 @@ std::shared_ptr<const event> make_data_event(std::string topic, std::uint64_t se
     message += R"(,"data":)";
     message += *data;
     message += '}';
+    e->address = address_of(topic);
     e->topic = std::move(topic);
     e->data = std::move(data);
     e->message = std::make_shared<const std::string>(std::move(message));
@@ -58,6 +61,7 @@ std::shared_ptr<const event> make_gap_event(std::string topic, std::uint64_t fro
     message += std::to_string(to);
     append_time(message, time);
     message += '}';
+    e->address = address_of(topic);
     e->topic = std::move(topic);
     e->message = std::make_shared<const std::string>(std::move(message));
     return e;
@@ -75,6 +79,7 @@ std::shared_ptr<const event> make_retired_event(std::string topic, std::uint64_t
     message += std::to_string(last_sequence);
     append_time(message, time);
     message += '}';
+    e->address = address_of(topic);
     e->topic = std::move(topic);
     e->message = std::make_shared<const std::string>(std::move(message));
     return e;

@@ -18,6 +18,11 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "gateway/events/topic.hpp"
 
 namespace gw {
 
@@ -32,14 +37,22 @@ struct event {
     std::chrono::system_clock::time_point time;
     std::shared_ptr<const std::string> data;     // data: the payload's JSON text
     std::shared_ptr<const std::string> message;  // the whole JSON message (see above)
+    topic_address address;                       // what the topic is about (address_of), for consumers
+    // data, for the kinds that carry_document (a controller's state, a job's events): the payload as a
+    // JSON value, so that a consumer reads its fields without parsing the text. Null otherwise.
+    std::shared_ptr<const nlohmann::json> document;
 
     std::uint64_t missed() const { return kind == event_kind::gap ? gap_to - gap_from + 1 : 0; }
+    // The controller's or the job's id of the topic; empty for other topics.
+    std::string_view key() const { return std::string_view(topic).substr(address.key_at, address.key_size); }
 };
 
-// `data` must be one valid JSON value (it is embedded as is, not re-parsed).
+// `data` must be one valid JSON value (it is embedded as is, not re-parsed); `document`, when given, the
+// same value.
 std::shared_ptr<const event> make_data_event(std::string topic, std::uint64_t sequence,
                                              std::chrono::system_clock::time_point time,
-                                             std::shared_ptr<const std::string> data);
+                                             std::shared_ptr<const std::string> data,
+                                             std::shared_ptr<const nlohmann::json> document = {});
 std::shared_ptr<const event> make_gap_event(std::string topic, std::uint64_t from, std::uint64_t to,
                                             std::chrono::system_clock::time_point time);
 std::shared_ptr<const event> make_retired_event(std::string topic, std::uint64_t last_sequence,

@@ -77,16 +77,28 @@ event_hub_counters event_hub::counters() const {
 boost::system::error_code event_hub::publish(std::string topic, const nlohmann::json& data,
                                              std::optional<std::chrono::system_clock::time_point> time) {
     if (auto ec = validate_topic_name(topic)) return ec;
-    return publish(std::move(topic), std::make_shared<const std::string>(to_json_text(data)), time);
+    std::shared_ptr<const nlohmann::json> document;
+    if (carries_document(address_of(topic).kind)) document = std::make_shared<const nlohmann::json>(data);
+    post_publish(std::move(topic), std::make_shared<const std::string>(to_json_text(data)),
+                 std::move(document), time);
+    return {};
 }
 
 boost::system::error_code event_hub::publish(std::string topic, std::shared_ptr<const std::string> data_json,
                                              std::optional<std::chrono::system_clock::time_point> time) {
     if (auto ec = validate_topic_name(topic)) return ec;
-    auto when = time ? *time : clock_.system();
-    net::post(strand_, [self = shared_from_this(), topic = std::move(topic), data = std::move(data_json),
-                        when]() mutable { self->on_publish(topic, std::move(data), when); });
+    post_publish(std::move(topic), std::move(data_json), {}, time);
     return {};
+}
+
+void event_hub::post_publish(std::string topic, std::shared_ptr<const std::string> data,
+                             std::shared_ptr<const nlohmann::json> document,
+                             std::optional<std::chrono::system_clock::time_point> time) {
+    auto when = time ? *time : clock_.system();
+    net::post(strand_, [self = shared_from_this(), topic = std::move(topic), data = std::move(data),
+                        document = std::move(document), when]() mutable {
+        self->on_publish(topic, std::move(data), std::move(document), when);
+    });
 }
 
 subscriber_id event_hub::add_subscriber(std::weak_ptr<event_sink> sink) {
@@ -330,10 +342,11 @@ const event_hub::subscription* event_hub::matching(const subscriber& s, const st
 }
 
 void event_hub::on_publish(const std::string& topic, std::shared_ptr<const std::string> data,
+                           std::shared_ptr<const nlohmann::json> document,
                            std::chrono::system_clock::time_point time) {
     if (stopped_) return;
     auto& t = topic_for(topic);
-    auto e = make_data_event(topic, ++t.last_seq, time, std::move(data));
+    auto e = make_data_event(topic, ++t.last_seq, time, std::move(data), std::move(document));
     add_to_replay(t, e);
     t.last_publish = ++publish_order_;
     add(counters_->published);

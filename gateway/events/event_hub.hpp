@@ -192,7 +192,11 @@ class event_hub : public std::enable_shared_from_this<event_hub> {
 
     event_hub(const boost::asio::any_io_executor& executor, event_hub_settings settings, event_clock clock);
 
+    void post_publish(std::string topic, std::shared_ptr<const std::string> data,
+                      std::shared_ptr<const nlohmann::json> document,
+                      std::optional<std::chrono::system_clock::time_point> time);
     void on_publish(const std::string& topic, std::shared_ptr<const std::string> data,
+                    std::shared_ptr<const nlohmann::json> document,
                     std::chrono::system_clock::time_point time);
     void on_subscribe(subscriber_id id, std::string filter, subscription_options options);
     void on_unsubscribe(subscriber_id id, const std::string& filter);

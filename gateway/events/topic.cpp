@@ -1,6 +1,7 @@
 #include "gateway/events/topic.hpp"
 
 #include <string>
+#include <utility>
 
 namespace gw {
 
@@ -100,14 +101,50 @@ bool topic_matches(std::string_view filter, std::string_view name) {
     return !name_more;
 }
 
+topic_address address_of(std::string_view name) {
+    const auto levels = topic_levels(name);
+    auto at = [&](std::size_t i) { return static_cast<std::size_t>(levels[i].data() - name.data()); };
+    if (levels.size() == 2 && levels[0] == "jobs" && !levels[1].empty())
+        return {topic_kind::job, at(1), levels[1].size()};
+    if (levels.size() != 3 || levels[0] != "controllers" || levels[1].empty()) return {};
+    static constexpr std::pair<std::string_view, topic_kind> leaves[] = {
+        {"state", topic_kind::controller_state},     {"position", topic_kind::controller_position},
+        {"reports", topic_kind::controller_reports}, {"ttl", topic_kind::controller_ttl},
+        {"errors", topic_kind::controller_errors},
+    };
+    for (const auto& [leaf, kind] : leaves)
+        if (levels[2] == leaf) return {kind, at(1), levels[1].size()};
+    return {};
+}
+
+std::string_view controller_leaf(topic_kind kind) {
+    switch (kind) {
+        case topic_kind::controller_state:
+            return "state";
+        case topic_kind::controller_position:
+            return "position";
+        case topic_kind::controller_reports:
+            return "reports";
+        case topic_kind::controller_ttl:
+            return "ttl";
+        case topic_kind::controller_errors:
+            return "errors";
+        case topic_kind::other:
+        case topic_kind::job:
+            break;
+    }
+    return {};
+}
+
+bool carries_document(topic_kind kind) {
+    return kind == topic_kind::controller_state || kind == topic_kind::job;
+}
+
 topic_class classify_topic(std::string_view name) {
-    constexpr std::string_view prefix = "controllers/";
-    if (!name.starts_with(prefix)) return topic_class::stream;
-    name.remove_prefix(prefix.size());
-    auto slash = name.find('/');
-    if (slash == std::string_view::npos || slash == 0) return topic_class::stream;
-    auto leaf = name.substr(slash + 1);
-    return leaf == "state" || leaf == "position" ? topic_class::latest_value : topic_class::stream;
+    const auto kind = address_of(name).kind;
+    return kind == topic_kind::controller_state || kind == topic_kind::controller_position
+               ? topic_class::latest_value
+               : topic_class::stream;
 }
 
 std::vector<std::string_view> topic_levels(std::string_view topic) {

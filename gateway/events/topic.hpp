@@ -44,6 +44,30 @@ bool topic_matches(std::string_view filter, std::string_view name);
 // "a//b" -> {"a", "", "b"}. No validation. The one topic splitter (the MQTT side uses it too).
 std::vector<std::string_view> topic_levels(std::string_view topic);
 
+// What a topic is about, read once from its name (the one topic parser of the hub's names), so that a
+// consumer of its events (the MQTT bridge) neither splits the name nor compares its levels.
+enum class topic_kind : std::uint8_t {
+    other,
+    controller_state,     // controllers/<id>/state
+    controller_position,  // controllers/<id>/position
+    controller_reports,   // controllers/<id>/reports
+    controller_ttl,       // controllers/<id>/ttl
+    controller_errors,    // controllers/<id>/errors
+    job,                  // jobs/<id>
+};
+struct topic_address {
+    topic_kind kind = topic_kind::other;
+    // The controller's or the job's id in the name: name.substr(key_at, key_size); empty for other.
+    std::size_t key_at = 0;
+    std::size_t key_size = 0;
+};
+topic_address address_of(std::string_view name);
+// The last level of a controller topic ("state", "position", "reports", "ttl", "errors"); "" otherwise.
+std::string_view controller_leaf(topic_kind kind);
+// Events of these kinds carry their data as a JSON value too (a controller's state, a job's records
+// and steps): their consumers keep documents built from fields of it.
+bool carries_document(topic_kind kind);
+
 // How the hub treats a topic's events.
 enum class topic_class : std::uint8_t {
     latest_value,  // "controllers/<id>/state", "controllers/<id>/position": newest wins, rate-limited

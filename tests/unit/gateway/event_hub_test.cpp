@@ -45,6 +45,14 @@ TEST_F(event_hub_test, numbers_events_per_topic_and_stamps_them) {
     EXPECT_EQ(nlohmann::json::parse(*sink->events[4]->message)["time"], "1970-01-01T00:00:01.000Z");
     EXPECT_EQ(hub_->counters().published, 5u);
     EXPECT_EQ(hub_->counters().delivered, 5u);
+
+    // Every event says what its topic is about; a job's carries its data as a value too, a report's not.
+    EXPECT_EQ(sink->events[3]->address.kind, gw::topic_kind::job);
+    EXPECT_EQ(sink->events[3]->key(), "7");
+    ASSERT_TRUE(sink->events[3]->document);
+    EXPECT_EQ((*sink->events[3]->document)["n"], 4);
+    EXPECT_EQ(sink->events[4]->address.kind, gw::topic_kind::controller_reports);
+    EXPECT_FALSE(sink->events[4]->document);
 }
 
 TEST_F(event_hub_test, refuses_bad_topics_and_filters) {

@@ -38,12 +38,18 @@ TEST(event, data_message_embeds_the_payload_once) {
               R"("time":"2026-11-22T04:45:40.123Z","time_ms":1795322740123,"data":{"x":1.5,"s":"a\"b"}})");
     auto j = nlohmann::json::parse(*e->message);
     EXPECT_EQ(j["data"]["s"], "a\"b");
+    EXPECT_EQ(e->address.kind, gw::topic_kind::controller_position);
+    EXPECT_EQ(e->key(), "stage1");
+    auto copy = *e;  // the key is kept as a place in the topic, not a view into this event's string
+    EXPECT_EQ(copy.key(), "stage1");
 }
 
 TEST(event, gap_message) {
     auto e = gw::make_gap_event("jobs/7", 101, 140, at_epoch_ms(0));
     EXPECT_EQ(e->kind, gw::event_kind::gap);
     EXPECT_EQ(e->missed(), 40u);
+    EXPECT_EQ(e->address.kind, gw::topic_kind::job);
+    EXPECT_EQ(e->key(), "7");
     EXPECT_EQ(*e->message, R"({"type":"gap","topic":"jobs/7","missed":40,"from":101,"to":140,)"
                            R"("time":"1970-01-01T00:00:00.000Z","time_ms":0})");
 }

@@ -131,4 +131,39 @@ TEST(topic, classification) {
     EXPECT_EQ(gw::classify_topic("controllers/a/b/state"), topic_class::stream);
 }
 
+TEST(topic, address_names_the_kind_and_where_the_key_is) {
+    using gw::topic_kind;
+    struct address_case {
+        const char* name;
+        topic_kind kind;
+        const char* key;
+    };
+    const address_case cases[] = {
+        {"controllers/stage1/state", topic_kind::controller_state, "stage1"},
+        {"controllers/stage1/position", topic_kind::controller_position, "stage1"},
+        {"controllers/s-2/reports", topic_kind::controller_reports, "s-2"},
+        {"controllers/s-2/ttl", topic_kind::controller_ttl, "s-2"},
+        {"controllers/s-2/errors", topic_kind::controller_errors, "s-2"},
+        {"jobs/j-01M8", topic_kind::job, "j-01M8"},
+        {"controllers/stage1/cmd", topic_kind::other, ""},
+        {"controllers/stage1", topic_kind::other, ""},
+        {"controllers/stage1/state/x", topic_kind::other, ""},
+        {"controllers//state", topic_kind::other, ""},
+        {"jobs", topic_kind::other, ""},
+        {"jobs/j-1/x", topic_kind::other, ""},
+        {"other/stage1/state", topic_kind::other, ""},
+    };
+    for (const auto& c : cases) {
+        const auto a = gw::address_of(c.name);
+        EXPECT_EQ(a.kind, c.kind) << c.name;
+        EXPECT_EQ(std::string_view(c.name).substr(a.key_at, a.key_size), c.key) << c.name;
+    }
+    EXPECT_EQ(gw::controller_leaf(topic_kind::controller_errors), "errors");
+    EXPECT_EQ(gw::controller_leaf(topic_kind::job), "");
+    EXPECT_TRUE(gw::carries_document(topic_kind::controller_state));
+    EXPECT_TRUE(gw::carries_document(topic_kind::job));
+    EXPECT_FALSE(gw::carries_document(topic_kind::controller_reports));
+    EXPECT_FALSE(gw::carries_document(topic_kind::controller_position));
+}
+
 }  // namespace

@@ -47,8 +47,11 @@ TEST(mqtt_topics, hub_topics_map_to_the_tree) {
         {"jobs/j-1/x", std::nullopt},
         {"other/sim1/state", std::nullopt},
     };
-    for (const auto& [hub, expected] : cases)
-        EXPECT_EQ(t.for_hub_topic(hub), expected) << hub;
+    for (const auto& [hub, expected] : cases) {
+        const auto a = gw::address_of(hub);
+        EXPECT_EQ(t.for_hub_topic(a.kind, std::string_view(hub).substr(a.key_at, a.key_size)), expected)
+            << hub;
+    }
 }
 
 TEST(mqtt_topics, command_topics_parse) {
