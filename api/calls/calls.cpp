@@ -26,17 +26,6 @@ void deliver(api_context& ctx, api_handler done, api_outcome out) {
     boost::asio::post(ctx.executor, boost::asio::append(std::move(done), std::move(out)));
 }
 
-// An operation's handler that hands its outcome to `done`, on done's executor.
-operation_handler operation_outcome_to(api_context& ctx, api_handler done) {
-    auto ex = boost::asio::get_associated_executor(done, ctx.executor);
-    return boost::asio::bind_executor(ex, [done = std::move(done)](operation_outcome o) mutable {
-        api_outcome out;
-        out.error = std::move(o.error);
-        out.body = std::move(o.result);
-        std::move(done)(std::move(out));
-    });
-}
-
 // `done`, once the outcome is in the audit trail (recorded before the answer goes out, so that a
 // client that reads the trail after its answer finds its call there).
 api_handler audited(api_context& ctx, audit::audit_entry entry, api_handler done) {
@@ -57,7 +46,10 @@ bool is_emergency_stop(const call& c) {
 }
 
 gw::role role_for(const call& c, gw::role halt_role) {
-    if (const auto* op = std::get_if<operation_call>(&c)) return required_role(op->operation, halt_role);
+    if (const auto* op = std::get_if<operation_call>(&c)) {
+        if (op->operation == "halt") return halt_role;
+        return op->operation == "command" ? gw::role::admin : gw::role::operator_;
+    }
     if (std::holds_alternative<halt_all_call>(c)) return halt_role;
     if (std::holds_alternative<job_get_call>(c) || std::holds_alternative<lease_get_call>(c) ||
         std::holds_alternative<gcode_check_call>(c))
@@ -77,10 +69,8 @@ void run_call(api_context& ctx, const caller& who, call c, api_handler done) {
                        failed(forbidden_problem(auth_identity{who.name, who.role}, needed), who.request_id));
 
     if (auto* op = std::get_if<operation_call>(&c))
-        return run_operation(ctx, who, op->controller, op->operation, op->args,
-                             operation_outcome_to(ctx, std::move(done)));
-    if (std::holds_alternative<halt_all_call>(c))
-        return run_halt_all(ctx, who, operation_outcome_to(ctx, std::move(done)));
+        return run_operation(ctx, who, op->controller, op->operation, op->args, std::move(done));
+    if (std::holds_alternative<halt_all_call>(c)) return run_halt_all(ctx, who, std::move(done));
     if (auto* submit = std::get_if<job_submit_call>(&c)) {
         submit_options options;
         options.dry_run = submit->dry_run;

@@ -25,12 +25,12 @@ bool is_halt_target(std::string_view path) {
     return id.find('/') == std::string_view::npos;
 }
 
-void run_halt_all(api_context& ctx, const caller& who, operation_handler handler) {
+void run_halt_all(api_context& ctx, const caller& who, api_handler handler) {
     struct gathering {
         // Constructed, never assigned: Boost 1.81's any_completion_handler move assignment wraps the
         // handler in itself (it constructs from the lvalue) and recurses until the stack runs out.
-        explicit gathering(operation_handler h) : handler(std::move(h)) {}
-        operation_handler handler;
+        explicit gathering(api_handler h) : handler(std::move(h)) {}
+        api_handler handler;
         net::any_io_executor executor;
         std::vector<json> answers;  // in the registry's order
         std::size_t pending = 0;
@@ -45,8 +45,9 @@ void run_halt_all(api_context& ctx, const caller& who, operation_handler handler
     auto finish = [g] {
         g->result["controllers"] = std::move(g->answers);
         // Through ctx.executor, then the handler's own associated executor if it has one.
-        net::post(g->executor,
-                  net::append(std::move(g->handler), operation_outcome{{}, std::move(g->result)}));
+        api_outcome out;
+        out.body = std::move(g->result);
+        net::post(g->executor, net::append(std::move(g->handler), std::move(out)));
     };
     if (ids.empty()) return net::post(ctx.executor, finish);
     // Every HALT goes out at once; the answers are gathered on one strand.

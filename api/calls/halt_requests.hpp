@@ -10,7 +10,7 @@
 
 #include <string_view>
 
-#include "api/calls/operation_requests.hpp"
+#include "api/calls/call_outcome.hpp"
 #include "api/common/api_context.hpp"
 #include "api/common/caller.hpp"
 
@@ -22,6 +22,6 @@ bool is_halt_target(std::string_view path);
 
 // Calls `handler` once, on its associated executor (default: ctx.executor), never inline, after every
 // controller answered (or failed). The role (auth.halt_role) is checked by the caller (dispatch_call).
-void run_halt_all(api_context& ctx, const caller& who, operation_handler handler);
+void run_halt_all(api_context& ctx, const caller& who, api_handler handler);
 
 }  // namespace gw::api

@@ -70,18 +70,6 @@ problem no_jobs_problem() {
 
 }  // namespace
 
-api_outcome failed(problem p, const std::string& request_id) {
-    p.request_id = request_id;
-    api_outcome out;
-    out.status = p.status;
-    out.error = std::move(p);
-    return out;
-}
-
-api_outcome failed(const operation_error& e, const std::string& request_id) {
-    return failed(make_problem(e), request_id);
-}
-
 operation_result<query_params> parse_query(std::string_view target) {
     query_params out;
     auto q = target.find('?');

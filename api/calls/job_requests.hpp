@@ -23,6 +23,7 @@
 #include <boost/asio/any_completion_handler.hpp>
 #include <nlohmann/json.hpp>
 
+#include "api/calls/call_outcome.hpp"
 #include "api/common/api_context.hpp"
 #include "api/common/problem.hpp"
 #include "gateway/common/operation_error.hpp"
@@ -30,20 +31,6 @@
 #include "gateway/jobs/job_manager.hpp"
 
 namespace gw::api {
-
-// What a route answers, before it becomes an HTTP response or a WebSocket message.
-struct api_outcome {
-    std::optional<problem> error;  // set on failure (request_id filled in; instance left empty)
-    unsigned status = 200;         // on success: 200, 201 or 204 (no body)
-    nlohmann::json body;           // on success (null for 204)
-    std::string location;          // 201: the new resource's path
-    bool replayed = false;         // an Idempotency-Key seen before: the first submission's job
-};
-
-using api_handler = boost::asio::any_completion_handler<void(api_outcome)>;
-
-api_outcome failed(problem p, const std::string& request_id);
-api_outcome failed(const operation_error& e, const std::string& request_id);
 
 // ---- pure parsing ----
 

@@ -389,32 +389,21 @@ bool is_operation(std::string_view name) {
     return false;
 }
 
-gw::role required_role(std::string_view operation, gw::role halt_role) {
-    if (operation == "halt") return halt_role;
-    return operation == "command" ? gw::role::admin : gw::role::operator_;
-}
-
 bool needs_lease(std::string_view operation) {
     return operation != "halt";
 }
 
 void run_operation(api_context& ctx, const caller& who, std::string_view controller_id,
-                   std::string_view operation, const json& body, operation_handler handler) {
+                   std::string_view operation, const json& body, api_handler handler) {
     const std::string& request_id = who.request_id;
     const auto& lease_id = who.lease_id;
     // Never inline: post through the handler's associated executor (default ctx.executor).
     auto finish_now = [&](problem p) {
-        p.request_id = request_id;
-        net::post(ctx.executor, net::append(std::move(handler), operation_outcome{std::move(p), {}}));
+        net::post(ctx.executor, net::append(std::move(handler), failed(std::move(p), request_id)));
     };
     if (!is_operation(operation)) {
         return finish_now(
             make_problem(http_error::not_found, "no operation \"" + std::string(operation) + "\""));
-    }
-    const auto needed = required_role(operation, ctx.auth.halt_role);
-    if (static_cast<int>(who.role) < static_cast<int>(needed)) {
-        return finish_now(make_problem(http_error::forbidden, std::string(operation) + " needs the " +
-                                                                  std::string(to_string(needed)) + " role"));
     }
     auto parsed = parse_request(operation, body);
     if (!parsed) return finish_now(make_problem(parsed.error()));
@@ -428,17 +417,16 @@ void run_operation(api_context& ctx, const caller& who, std::string_view control
             return finish_now(std::move(*refused));
 
     // The registry completes on its executor; from there the handler is dispatched to its own.
-    auto shared = std::make_shared<operation_handler>(std::move(handler));
+    auto shared = std::make_shared<api_handler>(std::move(handler));
     auto ex = ctx.executor;
     auto base = std::make_shared<json>(base_result(controller_id, operation, request_id));
     auto complete = [shared, base, request_id, ex](auto&& result, auto&& to_json) {
-        operation_outcome out;
+        api_outcome out;
         if (!result) {
-            out.error = make_problem(result.error());
-            out.error->request_id = request_id;
+            out = failed(result.error(), request_id);
         } else {
-            out.result = std::move(*base);
-            to_json(*result, out.result);
+            out.body = std::move(*base);
+            to_json(*result, out.body);
         }
         net::dispatch(ex, net::append(std::move(*shared), std::move(out)));
     };

@@ -32,6 +32,7 @@
 #include <boost/asio/any_completion_handler.hpp>
 #include <nlohmann/json.hpp>
 
+#include "api/calls/call_outcome.hpp"
 #include "api/common/api_context.hpp"
 #include "api/common/caller.hpp"
 #include "api/common/problem.hpp"
@@ -39,27 +40,18 @@
 
 namespace gw::api {
 
-struct operation_outcome {
-    std::optional<problem> error;  // set on failure (request_id filled in, instance left empty)
-    nlohmann::json result;         // on success
-};
-
-using operation_handler = boost::asio::any_completion_handler<void(operation_outcome)>;
-
 // "move", "halt", ..., "command", in the order of the REST paths.
 std::span<const std::string_view> operation_names();
 bool is_operation(std::string_view name);
-// `halt_role` (auth.halt_role) for halt, operator for the other typed operations, admin for "command".
-gw::role required_role(std::string_view operation, gw::role halt_role = gw::role::viewer);
 
-// Checks the role, parses `body` (a JSON object; null counts as {}), checks the lease, runs the
-// operation for `who` and calls `handler` once, on its associated executor (default: ctx.executor),
-// never inline. Leases (ctx.leases): while someone holds the controller, every operation but halt
-// needs who.lease_id to be that lease (409 leased otherwise). halt is never refused for a lease or
-// the controller's state: it is the emergency stop (controller_registry::async_emergency_halt, which
-// latches the controller as halted by who.name).
+// Parses `body` (a JSON object; null counts as {}), checks the lease, runs the operation for `who`
+// (whose role dispatch_call checked) and calls `handler` once with the result as the outcome's body,
+// on its associated executor (default: ctx.executor), never inline. Leases (ctx.leases): while someone holds
+// the controller, every operation but halt needs who.lease_id to be that lease (409 leased otherwise). halt
+// is never refused for a lease or the controller's state: it is the emergency stop
+// (controller_registry::async_emergency_halt, which latches the controller as halted by who.name).
 void run_operation(api_context& ctx, const caller& who, std::string_view controller_id,
-                   std::string_view operation, const nlohmann::json& body, operation_handler handler);
+                   std::string_view operation, const nlohmann::json& body, api_handler handler);
 
 // Whether `operation` is subject to leases (every one but halt).
 bool needs_lease(std::string_view operation);

@@ -234,6 +234,9 @@ void job_command_route(request_context& c, job_command command) {
 
 }  // namespace
 
+// A route that makes a call needs the role the call needs (role_for, the one place that decides it),
+// checked from the header before the body is read; dispatch_call checks the call itself again, with
+// what only the body or the config tells (a forced release, auth.halt_role).
 std::vector<route> rest_routes() {
     const std::string v1 = "/api/v1";
     std::vector<route> routes = {
@@ -244,25 +247,30 @@ std::vector<route> rest_routes() {
         {verb::get, v1 + "/audit", gw::role::admin, audit_trail},
         {verb::get, v1 + "/controllers", gw::role::viewer, list_controllers},
         {verb::get, v1 + "/controllers/{id}", gw::role::viewer, get_controller},
-        // The route lets every token holder in; dispatch_call checks auth.halt_role.
-        {verb::post, v1 + "/halt", gw::role::viewer, halt_all},
+        // The route lets every token holder in (role_for without auth.halt_role); dispatch_call checks
+        // auth.halt_role.
+        {verb::post, v1 + "/halt", role_for(halt_all_call{}), halt_all},
         {verb::get, v1 + "/leases", gw::role::viewer, list_all_leases},
-        {verb::get, v1 + "/controllers/{id}/lease", gw::role::viewer, get_controller_lease},
-        {verb::post, v1 + "/controllers/{id}/lease", gw::role::operator_, take_lease},
-        {verb::delete_, v1 + "/controllers/{id}/lease", gw::role::operator_, release_controller_lease},
-        {verb::post, v1 + "/controllers/{id}/lease/renew", gw::role::operator_, renew_controller_lease},
+        {verb::get, v1 + "/controllers/{id}/lease", role_for(lease_get_call{}), get_controller_lease},
+        {verb::post, v1 + "/controllers/{id}/lease", role_for(lease_take_call{}), take_lease},
+        // A forced release needs more (admin): dispatch_call checks the call made of the query.
+        {verb::delete_, v1 + "/controllers/{id}/lease", role_for(lease_release_call{}),
+         release_controller_lease},
+        {verb::post, v1 + "/controllers/{id}/lease/renew", role_for(lease_renew_call{}),
+         renew_controller_lease},
         {verb::get, v1 + "/ports", gw::role::admin, scan_ports},
         {verb::get, v1 + "/jobs", gw::role::viewer, find_jobs},
-        {verb::post, v1 + "/jobs", gw::role::operator_, submit},
-        {verb::get, v1 + "/jobs/{id}", gw::role::viewer, get_one_job},
+        {verb::post, v1 + "/jobs", role_for(job_submit_call{}), submit},
+        {verb::get, v1 + "/jobs/{id}", role_for(job_get_call{}), get_one_job},
         {verb::get, v1 + "/jobs/{id}/events", gw::role::viewer, get_job_events},
     };
     for (auto command : {job_command::cancel, job_command::pause, job_command::resume, job_command::next})
         routes.push_back({verb::post, v1 + "/jobs/{id}/" + std::string(to_string(command)),
-                          gw::role::operator_,
+                          role_for(job_action_call{{}, command}),
                           [command](request_context& c) { job_command_route(c, command); }});
     for (auto name : operation_names())
-        routes.push_back({verb::post, v1 + "/controllers/{id}/" + std::string(name), required_role(name),
+        routes.push_back({verb::post, v1 + "/controllers/{id}/" + std::string(name),
+                          role_for(operation_call{{}, std::string(name), {}}),
                           [name = std::string(name)](request_context& c) { operation(c, name); }});
     return routes;
 }

@@ -42,6 +42,9 @@ class calls_test : public ::testing::Test {
 TEST_F(calls_test, each_call_needs_its_role) {
     EXPECT_EQ(role_for(operation_call{"s1", "move", {}}), gw::role::operator_);
     EXPECT_EQ(role_for(operation_call{"s1", "command", {}}), gw::role::admin);
+    EXPECT_EQ(role_for(operation_call{"s1", "halt", {}}), gw::role::viewer);
+    EXPECT_EQ(role_for(operation_call{"s1", "halt", {}}, gw::role::operator_), gw::role::operator_);
+    EXPECT_EQ(role_for(halt_all_call{}, gw::role::admin), gw::role::admin);
     EXPECT_EQ(role_for(job_submit_call{}), gw::role::operator_);
     EXPECT_EQ(role_for(job_action_call{"j-1", job_command::pause}), gw::role::operator_);
     EXPECT_EQ(role_for(job_get_call{"j-1"}), gw::role::viewer);
