@@ -30,8 +30,6 @@ namespace {
 
 using nlohmann::json;
 
-constexpr std::string_view gcode_prefix = "/api/v1/gcode/";
-
 // Reads a string in place (a request body of tens of megabytes is not copied), seekable so the
 // planner can check the program before planning it.
 class view_buf final : public std::streambuf {
@@ -158,29 +156,35 @@ struct program_request {
     caller who{};       // save: for the audit trail (check_program_header sets name and role)
 };
 
-// POST /gcode/plan, /gcode/preview.svg or /gcode/files: its route and action; nullopt for any other.
-std::optional<program_request> program_route(http::verb method, std::string_view path) {
-    if (method != http::verb::post || !path.starts_with(gcode_prefix)) return std::nullopt;
-    const auto rest = path.substr(gcode_prefix.size());
-    if (rest == "plan") return program_request{"/api/v1/gcode/plan", program_action::plan, {}, {}};
-    if (rest == "preview.svg")
-        return program_request{"/api/v1/gcode/preview.svg", program_action::preview, {}, {}};
-    if (rest == "files") return program_request{"/api/v1/gcode/files", program_action::save, {}, {}};
-    return std::nullopt;
+// The routes whose body is a program, and what each does with it.
+constexpr std::string_view plan_route = "/api/v1/gcode/plan";
+constexpr std::string_view preview_route = "/api/v1/gcode/preview.svg";
+constexpr std::string_view files_route = "/api/v1/gcode/files";
+
+// The request of a program route (its template), for `who`; nullopt for any other route.
+std::optional<program_request> program_request_of(std::string_view route,
+                                                  const std::optional<auth_identity>& who) {
+    program_request r;
+    if (route == plan_route)
+        r.action = program_action::plan;
+    else if (route == preview_route)
+        r.action = program_action::preview;
+    else if (route == files_route)
+        r.action = program_action::save;
+    else
+        return std::nullopt;
+    r.route = std::string(route);
+    if (who) {
+        r.who.name = who->name;
+        r.who.role = who->role;
+    }
+    return r;
 }
 
-// What a program request's header alone decides: the token and its role, then the query (the
-// options, or the name of an upload). Fills `r`, or returns the refusal.
-std::optional<problem> check_program_header(const api_context& ctx, const http::request_header<>& header,
-                                            program_request& r) {
-    problem p;
-    auto who = identify(ctx, header, p);
-    if (!who) return p;
-    r.who.name = who->name;
-    r.who.role = who->role;
-    const auto needed = r.action == program_action::save ? gw::role::operator_ : gw::role::viewer;
-    if (!has_role(*who, needed)) return forbidden_problem(*who, needed);
-    auto q = parse_query(header.target());
+// What a program request's query asks for (the options, or the name of an upload): fills `r`, or
+// returns the refusal. The route table has authorised the caller already.
+std::optional<problem> check_program_query(std::string_view target, program_request& r) {
+    auto q = parse_query(target);
     if (!q) return make_problem(q.error());
     if (r.action == program_action::save) {
         if (auto known = check_known_parameters(*q, {"name"}); !known) return make_problem(known.error());
@@ -279,7 +283,10 @@ gcode_program_admission admit_gcode_program(const std::shared_ptr<api_context>& 
                                             const std::string& client_address) {
     gcode_program_admission a;
     if (!ctx->gcode_files || !ctx->gcode_thread) return a;  // no store to stream to: bodies stay in memory
-    auto r = program_route(header.method(), target_path(header.target()));
+    // A refused request is no program: the route table's refusal answers it.
+    const auto d = api_routes().decide(*ctx, header, header.keep_alive(), request_id);
+    if (d.refusal || !d.chosen || d.chosen->body != route_body::program) return a;
+    auto r = program_request_of(d.label, d.who);
     if (!r) return a;
     a.applies = true;
     // The body is not read when refused: the connection closes after the answer.
@@ -288,7 +295,7 @@ gcode_program_admission admit_gcode_program(const std::shared_ptr<api_context>& 
         a.refusal = routed_response{problem_of(std::move(p), meta), r->route};
         return a;
     };
-    if (auto p = check_program_header(*ctx, header, *r)) return refuse(std::move(*p));
+    if (auto p = check_program_query(header.target(), *r)) return refuse(std::move(*p));
     r->who.request_id = request_id;
     r->who.address = client_address;
     auto slot = ctx->gcode_thread->try_reserve();
@@ -304,14 +311,10 @@ gcode_program_admission admit_gcode_program(const std::shared_ptr<api_context>& 
     return a;
 }
 
-bool is_gcode_path(std::string_view path) {
-    return path.starts_with(gcode_prefix);
-}
-
 std::optional<std::uint64_t> gcode_body_limit(const api_context& ctx, http::verb method,
                                               std::string_view target) {
-    if (method != http::verb::post || !is_gcode_path(target_path(target)) || !ctx.gcode_files)
-        return std::nullopt;
+    const auto* r = api_routes().route_for(method, target_path(target));
+    if (!r || r->body != route_body::program || !ctx.gcode_files) return std::nullopt;
     return std::max<std::uint64_t>(ctx.gcode_files->settings().max_file_bytes, ctx.limits.max_body_bytes);
 }
 
@@ -346,9 +349,9 @@ std::shared_ptr<gcode_file_store> need_store(request_context& c) {
 // A program in the body, here in memory (http_session streams it to the store when there is one:
 // admit_gcode_program).
 void program_in_body(request_context& c) {
-    auto r = program_route(c.req.method(), target_path(c.req.target()));
+    auto r = program_request_of(c.route, c.who);
     if (!r) return c.fail(make_problem(http_error::not_found, "no route for " + std::string(c.req.target())));
-    if (auto p = check_program_header(*c.ctx, c.req, *r)) return c.fail(std::move(*p));
+    if (auto p = check_program_query(c.req.target(), *r)) return c.fail(std::move(*p));
     if (r->action == program_action::save && !need_store(c)) return;
     r->who.request_id = c.request_id;
     r->who.address = c.client_address;
@@ -426,10 +429,10 @@ std::vector<route> gcode_routes() {
     using http::verb;
     const std::string g = "/api/v1/gcode";
     return {
-        {verb::post, g + "/plan", gw::role::viewer, program_in_body},
-        {verb::post, g + "/preview.svg", gw::role::viewer, program_in_body},
+        {verb::post, std::string(plan_route), gw::role::viewer, program_in_body, route_body::program},
+        {verb::post, std::string(preview_route), gw::role::viewer, program_in_body, route_body::program},
         {verb::get, g + "/files", gw::role::viewer, list_files},
-        {verb::post, g + "/files", gw::role::operator_, program_in_body},
+        {verb::post, std::string(files_route), gw::role::operator_, program_in_body, route_body::program},
         {verb::get, g + "/files/{id}", gw::role::viewer, get_file},
         {verb::delete_, g + "/files/{id}", gw::role::operator_, delete_file},
         {verb::post, g + "/files/{id}/plan", gw::role::viewer,

@@ -17,11 +17,12 @@
 // message; a bad option is 422 invalid-value naming it. The plan JSON is the CLI's; a plan bigger
 // than max_plan_response_bytes is refused (422, field "moves": ask for moves=false, the summary).
 // Bodies of these POSTs may be as large as gcode.max_file_mb (http_session asks gcode_body_limit).
-// A body that is a program (POST plan, preview.svg, files) is never held in memory whole: http_session
-// asks admit_gcode_program from the header, before the body is read (token, role, query and a planner
-// slot: a refusal is answered at once, also to a client waiting with Expect: 100-continue), then
-// streams the body into the store's temporary file and has gcode_program_intake::finish plan, preview
-// or store it.
+// A body that is a program (the route_body::program routes: POST plan, preview.svg, files) is never
+// held in memory whole: from the header, before the body is read, the route table authorises the
+// caller (refusal_from_header, with the browser rules) and admit_gcode_program checks the query and
+// takes a planner slot (a refusal is answered at once, also to a client waiting with Expect:
+// 100-continue); http_session then streams the body into the store's temporary file and has
+// gcode_program_intake::finish plan, preview or store it.
 
 #include <cstdint>
 #include <memory>
@@ -43,10 +44,9 @@ namespace gw::api {
 
 inline constexpr std::size_t max_plan_response_bytes = std::size_t{64} * 1024 * 1024;
 
-// True for the paths under /api/v1/gcode/ (gcode_routes() serves them).
-bool is_gcode_path(std::string_view path);
-// The body limit for a request whose header says `method` and `target`: the G-code POSTs may carry a
-// program up to the store's size cap; nullopt for everything else (the normal limit applies).
+// The body limit for a request whose header says `method` and `target`: the routes whose body is a
+// program (route_body::program) may carry one up to the store's size cap; nullopt for everything else
+// (the normal limit applies).
 std::optional<std::uint64_t> gcode_body_limit(const api_context& ctx, http::verb method,
                                               std::string_view target);
 

@@ -215,17 +215,18 @@ void http_session::on_header(beast::error_code ec, std::size_t) {
         answer_read_error(http::error::body_limit, header);
         return;
     }
-    // A G-code program: decided from the header, streamed to the store.
+    // What the header decides (route, caller, browser rules, media type) is answered before the body
+    // costs anything; the connection closes without reading it. A program upload too.
+    if (has_body) {
+        if (auto refused = refusal_from_header(*ctx_, header, request_id_, client_address_))
+            return do_write(std::move(refused->response), std::move(refused->route), true);
+    }
+    // A G-code program (a route_body::program route): its query and a planner slot decided from the
+    // header, the body streamed to the store.
     auto program = admit_gcode_program(ctx_, header, request_id_, client_address_);
     if (program.refusal) {
         auto& r = *program.refusal;
         return do_write(std::move(r.response), std::move(r.route), true);
-    }
-    // What the header decides (route, caller, browser rules, media type) is answered before the body
-    // costs anything; the connection closes without reading it.
-    if (has_body && !program.intake) {
-        if (auto refused = refusal_from_header(*ctx_, header, request_id_, client_address_))
-            return do_write(std::move(refused->response), std::move(refused->route), true);
     }
     // Any other body is held in memory: it must fit in the budget of all bodies (a chunked one may
     // grow to the route's limit).

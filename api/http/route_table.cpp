@@ -61,6 +61,13 @@ bool route_table::serves(std::string_view path) const {
     return !find(path, params).empty();
 }
 
+const route* route_table::route_for(http::verb method, std::string_view path) const {
+    std::vector<std::string> params;
+    for (const auto* candidate : find(path, params))
+        if (candidate->r.method == method) return &candidate->r;
+    return nullptr;
+}
+
 route_table::decision route_table::decide(const api_context& ctx, const http::request_header<>& req,
                                           bool keep_alive, const std::string& request_id) const {
     decision d;

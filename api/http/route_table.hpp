@@ -13,6 +13,7 @@
 // A template is matched segment by segment: "{name}" takes any non-empty segment, anything else must
 // be equal. The first template in table order that matches decides.
 
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
@@ -26,11 +27,18 @@ namespace gw::api {
 
 using route_handler = std::function<void(request_context&)>;
 
+// What a route's request body is.
+enum class route_body : std::uint8_t {
+    json,     // strict JSON (Content-Type application/json), held in memory within the body budget
+    program,  // a G-code program (any text), streamed to the G-code store when there is one
+};
+
 struct route {
     http::verb method;
     std::string pattern;
     std::optional<gw::role> role;  // nullopt: public (no token needed)
     route_handler handler;
+    route_body body = route_body::json;
 };
 
 class route_table {
@@ -57,6 +65,8 @@ class route_table {
 
     // True when some template matches the path (whatever the method).
     bool serves(std::string_view path) const;
+    // The route of `method` on `path`, without asking who calls; nullptr when there is none.
+    const route* route_for(http::verb method, std::string_view path) const;
     // Answers the request: through its route's handler, or with the 404/405/401/403 above.
     void dispatch(request_context& c) const;
 

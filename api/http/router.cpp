@@ -17,8 +17,6 @@ namespace gw::api {
 
 using nlohmann::json;
 
-namespace {
-
 const route_table& api_routes() {
     static const route_table table = [] {
         auto routes = rest_routes();
@@ -34,8 +32,6 @@ const route_table& api_routes() {
     }();
     return table;
 }
-
-}  // namespace
 
 string_response outcome_response(api_outcome o, unsigned version, bool keep_alive, std::string_view target,
                                  const std::string& request_id) {
@@ -76,8 +72,8 @@ std::optional<routed_response> refusal_from_header(const api_context& ctx,
         route_table::audit_refusal(ctx, header, d, request_id, client_address);
         return routed_response{std::move(*d.refusal), std::move(d.label)};
     }
-    const bool may_be_program = header.method() == http::verb::post && is_gcode_path(path);  // text
-    if (!may_be_program && !is_json_content_type(header[http::field::content_type]))
+    const bool program = d.chosen->body == route_body::program;  // any text
+    if (!program && !is_json_content_type(header[http::field::content_type]))
         return refused(unsupported_media_type_problem(), std::move(d.label));
     return std::nullopt;
 }

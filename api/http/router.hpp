@@ -23,6 +23,10 @@
 
 namespace gw::api {
 
+class route_table;
+// The table of every /api/v1 route: the REST routes, the G-code routes and the OpenAPI document.
+const route_table& api_routes();
+
 struct routed_response {
     string_response response;
     std::string route;  // the route template for metrics ("/api/v1/controllers/{id}/move"), or "unmatched"

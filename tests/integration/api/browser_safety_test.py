@@ -6,6 +6,7 @@ an unauthenticated client may cost it (issue 34), end to end: the real asi-gatew
 Each check sends what a browser would send for a page of another origin:
   - a "simple" cross-site POST (Content-Type: text/plain, a JSON body) of a raw command: 415, and 403
     cross-origin when the browser names the page's origin; nothing reaches the controller;
+  - a cross-site POST of a G-code program (text, streamed to the store): 403 from its header;
   - a cross-origin WebSocket upgrade: 403; the gateway's own origin and http.allowed_origins: 101;
   - a request whose Host is a DNS-rebinding name: 421; loopback names and http.allowed_hosts served;
   - a HALT from anywhere is served (stopping a stage is safe whoever asks);
@@ -94,6 +95,27 @@ def test_cross_site_simple_post(c, port):
     check(status == 200 and "access-control-allow-origin" not in headers, f"GET from {EVIL}: {status} {headers}")
 
 
+def test_cross_site_program_upload(c, port):
+    host = f"127.0.0.1:{port}"
+    program = b"G21 G90\nG0 X1 Y1\nM2\n"
+    # A G-code program is text, which a page of another site may post without a preflight; its body
+    # is streamed to the store, so the header alone must refuse it.
+    for path in ("/api/v1/gcode/files?name=evil.ngc", "/api/v1/gcode/plan", "/api/v1/gcode/preview.svg"):
+        status, _, text = raw_request(port, "POST", path,
+                                      {"Host": host, "Content-Type": "text/plain", "Origin": EVIL}, program)
+        check(status == 403 and problem_type(text) == "cross-origin", f"{path} from {EVIL}: {status} {text[:300]}")
+    r = c.request("GET", "/api/v1/gcode/files")
+    check(r.status == 200, f"files: {r.status} {r.body[:300]}")
+    check(all(f.get("name") != "evil.ngc" for f in r.json()["files"]), f"a cross-site upload was stored: {r.body[:300]}")
+    # The gateway's own page, and a script without Origin, may upload.
+    for headers in ({"Origin": f"http://{host}"}, {}):
+        status, _, text = raw_request(port, "POST", "/api/v1/gcode/files?name=own.ngc",
+                                      {"Host": host, "Content-Type": "text/plain", **headers}, program)
+        check(status == 201, f"an upload with {headers or 'no Origin'}: {status} {text[:300]}")
+        r = c.request("DELETE", f"/api/v1/gcode/files/{json.loads(text)['id']}")
+        check(r.status == 204, f"delete: {r.status} {r.body[:300]}")
+
+
 def test_cross_origin_websocket(port):
     r = upgrade(port, extra_headers=(f"Origin: {EVIL}",))
     check(isinstance(r[0], int) and r[0] == 403 and problem_type(r[1].decode()) == "cross-origin",
@@ -163,6 +185,7 @@ def main():
             "simulate": {"count": 1, "directory": os.path.join(fx.tmp, "sims")}})
         c = Client(port, contract)
         fx.run("a cross-site simple POST is refused (403, 415)", test_cross_site_simple_post, c, port)
+        fx.run("a cross-site G-code upload, plan or preview is refused (403)", test_cross_site_program_upload, c, port)
         fx.run("a cross-origin WebSocket upgrade is refused", test_cross_origin_websocket, port)
         fx.run("a foreign Host is refused without tokens (421)", test_foreign_host, c, port)
         fx.run("300 invented methods add no metric series", test_invented_methods_add_no_series, c, port)
