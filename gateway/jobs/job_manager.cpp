@@ -52,6 +52,7 @@ class core_observer final : public devices::controller_observer {
 }  // namespace
 
 void manager_core::attach() {
+    history_->set_owner(weak_from_this());
     observer_ = std::make_shared<core_observer>(weak_from_this());
     registry_.add_observer(std::weak_ptr<devices::controller_observer>(observer_));
 }
@@ -113,7 +114,7 @@ void job_manager::async_submit(submit_request request, handler<submit_result> h)
 }
 
 operation_result<job_record> job_manager::get(const std::string& id) const {
-    return impl_->core->get(id);
+    return impl_->core->history().get(id);
 }
 
 std::optional<job_hold> job_manager::holding(const std::string& controller) const {
@@ -125,24 +126,24 @@ std::optional<double> job_manager::store_fill_ratio() const {
 }
 
 operation_result<job_page> job_manager::list(const job_filter& filter) const {
-    return impl_->core->list(filter);
+    return impl_->core->history().list(filter);
 }
 
 operation_result<std::vector<nlohmann::json>> job_manager::events(const std::string& id,
                                                                   std::size_t limit) const {
-    return impl_->core->events(id, limit);
+    return impl_->core->history().events(id, limit);
 }
 
 void job_manager::async_get(std::string id, handler<job_record> h) {
-    impl_->core->async_get(std::move(id), std::move(h));
+    impl_->core->history().async_get(std::move(id), std::move(h));
 }
 
 void job_manager::async_list(job_filter filter, handler<job_page> h) {
-    impl_->core->async_list(std::move(filter), std::move(h));
+    impl_->core->history().async_list(std::move(filter), std::move(h));
 }
 
 void job_manager::async_events(std::string id, std::size_t limit, handler<std::vector<nlohmann::json>> h) {
-    impl_->core->async_events(std::move(id), limit, std::move(h));
+    impl_->core->history().async_events(std::move(id), limit, std::move(h));
 }
 
 void job_manager::async_cancel(job_action a, handler<job_record> h) {

@@ -47,14 +47,13 @@ operation_result<std::shared_ptr<live_job>> manager_core::find_live(const std::s
     if (auto it = jobs_.find(id); it != jobs_.end()) return it->second;
     {
         // Ended, but the store does not have its end yet (it refused it): the record in memory counts.
-        std::lock_guard lock(records_mutex_);
-        if (auto it = live_records_.find(id); it != live_records_.end() && is_terminal(it->second.state))
+        if (auto r = history_->remembered(id); r && is_terminal(r->state))
             return make_error(kind::invalid_state,
-                              fmt::format("job {} has ended ({})", id, to_string(it->second.state)), "state");
+                              fmt::format("job {} has ended ({})", id, to_string(r->state)), "state");
     }
     std::optional<job_record> found;
     {
-        auto store = store_.get();
+        auto store = history_->store().get();
         if (!store) return make_error(kind::storage_unavailable, "the job store is closed");
         auto r = store->find(id);
         if (!r) return r.error();
@@ -146,7 +145,7 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
         auto job = *found;
         const auto controller = job->record.controller;
         // Its history must be stored up to date before it runs on: its pause, and every step before it.
-        if (auto stored = self->write_unstored(a.job_id); !stored)
+        if (auto stored = self->history_->write_unstored(a.job_id); !stored)
             return self->deliver<job_record>(
                 std::move(h),
                 make_error(kind::storage_unavailable,

@@ -35,6 +35,7 @@
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/events/event_hub.hpp"
 #include "gateway/jobs/job_execution.hpp"
+#include "gateway/jobs/job_history.hpp"
 #include "gateway/jobs/job_holds.hpp"
 #include "gateway/jobs/job_journal.hpp"
 #include "gateway/jobs/job_json.hpp"
@@ -59,12 +60,6 @@ using kind = operation_error_kind;
 
 // How long shutdown waits for running jobs to stop after their HALT before closing the store anyway.
 inline constexpr std::chrono::milliseconds shutdown_grace{5000};
-
-// How often writes that the job store refused are tried again.
-inline constexpr std::chrono::milliseconds store_retry_interval{1000};
-
-// Above this part of storage.max_size_mb the log warns (once per crossing), before writes start failing.
-inline constexpr double store_fill_warning = 0.8;
 
 // Seconds the steps from `first` on still need: their motion, settle and dwell estimates. A step that
 // waits for a trigger counts without its wait, which no one can predict (waiting_for shows it).
@@ -98,7 +93,9 @@ inline std::string describe(const operation_error& e) {
 
 // Everything the manager does, on one strand. Shared with the run() coroutines and the registry
 // observer, so it outlives the job_manager object while they finish.
-class manager_core final : public execution_host, public std::enable_shared_from_this<manager_core> {
+class manager_core final : public execution_host,
+                           public job_history::owner,
+                           public std::enable_shared_from_this<manager_core> {
   public:
     manager_core(net::any_io_executor executor, const net::any_io_executor& work_executor,
                  controller_registry& registry, std::shared_ptr<event_hub> hub,
@@ -111,7 +108,8 @@ class manager_core final : public execution_host, public std::enable_shared_from
           leases_(std::move(leases)),
           settings_(std::move(settings)),
           log_(get_logger("jobs")),
-          store_(std::move(store)) {}
+          history_(
+              std::make_shared<job_history>(strand_, executor_, hub_, settings_, log_, std::move(store))) {}
 
     void attach();
     void start();
@@ -126,15 +124,10 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void acquire_lease(std::string controller, std::string holder, std::chrono::seconds ttl,
                        job_manager::handler<lease> h);
 
-    operation_result<job_record> get(const std::string& id) const;
     const job_holds& holds() const { return holds_; }
-    operation_result<job_page> list(const job_filter& f) const;
-    operation_result<std::vector<json>> events(const std::string& id, std::size_t limit) const;
-    // The same on the history reader's thread (SQLite reads stay off the caller's I/O thread); the
-    // handler runs on its associated executor. queue_full when too many reads wait.
-    void async_get(std::string id, job_manager::handler<job_record> h);
-    void async_list(job_filter f, job_manager::handler<job_page> h);
-    void async_events(std::string id, std::size_t limit, job_manager::handler<std::vector<json>> h);
+    // The job history's reads (job_history: any thread; the async_ ones on its reader thread).
+    const job_history& history() const { return *history_; }
+    job_history& history() { return *history_; }
 
     // Registry observer events (controller strands): posted here.
     void controller_snapshot_changed(const devices::controller_snapshot& s);
@@ -148,10 +141,7 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void controller_halt_latch_changed(const std::string& controller, std::optional<std::string> by);
     // Whether a run on the controller counts its report frames as TTL edges (any thread).
     bool counts_ttl_edges(std::string_view controller) const { return ttl_listeners_.listening(controller); }
-    std::optional<double> store_fill_ratio() const {
-        const double r = store_fill_.load();
-        return r < 0 ? std::nullopt : std::optional<double>(r);
-    }
+    std::optional<double> store_fill_ratio() const { return history_->fill_ratio(); }
 
     // execution_host
     void on_step_started(live_job& job, std::size_t index) override;
@@ -163,30 +153,14 @@ class manager_core final : public execution_host, public std::enable_shared_from
     std::filesystem::path gcode_files() const override { return gcode_files_directory(settings_); }
     void on_restore_commands_changed(live_job& job) override;
 
+    // job_history::owner
+    void history_refused(const std::string& id, const std::string& why) override;
+    void history_stored_again(const std::string& id) override;
+
   private:
     template <typename T>
     void deliver(job_manager::handler<T> h, operation_result<T> r) {
         net::post(executor_, net::append(std::move(h), std::move(r)));
-    }
-
-    // Runs read(*this) on the history reader's thread and delivers its result.
-    template <typename T, typename Read>
-    void read_history(job_manager::handler<T> h, Read read) {
-        auto shared_h = std::make_shared<job_manager::handler<T>>(std::move(h));
-        const bool queued =
-            reader_.post([self = shared_from_this(), shared_h, read = std::move(read)]() mutable {
-                operation_result<T> result = read(*self);
-                // The core's reference moves on with the result: the reader's thread never holds the last
-                // one.
-                auto& executor = self->executor_;
-                net::post(executor, [self = std::move(self), shared_h, result = std::move(result)]() mutable {
-                    self->deliver<T>(std::move(*shared_h), std::move(result));
-                });
-            });
-        if (!queued)
-            deliver<T>(std::move(*shared_h),
-                       make_error(operation_error_kind::queue_full,
-                                  "too many reads of the job history waiting: ask again shortly"));
     }
 
     operation_result<std::shared_ptr<live_job>> find_live(const std::string& id);
@@ -221,33 +195,6 @@ class manager_core final : public execution_host, public std::enable_shared_from
     void set_held_wait(live_job& job, std::optional<job_wait> what);
     // A job queued on `controller` now waits for it when another job holds it or is queued before it.
     std::optional<job_wait> queue_wait(const std::string& controller) const;
-    // Stores the job's record (state, progress, a transition) and/or one of its events, in one
-    // transaction, behind the job's writes that the store refused before (store_write). `progress`: the
-    // write records what the job did (a step, a transition), so a refusal pauses it (store_refused); a
-    // change of what it waits for does not (its step's write, queued behind it, will).
-    void save(const std::string& id, std::optional<job_record> record, const json& event,
-              bool progress = true);
-    // Writes go through the job's queue of unstored writes, so that they reach the store in order:
-    // appends `w`, then writes what is queued. A refusal keeps the rest queued (store_refused).
-    void store_write(const std::string& id, job_journal::write w, bool progress = true);
-    // journal_.write_pending; an ended job whose history is all stored is read from the store after it.
-    operation_result<void> write_unstored(const std::string& id);
-    // The store refused a write of the job: the writes are retried every store_retry_interval, and, for
-    // a write of its progress, a running job pauses at its next checkpoint (nothing may run unrecorded).
-    void store_refused(const std::string& id, const operation_error& e, bool progress);
-    void retry_unstored_later();
-    // Reads how full the store is (at most every settings_.store_fill_check unless `now`), keeps it for
-    // store_fill_ratio() and warns once when it crosses store_fill_warning.
-    void note_store_fill(bool now = false);
-    // storage.retention: deletes ended jobs one small transaction per turn of the strand (other work
-    // runs between them), then sweeps again settings_.retention.sweep_interval later.
-    void sweep_history(std::size_t deleted_so_far = 0);
-    // Persists the job's restore commands (empty: removes them); a storage error is logged.
-    void store_restore_commands(const std::string& id, const std::vector<std::string>& commands);
-    // On the hub, for the job's topic (after save: a client never sees what is not stored first); the
-    // topic of an ended job is retired settings_.ended_job_topic_ttl later.
-    void publish(const job_record& job, const json& event);
-
     void dispatch(const std::string& controller);
     // The controller's HALT latch is set (registry snapshot): no job may start there.
     bool halt_latched(const std::string& controller) const {
@@ -308,10 +255,10 @@ class manager_core final : public execution_host, public std::enable_shared_from
     job_manager_settings settings_;
     std::shared_ptr<spdlog::logger> log_;
 
-    // The store: written from the strand, read from get/list/events on any thread.
-    job_store_handle store_;
+    // The jobs' records and events: stored, published, read back.
+    std::shared_ptr<job_history> history_;
 
-    // Strand only, except live_records_ (under records_mutex_) which get() reads.
+    // Strand only.
     std::map<std::string, std::shared_ptr<live_job>> jobs_;  // not terminal
     job_lanes lanes_;
     ttl_edge_listeners ttl_listeners_;  // thread-safe: the controllers' strands read it
@@ -320,27 +267,13 @@ class manager_core final : public execution_host, public std::enable_shared_from
     bool started_ = false;
     bool shutting_down_ = false;
     std::atomic<bool> abandoned_{false};
-    mutable std::mutex records_mutex_;
-    std::map<std::string, job_record> live_records_;
     // What interrupted jobs left on each controller that must still be undone (strand only); a run on
     // a controller a debt is being sent to (send_recovery) waits for it.
     restore_ledger restores_;
-    // Each job's writes the store refused (disk full, read-only file), retried in order (strand only).
-    // Kept after the job has ended: its final state must reach the store too. A running job pauses at its
-    // next checkpoint, so usually only the steps until then wait there.
-    job_journal journal_{store_, settings_.max_unstored_writes_per_job, log_};
-    net::steady_timer store_retry_{strand_};
-    bool store_retry_armed_ = false;
-    net::steady_timer retention_sweep_{strand_};
-    std::atomic<double> store_fill_{-1};  // -1: not known (no limit, or not checked yet)
-    bool store_fill_high_ = false;        // above store_fill_warning at the last check
-    std::chrono::steady_clock::time_point store_fill_checked_{};
 
     std::shared_ptr<devices::controller_observer> observer_;
 
-    // Last: destroyed first, they wait for a plan being computed or a read of the history while the rest
-    // still exists.
-    worker_thread reader_{32};
+    // Last: destroyed first, it waits for a plan being computed while the rest still exists.
     worker_thread planner_{16};
 
     friend class job_manager;

@@ -9,9 +9,8 @@ void manager_core::start() {
     net::post(strand_, [self = shared_from_this()] {
         if (self->started_ || self->abandoned_) return;
         self->started_ = true;
-        self->note_store_fill(true);
-        self->sweep_history();
-        auto store = self->store_.get();
+        self->history_->start();
+        auto store = self->history_->store().get();
         if (!store) return;
         auto active = store->in_states({job_state::running, job_state::paused});
         auto queued = store->in_states({job_state::queued});
@@ -57,10 +56,7 @@ void manager_core::start() {
             self->jobs_[id] = job;
             // Queued again, it waits for its controller (the first one starts at once); kept, for a resume.
             if (self->settings_.restart_queued) job->record.progress.waiting_for = job_wait::controller;
-            {
-                std::lock_guard lock(self->records_mutex_);
-                self->live_records_[id] = job->record;
-            }
+            self->history_->remember(job->record);
             if (!self->settings_.restart_queued) continue;  // kept; `resume` queues it again
             job->queued_in_lane = true;
             self->lanes_.enqueue(controller, id);
@@ -77,6 +73,7 @@ void manager_core::shutdown(std::function<void()> done) {
 net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
     auto self = shared_from_this();
     shutting_down_ = true;
+    history_->begin_shutdown();
     std::vector<std::shared_ptr<live_job>> to_stop;
     for (const auto& controller : lanes_.controllers()) {
         auto it = jobs_.find(lanes_.holder(controller));
@@ -101,19 +98,9 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
         co_await timer.async_wait(net::redirect_error(net::use_awaitable, ec));
     }
     if (running_ > 0) log_->warn("shutdown: {} job(s) did not stop in time", running_);
-    // A last try for what the store refused; what it still refuses is lost, and said so.
-    store_retry_.cancel();
-    retention_sweep_.cancel();
-    for (const auto& id : journal_.jobs_pending())
-        if (auto stored = write_unstored(id); !stored)
-            log_->error(
-                "shutdown: job {}: {} write(s) of its history are lost (after a restart it shows its last "
-                "stored state): {}",
-                id, journal_.pending_count(id), stored.error().message);
-    if (auto store = store_.close()) {
-        if (auto ok = store->flush(); !ok)
-            log_->error("shutdown: flushing the job store: {}", ok.error().message);
-    }
+    // A last try for what the store refused (what it still refuses is lost, and said so), then the store
+    // is closed.
+    history_->stop();
     abandoned_ = true;  // nothing is written or published any more
     for (auto& [id, job] : jobs_)
         if (job->exec) job->exec->abandon();
@@ -122,12 +109,8 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
 
 void manager_core::abandon() {
     abandoned_ = true;
-    {
-        store_.close();  // like a crash: what was committed stays, nothing more is written
-    }
+    history_->abandon();  // like a crash: what was committed stays, nothing more is written
     net::post(strand_, [self = shared_from_this()] {
-        self->store_retry_.cancel();
-        self->retention_sweep_.cancel();
         for (auto& [id, job] : self->jobs_)
             if (job->exec) job->exec->abandon();
     });

@@ -14,16 +14,16 @@ void manager_core::controller_came_up(const std::string& controller) {
 void manager_core::add_recovery(const std::string& controller, owed_restore rec, bool rec_is_older) {
     auto added = restores_.add(controller, std::move(rec), rec_is_older);
     if (!added.merged) return;
-    store_restore_commands(added.now.job_id, added.now.restore);
+    history_->store_restore_commands(added.now.job_id, added.now.restore);
     if (added.superseded_job) {
         log_->info("{}: the restore commands of job {} are kept with those of job {}", controller,
                    *added.superseded_job, added.now.job_id);
-        store_restore_commands(*added.superseded_job, {});
+        history_->store_restore_commands(*added.superseded_job, {});
     }
 }
 
 void manager_core::recover_undelivered_restores(const std::vector<job_record>& active) {
-    auto store = store_.get();
+    auto store = history_->store().get();
     if (!store) return;
     auto ids = store->jobs_with_restore_commands();
     if (!ids) {
@@ -64,8 +64,8 @@ net::awaitable<void> manager_core::put_back_before_run(std::shared_ptr<live_job>
     // The job owns the list now: stored under it before the earlier job's row goes (a crash between
     // the two leaves both, and start() sends both).
     job->restore_commands = owed.restore;
-    store_restore_commands(id, job->restore_commands);
-    if (!earlier_job.empty() && earlier_job != id) store_restore_commands(earlier_job, {});
+    history_->store_restore_commands(id, job->restore_commands);
+    if (!earlier_job.empty() && earlier_job != id) history_->store_restore_commands(earlier_job, {});
 
     const std::string request_id = safe_output_request_id(id);
     auto [left, error] = co_await deliver(controller, request_id, owed);
@@ -74,7 +74,7 @@ net::awaitable<void> manager_core::put_back_before_run(std::shared_ptr<live_job>
             std::erase(job->restore_commands, c);
     auto& r = job->restore_commands;
     if (left.ttl_low && std::find(r.begin(), r.end(), "TTL Y=0") == r.end()) r.emplace_back("TTL Y=0");
-    store_restore_commands(id, r);
+    history_->store_restore_commands(id, r);
     const std::size_t total = owed.restore.size() + (owed.ttl_low ? 1 : 0);
     const std::size_t undelivered = left.restore.size() + (left.ttl_low ? 1 : 0);
     log_->info("[{}] {}: before job {} runs, {} of {} command(s) put back what earlier runs left changed",
@@ -106,7 +106,7 @@ void manager_core::send_recovery(const std::string& controller) {
                     "command(s) sent",
                     request_id, controller, job_id, restore.size() - left.restore.size(), restore.size());
             self->restores_.done_sending(controller);
-            if (!restore.empty()) self->store_restore_commands(job_id, left.restore);
+            if (!restore.empty()) self->history_->store_restore_commands(job_id, left.restore);
             // Added while this one was being sent (a job that failed meanwhile): sent next.
             const bool more = self->restores_.owes(controller);
             // What did not reach the controller waits for its next connect, or for the next run on it.

@@ -107,7 +107,7 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
     if (!e) {
         // The run put its settings back itself. Cleared before the end is announced, so that whoever
         // sees "succeeded" also finds nothing left to restore.
-        store_restore_commands(id, {});
+        history_->store_restore_commands(id, {});
         set_state(*job, job_state::succeeded, "");
         release(controller, id);
     } else if (cancelled) {
@@ -211,7 +211,7 @@ net::awaitable<void> manager_core::restore_settings(std::shared_ptr<live_job> jo
     if (restore.empty()) co_return;
     // Kept in the store for the next start when the gateway is shutting down; otherwise sent once the
     // controller is connected again, or before the next run on it.
-    store_restore_commands(job->record.id, undelivered);
+    history_->store_restore_commands(job->record.id, undelivered);
     if (undelivered.empty() || shutting_down_) co_return;
     owed_restore rec;
     rec.job_id = job->record.id;

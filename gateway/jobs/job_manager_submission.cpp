@@ -46,7 +46,7 @@ void manager_core::submit(submit_request r, job_manager::handler<submit_result> 
             if (!lease) return self->deliver<submit_result>(std::move(h), lease.error());
         }
         if (r.idempotency_key && !r.dry_run) {
-            auto store = self->store_.get();
+            auto store = self->history_->store().get();
             auto found = store ? store->find_by_idempotency_key(*r.idempotency_key)
                                : operation_result<std::optional<job_record>>(
                                      make_error(kind::storage_unavailable, "the job store is closed"));
@@ -151,7 +151,7 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
     // job, rather than letting it run unrecorded.
     const auto queued_event = state_event(rec, now);
     {
-        auto store = store_.get();
+        auto store = history_->store().get();
         // Idempotency again: another submission with the key may have been stored while this one planned.
         if (store && r.idempotency_key) {
             auto found = store->find_by_idempotency_key(*r.idempotency_key);
@@ -160,7 +160,7 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
         auto inserted =
             store ? store->insert(rec, queued_event)
                   : operation_result<void>(make_error(kind::storage_unavailable, "the job store is closed"));
-        note_store_fill();
+        history_->note_store_fill();
         if (!inserted) {
             auto e = inserted.error();
             if (e.kind != kind::storage_unavailable) e.kind = kind::storage_unavailable;
@@ -174,11 +174,8 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
     job->queued_in_lane = true;
     job->lease_id = r.lease_id;
     jobs_[rec.id] = job;
-    {
-        std::lock_guard lock(records_mutex_);
-        live_records_[rec.id] = rec;
-    }
-    if (hub_) hub_->publish(job_topic(rec.id), queued_event);  // stored by insert()
+    history_->remember(rec);
+    history_->publish(rec, queued_event);  // stored by insert()
     log_->info("job {} ({} on {}) queued: {} steps, {:.1f} s estimated", rec.id, to_string(rec.type),
                rec.controller, rec.progress.steps_total, rec.estimated_s);
     lanes_.enqueue(r.controller, rec.id);
