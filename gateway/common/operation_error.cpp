@@ -56,6 +56,10 @@ operation_error invalid_field(std::string field, std::string message) {
     return make_error(operation_error_kind::invalid_value, std::move(message), std::move(field));
 }
 
+std::string describe(const operation_error& e) {
+    return e.message.empty() ? std::string(to_string(e.kind)) : e.message;
+}
+
 operation_error from_driver_error(boost::system::error_code ec, int code, std::string_view controller_id) {
     namespace ms2000 = devices::ms2000;
     const std::string who(controller_id);

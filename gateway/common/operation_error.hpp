@@ -46,6 +46,8 @@ struct operation_error {
 operation_error make_error(operation_error_kind kind, std::string message, std::string field = {});
 // A request field with a value the operation cannot take (invalid_value).
 operation_error invalid_field(std::string field, std::string message);
+// The error in words for a log line or a reason: its message, else its kind.
+std::string describe(const operation_error& e);
 
 // Maps a driver completion error (gw::devices::ms2000::error) to an operation error. `code` is the
 // controller's ":N-<code>" when the error is controller_rejected.

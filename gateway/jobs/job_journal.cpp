@@ -41,10 +41,7 @@ operation_result<void> job_journal::write_pending(const std::string& id, bool* e
         if (!ok && ok.error().kind == operation_error_kind::storage_unavailable)
             return ok.error();  // kept: tried again
         // Any other error (the job is not stored at all) would come back every time.
-        if (!ok)
-            log_->error(
-                "job {}: cannot store its history: {}", id,
-                ok.error().message.empty() ? std::string(to_string(ok.error().kind)) : ok.error().message);
+        if (!ok) log_->error("job {}: cannot store its history: {}", id, describe(ok.error()));
         if (w.record) last_record = w.record;
         writes.pop_front();
     }

@@ -107,7 +107,7 @@ void manager_core::cancel(job_action a, job_manager::handler<job_record> h) {
             // until both the HALT/TTL and its run() are over, so the next job starts after them.
             job->stopping = true;
             if (job->exec) job->exec->cancel();
-            co_await self->safe_stop(job);
+            co_await self->recovery_->safe_stop(job);
             job->stopping = false;
             if (!is_terminal(job->record.state) && job->record.state != job_state::interrupted)
                 self->set_state(*job, job_state::cancelled, "cancelled");

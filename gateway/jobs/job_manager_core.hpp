@@ -42,6 +42,7 @@
 #include "gateway/jobs/job_kinds.hpp"
 #include "gateway/jobs/job_lanes.hpp"
 #include "gateway/jobs/job_manager.hpp"
+#include "gateway/jobs/job_recovery.hpp"
 #include "gateway/jobs/job_store.hpp"
 #include "gateway/jobs/job_store_handle.hpp"
 #include "gateway/jobs/restore_ledger.hpp"
@@ -87,10 +88,6 @@ inline std::filesystem::path gcode_files_directory(const job_manager_settings& s
     return gcode_directory(s.storage_path);
 }
 
-inline std::string describe(const operation_error& e) {
-    return e.message.empty() ? std::string(to_string(e.kind)) : e.message;
-}
-
 // Everything the manager does, on one strand. Shared with the run() coroutines and the registry
 // observer, so it outlives the job_manager object while they finish.
 class manager_core final : public execution_host,
@@ -109,7 +106,8 @@ class manager_core final : public execution_host,
           settings_(std::move(settings)),
           log_(get_logger("jobs")),
           history_(
-              std::make_shared<job_history>(strand_, executor_, hub_, settings_, log_, std::move(store))) {}
+              std::make_shared<job_history>(strand_, executor_, hub_, settings_, log_, std::move(store))),
+          recovery_(std::make_shared<job_recovery>(strand_, registry_, history_, log_)) {}
 
     void attach();
     void start();
@@ -207,39 +205,6 @@ class manager_core final : public execution_host,
     void launch(std::shared_ptr<live_job> job);
     void run_finished(std::shared_ptr<job_execution> exec, std::exception_ptr e);
     void release(const std::string& controller, const std::string& id);
-    // HALT, "TTL Y=0", then the job's restore_if_stopped commands.
-    net::awaitable<void> safe_stop(std::shared_ptr<live_job> job);
-    // After a HALT paused the job (the HALT is sent already): "TTL Y=0" when the job may have left the
-    // output high, then its restore_if_stopped commands (a TTL-triggered mode is put back, so later
-    // IN0 edges move nothing). What does not reach the controller is owed to it (add_recovery).
-    net::awaitable<void> secure_after_halt(std::shared_ptr<live_job> job);
-    // The job's restore_if_stopped commands, newest first; failures are logged.
-    net::awaitable<void> restore_settings(std::shared_ptr<live_job> job);
-    // "TTL Y=0" for a job paused by a disconnect (a laser must not stay on): once connected again.
-    void ttl_low_after_disconnect(std::shared_ptr<live_job> job);
-    // Sends "TTL Y=0"; the error message when it failed, empty when it went through.
-    net::awaitable<std::string> ttl_output_low(std::string controller, std::string request_id);
-    // For a job that a crash interrupted: "TTL Y=0" (safe_outputs.hpp), then its stored restore
-    // commands newest first (as safe_stop does), once; what fails to reach the controller waits for the
-    // next connect or the next run. Sent with safe_output_request_id(), not as the job's.
-    void send_recovery(const std::string& controller);
-    // Sends "TTL Y=0" when owed.ttl_low, then owed.restore newest first, under `request_id`. Returns
-    // what did not reach the controller (a refusal did: it would be refused again), with its error.
-    net::awaitable<std::pair<owed_restore, std::optional<operation_error>>> deliver(std::string controller,
-                                                                                    std::string request_id,
-                                                                                    owed_restore owed);
-    // Keeps `rec` to send once the controller is connected. A recovery already pending there is kept
-    // too, the older list first: sent newest first, a setting both runs changed ends at the older run's
-    // value, the one from before either. Stored under the newer job.
-    void add_recovery(const std::string& controller, owed_restore rec, bool rec_is_older = false);
-    // start(): the stored restore commands of jobs that were not active (ended or interrupted before),
-    // which an earlier run of the gateway could not deliver.
-    void recover_undelivered_restores(const std::vector<job_record>& active);
-    // Before a run starts: waits for a recovery being sent to the controller, then puts back what
-    // earlier runs left changed there (a pending recovery, the job's own run that a disconnect ended),
-    // so that the run reads the settings from before any job changed them. What does not reach the
-    // controller stays in the job's restore commands, and the run does not start (job_failure).
-    net::awaitable<void> put_back_before_run(std::shared_ptr<live_job> job);
     net::awaitable<void> shutdown_coro(std::function<void()> done);
 
     bool controller_connected(const std::string& id) const {
@@ -257,6 +222,8 @@ class manager_core final : public execution_host,
 
     // The jobs' records and events: stored, published, read back.
     std::shared_ptr<job_history> history_;
+    // What stopped, halted or crashed runs leave on a controller: made safe, owed, put back.
+    std::shared_ptr<job_recovery> recovery_;
 
     // Strand only.
     std::map<std::string, std::shared_ptr<live_job>> jobs_;  // not terminal
@@ -267,9 +234,6 @@ class manager_core final : public execution_host,
     bool started_ = false;
     bool shutting_down_ = false;
     std::atomic<bool> abandoned_{false};
-    // What interrupted jobs left on each controller that must still be undone (strand only); a run on
-    // a controller a debt is being sent to (send_recovery) waits for it.
-    restore_ledger restores_;
 
     std::shared_ptr<devices::controller_observer> observer_;
 

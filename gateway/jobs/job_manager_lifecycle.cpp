@@ -20,7 +20,7 @@ void manager_core::start() {
             self->log_->error("restart recovery: cannot read the job store: {}", queued.error().message);
         // Restore commands an earlier run of the gateway could not deliver (a job cancelled, or stopped
         // by a shutdown, while its controller was unplugged): sent once the controller is connected.
-        self->recover_undelivered_restores(active ? *active : std::vector<job_record>{});
+        self->recovery_->recover_undelivered(active ? *active : std::vector<job_record>{});
         // A job that was active when the gateway stopped is not continued by itself: nothing is sent
         // twice to a controller. A client may resume it.
         for (auto& r : active ? *active : std::vector<job_record>{}) {
@@ -41,13 +41,9 @@ void manager_core::start() {
             else
                 self->log_->error("restart recovery: job {}: cannot read its restore commands: {}",
                                   job->record.id, stored.error().message);
-            self->add_recovery(job->record.controller, std::move(rec));
+            self->recovery_->owe(job->record.controller, std::move(rec));
         }
-        std::vector<std::string> reachable;
-        for (const auto& controller : self->restores_.controllers_owed())
-            if (self->controller_connected(controller)) reachable.push_back(controller);
-        for (const auto& controller : reachable)
-            self->send_recovery(controller);
+        self->recovery_->send_owed_to_connected();
         for (auto& r : queued ? *queued : std::vector<job_record>{}) {
             auto job = std::make_shared<live_job>();
             job->record = std::move(r);
@@ -74,6 +70,7 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
     auto self = shared_from_this();
     shutting_down_ = true;
     history_->begin_shutdown();
+    recovery_->begin_shutdown();
     std::vector<std::shared_ptr<live_job>> to_stop;
     for (const auto& controller : lanes_.controllers()) {
         auto it = jobs_.find(lanes_.holder(controller));
@@ -88,7 +85,7 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
         set_state(*job, job_state::interrupted, "gateway shutting down");
     }
     for (auto& job : to_stop)
-        co_await safe_stop(job);
+        co_await recovery_->safe_stop(job);
     // The coroutines end at their next await (the HALT ends a move in progress).
     net::steady_timer timer(strand_);
     const auto deadline = std::chrono::steady_clock::now() + shutdown_grace;
@@ -101,6 +98,7 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
     // A last try for what the store refused (what it still refuses is lost, and said so), then the store
     // is closed.
     history_->stop();
+    recovery_->abandon();
     abandoned_ = true;  // nothing is written or published any more
     for (auto& [id, job] : jobs_)
         if (job->exec) job->exec->abandon();
@@ -110,6 +108,7 @@ net::awaitable<void> manager_core::shutdown_coro(std::function<void()> done) {
 void manager_core::abandon() {
     abandoned_ = true;
     history_->abandon();  // like a crash: what was committed stays, nothing more is written
+    recovery_->abandon();
     net::post(strand_, [self = shared_from_this()] {
         for (auto& [id, job] : self->jobs_)
             if (job->exec) job->exec->abandon();

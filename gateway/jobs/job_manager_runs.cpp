@@ -60,7 +60,7 @@ void manager_core::launch(std::shared_ptr<live_job> job) {
     net::co_spawn(
         strand_,
         [self = shared_from_this(), job, exec]() -> net::awaitable<void> {
-            co_await self->put_back_before_run(job);
+            co_await self->recovery_->put_back_before_run(job);
             co_await run_job(*exec);
         },
         [self = shared_from_this(), exec](std::exception_ptr e) { self->run_finished(exec, e); });
@@ -121,7 +121,7 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
         net::co_spawn(
             strand_,
             [self = shared_from_this(), job]() -> net::awaitable<void> {
-                co_await self->secure_after_halt(job);
+                co_await self->recovery_->secure_after_halt(job);
             },
             net::detached);
     } else if (disconnected) {
@@ -131,7 +131,7 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
         const auto& r = job->restore_commands;
         if (std::find(r.begin(), r.end(), "TTL Y=0") != r.end()) {
             job->ttl_low_on_reconnect = true;
-            if (controller_connected(controller)) ttl_low_after_disconnect(job);  // back already
+            if (controller_connected(controller)) recovery_->ttl_low_after_disconnect(job);  // back already
         }
     } else {
         set_state(*job, job_state::failed, failure);
@@ -139,7 +139,7 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
         net::co_spawn(
             strand_,
             [self = shared_from_this(), job]() -> net::awaitable<void> {
-                co_await self->restore_settings(job);
+                co_await self->recovery_->restore_settings(job);
             },
             [self = shared_from_this(), controller, id](std::exception_ptr) {
                 self->release(controller, id);
@@ -152,76 +152,13 @@ void manager_core::release(const std::string& controller, const std::string& id)
     net::post(strand_, [self = shared_from_this(), controller] { self->dispatch(controller); });
 }
 
-net::awaitable<void> manager_core::safe_stop(std::shared_ptr<live_job> job) {
-    // Named arguments only: g++ 12 mishandles temporaries that live across a co_await.
-    const std::string controller = job->record.controller;
-    const std::string request_id = "job-" + job->record.id;
-    std::string halt_controller = controller;
-    std::string halt_request_id = request_id;
-    auto halted = co_await registry_.async_halt(std::move(halt_controller), std::move(halt_request_id),
-                                                net::use_awaitable);
-    if (!halted) log_->warn("[{}] {}: HALT failed: {}", request_id, controller, halted.error().message);
-    const std::string ttl_failed = co_await ttl_output_low(controller, request_id);
-    if (!ttl_failed.empty()) {
-        log_->warn("[{}] {}: TTL Y=0 failed: {}", request_id, controller, ttl_failed);
-        // Not delivered: it waits with the restore commands for the controller to be back.
-        auto& r = job->restore_commands;
-        if (may_leave_ttl_output_high(job->record.type, job->record.spec) &&
-            std::find(r.begin(), r.end(), "TTL Y=0") == r.end())
-            r.emplace_back("TTL Y=0");
-    }
-    co_await restore_settings(std::move(job));
-}
-
-net::awaitable<void> manager_core::secure_after_halt(std::shared_ptr<live_job> job) {
-    const std::string controller = job->record.controller;
-    const std::string request_id = "job-" + job->record.id;
-    if (may_leave_ttl_output_high(job->record.type, job->record.spec)) {
-        const std::string ttl_failed = co_await ttl_output_low(controller, request_id);
-        auto& r = job->restore_commands;
-        if (!ttl_failed.empty() && std::find(r.begin(), r.end(), "TTL Y=0") == r.end())
-            r.emplace_back("TTL Y=0");
-    }
-    co_await restore_settings(job);
-    // Delivered, or owed to the controller (restores_): the resumed run starts from the settings as they
-    // were before the job, and puts back what is owed first (put_back_before_run).
-    job->restore_commands.clear();
-    log_->info("[{}] {}: job {} halted; outputs and settings made safe", request_id, controller,
-               job->record.id);
-}
-
-net::awaitable<void> manager_core::restore_settings(std::shared_ptr<live_job> job) {
-    const std::string controller = job->record.controller;
-    const std::string request_id = "job-" + job->record.id;
-    const auto restore = job->restore_commands;
-    std::vector<std::string> undelivered;  // registration order, as stored
-    for (auto it = restore.rbegin(); it != restore.rend(); ++it) {
-        std::string restore_controller = controller;
-        std::string restore_request_id = request_id;
-        raw_command_request request{*it};
-        auto r = co_await registry_.async_raw_command(std::move(restore_controller), std::move(request),
-                                                      std::move(restore_request_id), net::use_awaitable);
-        if (!r) {
-            log_->warn("[{}] {}: restoring with \"{}\" failed: {}", request_id, controller, *it,
-                       r.error().message);
-            // It did not reach the controller (an answer, even a refusal, is not an error here).
-            undelivered.insert(undelivered.begin(), *it);
-        }
-    }
-    if (restore.empty()) co_return;
-    // Kept in the store for the next start when the gateway is shutting down; otherwise sent once the
-    // controller is connected again, or before the next run on it.
-    history_->store_restore_commands(job->record.id, undelivered);
-    if (undelivered.empty() || shutting_down_) co_return;
-    owed_restore rec;
-    rec.job_id = job->record.id;
-    rec.restore = std::move(undelivered);
-    add_recovery(controller, std::move(rec));
-    if (controller_connected(controller)) send_recovery(controller);
-}
-
 // ---------------------------------------------------------------------------------------------
 // Controller events.
+
+void manager_core::controller_came_up(const std::string& controller) {
+    net::post(strand_,
+              [self = shared_from_this(), controller] { self->recovery_->controller_came_up(controller); });
+}
 
 void manager_core::controller_snapshot_changed(const devices::controller_snapshot& s) {
     net::post(strand_, [self = shared_from_this(), id = s.id, state = s.state] {
@@ -241,7 +178,7 @@ void manager_core::controller_reconnected(const std::string& controller) {
         if (job->second->record.progress.waiting_for == job_wait::controller)
             self->set_waiting(*job->second, std::nullopt);
         if (!job->second->ttl_low_on_reconnect) return;
-        self->ttl_low_after_disconnect(job->second);
+        self->recovery_->ttl_low_after_disconnect(job->second);
     });
 }
 

@@ -1,17 +1,114 @@
-#include "gateway/jobs/job_manager_core.hpp"
+#include "gateway/jobs/job_recovery.hpp"
+
+#include <algorithm>
+#include <fmt/format.h>
+
+#include <boost/asio/co_spawn.hpp>
+#include <boost/asio/detached.hpp>
+#include <boost/asio/redirect_error.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/use_awaitable.hpp>
+#include <spdlog/spdlog.h>
+
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/jobs/job_history.hpp"
+#include "gateway/jobs/safe_outputs.hpp"
 
 namespace gw::jobs {
 
-// ---------------------------------------------------------------------------------------------
-// What stopped or crashed runs owe a controller.
+namespace net = boost::asio;
+using kind = operation_error_kind;
 
-void manager_core::controller_came_up(const std::string& controller) {
-    net::post(strand_, [self = shared_from_this(), controller] {
-        if (self->restores_.owes(controller)) self->send_recovery(controller);
-    });
+job_recovery::job_recovery(net::strand<net::any_io_executor> strand, controller_registry& registry,
+                           std::shared_ptr<job_history> history, std::shared_ptr<spdlog::logger> log)
+    : strand_(std::move(strand)), registry_(registry), history_(std::move(history)), log_(std::move(log)) {}
+
+bool job_recovery::connected(const std::string& controller) const {
+    auto s = registry_.get(controller);
+    return s && s->state == devices::connection_state::connected && s->identity;
 }
 
-void manager_core::add_recovery(const std::string& controller, owed_restore rec, bool rec_is_older) {
+void job_recovery::controller_came_up(const std::string& controller) {
+    if (restores_.owes(controller)) send(controller);
+}
+
+void job_recovery::send_owed_to_connected() {
+    std::vector<std::string> reachable;
+    for (const auto& controller : restores_.controllers_owed())
+        if (connected(controller)) reachable.push_back(controller);
+    for (const auto& controller : reachable)
+        send(controller);
+}
+
+net::awaitable<void> job_recovery::safe_stop(std::shared_ptr<live_job> job) {
+    // Named arguments only: g++ 12 mishandles temporaries that live across a co_await.
+    const std::string controller = job->record.controller;
+    const std::string request_id = "job-" + job->record.id;
+    std::string halt_controller = controller;
+    std::string halt_request_id = request_id;
+    auto halted = co_await registry_.async_halt(std::move(halt_controller), std::move(halt_request_id),
+                                                net::use_awaitable);
+    if (!halted) log_->warn("[{}] {}: HALT failed: {}", request_id, controller, halted.error().message);
+    const std::string ttl_failed = co_await ttl_output_low(controller, request_id);
+    if (!ttl_failed.empty()) {
+        log_->warn("[{}] {}: TTL Y=0 failed: {}", request_id, controller, ttl_failed);
+        // Not delivered: it waits with the restore commands for the controller to be back.
+        auto& r = job->restore_commands;
+        if (may_leave_ttl_output_high(job->record.type, job->record.spec) &&
+            std::find(r.begin(), r.end(), "TTL Y=0") == r.end())
+            r.emplace_back("TTL Y=0");
+    }
+    co_await restore_settings(std::move(job));
+}
+
+net::awaitable<void> job_recovery::secure_after_halt(std::shared_ptr<live_job> job) {
+    const std::string controller = job->record.controller;
+    const std::string request_id = "job-" + job->record.id;
+    if (may_leave_ttl_output_high(job->record.type, job->record.spec)) {
+        const std::string ttl_failed = co_await ttl_output_low(controller, request_id);
+        auto& r = job->restore_commands;
+        if (!ttl_failed.empty() && std::find(r.begin(), r.end(), "TTL Y=0") == r.end())
+            r.emplace_back("TTL Y=0");
+    }
+    co_await restore_settings(job);
+    // Delivered, or owed to the controller (restores_): the resumed run starts from the settings as they
+    // were before the job, and puts back what is owed first (put_back_before_run).
+    job->restore_commands.clear();
+    log_->info("[{}] {}: job {} halted; outputs and settings made safe", request_id, controller,
+               job->record.id);
+}
+
+net::awaitable<void> job_recovery::restore_settings(std::shared_ptr<live_job> job) {
+    const std::string controller = job->record.controller;
+    const std::string request_id = "job-" + job->record.id;
+    const auto restore = job->restore_commands;
+    std::vector<std::string> undelivered;  // registration order, as stored
+    for (auto it = restore.rbegin(); it != restore.rend(); ++it) {
+        std::string restore_controller = controller;
+        std::string restore_request_id = request_id;
+        raw_command_request request{*it};
+        auto r = co_await registry_.async_raw_command(std::move(restore_controller), std::move(request),
+                                                      std::move(restore_request_id), net::use_awaitable);
+        if (!r) {
+            log_->warn("[{}] {}: restoring with \"{}\" failed: {}", request_id, controller, *it,
+                       r.error().message);
+            // It did not reach the controller (an answer, even a refusal, is not an error here).
+            undelivered.insert(undelivered.begin(), *it);
+        }
+    }
+    if (restore.empty()) co_return;
+    // Kept in the store for the next start when the gateway is shutting down; otherwise sent once the
+    // controller is connected again, or before the next run on it.
+    history_->store_restore_commands(job->record.id, undelivered);
+    if (undelivered.empty() || shutting_down_) co_return;
+    owed_restore rec;
+    rec.job_id = job->record.id;
+    rec.restore = std::move(undelivered);
+    owe(controller, std::move(rec));
+    if (connected(controller)) send(controller);
+}
+
+void job_recovery::owe(const std::string& controller, owed_restore rec, bool rec_is_older) {
     auto added = restores_.add(controller, std::move(rec), rec_is_older);
     if (!added.merged) return;
     history_->store_restore_commands(added.now.job_id, added.now.restore);
@@ -22,7 +119,7 @@ void manager_core::add_recovery(const std::string& controller, owed_restore rec,
     }
 }
 
-void manager_core::recover_undelivered_restores(const std::vector<job_record>& active) {
+void job_recovery::recover_undelivered(const std::vector<job_record>& active) {
     auto store = history_->store().get();
     if (!store) return;
     auto ids = store->jobs_with_restore_commands();
@@ -40,11 +137,11 @@ void manager_core::recover_undelivered_restores(const std::vector<job_record>& a
         owed_restore rec;
         rec.job_id = id;
         rec.restore = std::move(*commands);
-        add_recovery((*found)->controller, std::move(rec));
+        owe((*found)->controller, std::move(rec));
     }
 }
 
-net::awaitable<void> manager_core::put_back_before_run(std::shared_ptr<live_job> job) {
+net::awaitable<void> job_recovery::put_back_before_run(std::shared_ptr<live_job> job) {
     const std::string controller = job->record.controller;
     const std::string id = job->record.id;
     net::steady_timer wait(strand_);
@@ -86,7 +183,7 @@ net::awaitable<void> manager_core::put_back_before_run(std::shared_ptr<live_job>
     throw job_failure(std::move(e));
 }
 
-void manager_core::send_recovery(const std::string& controller) {
+void job_recovery::send(const std::string& controller) {
     if (!restores_.owes(controller) || abandoned_ || restores_.sending(controller)) return;
     owed_restore pending = restores_.take(controller);
     restores_.start_sending(controller);
@@ -110,13 +207,13 @@ void manager_core::send_recovery(const std::string& controller) {
             // Added while this one was being sent (a job that failed meanwhile): sent next.
             const bool more = self->restores_.owes(controller);
             // What did not reach the controller waits for its next connect, or for the next run on it.
-            if (!left.empty()) self->add_recovery(controller, std::move(left), true);
-            if (more && self->controller_connected(controller)) self->send_recovery(controller);
+            if (!left.empty()) self->owe(controller, std::move(left), true);
+            if (more && self->connected(controller)) self->send(controller);
         },
         net::detached);
 }
 
-net::awaitable<std::pair<owed_restore, std::optional<operation_error>>> manager_core::deliver(
+net::awaitable<std::pair<owed_restore, std::optional<operation_error>>> job_recovery::deliver(
     std::string controller, std::string request_id, owed_restore owed) {
     owed_restore left;
     left.job_id = owed.job_id;
@@ -143,7 +240,7 @@ net::awaitable<std::pair<owed_restore, std::optional<operation_error>>> manager_
             log_->warn("[{}] {}: TTL Y=0 for job {} failed: {}", request_id, controller, owed.job_id,
                        ttl_failed);
             left.ttl_low = true;
-            error = make_error(controller_connected(controller) ? kind::timeout : kind::not_connected,
+            error = make_error(connected(controller) ? kind::timeout : kind::not_connected,
                                "TTL Y=0 failed: " + ttl_failed);
         }
     }
@@ -172,7 +269,7 @@ net::awaitable<std::pair<owed_restore, std::optional<operation_error>>> manager_
     co_return std::pair{std::move(left), std::move(error)};
 }
 
-net::awaitable<std::string> manager_core::ttl_output_low(std::string controller, std::string request_id) {
+net::awaitable<std::string> job_recovery::ttl_output_low(std::string controller, std::string request_id) {
     ttl_request low;
     low.output_high = false;  // "TTL Y=0"
     auto ttl =
@@ -180,7 +277,7 @@ net::awaitable<std::string> manager_core::ttl_output_low(std::string controller,
     co_return ttl ? std::string() : ttl.error().message;
 }
 
-void manager_core::ttl_low_after_disconnect(std::shared_ptr<live_job> job) {
+void job_recovery::ttl_low_after_disconnect(std::shared_ptr<live_job> job) {
     if (!job->ttl_low_on_reconnect || abandoned_) return;
     job->ttl_low_on_reconnect = false;
     net::co_spawn(
