@@ -47,9 +47,8 @@
 #include "gateway/jobs/job_store_handle.hpp"
 #include "gateway/jobs/restore_ledger.hpp"
 #include "gateway/jobs/safe_outputs.hpp"
-#include "gateway/jobs/snapshot_motion_model.hpp"
+#include "gateway/jobs/submission_planner.hpp"
 #include "gateway/jobs/ttl_edge_listeners.hpp"
-#include "gateway/jobs/worker_thread.hpp"
 #include "gateway/leases/lease_manager.hpp"
 #include "gateway/storage/gcode_files.hpp"
 
@@ -61,15 +60,6 @@ using kind = operation_error_kind;
 
 // How long shutdown waits for running jobs to stop after their HALT before closing the store anyway.
 inline constexpr std::chrono::milliseconds shutdown_grace{5000};
-
-// Seconds the steps from `first` on still need: their motion, settle and dwell estimates. A step that
-// waits for a trigger counts without its wait, which no one can predict (waiting_for shows it).
-inline double remaining_from(const job_plan& plan, std::size_t first) {
-    double s = 0;
-    for (std::size_t i = first; i < plan.steps.size(); ++i)
-        s += plan.steps[i].estimated_s;
-    return s;
-}
 
 // progress.eta from remaining_s as of `now`: only a running job that waits for nothing unbounded has an
 // end to expect.
@@ -107,7 +97,8 @@ class manager_core final : public execution_host,
           log_(get_logger("jobs")),
           history_(
               std::make_shared<job_history>(strand_, executor_, hub_, settings_, log_, std::move(store))),
-          recovery_(std::make_shared<job_recovery>(strand_, registry_, history_, log_)) {}
+          recovery_(std::make_shared<job_recovery>(strand_, registry_, history_, log_)),
+          planner_(std::make_shared<submission_planner>(strand_, registry_, leases_, history_, settings_)) {}
 
     void attach();
     void start();
@@ -168,17 +159,10 @@ class manager_core final : public execution_host,
     // "j-1 running, j-2 queued": the jobs that hold the controller or wait for it; empty when none.
     std::string jobs_in_lane(const std::string& controller) const;
 
-    // The planner's motion model of a controller, from its snapshot and its link's baud rate.
-    motion_model motion_model_for(const devices::controller_snapshot& snapshot) const;
-    // On the strand, once the motion model is read: the checks, then the plan on the planner's thread.
-    void plan_submission(submit_request r, job_manager::handler<submit_result> h, motion_model model);
     // On the strand, with the plan: stored and queued (or, for a dry run, answered).
     void submit_planned(submit_request r, job_manager::handler<submit_result> h,
                         operation_result<job_plan> plan);
-    // plan_job on the planner's thread, then `done` with the plan on the strand; false when the
-    // planner has too many plans waiting.
-    bool plan_off_strand(job_type type, json spec, devices::controller_snapshot snapshot, motion_model model,
-                         std::function<void(operation_result<job_plan>)> done);
+    // A recovered job has no plan: planned again (the submission planner) before it runs.
     void plan_again(const std::shared_ptr<live_job>& job, std::function<void(operation_result<void>)> done);
 
     // Changes the state, persists it (transition) and publishes {"type":"state",...}. `waiting`: what
@@ -224,6 +208,8 @@ class manager_core final : public execution_host,
     std::shared_ptr<job_history> history_;
     // What stopped, halted or crashed runs leave on a controller: made safe, owed, put back.
     std::shared_ptr<job_recovery> recovery_;
+    // What a submission must pass before the job exists, and its plan.
+    std::shared_ptr<submission_planner> planner_;
 
     // Strand only.
     std::map<std::string, std::shared_ptr<live_job>> jobs_;  // not terminal
@@ -236,9 +222,6 @@ class manager_core final : public execution_host,
     std::atomic<bool> abandoned_{false};
 
     std::shared_ptr<devices::controller_observer> observer_;
-
-    // Last: destroyed first, it waits for a plan being computed while the rest still exists.
-    worker_thread planner_{16};
 
     friend class job_manager;
 };

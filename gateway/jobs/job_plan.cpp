@@ -60,4 +60,11 @@ operation_result<void> check_soft_limits(const job_plan& plan, const devices::co
     return {};
 }
 
+double remaining_from(const job_plan& plan, std::size_t first) {
+    double s = 0;
+    for (std::size_t i = first; i < plan.steps.size(); ++i)
+        s += plan.steps[i].estimated_s;
+    return s;
+}
+
 }  // namespace gw::jobs

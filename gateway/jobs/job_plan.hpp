@@ -56,6 +56,10 @@ inline constexpr std::size_t max_preview_commands = 200;
 // Adds a command to the preview, or counts it as omitted past max_preview_commands.
 void add_preview_command(job_plan& plan, std::string command);
 
+// Seconds the steps from `first` on still need: their motion, settle and dwell estimates. A step that
+// waits for a trigger counts without its wait, which no one can predict (waiting_for shows it).
+double remaining_from(const job_plan& plan, std::size_t first);
+
 // What planning may use: the controller's latest snapshot (identity and modules, axes, positions,
 // soft limits) and its motion parameters.
 struct plan_context {
