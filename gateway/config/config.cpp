@@ -16,6 +16,7 @@
 #include <boost/asio/ip/address.hpp>
 #include <nlohmann/json.hpp>
 
+#include "gateway/common/json_keys.hpp"
 #include "gateway/config/config_files_check.hpp"
 #include "gateway/config/secret_file_path.hpp"
 #include "gateway/config/tokens_file.hpp"
@@ -45,10 +46,7 @@ class object_reader {
     object_reader(const json& j, std::string path, std::initializer_list<std::string_view> keys)
         : j_(j), path_(std::move(path)) {
         if (!j.is_object()) fail(path_.empty() ? "(top level)" : path_, "must be an object");
-        for (const auto& item : j.items()) {
-            if (std::find(keys.begin(), keys.end(), item.key()) == keys.end())
-                fail(join_path(path_, item.key()), "unknown key");
-        }
+        if (const auto unknown = first_unknown_key(j, keys)) fail(join_path(path_, *unknown), "unknown key");
     }
 
     const json* get(std::string_view key) const {

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <set>
 
+#include "gateway/common/json_keys.hpp"
 #include "gateway/controllers/operations.hpp"
 #include "gateway/jobs/spec_fields.hpp"
 
@@ -17,9 +18,8 @@ using json = nlohmann::json;
 operation_result<plate_geometry> parse_grid(const json& grid) {
     if (!grid.is_object())
         return spec_error("grid", "grid must be an object {columns, rows, column_step_mm, row_step_mm}");
-    for (const auto& [key, value] : grid.items())
-        if (key != "columns" && key != "rows" && key != "column_step_mm" && key != "row_step_mm")
-            return spec_error("grid." + key, fmt::format("unknown field grid.{}", key));
+    if (const auto key = first_unknown_key(grid, {"columns", "rows", "column_step_mm", "row_step_mm"}))
+        return spec_error("grid." + *key, fmt::format("unknown field grid.{}", *key));
     plate_geometry g;
     for (const char* key : {"columns", "rows", "column_step_mm", "row_step_mm"})
         if (!grid.contains(key))
@@ -47,9 +47,8 @@ operation_result<plate_geometry> parse_grid(const json& grid) {
 
 operation_result<std::pair<double, double>> parse_a1(const json& a1) {
     if (!a1.is_object()) return spec_error("a1", R"(a1 must be {"X": um, "Y": um} or "current")");
-    for (const auto& [key, value] : a1.items())
-        if (key != "X" && key != "Y")
-            return spec_error("a1." + key, fmt::format("a1 takes X and Y only, not {}", key));
+    if (const auto key = first_unknown_key(a1, {"X", "Y"}))
+        return spec_error("a1." + *key, fmt::format("a1 takes X and Y only, not {}", *key));
     if (!a1.contains("X")) return spec_error("a1.X", "a1.X is required");
     if (!a1.contains("Y")) return spec_error("a1.Y", "a1.Y is required");
     auto x = spec_number(a1["X"], "a1.X", -max_travel_um, max_travel_um);
@@ -74,11 +73,9 @@ std::vector<well_index> array_spec::visits() const {
 operation_result<array_spec> parse_array_spec(const json& spec) {
     if (!spec.is_object())
         return make_error(operation_error_kind::invalid_value, "spec must be an object", "spec");
-    static const std::set<std::string> known{"plate",     "grid",        "a1",       "rotation_deg",
-                                             "order",     "wells",       "dwell_ms", "advance",
-                                             "ttl_pulse", "resume_from", "mode"};
-    for (const auto& [key, value] : spec.items())
-        if (!known.contains(key)) return spec_error(key, fmt::format("unknown field {}", key));
+    if (const auto key = first_unknown_key(spec, {"plate", "grid", "a1", "rotation_deg", "order", "wells",
+                                                  "dwell_ms", "advance", "ttl_pulse", "resume_from", "mode"}))
+        return spec_error(*key, fmt::format("unknown field {}", *key));
 
     array_spec s;
     const bool has_plate = spec.contains("plate"), has_grid = spec.contains("grid");

@@ -3,6 +3,7 @@
 #include <charconv>
 #include <fmt/format.h>
 
+#include "gateway/common/json_keys.hpp"
 #include "gateway/jobs/spec_fields.hpp"
 
 namespace gw::jobs {
@@ -28,9 +29,8 @@ std::optional<std::string> option_text(const json& v) {
 operation_result<gcode_spec> parse_gcode_spec(const json& spec) {
     if (!spec.is_object())
         return make_error(operation_error_kind::invalid_value, "spec must be an object", "spec");
-    for (const auto& [key, value] : spec.items())
-        if (key != "program" && key != "file" && key != "options")
-            return bad(key, "unknown field " + key + " (program, file, options)");
+    if (const auto key = first_unknown_key(spec, {"program", "file", "options"}))
+        return bad(*key, "unknown field " + *key + " (program, file, options)");
     gcode_spec out;
     if (spec.contains("program") == spec.contains("file"))
         return bad(spec.contains("file") ? "file" : "program", "give exactly one of program and file");

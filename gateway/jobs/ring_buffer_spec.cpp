@@ -3,8 +3,8 @@
 #include <cctype>
 #include <cmath>
 #include <fmt/format.h>
-#include <set>
 
+#include "gateway/common/json_keys.hpp"
 #include "gateway/controllers/operations.hpp"
 #include "gateway/jobs/spec_fields.hpp"
 
@@ -23,10 +23,9 @@ bool is_axis_key(const std::string& key) {
 operation_result<ring_buffer_spec> parse_ring_buffer_spec(const json& spec) {
     if (!spec.is_object())
         return make_error(operation_error_kind::invalid_value, "spec must be an object", "spec");
-    static const std::set<std::string> known{"positions", "axes",   "trigger", "delay_ms",
-                                             "repeat",    "cycles", "mode"};
-    for (const auto& [key, value] : spec.items())
-        if (!known.contains(key)) return spec_error(key, fmt::format("unknown field {}", key));
+    if (const auto key =
+            first_unknown_key(spec, {"positions", "axes", "trigger", "delay_ms", "repeat", "cycles", "mode"}))
+        return spec_error(*key, fmt::format("unknown field {}", *key));
     ring_buffer_spec s;
 
     if (!spec.contains("positions")) return spec_error("positions", "positions is required");

@@ -3,8 +3,8 @@
 #include <cctype>
 #include <cmath>
 #include <fmt/format.h>
-#include <set>
 
+#include "gateway/common/json_keys.hpp"
 #include "gateway/controllers/operations.hpp"
 #include "gateway/jobs/spec_fields.hpp"
 
@@ -22,10 +22,9 @@ operation_result<char> axis_letter(const json& v, const std::string& field) {
 }
 
 operation_result<void> only_known(const json& object, const std::string& prefix,
-                                  const std::set<std::string>& known) {
-    for (const auto& [key, value] : object.items())
-        if (!known.contains(key))
-            return spec_error(prefix + key, fmt::format("unknown field {}{}", prefix, key));
+                                  std::initializer_list<std::string_view> known) {
+    if (const auto key = first_unknown_key(object, known))
+        return spec_error(prefix + *key, fmt::format("unknown field {}{}", prefix, *key));
     return {};
 }
 
