@@ -22,7 +22,7 @@
 #include "gateway/events/controller_events_bridge.hpp"
 #include "gateway/events/controller_state_texts.hpp"
 #include "gateway/events/event_hub.hpp"
-#include "gateway/jobs/job_manager.hpp"
+#include "gateway/jobs/manager/job_manager.hpp"
 #include "gateway/leases/lease_manager.hpp"
 #include "gateway/share/shared_ports.hpp"
 #include "gateway/version.hpp"

@@ -28,7 +28,7 @@
 #include "api/common/problem.hpp"
 #include "gateway/common/operation_error.hpp"
 #include "gateway/jobs/job.hpp"
-#include "gateway/jobs/job_manager.hpp"
+#include "gateway/jobs/manager/job_manager.hpp"
 
 namespace gw::api {
 

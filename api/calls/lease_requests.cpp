@@ -11,7 +11,7 @@
 #include "api/common/printable_text.hpp"
 #include "gateway/common/timestamp.hpp"
 #include "gateway/controllers/controller_registry.hpp"
-#include "gateway/jobs/job_manager.hpp"
+#include "gateway/jobs/manager/job_manager.hpp"
 
 namespace gw::api {
 

@@ -17,7 +17,7 @@
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/controllers/operations.hpp"
 #include "gateway/events/event_json.hpp"
-#include "gateway/jobs/job_manager.hpp"
+#include "gateway/jobs/manager/job_manager.hpp"
 #include "gateway/leases/lease_manager.hpp"
 
 namespace gw::api {

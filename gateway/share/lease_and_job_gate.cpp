@@ -10,7 +10,7 @@
 #include "gateway/common/timestamp.hpp"
 #include "gateway/config/logging.hpp"
 #include "gateway/controllers/controller_registry.hpp"
-#include "gateway/jobs/job_manager.hpp"
+#include "gateway/jobs/manager/job_manager.hpp"
 #include "gateway/leases/lease_manager.hpp"
 
 namespace gw {

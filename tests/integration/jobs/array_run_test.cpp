@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "gateway/jobs/plate.hpp"
-#include "gateway/jobs/safe_outputs.hpp"
+#include "gateway/jobs/kinds/plate.hpp"
+#include "gateway/jobs/kinds/safe_outputs.hpp"
 #include "tests/integration/jobs/manager_fixture.hpp"
 #include "tests/support/sim_serial_client.hpp"
 

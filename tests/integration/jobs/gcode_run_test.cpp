@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "gateway/gcode/gcode_planner.hpp"
-#include "gateway/jobs/safe_outputs.hpp"
+#include "gateway/jobs/kinds/safe_outputs.hpp"
 #include "gateway/storage/gcode_files.hpp"
 #include "tests/integration/jobs/manager_fixture.hpp"
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "gateway/jobs/safe_outputs.hpp"
+#include "gateway/jobs/kinds/safe_outputs.hpp"
 #include "tests/integration/jobs/manager_fixture.hpp"
 
 namespace gw::jobs::test {

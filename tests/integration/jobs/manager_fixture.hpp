@@ -33,7 +33,7 @@
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/events/event_hub.hpp"
 #include "gateway/events/event_sink.hpp"
-#include "gateway/jobs/job_manager.hpp"
+#include "gateway/jobs/manager/job_manager.hpp"
 #include "gateway/leases/lease_manager.hpp"
 #include "tests/support/drv_recording_observer.hpp"
 

@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "devices/sim/sim_config.hpp"
-#include "gateway/jobs/array_spec.hpp"
-#include "gateway/jobs/job_kinds.hpp"
+#include "gateway/jobs/kinds/array_spec.hpp"
+#include "gateway/jobs/kinds/job_kinds.hpp"
 
 namespace gw::jobs {
 namespace {

@@ -1,4 +1,4 @@
-// Plate geometry, well names, visit orders and rotation (gateway/jobs/plate.hpp).
+// Plate geometry, well names, visit orders and rotation (gateway/jobs/kinds/plate.hpp).
 #include <cctype>
 #include <cmath>
 #include <optional>
@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "gateway/jobs/plate.hpp"
+#include "gateway/jobs/kinds/plate.hpp"
 
 namespace gw::jobs {
 namespace {

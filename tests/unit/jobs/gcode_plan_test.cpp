@@ -13,9 +13,9 @@
 #include "devices/ms2000/host_step_timing.hpp"
 #include "devices/ms2000/motion_profile.hpp"
 #include "gateway/gcode/gcode_planner.hpp"
-#include "gateway/jobs/gcode_spec.hpp"
-#include "gateway/jobs/gcode_trace.hpp"
-#include "gateway/jobs/job_kinds.hpp"
+#include "gateway/jobs/kinds/gcode_spec.hpp"
+#include "gateway/jobs/kinds/gcode_trace.hpp"
+#include "gateway/jobs/kinds/job_kinds.hpp"
 
 namespace gw::jobs {
 namespace {

@@ -1,4 +1,4 @@
-#include "gateway/jobs/job_lanes.hpp"
+#include "gateway/jobs/manager/job_lanes.hpp"
 
 #include <set>
 #include <string>

@@ -1,4 +1,4 @@
-#include "gateway/jobs/restore_ledger.hpp"
+#include "gateway/jobs/manager/restore_ledger.hpp"
 
 #include <string>
 #include <vector>

@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "gateway/jobs/job_kinds.hpp"
-#include "gateway/jobs/ring_buffer_spec.hpp"
+#include "gateway/jobs/kinds/job_kinds.hpp"
+#include "gateway/jobs/kinds/ring_buffer_spec.hpp"
 
 namespace gw::jobs {
 namespace {

@@ -1,5 +1,5 @@
 // Which interrupted jobs get their TTL output switched off after a restart.
-#include "gateway/jobs/safe_outputs.hpp"
+#include "gateway/jobs/kinds/safe_outputs.hpp"
 
 #include <gtest/gtest.h>
 

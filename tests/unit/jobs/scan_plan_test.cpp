@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "gateway/jobs/job_kinds.hpp"
-#include "gateway/jobs/scan_spec.hpp"
+#include "gateway/jobs/kinds/job_kinds.hpp"
+#include "gateway/jobs/kinds/scan_spec.hpp"
 
 namespace gw::jobs {
 namespace {

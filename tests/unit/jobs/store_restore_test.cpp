@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "gateway/common/job_id.hpp"
-#include "gateway/jobs/job_store.hpp"
+#include "gateway/jobs/store/job_store.hpp"
 
 namespace gw::jobs {
 namespace {

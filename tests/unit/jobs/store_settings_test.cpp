@@ -1,7 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "gateway/config/config.hpp"
-#include "gateway/jobs/job_manager.hpp"
+#include "gateway/jobs/manager/job_manager.hpp"
 
 namespace gw::jobs {
 namespace {

@@ -17,7 +17,7 @@
 
 #include "gateway/common/job_id.hpp"
 #include "gateway/jobs/job_json.hpp"
-#include "gateway/jobs/job_store.hpp"
+#include "gateway/jobs/store/job_store.hpp"
 
 namespace gw::jobs {
 namespace {

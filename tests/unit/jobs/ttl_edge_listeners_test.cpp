@@ -1,4 +1,4 @@
-#include "gateway/jobs/ttl_edge_listeners.hpp"
+#include "gateway/jobs/manager/ttl_edge_listeners.hpp"
 
 #include <gtest/gtest.h>
 

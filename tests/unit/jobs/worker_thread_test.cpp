@@ -1,5 +1,5 @@
 // worker_thread: work runs on its own thread, in order, and at most max_waiting pieces wait.
-#include "gateway/jobs/worker_thread.hpp"
+#include "gateway/jobs/manager/worker_thread.hpp"
 
 #include <chrono>
 #include <future>
