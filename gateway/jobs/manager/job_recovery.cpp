@@ -78,17 +78,21 @@ net::awaitable<void> job_recovery::secure_after_halt(std::shared_ptr<live_job> j
                job->record.id);
 }
 
+net::awaitable<operation_result<raw_command_result>> job_recovery::send_restore(std::string controller,
+                                                                                std::string request_id,
+                                                                                std::string command) {
+    raw_command_request request{std::move(command)};
+    co_return co_await registry_.async_raw_command(std::move(controller), std::move(request),
+                                                   std::move(request_id), net::use_awaitable);
+}
+
 net::awaitable<void> job_recovery::restore_settings(std::shared_ptr<live_job> job) {
     const std::string controller = job->record.controller;
     const std::string request_id = "job-" + job->record.id;
     const auto restore = job->restore_commands;
     std::vector<std::string> undelivered;  // registration order, as stored
     for (auto it = restore.rbegin(); it != restore.rend(); ++it) {
-        std::string restore_controller = controller;
-        std::string restore_request_id = request_id;
-        raw_command_request request{*it};
-        auto r = co_await registry_.async_raw_command(std::move(restore_controller), std::move(request),
-                                                      std::move(restore_request_id), net::use_awaitable);
+        auto r = co_await send_restore(controller, request_id, *it);
         if (!r) {
             log_->warn("[{}] {}: restoring with \"{}\" failed: {}", request_id, controller, *it,
                        r.error().message);
@@ -251,11 +255,7 @@ net::awaitable<std::pair<owed_restore, std::optional<operation_error>>> job_reco
             if (left.ttl_low) left.restore.insert(left.restore.begin(), *r);
             continue;
         }
-        std::string restore_controller = controller;
-        std::string restore_request_id = request_id;
-        raw_command_request request{*r};
-        auto sent = co_await registry_.async_raw_command(std::move(restore_controller), std::move(request),
-                                                         std::move(restore_request_id), net::use_awaitable);
+        auto sent = co_await send_restore(controller, request_id, *r);
         if (!sent) {
             log_->warn("[{}] {}: restoring with \"{}\" for job {} failed: {}", request_id, controller, *r,
                        owed.job_id, sent.error().message);

@@ -19,6 +19,7 @@
 #include <boost/asio/strand.hpp>
 
 #include "gateway/common/operation_error.hpp"
+#include "gateway/controllers/operations.hpp"
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/manager/job_execution.hpp"
 #include "gateway/jobs/manager/restore_ledger.hpp"
@@ -77,6 +78,10 @@ class job_recovery final : public std::enable_shared_from_this<job_recovery> {
     void send(const std::string& controller);
     boost::asio::awaitable<std::pair<owed_restore, std::optional<operation_error>>> deliver(
         std::string controller, std::string request_id, owed_restore owed);
+    // One restore command, as it was registered (the controller's answer, even a refusal, is a delivery).
+    boost::asio::awaitable<operation_result<raw_command_result>> send_restore(std::string controller,
+                                                                              std::string request_id,
+                                                                              std::string command);
     // "TTL Y=0": empty when delivered, else why not.
     boost::asio::awaitable<std::string> ttl_output_low(std::string controller, std::string request_id);
     bool connected(const std::string& controller) const;
