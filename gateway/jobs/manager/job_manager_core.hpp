@@ -186,8 +186,8 @@ class manager_core final : public execution_host,
     // Shows `halt` as what the queued jobs there (and a job a HALT paused) wait for while the latch is
     // set, and takes it back once it is released.
     void show_halt_waits(const std::string& controller);
-    void launch(std::shared_ptr<live_job> job);
-    void run_finished(std::shared_ptr<job_execution> exec, std::exception_ptr e);
+    void launch(const std::shared_ptr<live_job>& job);
+    void run_finished(const std::shared_ptr<job_execution>& exec, const std::exception_ptr& e);
     void release(const std::string& controller, const std::string& id);
     net::awaitable<void> shutdown_coro(std::function<void()> done);
 

@@ -20,7 +20,7 @@ void manager_core::dispatch(const std::string& controller) {
     if (job->plan) return launch(job);
     // Recovered after a restart: plans are not stored, so it is planned again first.
     lanes_.set_planning(controller, true);
-    plan_again(job, [self = shared_from_this(), job, controller](operation_result<void> planned) {
+    plan_again(job, [self = shared_from_this(), job, controller](const operation_result<void>& planned) {
         self->lanes_.set_planning(controller, false);
         if (job->record.state != job_state::queued || self->shutting_down_ || self->abandoned_) {
             self->release(controller, job->record.id);
@@ -36,7 +36,7 @@ void manager_core::dispatch(const std::string& controller) {
     });
 }
 
-void manager_core::launch(std::shared_ptr<live_job> job) {
+void manager_core::launch(const std::shared_ptr<live_job>& job) {
     const auto& controller = job->record.controller;
     // The HALT count first, then the latch: a HALT latched after this check is counted after this
     // read (the registry sets the latch before the driver counts the HALT), so it guards the run.
@@ -63,10 +63,10 @@ void manager_core::launch(std::shared_ptr<live_job> job) {
             co_await self->recovery_->put_back_before_run(job);
             co_await run_job(*exec);
         },
-        [self = shared_from_this(), exec](std::exception_ptr e) { self->run_finished(exec, e); });
+        [self = shared_from_this(), exec](const std::exception_ptr& e) { self->run_finished(exec, e); });
 }
 
-void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::exception_ptr e) {
+void manager_core::run_finished(const std::shared_ptr<job_execution>& exec, const std::exception_ptr& e) {
     --running_;
     auto job = exec->live();
     ttl_listeners_.remove(job->record.controller);
@@ -141,7 +141,7 @@ void manager_core::run_finished(std::shared_ptr<job_execution> exec, std::except
             [self = shared_from_this(), job]() -> net::awaitable<void> {
                 co_await self->recovery_->restore_settings(job);
             },
-            [self = shared_from_this(), controller, id](std::exception_ptr) {
+            [self = shared_from_this(), controller, id](const std::exception_ptr&) {
                 self->release(controller, id);
             });
     }

@@ -277,7 +277,7 @@ net::awaitable<std::string> job_recovery::ttl_output_low(std::string controller,
     co_return ttl ? std::string() : ttl.error().message;
 }
 
-void job_recovery::ttl_low_after_disconnect(std::shared_ptr<live_job> job) {
+void job_recovery::ttl_low_after_disconnect(const std::shared_ptr<live_job>& job) {
     if (!job->ttl_low_on_reconnect || abandoned_) return;
     job->ttl_low_on_reconnect = false;
     net::co_spawn(

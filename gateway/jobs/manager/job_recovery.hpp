@@ -55,7 +55,7 @@ class job_recovery final : public std::enable_shared_from_this<job_recovery> {
     // sent (a debt being sent meanwhile is waited for). Throws job_failure when it cannot be delivered.
     boost::asio::awaitable<void> put_back_before_run(std::shared_ptr<live_job> job);
     // A job paused by a disconnect while it had the TTL output high: "TTL Y=0" once it is back.
-    void ttl_low_after_disconnect(std::shared_ptr<live_job> job);
+    void ttl_low_after_disconnect(const std::shared_ptr<live_job>& job);
 
     // ---- what is owed ----
 
