@@ -97,7 +97,7 @@ class job_context {
     // by letter, for the commands that put them back: the value a restore command of the job names
     // (the oldest: registered before the change), else the controller's answer to "<verb> X? Y?" now.
     // Never the snapshot: after a restart it shows what a crashed run left. Earlier runs' leftovers
-    // are put back before a run starts (job_manager_recovery.cpp). job_failure on a reply without the values.
+    // are put back before a run starts (job_recovery). job_failure on a reply without the values.
     virtual boost::asio::awaitable<std::map<char, double>> settings_before(std::string verb,
                                                                            std::string letters) = 0;
 

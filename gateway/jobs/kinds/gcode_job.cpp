@@ -19,7 +19,7 @@
 //    output) of the lines already done without moving, and continues with the next line.
 //  * Cancel: the manager sends HALT and "TTL Y=0". "TTL Y=0" and the original SPEEDs are also
 //    registered with restore_if_stopped (a failure), and the manager sends "TTL Y=0" when a
-//    controller that paused a job by disconnecting comes back (job_manager_recovery.cpp).
+//    controller that paused a job by disconnecting comes back (job_recovery).
 #include <algorithm>
 #include <chrono>
 #include <cmath>

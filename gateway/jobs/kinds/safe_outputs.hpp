@@ -1,7 +1,7 @@
 #pragma once
 // Which interrupted jobs may have left the controller's TTL output high (a laser or shutter on). A
 // gateway that dies (kill -9, power) while such a job runs cannot switch it off; the next gateway
-// does, once it finds the job interrupted and the controller connected (job_manager_recovery.cpp). Pure.
+// does, once it finds the job interrupted and the controller connected (job_recovery). Pure.
 //
 //   gcode  M03 lights the output along the path (always a candidate: the program may switch it on)
 //   array  "ttl_pulse": true pulses it (TTL Y=1 then TTL Y=0) at every well

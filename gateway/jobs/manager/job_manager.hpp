@@ -109,12 +109,10 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
     // `work_executor`; the gateway gives it a thread of its own, so that a slow disk never stalls the
     // I/O thread's HTTP, WebSocket, MQTT and serial work. Handlers without an executor of their own run
     // on `executor`.
-    static operation_result<std::shared_ptr<job_manager>> create(boost::asio::any_io_executor executor,
-                                                                 boost::asio::any_io_executor work_executor,
-                                                                 controller_registry& registry,
-                                                                 std::shared_ptr<event_hub> hub,
-                                                                 std::shared_ptr<lease_manager> leases,
-                                                                 job_manager_settings settings);
+    static operation_result<std::shared_ptr<job_manager>> create(
+        boost::asio::any_io_executor executor, const boost::asio::any_io_executor& work_executor,
+        controller_registry& registry, std::shared_ptr<event_hub> hub, std::shared_ptr<lease_manager> leases,
+        job_manager_settings settings);
     // All on `executor` (tests).
     static operation_result<std::shared_ptr<job_manager>> create(boost::asio::any_io_executor executor,
                                                                  controller_registry& registry,
@@ -166,7 +164,7 @@ class job_manager : public std::enable_shared_from_this<job_manager> {
                              handler<lease> h);
 
   private:
-    job_manager(boost::asio::any_io_executor executor, boost::asio::any_io_executor work_executor,
+    job_manager(boost::asio::any_io_executor executor, const boost::asio::any_io_executor& work_executor,
                 controller_registry& registry, std::shared_ptr<event_hub> hub,
                 std::shared_ptr<lease_manager> leases, job_manager_settings settings,
                 std::unique_ptr<job_store> store);

@@ -1,13 +1,28 @@
-#include "gateway/jobs/manager/job_manager_core.hpp"
+#include <fmt/format.h>
+
+#include <spdlog/spdlog.h>
+
+#include "gateway/common/job_id.hpp"
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/jobs/job_json.hpp"
+#include "gateway/jobs/manager/job_coordinator.hpp"
+#include "gateway/jobs/manager/job_history.hpp"
+#include "gateway/jobs/manager/job_states.hpp"
+#include "gateway/jobs/manager/lane_scheduler.hpp"
+#include "gateway/jobs/manager/submission_planner.hpp"
+#include "gateway/jobs/store/job_store.hpp"
 
 namespace gw::jobs {
+
+namespace net = boost::asio;
+using kind = operation_error_kind;
 
 // ---------------------------------------------------------------------------------------------
 // Submission: admitted and planned by the submission planner, then queued and stored here.
 
-void manager_core::submit(submit_request r, job_manager::handler<submit_result> h) {
+void job_coordinator::submit(submit_request r, job_manager::handler<submit_result> h) {
     net::post(strand_, [self = shared_from_this(), r = std::move(r), h = std::move(h)]() mutable {
-        if (self->shutting_down_ || self->abandoned_)
+        if (self->stopping())
             return self->deliver<submit_result>(
                 std::move(h), make_error(kind::not_connected, "the gateway is shutting down"));
         if (auto answer = self->planner_->admit(r))
@@ -24,9 +39,9 @@ void manager_core::submit(submit_request r, job_manager::handler<submit_result> 
     });
 }
 
-void manager_core::submit_planned(submit_request r, job_manager::handler<submit_result> h,
-                                  operation_result<job_plan> plan) {
-    if (shutting_down_ || abandoned_)
+void job_coordinator::submit_planned(submit_request r, job_manager::handler<submit_result> h,
+                                     operation_result<job_plan> plan) {
+    if (stopping())
         return deliver<submit_result>(std::move(h),
                                       make_error(kind::not_connected, "the gateway is shutting down"));
     if (!plan) return deliver<submit_result>(std::move(h), plan.error());
@@ -40,12 +55,12 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
         return deliver<submit_result>(std::move(h), std::move(out));
     }
     if (auto answer = planner_->admit_again(r)) return deliver<submit_result>(std::move(h), *answer);
-    if (const auto queued = lanes_.queued(r.controller); queued >= settings_.max_queued_per_controller)
+    if (const auto queued = scheduler_->queued(r.controller); queued >= settings_.max_queued_per_controller)
         return deliver<submit_result>(
             std::move(h),
             make_error(kind::queue_full, fmt::format("{} already has {} queued jobs", r.controller, queued)));
     rec.id = make_job_id();
-    rec.progress.waiting_for = queue_wait(r.controller);
+    rec.progress.waiting_for = scheduler_->queue_wait(r.controller);
     // Stored with the job, in one transaction: a store that cannot take the job's history refuses the
     // job, rather than letting it run unrecorded.
     const auto queued_event = state_event(rec, now);
@@ -65,39 +80,19 @@ void manager_core::submit_planned(submit_request r, job_manager::handler<submit_
     auto job = std::make_shared<live_job>();
     job->record = rec;
     job->plan = *plan;
-    job->queued_in_lane = true;
     job->lease_id = r.lease_id;
-    jobs_[rec.id] = job;
+    states_->add(job);
     history_->remember(rec);
     history_->publish(rec, queued_event);  // stored by insert()
     log_->info("job {} ({} on {}) queued: {} steps, {:.1f} s estimated", rec.id, to_string(rec.type),
                rec.controller, rec.progress.steps_total, rec.estimated_s);
-    lanes_.enqueue(r.controller, rec.id);
+    scheduler_->queue(*job);
     out.plan = std::move(*plan);
     // A submission is someone's decision to move the stage again: it releases a HALT latch there,
     // before the answer goes out (a client that reads the controller after its 201 sees it released).
     registry_.release_halt_latch(r.controller);
     deliver<submit_result>(std::move(h), std::move(out));
-    dispatch(r.controller);
-}
-
-void manager_core::plan_again(const std::shared_ptr<live_job>& job,
-                              std::function<void(operation_result<void>)> done) {
-    if (job->plan) return done({});
-    // Answered later on the strand, as every plan is.
-    net::post(strand_, [self = shared_from_this(), job, done = std::move(done)]() mutable {
-        self->planner_->plan(job->record.controller, job->record.type, job->record.spec,
-                             [self, job, done = std::move(done)](operation_result<job_plan> plan) {
-                                 if (!plan) return done(plan.error());
-                                 if (plan->steps.size() != job->record.progress.steps_total)
-                                     self->log_->warn("job {}: the plan now has {} steps, it had {}",
-                                                      job->record.id, plan->steps.size(),
-                                                      job->record.progress.steps_total);
-                                 job->record.progress.steps_total = plan->steps.size();
-                                 job->plan = std::move(*plan);
-                                 done({});
-                             });
-    });
+    scheduler_->dispatch(r.controller);
 }
 
 }  // namespace gw::jobs

@@ -1,12 +1,26 @@
-#include "gateway/jobs/manager/job_manager_core.hpp"
+#include <fmt/format.h>
+
+#include <boost/asio/co_spawn.hpp>
+#include <boost/asio/detached.hpp>
+
+#include "gateway/controllers/controller_registry.hpp"
+#include "gateway/jobs/manager/job_coordinator.hpp"
+#include "gateway/jobs/manager/job_history.hpp"
+#include "gateway/jobs/manager/job_recovery.hpp"
+#include "gateway/jobs/manager/job_states.hpp"
+#include "gateway/jobs/manager/lane_scheduler.hpp"
+#include "gateway/jobs/store/job_store.hpp"
 
 namespace gw::jobs {
+
+namespace net = boost::asio;
+using kind = operation_error_kind;
 
 // ---------------------------------------------------------------------------------------------
 // Leases.
 
-void manager_core::acquire_lease(std::string controller, std::string holder, std::chrono::seconds ttl,
-                                 job_manager::handler<lease> h) {
+void job_coordinator::acquire_lease(std::string controller, std::string holder, std::chrono::seconds ttl,
+                                    job_manager::handler<lease> h) {
     net::post(strand_, [self = shared_from_this(), controller = std::move(controller),
                         holder = std::move(holder), ttl, h = std::move(h)]() mutable {
         if (!self->leases_)
@@ -14,7 +28,7 @@ void manager_core::acquire_lease(std::string controller, std::string holder, std
                                         make_error(kind::invalid_state, "leases are not enabled"));
         // Jobs submitted before the lease were not submitted under it: they must not move the stage
         // while it is exclusive, so the lease waits for them (submissions are checked on this strand).
-        if (auto busy = self->jobs_in_lane(controller); !busy.empty())
+        if (auto busy = self->scheduler_->jobs_in_lane(controller); !busy.empty())
             return self->deliver<lease>(
                 std::move(h),
                 make_error(kind::busy, fmt::format("{} has jobs that were submitted without this lease ({}): "
@@ -24,27 +38,11 @@ void manager_core::acquire_lease(std::string controller, std::string holder, std
     });
 }
 
-std::string manager_core::jobs_in_lane(const std::string& controller) const {
-    std::vector<std::string> parts;
-    // A job that has ended (jobs_ keeps only the others) may hold the controller a little longer, until
-    // its stop has been sent: it moves nothing more.
-    const auto holder = lanes_.holder(controller);
-    if (auto job = jobs_.find(holder); job != jobs_.end() && !is_terminal(job->second->record.state))
-        parts.push_back(fmt::format("{} {}", holder, to_string(job->second->record.state)));
-    for (const auto& id : lanes_.queue(controller))
-        if (auto job = jobs_.find(id); job != jobs_.end() && job->second->record.state == job_state::queued)
-            parts.push_back(id + " queued");
-    std::string out;
-    for (const auto& p : parts)
-        out += (out.empty() ? "" : ", ") + p;
-    return out;
-}
-
 // ---------------------------------------------------------------------------------------------
 // Control actions.
 
-operation_result<std::shared_ptr<live_job>> manager_core::find_live(const std::string& id) {
-    if (auto it = jobs_.find(id); it != jobs_.end()) return it->second;
+operation_result<std::shared_ptr<live_job>> job_coordinator::find_live(const std::string& id) {
+    if (auto job = states_->find(id)) return job;
     {
         // Ended, but the store does not have its end yet (it refused it): the record in memory counts.
         if (auto r = history_->remembered(id); r && is_terminal(r->state))
@@ -66,24 +64,25 @@ operation_result<std::shared_ptr<live_job>> manager_core::find_live(const std::s
     // Not terminal but unknown here: an interrupted job from an earlier run of the gateway.
     auto job = std::make_shared<live_job>();
     job->record = std::move(*found);
-    jobs_[id] = job;
+    states_->add(job);
     return job;
 }
 
-operation_result<void> manager_core::check_lease(const std::string& controller, const job_action& a) const {
+operation_result<void> job_coordinator::check_lease(const std::string& controller,
+                                                    const job_action& a) const {
     if (!leases_) return {};
     return leases_->check(controller,
                           a.lease_id ? std::optional<std::string_view>(*a.lease_id) : std::nullopt);
 }
 
-operation_result<std::shared_ptr<live_job>> manager_core::find_for_action(const job_action& a) {
+operation_result<std::shared_ptr<live_job>> job_coordinator::find_for_action(const job_action& a) {
     auto found = find_live(a.job_id);
     if (!found) return found;
     if (auto lease = check_lease((*found)->record.controller, a); !lease) return lease.error();
     return found;
 }
 
-void manager_core::cancel(job_action a, job_manager::handler<job_record> h) {
+void job_coordinator::cancel(job_action a, job_manager::handler<job_record> h) {
     net::co_spawn(
         strand_,
         [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable -> net::awaitable<void> {
@@ -98,9 +97,8 @@ void manager_core::cancel(job_action a, job_manager::handler<job_record> h) {
                     make_error(kind::invalid_state,
                                fmt::format("job {} has ended ({})", a.job_id, to_string(st)), "state"));
             if (st == job_state::queued || st == job_state::interrupted) {
-                self->lanes_.remove(controller, a.job_id);
-                job->queued_in_lane = false;
-                self->set_state(*job, job_state::cancelled, "cancelled");
+                self->scheduler_->unqueue(*job);
+                self->states_->set_state(*job, job_state::cancelled, "cancelled");
                 co_return self->deliver<job_record>(std::move(h), job->record);
             }
             // Running or paused: stop the motion first, then the job. The controller stays the job's
@@ -110,14 +108,14 @@ void manager_core::cancel(job_action a, job_manager::handler<job_record> h) {
             co_await self->recovery_->safe_stop(job);
             job->stopping = false;
             if (!is_terminal(job->record.state) && job->record.state != job_state::interrupted)
-                self->set_state(*job, job_state::cancelled, "cancelled");
-            if (!job->exec) self->release(controller, a.job_id);  // else run_finished releases it
+                self->states_->set_state(*job, job_state::cancelled, "cancelled");
+            if (!job->exec) self->scheduler_->release(controller, a.job_id);  // else run_finished releases it
             self->deliver<job_record>(std::move(h), job->record);
         },
         net::detached);
 }
 
-void manager_core::pause(job_action a, job_manager::handler<job_record> h) {
+void job_coordinator::pause(job_action a, job_manager::handler<job_record> h) {
     net::post(strand_, [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable {
         auto found = self->find_for_action(a);
         if (!found) return self->deliver<job_record>(std::move(h), found.error());
@@ -135,9 +133,9 @@ void manager_core::pause(job_action a, job_manager::handler<job_record> h) {
     });
 }
 
-void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
+void job_coordinator::resume(job_action a, job_manager::handler<job_record> h) {
     net::post(strand_, [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable {
-        if (self->shutting_down_ || self->abandoned_)
+        if (self->stopping())
             return self->deliver<job_record>(std::move(h),
                                              make_error(kind::not_connected, "the gateway is shutting down"));
         auto found = self->find_for_action(a);
@@ -154,7 +152,7 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
                                        a.job_id, stored.error().message)));
         job->storage_failure.clear();
         const auto st = job->record.state;
-        const bool holds_controller = self->lanes_.holder(controller) == a.job_id;
+        const bool holds_controller = self->scheduler_->holds_controller(*job);
         // A resume that goes ahead is someone's decision to move the stage again: it releases a HALT
         // latch there (a queued job's resume does only that: the queue moves on).
         // The resumer's lease (if any) is the one whose holder may operate the controller from now on.
@@ -162,9 +160,9 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
             self->registry_.release_halt_latch(controller);
             job->lease_id = a.lease_id;
         };
-        if (st == job_state::queued && job->queued_in_lane && self->halt_latched(controller)) {
+        if (st == job_state::queued && job->queued_in_lane && self->scheduler_->halt_latched(controller)) {
             go_on();
-            self->dispatch(controller);
+            self->scheduler_->dispatch(controller);
             return self->deliver<job_record>(std::move(h), job->record);
         }
         if (st == job_state::running && job->exec && job->exec->pause_requested()) {
@@ -174,9 +172,8 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
         if (st == job_state::queued && !job->queued_in_lane && !holds_controller) {
             // Kept from before a restart (restart_queued off): queue it now.
             go_on();
-            job->queued_in_lane = true;
-            self->lanes_.enqueue(controller, a.job_id);
-            self->dispatch(controller);
+            self->scheduler_->queue(*job);
+            self->scheduler_->dispatch(controller);
             return self->deliver<job_record>(std::move(h), job->record);
         }
         if (st != job_state::paused && st != job_state::interrupted)
@@ -186,32 +183,33 @@ void manager_core::resume(job_action a, job_manager::handler<job_record> h) {
                            fmt::format("job {} is {}: only a paused or interrupted job can be resumed",
                                        a.job_id, to_string(st)),
                            "state"));
-        if (!self->controller_connected(controller))
+        if (!self->scheduler_->controller_connected(controller))
             return self->deliver<job_record>(
                 std::move(h), make_error(kind::not_connected,
                                          fmt::format("{} is not connected; resume once it is", controller)));
         if (st == job_state::paused && job->exec && job->exec->waiting_paused()) {
             // Its run() waits at a checkpoint: it continues where it stopped.
             go_on();
-            self->set_state(*job, job_state::queued, "");
-            self->set_state(*job, job_state::running, "");
+            self->states_->set_state(*job, job_state::queued, "");
+            self->states_->set_state(*job, job_state::running, "");
             job->exec->resume();
             return self->deliver<job_record>(std::move(h), job->record);
         }
         // A job that kept the controller while paused (a disconnect, a HALT) goes first.
         go_on();
-        self->set_state(*job, job_state::queued, "",
-                        holds_controller ? std::nullopt : self->queue_wait(controller));
-        job->queued_in_lane = true;
-        if (holds_controller) self->lanes_.release(controller, a.job_id);
-        self->lanes_.enqueue(controller, a.job_id, holds_controller);
+        self->states_->set_state(*job, job_state::queued, "",
+                                 holds_controller ? std::nullopt : self->scheduler_->queue_wait(controller));
+        if (holds_controller)
+            self->scheduler_->requeue_holder(*job);
+        else
+            self->scheduler_->queue(*job);
         auto record = job->record;
-        self->dispatch(controller);
+        self->scheduler_->dispatch(controller);
         self->deliver<job_record>(std::move(h), std::move(record));
     });
 }
 
-void manager_core::next(job_action a, job_manager::handler<job_record> h) {
+void job_coordinator::next(job_action a, job_manager::handler<job_record> h) {
     net::post(strand_, [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable {
         auto found = self->find_for_action(a);
         if (!found) return self->deliver<job_record>(std::move(h), found.error());
@@ -224,7 +222,8 @@ void manager_core::next(job_action a, job_manager::handler<job_record> h) {
                                          "state"));
         job->exec->next();
         // The answer shows the wait over: the run takes this call as soon as it is back on the strand.
-        if (job->record.progress.waiting_for == job_wait::next) self->set_waiting(*job, std::nullopt);
+        if (job->record.progress.waiting_for == job_wait::next)
+            self->states_->set_waiting(*job, std::nullopt);
         self->deliver<job_record>(std::move(h), job->record);
     });
 }
