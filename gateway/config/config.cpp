@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gateway/common/json_keys.hpp"
+#include "gateway/common/json_value.hpp"
 #include "gateway/config/config_files_check.hpp"
 #include "gateway/config/secret_file_path.hpp"
 #include "gateway/config/tokens_file.hpp"
@@ -61,32 +62,32 @@ class object_reader {
 };
 
 std::uint64_t read_uint(const json& j, const std::string& path, std::uint64_t min, std::uint64_t max) {
-    const auto range = "must be an integer from " + std::to_string(min) + " to " + std::to_string(max);
-    if (j.is_number_unsigned()) {
-        const auto v = j.get<std::uint64_t>();
-        if (v < min || v > max) fail(path, range);
-        return v;
-    }
-    fail(path, range);  // negative, fractional, or not a number
+    auto v = read_unsigned(j, min, max);  // negative, fractional, not a number or outside: one message
+    if (!v) fail(path, "must be an integer from " + std::to_string(min) + " to " + std::to_string(max));
+    return *v.value;
 }
 
 double read_double(const json& j, const std::string& path, double min, double max) {
-    std::ostringstream range;
-    range << "must be a number from " << min << " to " << max;
-    if (!j.is_number()) fail(path, range.str());
-    const auto v = j.get<double>();
-    if (!(v >= min && v <= max)) fail(path, range.str());
-    return v;
+    auto v = read_number(j, min, max);
+    if (!v) {
+        std::ostringstream range;
+        range << "must be a number from " << min << " to " << max;
+        fail(path, range.str());
+    }
+    return *v.value;
 }
 
 std::string read_string(const json& j, const std::string& path, bool allow_empty = false) {
-    if (!j.is_string()) fail(path, "must be a string");
-    auto s = j.get<std::string>();
-    if (s.empty() && !allow_empty) fail(path, "must not be empty");
-    for (const unsigned char c : s) {
-        if (c < 0x20 || c == 0x7f) fail(path, "must not contain control characters");
+    auto v = read_text(j, {.allow_empty = allow_empty, .allow_control = false});
+    if (v) return std::move(*v.value);
+    switch (v.fault) {
+        case json_fault::empty:
+            fail(path, "must not be empty");
+        case json_fault::control_character:
+            fail(path, "must not contain control characters");
+        default:
+            fail(path, "must be a string");
     }
-    return s;
 }
 
 // An array of strings, each checked by `valid` (which says what is wrong, or nothing).

@@ -18,8 +18,9 @@ using json = nlohmann::json;
 operation_result<plate_geometry> parse_grid(const json& grid) {
     if (!grid.is_object())
         return spec_error("grid", "grid must be an object {columns, rows, column_step_mm, row_step_mm}");
-    if (const auto key = first_unknown_key(grid, {"columns", "rows", "column_step_mm", "row_step_mm"}))
-        return spec_error("grid." + *key, fmt::format("unknown field grid.{}", *key));
+    if (auto known = spec_known_fields(grid, "grid.", {"columns", "rows", "column_step_mm", "row_step_mm"});
+        !known)
+        return known.error();
     plate_geometry g;
     for (const char* key : {"columns", "rows", "column_step_mm", "row_step_mm"})
         if (!grid.contains(key))
@@ -73,9 +74,11 @@ std::vector<well_index> array_spec::visits() const {
 operation_result<array_spec> parse_array_spec(const json& spec) {
     if (!spec.is_object())
         return make_error(operation_error_kind::invalid_value, "spec must be an object", "spec");
-    if (const auto key = first_unknown_key(spec, {"plate", "grid", "a1", "rotation_deg", "order", "wells",
-                                                  "dwell_ms", "advance", "ttl_pulse", "resume_from", "mode"}))
-        return spec_error(*key, fmt::format("unknown field {}", *key));
+    if (auto known = spec_known_fields(spec, "",
+                                       {"plate", "grid", "a1", "rotation_deg", "order", "wells", "dwell_ms",
+                                        "advance", "ttl_pulse", "resume_from", "mode"});
+        !known)
+        return known.error();
 
     array_spec s;
     const bool has_plate = spec.contains("plate"), has_grid = spec.contains("grid");

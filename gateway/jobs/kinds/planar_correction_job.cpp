@@ -10,11 +10,13 @@
 #include <array>
 #include <cmath>
 #include <fmt/format.h>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "devices/ms2000/build_info.hpp"
+#include "gateway/common/json_value.hpp"
 #include "gateway/jobs/kinds/job_kinds.hpp"
 
 namespace gw::jobs {
@@ -103,9 +105,10 @@ operation_result<planar_spec> parse_spec(const json& spec) {
         for (const auto& [key, value] : p.items()) {
             if (key.size() != 1 || (key != "X" && key != "Y" && key != "Z"))
                 return invalid_field(field + "." + key, "a point has the axes X, Y and Z (micrometres)");
-            if (!value.is_number() || !std::isfinite(value.get<double>()))
-                return invalid_field(field + "." + key, "must be a number (micrometres)");
-            pos[key[0]] = value.get<double>();
+            constexpr double any = std::numeric_limits<double>::max();  // any finite number
+            const auto um = read_number(value, -any, any);
+            if (!um) return invalid_field(field + "." + key, "must be a number (micrometres)");
+            pos[key[0]] = *um.value;
         }
         for (const char axis : xyz)
             if (!pos.contains(axis))

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <fmt/format.h>
 
-#include "gateway/common/json_keys.hpp"
+#include "gateway/common/json_value.hpp"
 #include "gateway/controllers/operations.hpp"
 #include "gateway/jobs/kinds/spec_fields.hpp"
 
@@ -23,9 +23,10 @@ bool is_axis_key(const std::string& key) {
 operation_result<ring_buffer_spec> parse_ring_buffer_spec(const json& spec) {
     if (!spec.is_object())
         return make_error(operation_error_kind::invalid_value, "spec must be an object", "spec");
-    if (const auto key =
-            first_unknown_key(spec, {"positions", "axes", "trigger", "delay_ms", "repeat", "cycles", "mode"}))
-        return spec_error(*key, fmt::format("unknown field {}", *key));
+    if (auto known = spec_known_fields(
+            spec, "", {"positions", "axes", "trigger", "delay_ms", "repeat", "cycles", "mode"});
+        !known)
+        return known.error();
     ring_buffer_spec s;
 
     if (!spec.contains("positions")) return spec_error("positions", "positions is required");
@@ -43,14 +44,14 @@ operation_result<ring_buffer_spec> parse_ring_buffer_spec(const json& spec) {
                               fmt::format(R"({} must be an object of axis positions {{"X": um}})", field));
         position_um pos;
         for (const auto& [key, value] : p.items()) {
+            const auto key_field = fmt::format("{}.{}", field, key);
             if (!is_axis_key(key))
-                return spec_error(field + "." + key, fmt::format("{}: {} is not an axis letter", field, key));
-            if (!value.is_number() || !std::isfinite(value.get<double>()) ||
-                std::abs(value.get<double>()) > max_travel_um)
-                return spec_error(field + "." + key,
-                                  fmt::format("{}.{} must be a number of micrometres within +-{}", field, key,
-                                              max_travel_um));
-            pos[key[0]] = value.get<double>();
+                return spec_error(key_field, fmt::format("{}: {} is not an axis letter", field, key));
+            const auto um = read_number(value, -max_travel_um, max_travel_um);
+            if (!um)
+                return spec_error(key_field, fmt::format("{} must be a number of micrometres within +-{}",
+                                                         key_field, max_travel_um));
+            pos[key[0]] = *um.value;
             if (named.find(key[0]) == std::string::npos) named += key[0];
         }
         s.positions.push_back(std::move(pos));
@@ -96,25 +97,24 @@ operation_result<ring_buffer_spec> parse_ring_buffer_spec(const json& spec) {
             return spec_error("trigger", "trigger must be \"autoplay\", \"ttl\" or \"next\"");
     }
     if (spec.contains("delay_ms")) {
-        const auto& d = spec["delay_ms"];
-        if (!d.is_number() || !std::isfinite(d.get<double>()) || d.get<double>() < 0 ||
-            d.get<double>() > max_ring_buffer_delay_ms)
+        const auto d = read_number(spec["delay_ms"], 0, max_ring_buffer_delay_ms);
+        if (!d)
             return spec_error("delay_ms",
                               fmt::format("delay_ms must be between 0 and {}", max_ring_buffer_delay_ms));
         if (s.trigger != ring_buffer_spec::trigger_kind::autoplay)
             return spec_error("delay_ms", "delay_ms applies to trigger \"autoplay\" only");
-        s.delay_ms = d.get<double>();
+        s.delay_ms = *d.value;
     }
     if (spec.contains("repeat")) {
         if (!spec["repeat"].is_boolean()) return spec_error("repeat", "repeat must be true or false");
         s.repeat = spec["repeat"].get<bool>();
     }
     if (spec.contains("cycles")) {
-        const auto& c = spec["cycles"];
-        if (!c.is_number_integer() || c.get<long long>() < 0 || c.get<long long>() > max_ring_buffer_cycles)
+        const auto c = read_integer(spec["cycles"], 0, max_ring_buffer_cycles);
+        if (!c)
             return spec_error(
                 "cycles", fmt::format("cycles must be an integer between 0 and {}", max_ring_buffer_cycles));
-        s.cycles = static_cast<int>(c.get<long long>());
+        s.cycles = static_cast<int>(*c.value);
         if (!s.repeat && s.cycles != 1)
             return spec_error("cycles", "cycles other than 1 needs \"repeat\": true");
     } else if (s.repeat) {

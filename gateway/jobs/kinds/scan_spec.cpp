@@ -4,7 +4,6 @@
 #include <cmath>
 #include <fmt/format.h>
 
-#include "gateway/common/json_keys.hpp"
 #include "gateway/controllers/operations.hpp"
 #include "gateway/jobs/kinds/spec_fields.hpp"
 
@@ -19,13 +18,6 @@ operation_result<char> axis_letter(const json& v, const std::string& field) {
         !std::isalpha(static_cast<unsigned char>(v.get<std::string>()[0])))
         return spec_error(field, fmt::format("{} must be one axis letter (\"X\")", field));
     return static_cast<char>(std::toupper(static_cast<unsigned char>(v.get<std::string>()[0])));
-}
-
-operation_result<void> only_known(const json& object, const std::string& prefix,
-                                  std::initializer_list<std::string_view> known) {
-    if (const auto key = first_unknown_key(object, known))
-        return spec_error(prefix + *key, fmt::format("unknown field {}{}", prefix, *key));
-    return {};
 }
 
 }  // namespace
@@ -53,8 +45,8 @@ double scan_geometry::fast_end(int line) const {
 operation_result<scan_spec> parse_scan_spec(const json& spec) {
     if (!spec.is_object())
         return make_error(operation_error_kind::invalid_value, "spec must be an object", "spec");
-    if (auto k =
-            only_known(spec, "", {"fast_axis", "slow_axis", "fast", "slow", "pattern", "speed_mm_s", "mode"});
+    if (auto k = spec_known_fields(
+            spec, "", {"fast_axis", "slow_axis", "fast", "slow", "pattern", "speed_mm_s", "mode"});
         !k)
         return k.error();
     scan_spec s;
@@ -75,7 +67,7 @@ operation_result<scan_spec> parse_scan_spec(const json& spec) {
     const auto& fast = spec["fast"];
     if (!fast.is_object())
         return spec_error("fast", "fast must be an object {start_mm, stop_mm | pixels, encoder_divide}");
-    if (auto k = only_known(fast, "fast.", {"start_mm", "stop_mm", "pixels", "encoder_divide"}); !k)
+    if (auto k = spec_known_fields(fast, "fast.", {"start_mm", "stop_mm", "pixels", "encoder_divide"}); !k)
         return k.error();
     if (fast.contains("start_mm")) {
         auto v = spec_number(fast["start_mm"], "fast.start_mm", -max_scan_extent_mm, max_scan_extent_mm);
@@ -106,7 +98,7 @@ operation_result<scan_spec> parse_scan_spec(const json& spec) {
     if (!spec.contains("slow")) return spec_error("slow", "slow {start_mm, stop_mm, lines} is required");
     const auto& slow = spec["slow"];
     if (!slow.is_object()) return spec_error("slow", "slow must be an object {start_mm, stop_mm, lines}");
-    if (auto k = only_known(slow, "slow.", {"start_mm", "stop_mm", "lines"}); !k) return k.error();
+    if (auto k = spec_known_fields(slow, "slow.", {"start_mm", "stop_mm", "lines"}); !k) return k.error();
     if (slow.contains("start_mm")) {
         auto v = spec_number(slow["start_mm"], "slow.start_mm", -max_scan_extent_mm, max_scan_extent_mm);
         if (!v) return v.error();

@@ -1,7 +1,9 @@
 #include "gateway/jobs/kinds/spec_fields.hpp"
 
-#include <cmath>
 #include <fmt/format.h>
+
+#include "gateway/common/json_keys.hpp"
+#include "gateway/common/json_value.hpp"
 
 namespace gw::jobs {
 
@@ -9,32 +11,34 @@ operation_error spec_error(const std::string& field, std::string message) {
     return make_error(operation_error_kind::invalid_value, std::move(message), "spec." + field);
 }
 
-operation_result<double> spec_number(const nlohmann::json& v, const std::string& field, double lo,
-                                     double hi) {
-    if (!v.is_number()) return spec_error(field, fmt::format("{} must be a number", field));
-    const double d = v.get<double>();
-    if (!std::isfinite(d) || d < lo || d > hi)
-        return spec_error(field, fmt::format("{} must be between {} and {}", field, lo, hi));
-    return d;
+operation_result<void> spec_known_fields(const nlohmann::json& object, const std::string& prefix,
+                                         std::initializer_list<std::string_view> known) {
+    if (const auto key = first_unknown_key(object, known))
+        return spec_error(prefix + *key, fmt::format("unknown field {}{}", prefix, *key));
+    return {};
 }
 
-operation_result<int> spec_integer(const nlohmann::json& v, const std::string& field, long long lo,
-                                   long long hi) {
-    // As JSON Schema counts integers: 20.0 is one (some clients write every number as a float).
-    const bool whole_float = v.is_number_float() && std::isfinite(v.get<double>()) &&
-                             std::trunc(v.get<double>()) == v.get<double>() &&
-                             std::fabs(v.get<double>()) < 9e15;
-    if (!v.is_number_integer() && !whole_float)
+operation_result<double> spec_number(const nlohmann::json& v, const std::string& field, double lo,
+                                     double hi) {
+    auto d = read_number(v, lo, hi);
+    if (d) return *d.value;
+    if (d.fault == json_fault::wrong_type)
+        return spec_error(field, fmt::format("{} must be a number", field));
+    return spec_error(field, fmt::format("{} must be between {} and {}", field, lo, hi));
+}
+
+operation_result<int> spec_integer(const nlohmann::json& v, const std::string& field, int lo, int hi) {
+    auto i = read_integer(v, lo, hi);
+    if (i) return static_cast<int>(*i.value);
+    if (i.fault == json_fault::wrong_type)
         return spec_error(field, fmt::format("{} must be an integer", field));
-    const auto i = whole_float ? static_cast<long long>(v.get<double>()) : v.get<long long>();
-    if (i < lo || i > hi)
-        return spec_error(field, fmt::format("{} must be between {} and {}", field, lo, hi));
-    return static_cast<int>(i);
+    return spec_error(field, fmt::format("{} must be between {} and {}", field, lo, hi));
 }
 
 operation_result<std::string> spec_text(const nlohmann::json& v, const std::string& field) {
-    if (!v.is_string()) return spec_error(field, fmt::format("{} must be a string", field));
-    return v.get<std::string>();
+    auto t = read_text(v);
+    if (!t) return spec_error(field, fmt::format("{} must be a string", field));
+    return std::move(*t.value);
 }
 
 }  // namespace gw::jobs
