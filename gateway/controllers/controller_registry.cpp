@@ -493,10 +493,28 @@ void controller_registry::run_raw(std::string id, raw_command_request r, std::st
     if (!t) return deliver<raw_command_result>(std::move(h), t.error(), id, request_id);
     auto cmd = plan(r, t->snapshot);
     if (!cmd) return deliver<raw_command_result>(std::move(h), cmd.error(), id, request_id);
+    send_answered(t->controller, std::move(*cmd), r.halts_seen, std::move(id), std::move(request_id),
+                  std::move(h));
+}
+
+void controller_registry::run_command(std::string id, command_request r, std::string request_id,
+                                      handler<raw_command_result> h) {
+    auto t = find(id);
+    if (!t) return deliver<raw_command_result>(std::move(h), t.error(), id, request_id);
+    auto cmd = plan(r, t->snapshot);
+    if (!cmd) return deliver<raw_command_result>(std::move(h), cmd.error(), id, request_id);
+    send_answered(t->controller, std::move(*cmd), r.halts_seen, std::move(id), std::move(request_id),
+                  std::move(h));
+}
+
+void controller_registry::send_answered(const std::shared_ptr<devices::controller>& controller,
+                                        ms2000::command cmd, std::optional<std::uint64_t> halts_seen,
+                                        std::string id, std::string request_id,
+                                        handler<raw_command_result> h) {
     const auto started = steady_clock::now();
     auto answered = [this, h = std::move(h), id, request_id, started](boost::system::error_code ec,
                                                                       ms2000::reply reply) mutable {
-        // ":N-<code>" is an answer: the expert sees it in the parsed reply.
+        // ":N-<code>" is an answer: the caller sees it in the parsed reply.
         if (ec && ec != devices::ms2000::error::controller_rejected)
             return deliver_completion<raw_command_result>(
                 std::move(h), from_driver_error(ec, reply.error_code, id), id, request_id);
@@ -506,10 +524,10 @@ void controller_registry::run_raw(std::string id, raw_command_request r, std::st
         result.latency = since(started);
         deliver_completion<raw_command_result>(std::move(h), std::move(result), id, request_id);
     };
-    if (r.halts_seen)
-        t->controller->async_guarded_command(std::move(*cmd), request_id, *r.halts_seen, std::move(answered));
+    if (halts_seen)
+        controller->async_guarded_command(std::move(cmd), request_id, *halts_seen, std::move(answered));
     else
-        t->controller->async_command(std::move(*cmd), request_id, std::move(answered));
+        controller->async_command(std::move(cmd), request_id, std::move(answered));
 }
 
 }  // namespace gw

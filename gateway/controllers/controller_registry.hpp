@@ -185,6 +185,13 @@ class controller_registry {
                                             std::move(request_id), std::forward<Token>(token));
     }
 
+    // A command built by the gateway (a job's step), answered as async_raw_command answers.
+    template <typename Token>
+    auto async_command(std::string id, command_request r, std::string request_id, Token&& token) {
+        return initiate<raw_command_result>(&controller_registry::run_command, std::move(id), std::move(r),
+                                            std::move(request_id), std::forward<Token>(token));
+    }
+
   private:
     class store;
     struct move_op;
@@ -208,6 +215,12 @@ class controller_registry {
     void republish(const std::string& id);
     void run_raw(std::string id, raw_command_request r, std::string request_id,
                  handler<raw_command_result> h);
+    void run_command(std::string id, command_request r, std::string request_id,
+                     handler<raw_command_result> h);
+    // Sends a planned command and answers with the reply as it came (":N-<code>" included).
+    void send_answered(const std::shared_ptr<devices::controller>& controller, devices::ms2000::command cmd,
+                       std::optional<std::uint64_t> halts_seen, std::string id, std::string request_id,
+                       handler<raw_command_result> h);
     // focus_runs.cpp
     template <typename T, typename Request, typename Run>
     void run_steps(std::string id, const Request& r, std::string request_id, handler<T> h, Run run);

@@ -290,6 +290,11 @@ operation_result<ms2000::command> plan(const autofocus_request& r, const control
     return ms2000::autofocus_start();
 }
 
+operation_result<ms2000::command> plan(const command_request& r, const controller_snapshot& s) {
+    if (auto e = check_connected(s)) return *e;
+    return r.command;
+}
+
 operation_result<ms2000::command> plan(const raw_command_request& r, const controller_snapshot& s) {
     if (auto e = check_connected(s)) return *e;
     if (r.command.empty()) return invalid_field("command", "must not be empty");

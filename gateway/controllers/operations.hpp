@@ -121,6 +121,12 @@ struct raw_command_request {  // one line typed by an expert: "W X Y"
     bool force = false;
 };
 
+// A command the gateway built itself (a job's step): sent as it is, answered like a raw command.
+struct command_request {
+    devices::ms2000::command command;
+    std::optional<std::uint64_t> halts_seen{};  // as move_request::halts_seen
+};
+
 // What every operation without a richer answer returns.
 struct operation_done {
     std::chrono::microseconds latency{0};
@@ -147,6 +153,8 @@ operation_result<devices::ms2000::command> plan(const speed_request& r,
 operation_result<devices::ms2000::command> plan(const ttl_request& r, const devices::controller_snapshot& s);
 operation_result<devices::ms2000::command> plan(const dac_request& r, const devices::controller_snapshot& s);
 operation_result<devices::ms2000::command> plan(const led_request& r, const devices::controller_snapshot& s);
+operation_result<devices::ms2000::command> plan(const command_request& r,
+                                                const devices::controller_snapshot& s);
 operation_result<devices::ms2000::command> plan(const raw_command_request& r,
                                                 const devices::controller_snapshot& s);
 // The writes of a CRISP request (possibly none: a read-out) and the read-out that follows them.

@@ -2,20 +2,45 @@
 
 #include <cctype>
 #include <charconv>
+#include <stdexcept>
 
 namespace gw::jobs {
 
 namespace ms = devices::ms2000;
 
-namespace {
-
-std::string wire_text(const ms::command& c) {
+std::string text_of(const ms::command& c) {
     std::string s = c.wire;
     if (!s.empty() && s.back() == '\r') s.pop_back();
     return s;
 }
 
-}  // namespace
+ms::argument bare_arg(char letter) {
+    return {letter, ms::argument::op::bare};
+}
+
+ms::command typed_command(std::string_view verb, std::span<const ms::argument> args) {
+    auto c = ms::make_command(verb, args);
+    if (!c)
+        throw std::invalid_argument("cannot build a \"" + std::string(verb) +
+                                    "\" command: " + c.error().message());
+    return std::move(*c);
+}
+
+ms::command typed_command(std::string_view verb, std::initializer_list<ms::argument> args) {
+    return typed_command(verb, std::span<const ms::argument>(args.begin(), args.size()));
+}
+
+ms::command typed_command(std::string_view verb) {
+    return typed_command(verb, std::span<const ms::argument>{});
+}
+
+ms::command ttl_output(bool high) {
+    return typed_command("TTL", {set_arg('Y', high ? 1 : 0, 0)});
+}
+
+ms::command ttl_in0(int mode) {
+    return typed_command("TTL", {set_arg('X', mode, 0)});
+}
 
 ms::argument set_arg(char letter, double value, int decimals) {
     return {letter, ms::argument::op::set, value, decimals};
@@ -23,7 +48,7 @@ ms::argument set_arg(char letter, double value, int decimals) {
 
 std::string command_text(std::string_view verb, std::span<const ms::argument> args) {
     auto c = ms::make_command(verb, args);
-    return c ? wire_text(*c) : std::string(verb);
+    return c ? text_of(*c) : std::string(verb);
 }
 
 std::string command_text(std::string_view verb, std::initializer_list<ms::argument> args) {
@@ -36,11 +61,11 @@ std::string ttl_in0_command(int mode) {
 
 std::string move_text(std::span<const ms::axis_position> to) {
     auto c = ms::move(to);
-    return c ? wire_text(*c) : "M";
+    return c ? text_of(*c) : "M";
 }
 
 std::string query_text(std::string_view verb, std::string_view letters) {
-    return wire_text(ms::query(verb, letters));
+    return text_of(ms::query(verb, letters));
 }
 
 std::map<char, double> values_set(std::string_view line, std::string_view verb) {

@@ -17,6 +17,25 @@ namespace gw::jobs {
 // "X=<value>" with `decimals` digits at most (trailing zeros dropped by the command builder).
 devices::ms2000::argument set_arg(char letter, double value, int decimals = 4);
 
+// "X": an argument with the letter alone ("SCAN P", "W X Y").
+devices::ms2000::argument bare_arg(char letter);
+
+// The command a run sends: `verb` with `args` (ms2000::make_command). Throws std::invalid_argument when
+// the builder refuses them: a run builds only what its spec, checked at submission, allows.
+devices::ms2000::command typed_command(std::string_view verb,
+                                       std::span<const devices::ms2000::argument> args);
+devices::ms2000::command typed_command(std::string_view verb,
+                                       std::initializer_list<devices::ms2000::argument> args);
+// The verb alone ("SCAN", "RM"). Coroutines call this one or a helper of their own: g++ 12 mishandles
+// a braced argument list that lives across a co_await.
+devices::ms2000::command typed_command(std::string_view verb);
+// "TTL X=<mode>" as a command to send.
+devices::ms2000::command ttl_in0(int mode);
+// "TTL Y=1" / "TTL Y=0": the TTL output high or low.
+devices::ms2000::command ttl_output(bool high);
+// The line a command sends, without its CR: what previews, restore lists and messages show.
+std::string text_of(const devices::ms2000::command& c);
+
 // The command line without its CR ("SPEED X=0.528"); the bare verb when the arguments are refused.
 std::string command_text(std::string_view verb, std::span<const devices::ms2000::argument> args);
 std::string command_text(std::string_view verb, std::initializer_list<devices::ms2000::argument> args);

@@ -101,8 +101,9 @@ class job_context {
     virtual boost::asio::awaitable<std::map<char, double>> settings_before(std::string verb,
                                                                            std::string letters) = 0;
 
-    // Serial work, tagged with the job's request id. command() throws job_failure on ":N-<code>".
-    virtual boost::asio::awaitable<devices::ms2000::reply> command(std::string line) = 0;
+    // Serial work, tagged with the job's request id. command() sends a typed command as it is (no text
+    // parsed back: job_commands builds them) and throws job_failure on ":N-<code>".
+    virtual boost::asio::awaitable<devices::ms2000::reply> command(devices::ms2000::command c) = 0;
     virtual boost::asio::awaitable<move_result> move(move_request request) = 0;
     // Polls STATUS until the stage reports not busy ("N"); job_failure(timeout) after `timeout`.
     virtual boost::asio::awaitable<void> wait_idle(std::chrono::milliseconds timeout) = 0;

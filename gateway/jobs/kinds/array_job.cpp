@@ -40,21 +40,22 @@ std::string move_text(double x_um, double y_um) {
     return jobs::move_text(to);
 }
 
-std::string ttl_in0(int mode) {
-    return command_text("TTL", {set_arg('X', mode, 0)});
+ms::command array_setup(const plate_geometry& g) {
+    return typed_command("ARRAY", {set_arg('X', g.columns, 0), set_arg('Y', g.rows, 0),
+                                   set_arg('Z', g.column_step_mm), set_arg('F', g.row_step_mm)});
 }
 
-std::string array_setup(const plate_geometry& g) {
-    return command_text("ARRAY", {set_arg('X', g.columns, 0), set_arg('Y', g.rows, 0),
-                                  set_arg('Z', g.column_step_mm), set_arg('F', g.row_step_mm)});
+ms::command ahome(double x_um, double y_um) {
+    return typed_command("AHOME", {set_arg('X', x_um / 1000.0), set_arg('Y', y_um / 1000.0)});
 }
 
-std::string ahome(double x_um, double y_um) {
-    return command_text("AHOME", {set_arg('X', x_um / 1000.0), set_arg('Y', y_um / 1000.0)});
+ms::command aij(well_index w) {
+    return typed_command("AIJ", {set_arg('X', w.column + 1, 0), set_arg('Y', w.row + 1, 0)});
 }
 
-std::string aij(well_index w) {
-    return command_text("AIJ", {set_arg('X', w.column + 1, 0), set_arg('Y', w.row + 1, 0)});
+// "RM X=0": the ARRAY goes to its first well.
+ms::command first_well() {
+    return typed_command("RM", {set_arg('X', 0, 0)});
 }
 
 std::string_view to_text(advance_source a) {
@@ -188,12 +189,12 @@ operation_result<job_plan> plan_array(const nlohmann::json& json_spec, const pla
 
     // Setup.
     if (path->firmware) {
-        add_preview_command(plan, ttl_in0(7));
-        add_preview_command(plan, array_setup(spec.geometry));
-        add_preview_command(plan, ahome(a1.first, a1.second));
+        add_preview_command(plan, text_of(ttl_in0(7)));
+        add_preview_command(plan, text_of(array_setup(spec.geometry)));
+        add_preview_command(plan, text_of(ahome(a1.first, a1.second)));
         plan.warnings.push_back("firmware path: RM X=0 also clears the controller's ring buffer");
     } else if (spec.advance == advance_source::ttl) {
-        add_preview_command(plan, ttl_in0(1));  // any non-zero mode enables the TTL_REPORT interrupt
+        add_preview_command(plan, text_of(ttl_in0(1)));  // any non-zero mode enables the TTL_REPORT interrupt
     }
 
     std::pair<double, double> from = here.value_or(a1);
@@ -217,8 +218,7 @@ operation_result<job_plan> plan_array(const nlohmann::json& json_spec, const pla
 
         if (path->firmware) {
             if (i == first)
-                add_preview_command(plan,
-                                    first == 0 ? command_text("RM", {set_arg('X', 0, 0)}) : aij(visits[i]));
+                add_preview_command(plan, text_of(first == 0 ? first_well() : aij(visits[i])));
             else if (spec.advance != advance_source::ttl || forwards_ttl_edges(snap))
                 add_preview_command(plan, "RM");
         } else {
@@ -231,7 +231,7 @@ operation_result<job_plan> plan_array(const nlohmann::json& json_spec, const pla
         plan.steps.push_back(std::move(step));
     }
     if (path->firmware || spec.advance == advance_source::ttl)
-        add_preview_command(plan, ttl_in0(restore_in0));
+        add_preview_command(plan, text_of(ttl_in0(restore_in0)));
 
     const std::size_t to_visit = visits.size() - first;
     std::string geometry =
@@ -275,7 +275,7 @@ nlohmann::json to_json(const position_um& p) {
 // Waits until the stage stopped and reads X/Y.
 boost::asio::awaitable<position_um> arrival(job_context& ctx, std::chrono::milliseconds timeout) {
     co_await ctx.wait_idle(timeout);
-    const auto r = co_await ctx.command("W X Y");
+    const auto r = co_await ctx.command(ms::where("XY"));
     co_return measured_xy(r);
 }
 
@@ -285,7 +285,7 @@ boost::asio::awaitable<position_um> controller_arrival(job_context& ctx, std::pa
                                                        double tolerance_um,
                                                        std::chrono::milliseconds timeout) {
     for (;;) {
-        const auto r = co_await ctx.command("W X Y");
+        const auto r = co_await ctx.command(ms::where("XY"));
         const auto p = measured_xy(r);
         if (p.contains('X') && p.contains('Y') && std::abs(p.at('X') - target.first) <= tolerance_um &&
             std::abs(p.at('Y') - target.second) <= tolerance_um) {
@@ -338,7 +338,7 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
     if (spec.a1_um) {
         a1 = *spec.a1_um;
     } else if (ctx.first_step() == 0 && !spec.resume_from) {
-        const auto r = co_await ctx.command("W X Y");
+        const auto r = co_await ctx.command(ms::where("XY"));
         const auto p = measured_xy(r);
         if (!p.contains('X') || !p.contains('Y'))
             throw job_failure(
@@ -378,17 +378,17 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
     int restore_in0 = 0;
     if (changes_in0) {
         restore_in0 = co_await in0_mode_before(ctx);
-        ctx.restore_if_stopped(ttl_in0(restore_in0));
+        ctx.restore_if_stopped(text_of(ttl_in0(restore_in0)));
     }
     if (firmware) {
         // Named lines, never temporaries in a co_await expression (g++ 12 coroutine temporaries).
-        const std::vector<std::string> setup{ttl_in0(7), array_setup(spec.geometry),
+        const std::vector<ms::command> setup{ttl_in0(7), array_setup(spec.geometry),
                                              ahome(a1.first, a1.second)};
-        for (const auto& line : setup)
-            co_await ctx.command(line);
+        for (const auto& c : setup)
+            co_await ctx.command(c);
     } else if (spec.advance == advance_source::ttl) {
-        const std::string line = ttl_in0(1);
-        co_await ctx.command(line);
+        auto in0 = ttl_in0(1);
+        co_await ctx.command(std::move(in0));
     }
 
     for (std::size_t i = first; i < visits.size(); ++i) {
@@ -408,8 +408,8 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
             for (const auto& a : r.positions)
                 measured[a.axis] = a.micrometres;
         } else if (i == first) {
-            const std::string start = i == 0 ? std::string("RM X=0") : aij(visits[i]);
-            co_await ctx.command(start);
+            auto start = i == 0 ? first_well() : aij(visits[i]);
+            co_await ctx.command(std::move(start));
             measured = co_await arrival(ctx, timeout);
         } else if (controller_steps) {
             // The controller moves on the edge by itself: until the stage arrives, the job waits for it.
@@ -417,12 +417,12 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
             measured = co_await controller_arrival(ctx, targets[i], tolerance_um, timeout);
             ctx.set_waiting(std::nullopt);
         } else {
-            co_await ctx.command("RM");
+            co_await ctx.command(typed_command("RM"));
             measured = co_await arrival(ctx, timeout);
         }
         if (spec.ttl_pulse) {
-            co_await ctx.command("TTL Y=1");
-            co_await ctx.command("TTL Y=0");
+            co_await ctx.command(ttl_output(true));
+            co_await ctx.command(ttl_output(false));
         }
         if (dwell.count() > 0) co_await ctx.dwell(dwell);
         ctx.step_done(i,
@@ -431,8 +431,8 @@ boost::asio::awaitable<void> run_array(job_context& ctx) {
                        {"target", to_json(position_um{{'X', targets[i].first}, {'Y', targets[i].second}})}});
     }
     if (changes_in0) {
-        const std::string restore = ttl_in0(restore_in0);
-        co_await ctx.command(restore);
+        auto restore = ttl_in0(restore_in0);
+        co_await ctx.command(std::move(restore));
     }
 }
 

@@ -288,7 +288,7 @@ operation_result<job_plan> plan_gcode(const nlohmann::json& json, const plan_con
     job_plan plan;
     plan.type = job_type::gcode;
     plan.path = "host";
-    add_preview_command(plan, ttl_command_text(false));
+    add_preview_command(plan, text_of(ttl_output(false)));
     step_builder steps;
     bool used[3] = {false, false, false};
     std::optional<operation_error> refusal;
@@ -354,15 +354,15 @@ operation_result<job_plan> plan_gcode(const nlohmann::json& json, const plan_con
                         break;
                     }
                     auto c = commander.segment(gc::segment_end(*m, i), move_feed(*m, o), move_plane(*m));
-                    if (!c.speed.empty()) add_preview_command(plan, std::move(c.speed));
-                    if (!c.move.empty()) add_preview_command(plan, std::move(c.move));
+                    if (c.speed) add_preview_command(plan, text_of(*c.speed));
+                    if (c.move) add_preview_command(plan, text_of(*c.move));
                 }
                 break;
             case gc::move_kind::ttl:
-                add_preview_command(plan, ttl_command_text(m->ttl_on));
+                add_preview_command(plan, text_of(ttl_output(m->ttl_on)));
                 break;
             case gc::move_kind::analog:
-                add_preview_command(plan, analog_command_text(m->analog_v));
+                add_preview_command(plan, text_of(analog_command(m->analog_v)));
                 break;
             case gc::move_kind::dwell:
                 break;
@@ -440,9 +440,9 @@ milliseconds wait_timeout_for(double estimated_s) {
 
 // Sends the commands of one segment and waits until the stage has stopped.
 boost::asio::awaitable<void> run_segment(job_context& ctx, segment_commands c, double estimated_s) {
-    if (!c.speed.empty()) co_await ctx.command(std::move(c.speed));
-    if (c.move.empty()) co_return;
-    co_await ctx.command(std::move(c.move));
+    if (c.speed) co_await ctx.command(std::move(*c.speed));
+    if (!c.move) co_return;
+    co_await ctx.command(std::move(*c.move));
     co_await ctx.wait_idle(wait_timeout_for(estimated_s));
 }
 
@@ -471,8 +471,8 @@ boost::asio::awaitable<void> run_gcode(job_context& ctx) {
         axes += axis;
     }
     const auto original = co_await ctx.settings_before("SPEED", axes);
-    ctx.restore_if_stopped(speed_command_text(original));
-    ctx.restore_if_stopped(ttl_command_text(false));
+    ctx.restore_if_stopped(text_of(speed_command(original)));
+    ctx.restore_if_stopped(text_of(ttl_output(false)));
     trace_commander commander(ranges, original);
     const auto reposition_from_snapshot = [&] {
         const auto now = ctx.snapshot();
@@ -497,7 +497,7 @@ boost::asio::awaitable<void> run_gcode(job_context& ctx) {
     const int done_through = first > 0 && first <= last_line.size() ? last_line[first - 1] : 0;
 
     {
-        auto low = ttl_command_text(false);
+        auto low = ttl_output(false);
         co_await ctx.command(std::move(low));
     }
     bool used[3] = {false, false, false};
@@ -534,7 +534,7 @@ boost::asio::awaitable<void> run_gcode(job_context& ctx) {
             if (ctx.pause_requested()) {
                 // Nothing stays lit while the job waits; the stage may also be moved meanwhile.
                 if (ttl_out) {
-                    auto low = ttl_command_text(false);
+                    auto low = ttl_output(false);
                     co_await ctx.command(std::move(low));
                     ttl_out = false;
                 }
@@ -561,7 +561,7 @@ boost::asio::awaitable<void> run_gcode(job_context& ctx) {
                     std::max(away_mm, at ? std::abs(*at - coordinate(m.start, i)) : max_travel_um / 1000.0);
             }
             if (ttl_out) {
-                auto low = ttl_command_text(false);
+                auto low = ttl_output(false);
                 co_await ctx.command(std::move(low));
                 ttl_out = false;
             }
@@ -578,12 +578,12 @@ boost::asio::awaitable<void> run_gcode(job_context& ctx) {
             positioned = true;
         }
         if (analog_v && !analog_sent) {
-            auto dac = analog_command_text(*analog_v);
+            auto dac = analog_command(*analog_v);
             co_await ctx.command(std::move(dac));
             analog_sent = true;
         }
         if (ttl_on != ttl_out && m.kind != gc::move_kind::ttl) {
-            auto ttl = ttl_command_text(ttl_on);
+            auto ttl = ttl_output(ttl_on);
             co_await ctx.command(std::move(ttl));
             ttl_out = ttl_on;
         }
@@ -612,14 +612,14 @@ boost::asio::awaitable<void> run_gcode(job_context& ctx) {
             case gc::move_kind::ttl:
                 ttl_on = m.ttl_on;
                 if (ttl_out != ttl_on) {
-                    auto ttl = ttl_command_text(ttl_on);
+                    auto ttl = ttl_output(ttl_on);
                     co_await ctx.command(std::move(ttl));
                     ttl_out = ttl_on;
                 }
                 break;
             case gc::move_kind::analog: {
                 analog_v = m.analog_v;
-                auto dac = analog_command_text(m.analog_v);
+                auto dac = analog_command(m.analog_v);
                 co_await ctx.command(std::move(dac));
                 analog_sent = true;
                 break;
@@ -629,10 +629,10 @@ boost::asio::awaitable<void> run_gcode(job_context& ctx) {
     if (planner.error()) throw job_failure(program_error(spec, *planner.error()));
     if (current) ctx.step_done(*current, step_detail(current_line, current_end, z_axis));
     if (ttl_out) {
-        auto low = ttl_command_text(false);
+        auto low = ttl_output(false);
         co_await ctx.command(std::move(low));
     }
-    auto restore = speed_command_text(original);
+    auto restore = speed_command(original);
     co_await ctx.command(std::move(restore));
 }
 

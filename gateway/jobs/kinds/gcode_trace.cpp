@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <span>
+#include <stdexcept>
 #include <vector>
 
 #include "devices/ms2000/command.hpp"
@@ -114,7 +115,7 @@ segment_commands trace_commander::segment(const gcode::vec3& to, double feed_mm_
         if (auto it = speeds_.find(axis); it == speeds_.end() || std::abs(it->second - v) > 5e-7)
             changed[axis] = v;
     if (!changed.empty()) {
-        out.speed = speed_command_text(changed);
+        out.speed = speed_command(changed);
         for (const auto& [axis, v] : changed)
             speeds_[axis] = v;
     }
@@ -122,26 +123,25 @@ segment_commands trace_commander::segment(const gcode::vec3& to, double feed_mm_
     targets.reserve(out.target_mm.size());
     for (const auto& [axis, mm] : out.target_mm)
         targets.push_back({axis, mm * 1000.0});
-    out.move = move_text(targets);
+    auto move = ms::move(targets);
+    if (!move)
+        throw std::invalid_argument("cannot build the move of a G-code segment: " + move.error().message());
+    out.move = std::move(*move);
     for (const auto& [axis, mm] : out.target_mm)
         position_[axis] = mm;
     return out;
 }
 
-std::string speed_command_text(const std::map<char, double>& mm_s) {
+ms::command speed_command(const std::map<char, double>& mm_s) {
     std::vector<ms::argument> args;
     args.reserve(mm_s.size());
     for (const auto& [axis, v] : mm_s)
         args.push_back(set_arg(axis, v, speed_decimals));
-    return command_text("SPEED", args);
+    return typed_command("SPEED", args);
 }
 
-std::string ttl_command_text(bool on) {
-    return on ? "TTL Y=1" : "TTL Y=0";
-}
-
-std::string analog_command_text(double volts) {
-    return command_text("WRDAC", {set_arg('X', volts, 3)});
+ms::command analog_command(double volts) {
+    return typed_command("WRDAC", {set_arg('X', volts, 3)});
 }
 
 }  // namespace gw::jobs

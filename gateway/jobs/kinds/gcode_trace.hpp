@@ -48,8 +48,9 @@ segment_speeds coordinated_speeds(const std::map<char, double>& delta_mm, double
 
 // The commands of one segment.
 struct segment_commands {
-    std::string speed;  // "SPEED X=1.2 Y=0.5", or empty when every moving axis already has its speed
-    std::string move;   // "M X=10000 Y=5000", or empty when nothing moves
+    // "SPEED X=1.2 Y=0.5", or none when every moving axis already has its speed.
+    std::optional<devices::ms2000::command> speed;
+    std::optional<devices::ms2000::command> move;  // "M X=10000 Y=5000", or none when nothing moves
     std::map<char, double> target_mm;
     segment_speeds speeds;
 };
@@ -82,9 +83,8 @@ class trace_commander {
     std::map<char, bool> driven_;
 };
 
-// "SPEED X=5.5 Y=5.5" for the given speeds; "TTL Y=1" / "TTL Y=0"; "WRDAC X=2.5".
-std::string speed_command_text(const std::map<char, double>& mm_s);
-std::string ttl_command_text(bool on);
-std::string analog_command_text(double volts);
+// "SPEED X=5.5 Y=5.5" for the given speeds; "WRDAC X=2.5" (the TTL output: job_commands' ttl_output).
+devices::ms2000::command speed_command(const std::map<char, double>& mm_s);
+devices::ms2000::command analog_command(double volts);
 
 }  // namespace gw::jobs

@@ -1,8 +1,12 @@
 #include "gateway/jobs/kinds/job_kinds.hpp"
 
+#include <stdexcept>
+
 namespace gw::jobs {
 
-operation_result<job_plan> plan_job(job_type type, const nlohmann::json& spec, const plan_context& ctx) {
+namespace {
+
+operation_result<job_plan> plan_of_type(job_type type, const nlohmann::json& spec, const plan_context& ctx) {
     operation_result<job_plan> plan = make_error(operation_error_kind::internal, "unknown job type");
     switch (type) {
         case job_type::array:
@@ -20,6 +24,19 @@ operation_result<job_plan> plan_job(job_type type, const nlohmann::json& spec, c
         case job_type::gcode:
             plan = plan_gcode(spec, ctx);
             break;
+    }
+    return plan;
+}
+
+}  // namespace
+
+operation_result<job_plan> plan_job(job_type type, const nlohmann::json& spec, const plan_context& ctx) {
+    operation_result<job_plan> plan = make_error(operation_error_kind::internal, "unknown job type");
+    try {
+        plan = plan_of_type(type, spec, ctx);
+    } catch (const std::invalid_argument& e) {
+        // A command the builder refuses (typed_command): a value the spec checks let through.
+        return make_error(operation_error_kind::invalid_value, e.what(), "spec");
     }
     if (!plan) return plan;
     plan->type = type;

@@ -131,18 +131,29 @@ std::optional<std::array<double, 3>> plane_through(const std::array<position_um,
     return std::array<double, 3>{a, b, p[0].at('Z') - a * p[0].at('X') - b * p[0].at('Y')};
 }
 
-const char* command_of(action a) {
+// "CCB Z=<code>": 1..3 store the current position as a point, 4 enables the correction, 5 disables
+// it, 7 clears it.
+namespace ccb {
+constexpr int enable = 4;
+constexpr int disable = 5;
+constexpr int clear = 7;
+}  // namespace ccb
+
+devices::ms2000::command ccb_command(int code) {
+    return typed_command("CCB", {set_arg('Z', code, 0)});
+}
+
+devices::ms2000::command command_of(action a) {
     switch (a) {
         case action::enable:
-            return "CCB Z=4";
+            return ccb_command(ccb::enable);
         case action::disable:
-            return "CCB Z=5";
+            return ccb_command(ccb::disable);
         case action::clear:
-            return "CCB Z=7";
         case action::set:
             break;
     }
-    return "";
+    return ccb_command(ccb::clear);
 }
 
 const char* name_of(action a) {
@@ -186,7 +197,7 @@ operation_result<job_plan> plan_planar_correction(const json& spec, const plan_c
     plan.path = "firmware";
     if (parsed->what != action::set) {
         plan.steps.push_back({name_of(parsed->what), std::nullopt, 0, false});
-        add_preview_command(plan, command_of(parsed->what));
+        add_preview_command(plan, text_of(command_of(parsed->what)));
         plan.summary = fmt::format("planar correction: {}", name_of(parsed->what));
         return plan;
     }
@@ -203,7 +214,7 @@ operation_result<job_plan> plan_planar_correction(const json& spec, const plan_c
             if (const auto* a = s.axis(axis); a && a->position_um) now[axis] = *a->position_um;
         if (now.size() == 3) at = now;
     }
-    add_preview_command(plan, "CCB Z=7");
+    add_preview_command(plan, text_of(ccb_command(ccb::clear)));
     std::size_t given = 0;
     for (std::size_t i = 0; i < 3; ++i) {
         const auto& p = parsed->points[i];
@@ -228,7 +239,7 @@ operation_result<job_plan> plan_planar_correction(const json& spec, const plan_c
             at.reset();
             add_preview_command(plan, "W X Y Z");
         }
-        add_preview_command(plan, fmt::format("CCB Z={}", i + 1));
+        add_preview_command(plan, text_of(ccb_command(static_cast<int>(i) + 1)));
         plan.estimated_s += step.estimated_s;
         plan.steps.push_back(std::move(step));
     }
@@ -252,7 +263,7 @@ operation_result<job_plan> plan_planar_correction(const json& spec, const plan_c
     }
     if (parsed->enable) {
         plan.steps.push_back({"enable", std::nullopt, 0, false});
-        add_preview_command(plan, "CCB Z=4");
+        add_preview_command(plan, text_of(ccb_command(ccb::enable)));
     }
     plan.summary = fmt::format("planar correction: 3 points ({} given, {} captured on `next`){}", given,
                                3 - given, parsed->enable ? ", then enable" : "");
@@ -269,7 +280,7 @@ boost::asio::awaitable<void> run_planar_correction(job_context& ctx) {
         if (first > 0) co_return;  // done before an interruption
         co_await ctx.checkpoint();
         ctx.step_started(0);
-        std::string line = command_of(parsed->what);  // named: see below
+        auto line = command_of(parsed->what);  // named: see below
         co_await ctx.command(std::move(line));
         ctx.step_done(0, {{"action", name_of(parsed->what)}});
         co_return;
@@ -288,7 +299,7 @@ boost::asio::awaitable<void> run_planar_correction(job_context& ctx) {
 
     // Every argument of a co_await is a named variable: g++ 12 mishandles temporaries across it.
     if (first == 0) {
-        std::string clear = "CCB Z=7";  // the old plane must not bend the new points
+        auto clear = ccb_command(ccb::clear);  // the old plane must not bend the new points
         co_await ctx.command(std::move(clear));
     }
     for (std::size_t i = first; i < 3; ++i) {
@@ -307,7 +318,7 @@ boost::asio::awaitable<void> run_planar_correction(job_context& ctx) {
                 at[v.axis] = v.micrometres;
         } else {
             co_await ctx.wait_advance(advance_source::next);
-            std::string where = "W X Y Z";
+            auto where = devices::ms2000::where("XYZ");
             const auto reply = co_await ctx.command(std::move(where));
             for (std::size_t k = 0; k < xyz.size(); ++k) {
                 const auto tenths_um = reply.number(k);
@@ -319,7 +330,7 @@ boost::asio::awaitable<void> run_planar_correction(job_context& ctx) {
                 at[xyz[k]] = *tenths_um / 10.0;
             }
         }
-        std::string store = fmt::format("CCB Z={}", i + 1);
+        auto store = ccb_command(static_cast<int>(i) + 1);
         co_await ctx.command(std::move(store));
         measured[i] = at;
         ctx.step_done(i, {{"point", i + 1}, {"position", point_json(at)}});
@@ -328,7 +339,7 @@ boost::asio::awaitable<void> run_planar_correction(job_context& ctx) {
     if (parsed->enable && plan.steps.size() > 3 && first <= 3) {
         co_await ctx.checkpoint();
         ctx.step_started(3);
-        std::string enable = "CCB Z=4";
+        auto enable = ccb_command(ccb::enable);
         co_await ctx.command(std::move(enable));
         enabled = true;
         ctx.step_done(3, {{"enabled", true}});

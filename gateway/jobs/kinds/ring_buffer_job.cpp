@@ -115,11 +115,11 @@ std::string step_name(const ring_buffer_spec& spec, int tour, std::size_t slot) 
     return fmt::format("position {}", slot + 1);
 }
 
-std::string load_command(const rb_setup& u, const position_um& p) {
+ms::command load_command(const rb_setup& u, const position_um& p) {
     std::vector<ms::argument> args;
     for (char a : u.hardware_axes)
         args.push_back(set_arg(a, p.at(a) * 10.0, 1));  // tenths of a micron
-    return command_text("LD", args);
+    return typed_command("LD", args);
 }
 
 std::string move_command(const rb_setup& u, const position_um& p) {
@@ -134,17 +134,22 @@ int firmware_mode(const ring_buffer_spec& spec) {
     return spec.forever() && spec.positions.size() >= 2 ? 3 : 2;
 }
 
-std::string rbmode_command(const rb_setup& u, std::size_t pointer) {
-    return command_text("RM", {set_arg('Y', u.axis_byte, 0), set_arg('Z', static_cast<double>(pointer), 0),
-                               set_arg('F', firmware_mode(u.spec), 0)});
+ms::command rbmode_command(const rb_setup& u, std::size_t pointer) {
+    return typed_command("RM", {set_arg('Y', u.axis_byte, 0), set_arg('Z', static_cast<double>(pointer), 0),
+                                set_arg('F', firmware_mode(u.spec), 0)});
 }
 
-std::string rt_delay_command(double delay_ms) {
-    return command_text("RT", {set_arg('Z', delay_ms, 0)});
+// "RM X=0": the ring buffer emptied.
+ms::command clear_buffer() {
+    return typed_command("RM", {set_arg('X', 0, 0)});
 }
 
-std::string pointer_command(std::size_t pointer) {
-    return command_text("RM", {set_arg('Z', static_cast<double>(pointer), 0)});
+ms::command rt_delay_command(double delay_ms) {
+    return typed_command("RT", {set_arg('Z', delay_ms, 0)});
+}
+
+ms::command pointer_command(std::size_t pointer) {
+    return typed_command("RM", {set_arg('Z', static_cast<double>(pointer), 0)});
 }
 
 }  // namespace
@@ -195,10 +200,10 @@ operation_result<job_plan> plan_ring_buffer(const nlohmann::json& json, const pl
     if (u.firmware) {
         add_preview_command(plan, "RM X=0");
         for (const auto& p : spec.positions)
-            add_preview_command(plan, load_command(u, p));
-        add_preview_command(plan, rbmode_command(u, 0));
+            add_preview_command(plan, text_of(load_command(u, p)));
+        add_preview_command(plan, text_of(rbmode_command(u, 0)));
         if (spec.trigger == trigger_kind::autoplay) {
-            add_preview_command(plan, rt_delay_command(spec.delay_ms));
+            add_preview_command(plan, text_of(rt_delay_command(spec.delay_ms)));
             if (firmware_mode(spec) == 3) {
                 add_preview_command(plan, "RM");
             } else {
@@ -262,10 +267,7 @@ nlohmann::json arrival_detail(std::size_t slot, int tour, const position_um& p, 
 }
 
 boost::asio::awaitable<position_um> where(job_context& ctx, const std::string& axes) {
-    std::string line = "W";
-    for (char a : axes)
-        (line += ' ') += a;
-    auto reply = co_await ctx.command(std::move(line));
+    auto reply = co_await ctx.command(ms::where(axes));
     position_um out;
     for (std::size_t i = 0; i < axes.size(); ++i) {
         const auto v = reply.number(i);
@@ -283,7 +285,7 @@ struct buffer_state {
 };
 
 boost::asio::awaitable<buffer_state> read_buffer(job_context& ctx) {
-    auto reply = co_await ctx.command("RM Z? F?");
+    auto reply = co_await ctx.command(ms::query("RM", "ZF"));
     const auto* z = reply.axis('Z');
     const auto* f = reply.axis('F');
     if (!z || !z->number || !f || !f->number)
@@ -294,7 +296,7 @@ boost::asio::awaitable<buffer_state> read_buffer(job_context& ctx) {
 }
 
 boost::asio::awaitable<bool> stage_busy(job_context& ctx) {
-    auto reply = co_await ctx.command("/");
+    auto reply = co_await ctx.command(ms::status());
     co_return reply.what == devices::ms2000::reply::kind::status&& reply.busy;
 }
 
@@ -350,7 +352,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
     const auto& spec = u.spec;
     const std::size_t n = spec.positions.size();
     const std::size_t first = ctx.first_step();
-    co_await ctx.command("RM X=0");
+    co_await ctx.command(clear_buffer());
     for (const auto& p : spec.positions)
         co_await ctx.command(load_command(u, p));
     const std::size_t first_tour = spec.forever() ? 0 : first / n;
@@ -361,7 +363,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
         co_await ctx.command(rt_delay_command(spec.delay_ms));
         if (firmware_mode(spec) == 3) {
             co_await ctx.checkpoint();
-            co_await ctx.command("RM");
+            co_await ctx.command(typed_command("RM"));
             co_await follow(ctx, u, {0, first_slot, false, true});
             co_return;  // not reached: follows until cancelled
         }
@@ -374,7 +376,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
                 co_await ctx.command(pointer_command(0));
             }
             ctx.step_started(spec.forever() ? slot : tour * n + slot);
-            co_await ctx.command("RM");
+            co_await ctx.command(typed_command("RM"));
             co_await follow(ctx, u, {spec.forever() ? 0 : static_cast<int>(tour), slot, true, false});
         }
         co_return;
@@ -388,7 +390,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
         const std::size_t base = spec.forever() ? 0 : tour * n;
         if (tour != first_tour) co_await ctx.command(pointer_command(0));
         ctx.restore_if_stopped(ttl_in0_command(previous_in0));
-        co_await ctx.command("TTL X=1");
+        co_await ctx.command(ttl_in0(1));
         if (spec.trigger == trigger_kind::ttl) {
             ctx.step_started(base + slot);
             // The controller steps on each edge by itself; the run follows it, waiting for the edges.
@@ -400,13 +402,13 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const rb_setup& u) {
                 if (k != slot) co_await ctx.checkpoint();
                 ctx.step_started(base + k);
                 co_await ctx.wait_advance(advance_source::next);
-                co_await ctx.command("RM");
+                co_await ctx.command(typed_command("RM"));
                 co_await ctx.wait_idle(milliseconds(60'000));
                 auto p = co_await where(ctx, u.hardware_axes);
                 ctx.step_done(base + k, arrival_detail(k, static_cast<int>(tour), p, true));
             }
         }
-        co_await ctx.command(ttl_in0_command(previous_in0));
+        co_await ctx.command(ttl_in0(previous_in0));
     }
 }
 

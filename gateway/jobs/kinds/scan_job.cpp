@@ -104,28 +104,33 @@ std::vector<axis_value_um> to_axes(const position_um& p) {
 
 // The firmware setup commands, starting at line `first` (0 for a fresh scan). The scan speed is not
 // among them: it is set after the approach move, which runs at the axis's own SPEED.
-std::vector<std::string> firmware_setup(const scan_setup& u, const devices::controller_snapshot& s,
+std::vector<ms::command> firmware_setup(const scan_setup& u, const devices::controller_snapshot& s,
                                         int first) {
     const auto& g = u.geometry;
-    std::vector<std::string> out;
+    std::vector<ms::command> out;
     if (u.spec.pixels)
-        out.push_back(command_text("SCANR", {set_arg('X', g.fast_start_mm, 6), set_arg('F', g.pixels, 0),
-                                             set_arg('Z', u.spec.encoder_divide, 0)}));
+        out.push_back(typed_command("SCANR", {set_arg('X', g.fast_start_mm, 6), set_arg('F', g.pixels, 0),
+                                              set_arg('Z', u.spec.encoder_divide, 0)}));
     else
         out.push_back(
-            command_text("SCANR", {set_arg('X', g.fast_start_mm, 6), set_arg('Y', g.fast_stop_mm, 6),
-                                   set_arg('Z', u.spec.encoder_divide, 0)}));
-    out.push_back(command_text("SCANV", {set_arg('X', g.slow_at(first), 6), set_arg('Y', g.slow_stop_mm, 6),
-                                         set_arg('Z', g.lines - first, 0)}));
-    out.push_back(command_text(
+            typed_command("SCANR", {set_arg('X', g.fast_start_mm, 6), set_arg('Y', g.fast_stop_mm, 6),
+                                    set_arg('Z', u.spec.encoder_divide, 0)}));
+    out.push_back(typed_command("SCANV", {set_arg('X', g.slow_at(first), 6), set_arg('Y', g.slow_stop_mm, 6),
+                                          set_arg('Z', g.lines - first, 0)}));
+    out.push_back(typed_command(
         "SCAN", {set_arg('Y', axis_index(s, u.spec.fast_axis), 0),
                  set_arg('Z', axis_index(s, u.spec.slow_axis), 0), set_arg('F', g.serpentine ? 1 : 0, 0)}));
-    if (has_module(s, module::enc_int)) out.push_back("TTL X=1");
+    if (has_module(s, module::enc_int)) out.push_back(ttl_in0(1));
     return out;
 }
 
-std::string speed_command(char axis, double mm_s) {
-    return command_text("SPEED", {set_arg(axis, mm_s, 6)});
+// "SCAN P": a scan in progress stopped.
+ms::command scan_stop() {
+    return typed_command("SCAN", {bare_arg('P')});
+}
+
+ms::command speed_command(char axis, double mm_s) {
+    return typed_command("SPEED", {set_arg(axis, mm_s, 6)});
 }
 
 // The fast and slow axes' start and stop positions against the soft limits; the error's field is
@@ -215,8 +220,8 @@ operation_result<job_plan> plan_scan(const nlohmann::json& json, const plan_cont
 
     const std::string speed_text = fmt::format("{:g} mm/s", scan_speed);
     if (u.firmware) {
-        for (auto& c : firmware_setup(u, s, 0))
-            add_preview_command(plan, std::move(c));
+        for (const auto& c : firmware_setup(u, s, 0))
+            add_preview_command(plan, text_of(c));
         add_preview_command(plan, axes_move_text(to_axes(line_point(u, g.fast_begin(0), g.slow_at(0)))));
         if (u.spec.speed_mm_s) add_preview_command(plan, command_text("SPEED", {set_arg(f, scan_speed, 6)}));
         add_preview_command(plan, "SCAN");
@@ -257,7 +262,7 @@ boost::asio::awaitable<position_um> where(job_context& ctx, char a, char b) {
     const auto s = ctx.snapshot();
     std::string order{a, b};
     if (axis_index(s, b) < axis_index(s, a)) std::swap(order[0], order[1]);
-    auto reply = co_await ctx.command(fmt::format("W {} {}", order[0], order[1]));
+    auto reply = co_await ctx.command(ms::where(order));
     position_um out;
     for (std::size_t i = 0; i < order.size(); ++i) {
         const auto v = reply.number(i);
@@ -340,14 +345,14 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const scan_setup& u)
     // A scan still running (the firmware finishes a scan by itself when the gateway restarted or the
     // cable was pulled mid-scan) would fight the new one: stop it first.
     {
-        auto state = co_await ctx.command("SCAN X?");
+        auto state = co_await ctx.command(ms::query("SCAN", "X"));
         const auto* x = state.axis('X');
         if (x && x->text == "S") {
             ctx.emit("warning",
                      message_detail(fmt::format("{}: a scan was still running; stopped with SCAN P "
                                                 "before this one starts",
                                                 s.id)));
-            co_await ctx.command("SCAN P");
+            co_await ctx.command(scan_stop());
             co_await ctx.wait_idle(milliseconds(30'000));
         }
     }
@@ -367,7 +372,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const scan_setup& u)
         co_await ctx.command(std::move(scan_speed));
     }
     ctx.step_started(static_cast<std::size_t>(first));
-    co_await ctx.command("SCAN");
+    co_await ctx.command(typed_command("SCAN"));
 
     // Follow the scan. `reported` = lines of the whole scan reported done.
     int reported = first;
@@ -387,7 +392,7 @@ boost::asio::awaitable<void> run_firmware(job_context& ctx, const scan_setup& u)
         last_progress = std::chrono::steady_clock::now();
     };
     for (;;) {
-        auto state = co_await ctx.command("SCAN X?");
+        auto state = co_await ctx.command(ms::query("SCAN", "X"));
         const auto* x = state.axis('X');
         const bool running = !(x && x->text == "P");
         auto pos = co_await where(ctx, f, w);
@@ -434,7 +439,7 @@ boost::asio::awaitable<void> run_scan(job_context& ctx) {
     int original_in0 = 0;
     if (enc_int) original_in0 = co_await in0_mode_before(ctx);
     // What the job changes; the manager puts it back after a cancel or a failure.
-    if (u.spec.speed_mm_s) ctx.restore_if_stopped(speed_command(f, original_speed));
+    if (u.spec.speed_mm_s) ctx.restore_if_stopped(text_of(speed_command(f, original_speed)));
     if (enc_int) ctx.restore_if_stopped(ttl_in0_command(original_in0));
     if (u.firmware)
         co_await run_firmware(ctx, u);
@@ -445,7 +450,7 @@ boost::asio::awaitable<void> run_scan(job_context& ctx) {
         co_await ctx.command(std::move(restore));
     }
     if (enc_int) {
-        auto in0 = ttl_in0_command(original_in0);
+        auto in0 = ttl_in0(original_in0);
         co_await ctx.command(std::move(in0));
     }
 }

@@ -114,7 +114,7 @@ net::awaitable<std::map<char, double>> job_execution::settings_before(std::strin
     for (const char letter : letters)
         if (!out.contains(letter)) ask += letter;
     if (ask.empty()) co_return out;
-    std::string query = query_text(verb, ask);
+    auto query = devices::ms2000::query(verb, ask);
     auto reply = co_await command(std::move(query));
     for (const char letter : ask) {
         const auto* v = reply.axis(letter);
@@ -128,14 +128,15 @@ net::awaitable<std::map<char, double>> job_execution::settings_before(std::strin
     co_return out;
 }
 
-net::awaitable<devices::ms2000::reply> job_execution::command(std::string line) {
+net::awaitable<devices::ms2000::reply> job_execution::command(devices::ms2000::command c) {
     throw_if_stopped();
     // Named arguments only: g++ 12 mishandles temporaries that live across a co_await.
     std::string controller = job_->record.controller;
-    raw_command_request request{line, halts_seen_};
+    const std::string line = text_of(c);
+    command_request request{std::move(c), halts_seen_};
     std::string request_id = request_id_;
-    auto r = co_await registry_.async_raw_command(std::move(controller), std::move(request),
-                                                  std::move(request_id), net::use_awaitable);
+    auto r = co_await registry_.async_command(std::move(controller), std::move(request),
+                                              std::move(request_id), net::use_awaitable);
     throw_if_stopped();
     if (!r) throw job_failure(r.error());
     if (r->reply.what == devices::ms2000::reply::kind::error) {
@@ -166,7 +167,7 @@ net::awaitable<move_result> job_execution::move(move_request request) {
 net::awaitable<void> job_execution::wait_idle(std::chrono::milliseconds timeout) {
     const auto deadline = steady_clock::now() + timeout;
     for (;;) {
-        std::string status = "/";
+        auto status = devices::ms2000::status();
         auto reply = co_await command(std::move(status));
         if (reply.what == devices::ms2000::reply::kind::status && !reply.busy) co_return;
         if (steady_clock::now() >= deadline)

@@ -97,7 +97,7 @@ class job_execution final : public job_context, public std::enable_shared_from_t
     void restore_if_stopped(std::string command) override;
     boost::asio::awaitable<std::map<char, double>> settings_before(std::string verb,
                                                                    std::string letters) override;
-    boost::asio::awaitable<devices::ms2000::reply> command(std::string line) override;
+    boost::asio::awaitable<devices::ms2000::reply> command(devices::ms2000::command c) override;
     boost::asio::awaitable<move_result> move(move_request request) override;
     boost::asio::awaitable<void> wait_idle(std::chrono::milliseconds timeout) override;
     boost::asio::awaitable<void> sleep(std::chrono::milliseconds duration) override;

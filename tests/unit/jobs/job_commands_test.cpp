@@ -2,6 +2,9 @@
 // setting's value from a registered restore command before it asks the controller).
 #include "gateway/jobs/job_commands.hpp"
 
+#include <cmath>
+#include <stdexcept>
+
 #include <gtest/gtest.h>
 
 namespace gw::jobs {
@@ -32,6 +35,26 @@ TEST(job_commands, another_verbs_line_or_a_non_setting_argument_sets_nothing) {
 TEST(job_commands, query_text_asks_for_each_letter) {
     EXPECT_EQ(query_text("TTL", "X"), "TTL X?");
     EXPECT_EQ(query_text("SPEED", "XY"), "SPEED X? Y?");
+}
+
+// What a run sends is a typed command: its wire bytes and the reply it must get, not text parsed back.
+TEST(job_commands, a_run_sends_typed_commands_that_read_as_their_line) {
+    const auto speed = typed_command("SPEED", {set_arg('X', 1.5, 6)});
+    EXPECT_EQ(speed.wire, "SPEED X=1.5\r");
+    EXPECT_EQ(text_of(speed), "SPEED X=1.5");
+    EXPECT_EQ(text_of(typed_command("SCAN")), "SCAN");
+    EXPECT_EQ(text_of(typed_command("SCAN", {bare_arg('P')})), "SCAN P");
+    EXPECT_EQ(text_of(ttl_in0(7)), "TTL X=7");
+    // The restore list holds these lines: the recovery service looks for "TTL Y=0" by its text.
+    EXPECT_EQ(text_of(ttl_output(false)), "TTL Y=0");
+    EXPECT_EQ(text_of(ttl_output(true)), "TTL Y=1");
+    EXPECT_EQ(ttl_output(true).verb, "TTL");
+}
+
+TEST(job_commands, a_command_the_builder_refuses_is_never_sent_as_a_bare_verb) {
+    // command_text, for previews, falls back to the verb; a run's command throws instead.
+    EXPECT_THROW(typed_command("SPEED", {set_arg('X', std::nan(""))}), std::invalid_argument);
+    EXPECT_THROW(typed_command("SPEED X", {}), std::invalid_argument);  // not a verb
 }
 
 }  // namespace
