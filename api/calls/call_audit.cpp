@@ -30,30 +30,24 @@ audit::audit_entry entry_by(const caller& who) {
 }  // namespace
 
 std::optional<audit::audit_entry> audit_entry_for(const caller& who, const call& c) {
+    const auto& kind = descriptor_of(c);
+    if (!kind.audited) return std::nullopt;  // reads, renewals, dry runs, G-code checks
     auto e = entry_by(who);
+    e.action = std::string(kind.name);
     if (const auto* op = std::get_if<operation_call>(&c)) {
-        e.action = op->operation;
+        e.action = op->operation;  // also an operation that does not exist (its 404 is recorded)
         e.controller = op->controller;
         e.detail = audit::bounded_detail(op->args);
     } else if (const auto* submit = std::get_if<job_submit_call>(&c)) {
-        if (submit->dry_run) return std::nullopt;
-        e.action = "job.submit";
         e.controller = string_field(submit->request, "controller");
         e.detail = audit::bounded_detail(submit->request);
     } else if (const auto* action = std::get_if<job_action_call>(&c)) {
-        e.action = "job." + std::string(to_string(action->command));
         e.target = action->job_id;
     } else if (const auto* take = std::get_if<lease_take_call>(&c)) {
-        e.action = "lease.take";
         e.controller = take->controller;
         e.detail = audit::bounded_detail(take->body);
     } else if (const auto* release = std::get_if<lease_release_call>(&c)) {
-        e.action = release->force ? "lease.break" : "lease.release";
         e.controller = release->controller;
-    } else if (std::holds_alternative<halt_all_call>(c)) {
-        e.action = "halt_all";
-    } else {
-        return std::nullopt;  // reads, renewals, G-code checks
     }
     if (e.detail.is_null()) e.detail = nlohmann::json::object();
     return e;

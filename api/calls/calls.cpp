@@ -45,18 +45,39 @@ bool is_emergency_stop(const call& c) {
     return std::holds_alternative<halt_all_call>(c);
 }
 
-gw::role role_for(const call& c, gw::role halt_role) {
+const call_descriptor& descriptor_of(const call& c) {
+    // Not a known operation: needs operator, as every operation but halt and command.
+    static const call_descriptor unknown_operation{"", role_need::operator_, lease_rule::controller, true};
     if (const auto* op = std::get_if<operation_call>(&c)) {
-        if (op->operation == "halt") return halt_role;
-        return op->operation == "command" ? gw::role::admin : gw::role::operator_;
+        const auto* d = operation_descriptor(op->operation);
+        return d ? *d : unknown_operation;
     }
-    if (std::holds_alternative<halt_all_call>(c)) return halt_role;
-    if (std::holds_alternative<job_get_call>(c) || std::holds_alternative<lease_get_call>(c) ||
-        std::holds_alternative<gcode_check_call>(c))
-        return gw::role::viewer;
-    if (const auto* release = std::get_if<lease_release_call>(&c); release && release->force)
-        return gw::role::admin;
-    return gw::role::operator_;
+    if (const auto* submit = std::get_if<job_submit_call>(&c))
+        return submit->dry_run ? call_kinds::job_plan : call_kinds::job_submit;
+    if (const auto* action = std::get_if<job_action_call>(&c)) {
+        switch (action->command) {
+            case job_command::cancel:
+                return call_kinds::job_cancel;
+            case job_command::pause:
+                return call_kinds::job_pause;
+            case job_command::resume:
+                return call_kinds::job_resume;
+            case job_command::next:
+                return call_kinds::job_next;
+        }
+    }
+    if (std::holds_alternative<job_get_call>(c)) return call_kinds::job_get;
+    if (std::holds_alternative<lease_get_call>(c)) return call_kinds::lease_get;
+    if (std::holds_alternative<lease_take_call>(c)) return call_kinds::lease_take;
+    if (std::holds_alternative<lease_renew_call>(c)) return call_kinds::lease_renew;
+    if (const auto* release = std::get_if<lease_release_call>(&c))
+        return release->force ? call_kinds::lease_break : call_kinds::lease_release;
+    if (std::holds_alternative<gcode_check_call>(c)) return call_kinds::gcode_check;
+    return call_kinds::halt_all;
+}
+
+gw::role role_for(const call& c, gw::role halt_role) {
+    return role_needed(descriptor_of(c), halt_role);
 }
 
 namespace {

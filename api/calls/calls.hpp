@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "api/calls/call_kinds.hpp"
 #include "api/calls/job_requests.hpp"
 #include "api/common/api_context.hpp"
 #include "api/common/caller.hpp"
@@ -73,9 +74,13 @@ using call =
     std::variant<operation_call, job_submit_call, job_action_call, job_get_call, lease_get_call,
                  lease_take_call, lease_renew_call, lease_release_call, gcode_check_call, halt_all_call>;
 
-// The role a call needs: viewer to read a job or a lease and to check a G-code program; `halt_role`
-// (auth.halt_role) for a HALT; admin for the "command" operation and a forced lease release; operator
-// for everything else.
+// The call's descriptor (call_kinds): its name, role, lease rule and audit. An operation that does not
+// exist gets one with an empty name, needing operator (run_operation answers 404).
+const call_descriptor& descriptor_of(const call& c);
+
+// The role a call needs, from its descriptor: viewer to read a job or a lease and to check a G-code
+// program; `halt_role` (auth.halt_role) for a HALT; admin for the "command" operation and a forced lease
+// release; operator for everything else.
 gw::role role_for(const call& c, gw::role halt_role = gw::role::viewer);
 
 // A HALT of one controller or HALT ALL: never refused for the gateway's own limits.

@@ -11,6 +11,7 @@
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/post.hpp>
 
+#include "api/calls/call_kinds.hpp"
 #include "api/common/json_object.hpp"
 #include "devices/ms2000/crisp.hpp"
 #include "devices/ms2000/error.hpp"
@@ -26,9 +27,6 @@ namespace net = boost::asio;
 using nlohmann::json;
 
 namespace {
-
-constexpr std::array<std::string_view, 12> names = {"move", "halt", "home", "zero",  "here",      "speed",
-                                                    "ttl",  "dac",  "led",  "crisp", "autofocus", "command"};
 
 // Reads one JSON object strictly: every key must be known, every value of the expected type.
 class body_reader {
@@ -379,18 +377,23 @@ json base_result(std::string_view id, std::string_view op, const std::string& re
 
 }  // namespace
 
-std::span<const std::string_view> operation_names() {
+const std::vector<std::string_view>& operation_names() {
+    static const std::vector<std::string_view> names = [] {
+        std::vector<std::string_view> out;
+        for (const auto& d : operation_descriptors())
+            out.push_back(d.name);
+        return out;
+    }();
     return names;
 }
 
 bool is_operation(std::string_view name) {
-    for (auto n : names)
-        if (n == name) return true;
-    return false;
+    return operation_descriptor(name) != nullptr;
 }
 
 bool needs_lease(std::string_view operation) {
-    return operation != "halt";
+    const auto* d = operation_descriptor(operation);
+    return !d || d->lease != lease_rule::none;
 }
 
 void run_operation(api_context& ctx, const caller& who, std::string_view controller_id,

@@ -28,6 +28,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <boost/asio/any_completion_handler.hpp>
 #include <nlohmann/json.hpp>
@@ -40,8 +41,8 @@
 
 namespace gw::api {
 
-// "move", "halt", ..., "command", in the order of the REST paths.
-std::span<const std::string_view> operation_names();
+// "move", "halt", ..., "command", in the order of the REST paths (call_kinds' operation table).
+const std::vector<std::string_view>& operation_names();
 bool is_operation(std::string_view name);
 
 // Parses `body` (a JSON object; null counts as {}), checks the lease, runs the operation for `who`
@@ -53,7 +54,7 @@ bool is_operation(std::string_view name);
 void run_operation(api_context& ctx, const caller& who, std::string_view controller_id,
                    std::string_view operation, const nlohmann::json& body, api_handler handler);
 
-// Whether `operation` is subject to leases (every one but halt).
+// Whether `operation` is subject to leases (its descriptor's lease rule: every one but halt).
 bool needs_lease(std::string_view operation);
 
 }  // namespace gw::api
