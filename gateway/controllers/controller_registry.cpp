@@ -487,8 +487,9 @@ void controller_registry::run_move(std::string id, move_request r, std::string r
     });
 }
 
-void controller_registry::run_raw(std::string id, raw_command_request r, std::string request_id,
-                                  handler<raw_command_result> h) {
+template <typename Request>
+void controller_registry::run_answered(std::string id, Request r, std::string request_id,
+                                       handler<raw_command_result> h) {
     auto t = find(id);
     if (!t) return deliver<raw_command_result>(std::move(h), t.error(), id, request_id);
     auto cmd = plan(r, t->snapshot);
@@ -497,15 +498,11 @@ void controller_registry::run_raw(std::string id, raw_command_request r, std::st
                   std::move(h));
 }
 
-void controller_registry::run_command(std::string id, command_request r, std::string request_id,
-                                      handler<raw_command_result> h) {
-    auto t = find(id);
-    if (!t) return deliver<raw_command_result>(std::move(h), t.error(), id, request_id);
-    auto cmd = plan(r, t->snapshot);
-    if (!cmd) return deliver<raw_command_result>(std::move(h), cmd.error(), id, request_id);
-    send_answered(t->controller, std::move(*cmd), r.halts_seen, std::move(id), std::move(request_id),
-                  std::move(h));
-}
+template void controller_registry::run_answered<raw_command_request>(std::string, raw_command_request,
+                                                                     std::string,
+                                                                     handler<raw_command_result>);
+template void controller_registry::run_answered<command_request>(std::string, command_request, std::string,
+                                                                 handler<raw_command_result>);
 
 void controller_registry::send_answered(const std::shared_ptr<devices::controller>& controller,
                                         ms2000::command cmd, std::optional<std::uint64_t> halts_seen,

@@ -181,15 +181,17 @@ class controller_registry {
     // says so): an expert wants to see the reply.
     template <typename Token>
     auto async_raw_command(std::string id, raw_command_request r, std::string request_id, Token&& token) {
-        return initiate<raw_command_result>(&controller_registry::run_raw, std::move(id), std::move(r),
-                                            std::move(request_id), std::forward<Token>(token));
+        return initiate<raw_command_result>(&controller_registry::run_answered<raw_command_request>,
+                                            std::move(id), std::move(r), std::move(request_id),
+                                            std::forward<Token>(token));
     }
 
     // A command built by the gateway (a job's step), answered as async_raw_command answers.
     template <typename Token>
     auto async_command(std::string id, command_request r, std::string request_id, Token&& token) {
-        return initiate<raw_command_result>(&controller_registry::run_command, std::move(id), std::move(r),
-                                            std::move(request_id), std::forward<Token>(token));
+        return initiate<raw_command_result>(&controller_registry::run_answered<command_request>,
+                                            std::move(id), std::move(r), std::move(request_id),
+                                            std::forward<Token>(token));
     }
 
   private:
@@ -213,11 +215,10 @@ class controller_registry {
                             handler<operation_done> h);
     // Publishes the controller's current snapshot again (its latch changed), from its strand.
     void republish(const std::string& id);
-    void run_raw(std::string id, raw_command_request r, std::string request_id,
-                 handler<raw_command_result> h);
-    void run_command(std::string id, command_request r, std::string request_id,
-                     handler<raw_command_result> h);
-    // Sends a planned command and answers with the reply as it came (":N-<code>" included).
+    // A raw line or a job's command: planned, sent, and answered with the reply as it came (":N-<code>"
+    // included).
+    template <typename Request>
+    void run_answered(std::string id, Request r, std::string request_id, handler<raw_command_result> h);
     void send_answered(const std::shared_ptr<devices::controller>& controller, devices::ms2000::command cmd,
                        std::optional<std::uint64_t> halts_seen, std::string id, std::string request_id,
                        handler<raw_command_result> h);

@@ -15,6 +15,15 @@ void append_time(std::string& out, std::chrono::system_clock::time_point time) {
     out += std::to_string(epoch_ms(time));
 }
 
+// The event's topic, its address and its message, which ends here.
+std::shared_ptr<const event> sealed(std::shared_ptr<event> e, std::string topic, std::string message) {
+    message += '}';
+    e->address = address_of(topic);
+    e->topic = std::move(topic);
+    e->message = std::make_shared<const std::string>(std::move(message));
+    return e;
+}
+
 }  // namespace
 
 std::shared_ptr<const event> make_data_event(std::string topic, std::uint64_t sequence,
@@ -36,12 +45,8 @@ std::shared_ptr<const event> make_data_event(std::string topic, std::uint64_t se
     append_time(message, time);
     message += R"(,"data":)";
     message += *data;
-    message += '}';
-    e->address = address_of(topic);
-    e->topic = std::move(topic);
     e->data = std::move(data);
-    e->message = std::make_shared<const std::string>(std::move(message));
-    return e;
+    return sealed(std::move(e), std::move(topic), std::move(message));
 }
 
 std::shared_ptr<const event> make_gap_event(std::string topic, std::uint64_t from, std::uint64_t to,
@@ -60,11 +65,7 @@ std::shared_ptr<const event> make_gap_event(std::string topic, std::uint64_t fro
     message += R"(,"to":)";
     message += std::to_string(to);
     append_time(message, time);
-    message += '}';
-    e->address = address_of(topic);
-    e->topic = std::move(topic);
-    e->message = std::make_shared<const std::string>(std::move(message));
-    return e;
+    return sealed(std::move(e), std::move(topic), std::move(message));
 }
 
 std::shared_ptr<const event> make_retired_event(std::string topic, std::uint64_t last_sequence,
@@ -78,11 +79,7 @@ std::shared_ptr<const event> make_retired_event(std::string topic, std::uint64_t
     message += R"(,"last_seq":)";
     message += std::to_string(last_sequence);
     append_time(message, time);
-    message += '}';
-    e->address = address_of(topic);
-    e->topic = std::move(topic);
-    e->message = std::make_shared<const std::string>(std::move(message));
-    return e;
+    return sealed(std::move(e), std::move(topic), std::move(message));
 }
 
 }  // namespace gw
