@@ -23,11 +23,17 @@
 #include <boost/asio/post.hpp>
 #include <boost/asio/strand.hpp>
 
-#include "gateway/jobs/manager/job_manager.hpp"
+#include "gateway/jobs/manager/job_manager_types.hpp"
+#include "gateway/leases/lease_manager.hpp"
 
 namespace spdlog {
 class logger;
 }
+
+namespace gw {
+class controller_registry;
+class event_hub;
+}  // namespace gw
 
 namespace gw::devices {
 class controller_observer;
@@ -36,6 +42,7 @@ class controller_observer;
 namespace gw::jobs {
 
 class job_history;
+class job_holds;
 class job_states;
 class job_recovery;
 class submission_planner;
@@ -61,13 +68,13 @@ class job_coordinator final : public std::enable_shared_from_this<job_coordinato
     void shutdown(std::function<void()> done);
     void abandon();
 
-    void submit(submit_request r, job_manager::handler<submit_result> h);
-    void cancel(job_action a, job_manager::handler<job_record> h);
-    void pause(job_action a, job_manager::handler<job_record> h);
-    void resume(job_action a, job_manager::handler<job_record> h);
-    void next(job_action a, job_manager::handler<job_record> h);
+    void submit(submit_request r, job_handler<submit_result> h);
+    void cancel(job_action a, job_handler<job_record> h);
+    void pause(job_action a, job_handler<job_record> h);
+    void resume(job_action a, job_handler<job_record> h);
+    void next(job_action a, job_handler<job_record> h);
     void acquire_lease(std::string controller, std::string holder, std::chrono::seconds ttl,
-                       job_manager::handler<lease> h);
+                       job_handler<lease> h);
 
     // Which job holds each controller (any thread).
     const job_holds& holds() const;
@@ -77,7 +84,7 @@ class job_coordinator final : public std::enable_shared_from_this<job_coordinato
 
   private:
     template <typename T>
-    void deliver(job_manager::handler<T> h, operation_result<T> r) {
+    void deliver(job_handler<T> h, operation_result<T> r) {
         boost::asio::post(executor_, boost::asio::append(std::move(h), std::move(r)));
     }
     bool stopping() const;
@@ -90,8 +97,7 @@ class job_coordinator final : public std::enable_shared_from_this<job_coordinato
     operation_result<std::shared_ptr<live_job>> find_for_action(const job_action& a);
 
     // On the strand, with the plan: stored and queued (or, for a dry run, answered).
-    void submit_planned(submit_request r, job_manager::handler<submit_result> h,
-                        operation_result<job_plan> plan);
+    void submit_planned(submit_request r, job_handler<submit_result> h, operation_result<job_plan> plan);
     // Restart recovery: the jobs an earlier run of the gateway left active or queued.
     void recover_from_store();
     // Ends or leaves every job for the stop of the gateway (the running ones halted), then the store.

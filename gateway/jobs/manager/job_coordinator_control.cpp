@@ -20,7 +20,7 @@ using kind = operation_error_kind;
 // Leases.
 
 void job_coordinator::acquire_lease(std::string controller, std::string holder, std::chrono::seconds ttl,
-                                    job_manager::handler<lease> h) {
+                                    job_handler<lease> h) {
     net::post(strand_, [self = shared_from_this(), controller = std::move(controller),
                         holder = std::move(holder), ttl, h = std::move(h)]() mutable {
         if (!self->leases_)
@@ -82,7 +82,7 @@ operation_result<std::shared_ptr<live_job>> job_coordinator::find_for_action(con
     return found;
 }
 
-void job_coordinator::cancel(job_action a, job_manager::handler<job_record> h) {
+void job_coordinator::cancel(job_action a, job_handler<job_record> h) {
     net::co_spawn(
         strand_,
         [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable -> net::awaitable<void> {
@@ -115,7 +115,7 @@ void job_coordinator::cancel(job_action a, job_manager::handler<job_record> h) {
         net::detached);
 }
 
-void job_coordinator::pause(job_action a, job_manager::handler<job_record> h) {
+void job_coordinator::pause(job_action a, job_handler<job_record> h) {
     net::post(strand_, [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable {
         auto found = self->find_for_action(a);
         if (!found) return self->deliver<job_record>(std::move(h), found.error());
@@ -133,7 +133,7 @@ void job_coordinator::pause(job_action a, job_manager::handler<job_record> h) {
     });
 }
 
-void job_coordinator::resume(job_action a, job_manager::handler<job_record> h) {
+void job_coordinator::resume(job_action a, job_handler<job_record> h) {
     net::post(strand_, [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable {
         if (self->stopping())
             return self->deliver<job_record>(std::move(h),
@@ -209,7 +209,7 @@ void job_coordinator::resume(job_action a, job_manager::handler<job_record> h) {
     });
 }
 
-void job_coordinator::next(job_action a, job_manager::handler<job_record> h) {
+void job_coordinator::next(job_action a, job_handler<job_record> h) {
     net::post(strand_, [self = shared_from_this(), a = std::move(a), h = std::move(h)]() mutable {
         auto found = self->find_for_action(a);
         if (!found) return self->deliver<job_record>(std::move(h), found.error());

@@ -20,7 +20,7 @@ using kind = operation_error_kind;
 // ---------------------------------------------------------------------------------------------
 // Submission: admitted and planned by the submission planner, then queued and stored here.
 
-void job_coordinator::submit(submit_request r, job_manager::handler<submit_result> h) {
+void job_coordinator::submit(submit_request r, job_handler<submit_result> h) {
     net::post(strand_, [self = shared_from_this(), r = std::move(r), h = std::move(h)]() mutable {
         if (self->stopping())
             return self->deliver<submit_result>(
@@ -30,7 +30,7 @@ void job_coordinator::submit(submit_request r, job_manager::handler<submit_resul
         const auto controller = r.controller;
         const auto type = r.type;
         auto spec = r.spec;
-        auto shared_h = std::make_shared<job_manager::handler<submit_result>>(std::move(h));
+        auto shared_h = std::make_shared<job_handler<submit_result>>(std::move(h));
         auto shared_r = std::make_shared<submit_request>(std::move(r));
         self->planner_->plan(
             controller, type, std::move(spec), [self, shared_r, shared_h](operation_result<job_plan> plan) {
@@ -39,7 +39,7 @@ void job_coordinator::submit(submit_request r, job_manager::handler<submit_resul
     });
 }
 
-void job_coordinator::submit_planned(submit_request r, job_manager::handler<submit_result> h,
+void job_coordinator::submit_planned(submit_request r, job_handler<submit_result> h,
                                      operation_result<job_plan> plan) {
     if (stopping())
         return deliver<submit_result>(std::move(h),

@@ -237,8 +237,8 @@ operation_result<std::vector<json>> job_history::events(const std::string& id, s
 }
 
 template <typename T, typename Read>
-void job_history::read_on_reader(job_manager::handler<T> h, Read read) {
-    auto shared_h = std::make_shared<job_manager::handler<T>>(std::move(h));
+void job_history::read_on_reader(job_handler<T> h, Read read) {
+    auto shared_h = std::make_shared<job_handler<T>>(std::move(h));
     const bool queued = reader_.post([self = shared_from_this(), shared_h, read = std::move(read)]() mutable {
         operation_result<T> result = read(*self);
         auto executor = self->executor_;
@@ -255,16 +255,16 @@ void job_history::read_on_reader(job_manager::handler<T> h, Read read) {
                                   "too many reads of the job history waiting: ask again shortly"))));
 }
 
-void job_history::async_get(std::string id, job_manager::handler<job_record> h) {
+void job_history::async_get(std::string id, job_handler<job_record> h) {
     read_on_reader<job_record>(std::move(h),
                                [id = std::move(id)](const job_history& j) { return j.get(id); });
 }
 
-void job_history::async_list(job_filter f, job_manager::handler<job_page> h) {
+void job_history::async_list(job_filter f, job_handler<job_page> h) {
     read_on_reader<job_page>(std::move(h), [f = std::move(f)](const job_history& j) { return j.list(f); });
 }
 
-void job_history::async_events(std::string id, std::size_t limit, job_manager::handler<std::vector<json>> h) {
+void job_history::async_events(std::string id, std::size_t limit, job_handler<std::vector<json>> h) {
     read_on_reader<std::vector<json>>(
         std::move(h), [id = std::move(id), limit](const job_history& j) { return j.events(id, limit); });
 }

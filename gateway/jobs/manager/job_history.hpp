@@ -26,7 +26,8 @@
 #include <nlohmann/json.hpp>
 
 #include "gateway/jobs/job.hpp"
-#include "gateway/jobs/manager/job_manager.hpp"
+#include "gateway/jobs/job_query.hpp"
+#include "gateway/jobs/manager/job_manager_types.hpp"
 #include "gateway/jobs/manager/worker_thread.hpp"
 #include "gateway/jobs/store/job_journal.hpp"
 #include "gateway/jobs/store/job_store.hpp"
@@ -104,9 +105,9 @@ class job_history final : public std::enable_shared_from_this<job_history> {
     operation_result<job_page> list(const job_filter& f) const;
     operation_result<std::vector<nlohmann::json>> events(const std::string& id, std::size_t limit) const;
     // The reads above on the reader thread (bounded: 32 waiting, then queue_full); `h` on `executor`.
-    void async_get(std::string id, job_manager::handler<job_record> h);
-    void async_list(job_filter f, job_manager::handler<job_page> h);
-    void async_events(std::string id, std::size_t limit, job_manager::handler<std::vector<nlohmann::json>> h);
+    void async_get(std::string id, job_handler<job_record> h);
+    void async_list(job_filter f, job_handler<job_page> h);
+    void async_events(std::string id, std::size_t limit, job_handler<std::vector<nlohmann::json>> h);
     std::optional<double> fill_ratio() const {
         const double r = store_fill_.load();
         return r < 0 ? std::nullopt : std::optional<double>(r);
@@ -114,7 +115,7 @@ class job_history final : public std::enable_shared_from_this<job_history> {
 
   private:
     template <typename T, typename Read>
-    void read_on_reader(job_manager::handler<T> h, Read read);
+    void read_on_reader(job_handler<T> h, Read read);
 
     void store_refused(const std::string& id, const operation_error& e, bool progress);
     void retry_unstored_later();

@@ -21,7 +21,7 @@
 #include "gateway/jobs/manager/job_execution.hpp"
 #include "gateway/jobs/manager/job_history.hpp"
 #include "gateway/jobs/manager/job_holds.hpp"
-#include "gateway/jobs/manager/job_manager.hpp"
+#include "gateway/jobs/manager/job_manager_types.hpp"
 
 namespace spdlog {
 class logger;

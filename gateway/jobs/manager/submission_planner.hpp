@@ -18,7 +18,7 @@
 
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_plan.hpp"
-#include "gateway/jobs/manager/job_manager.hpp"
+#include "gateway/jobs/manager/job_manager_types.hpp"
 #include "gateway/jobs/manager/worker_thread.hpp"
 
 namespace gw {
