@@ -494,8 +494,7 @@ void controller_registry::run_answered(std::string id, Request r, std::string re
     if (!t) return deliver<raw_command_result>(std::move(h), t.error(), id, request_id);
     auto cmd = plan(r, t->snapshot);
     if (!cmd) return deliver<raw_command_result>(std::move(h), cmd.error(), id, request_id);
-    send_answered(t->controller, std::move(*cmd), r.halts_seen, std::move(id), std::move(request_id),
-                  std::move(h));
+    send_answered(t->controller, std::move(*cmd), r.halts_seen, id, request_id, std::move(h));
 }
 
 template void controller_registry::run_answered<raw_command_request>(std::string, raw_command_request,
@@ -506,7 +505,7 @@ template void controller_registry::run_answered<command_request>(std::string, co
 
 void controller_registry::send_answered(const std::shared_ptr<devices::controller>& controller,
                                         ms2000::command cmd, std::optional<std::uint64_t> halts_seen,
-                                        std::string id, std::string request_id,
+                                        const std::string& id, const std::string& request_id,
                                         handler<raw_command_result> h) {
     const auto started = steady_clock::now();
     auto answered = [this, h = std::move(h), id, request_id, started](boost::system::error_code ec,

@@ -220,8 +220,8 @@ class controller_registry {
     template <typename Request>
     void run_answered(std::string id, Request r, std::string request_id, handler<raw_command_result> h);
     void send_answered(const std::shared_ptr<devices::controller>& controller, devices::ms2000::command cmd,
-                       std::optional<std::uint64_t> halts_seen, std::string id, std::string request_id,
-                       handler<raw_command_result> h);
+                       std::optional<std::uint64_t> halts_seen, const std::string& id,
+                       const std::string& request_id, handler<raw_command_result> h);
     // focus_runs.cpp
     template <typename T, typename Request, typename Run>
     void run_steps(std::string id, const Request& r, std::string request_id, handler<T> h, Run run);

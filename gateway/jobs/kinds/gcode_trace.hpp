@@ -20,6 +20,7 @@
 #include <optional>
 #include <string>
 
+#include "devices/ms2000/command.hpp"
 #include "gateway/gcode/gcode_geometry.hpp"
 
 namespace gw::jobs {

@@ -17,6 +17,7 @@
 
 #include "devices/ms2000/build_info.hpp"
 #include "gateway/common/json_value.hpp"
+#include "gateway/jobs/job_commands.hpp"
 #include "gateway/jobs/kinds/job_kinds.hpp"
 
 namespace gw::jobs {
@@ -103,11 +104,12 @@ operation_result<planar_spec> parse_spec(const json& spec) {
             return invalid_field(field, "must be {\"X\":..,\"Y\":..,\"Z\":..} or \"current\"");
         position_um pos;
         for (const auto& [key, value] : p.items()) {
+            const auto key_field = fmt::format("{}.{}", field, key);
             if (key.size() != 1 || (key != "X" && key != "Y" && key != "Z"))
-                return invalid_field(field + "." + key, "a point has the axes X, Y and Z (micrometres)");
+                return invalid_field(key_field, "a point has the axes X, Y and Z (micrometres)");
             constexpr double any = std::numeric_limits<double>::max();  // any finite number
             const auto um = read_number(value, -any, any);
-            if (!um) return invalid_field(field + "." + key, "must be a number (micrometres)");
+            if (!um) return invalid_field(key_field, "must be a number (micrometres)");
             pos[key[0]] = *um.value;
         }
         for (const char axis : xyz)
