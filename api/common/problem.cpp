@@ -44,6 +44,8 @@ kind_info info(operation_error_kind k) {
             return {409, "Halted"};
         case job_active:
             return {409, "Job active"};
+        case unknown_recording:
+            return {404, "Unknown recording"};
         case internal:
             break;
     }

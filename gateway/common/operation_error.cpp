@@ -38,6 +38,8 @@ std::string_view to_string(operation_error_kind kind) {
             return "halted";
         case operation_error_kind::job_active:
             return "job_active";
+        case operation_error_kind::unknown_recording:
+            return "unknown_recording";
         case operation_error_kind::internal:
             return "internal";
     }

@@ -19,7 +19,7 @@
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_plan.hpp"
 #include "gateway/jobs/manager/job_manager_types.hpp"
-#include "gateway/jobs/manager/worker_thread.hpp"
+#include "gateway/common/worker_thread.hpp"
 
 namespace gw {
 class controller_registry;

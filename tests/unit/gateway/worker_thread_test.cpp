@@ -1,5 +1,5 @@
 // worker_thread: work runs on its own thread, in order, and at most max_waiting pieces wait.
-#include "gateway/jobs/manager/worker_thread.hpp"
+#include "gateway/common/worker_thread.hpp"
 
 #include <chrono>
 #include <future>
@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-namespace gw::jobs {
+namespace gw {
 namespace {
 
 using namespace std::chrono_literals;
@@ -51,4 +51,4 @@ TEST(worker_thread, refuses_work_beyond_max_waiting_and_takes_it_again_after) {
 }
 
 }  // namespace
-}  // namespace gw::jobs
+}  // namespace gw

@@ -1,7 +1,8 @@
 #pragma once
-// A thread of the job manager's own for work that must not hold up its strand or an I/O thread: the
+// A thread of its own for work that must not hold up a strand or an I/O thread: the job manager's
 // planner (a G-code program of megabytes is parsed, checked against the limits and timed) and the
-// reads of the job history from SQLite. Work runs from copies and posts its result on. Bounded: with
+// reads of the job history from SQLite; the recorder's writes of frames. Work runs from copies and
+// posts its result on. Bounded: with
 // max_waiting pieces of work waiting to start, post() refuses more (the caller answers queue_full).
 
 #include <atomic>
@@ -11,7 +12,7 @@
 #include <boost/asio/post.hpp>
 #include <boost/asio/thread_pool.hpp>
 
-namespace gw::jobs {
+namespace gw {
 
 class worker_thread {
   public:
@@ -45,4 +46,4 @@ class worker_thread {
     std::atomic<std::size_t> waiting_{0};
 };
 
-}  // namespace gw::jobs
+}  // namespace gw

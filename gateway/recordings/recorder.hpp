@@ -1,0 +1,146 @@
+#pragma once
+// The recorder: records the report port's frames of a controller (recording.hpp) into the recordings
+// store. start() arms the trigger input (TTL X=<mode>, remembering the mode before), counts frames from
+// 0 as the controller sends them and marks where frames were lost; stop(), a limit (max_frames, max_s)
+// or shutdown puts the previous input mode back. One recording at a time per controller.
+//
+// Threads: public methods may be called from any thread; handlers run on the executor given to open(),
+// never inline. Frames arrive from the registry's observer on the controllers' strands and cross to
+// the recorder's strand only for a controller that records. Every flush_interval the strand hands each
+// recording's new rows to the writer, a thread of its own that owns the store (so the disk never holds
+// up an I/O thread); reads run there too, after the writes before them.
+
+#include <atomic>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <boost/asio/any_completion_handler.hpp>
+#include <boost/asio/any_io_executor.hpp>
+#include <boost/asio/awaitable.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+
+#include "devices/serial/controller_events.hpp"
+#include "devices/serial/controller_snapshot.hpp"
+#include "gateway/common/operation_error.hpp"
+#include "gateway/common/worker_thread.hpp"
+#include "gateway/recordings/recording.hpp"
+#include "gateway/recordings/recording_store.hpp"
+
+namespace spdlog {
+class logger;
+}
+
+namespace gw {
+class controller_registry;
+}
+
+namespace gw::devices {
+class controller_observer;
+}
+
+namespace gw::recordings {
+
+struct recorder_settings {
+    std::string storage_path;                       // <storage_path>/recordings.sqlite3
+    std::chrono::milliseconds flush_interval{250};  // how often rows go to the store (what a crash may lose)
+    std::size_t max_buffered_rows = 100'000;        // per recording, waiting for the store: beyond, it fails
+};
+
+template <typename T>
+using recorder_handler = boost::asio::any_completion_handler<void(operation_result<T>)>;
+
+class recorder : public std::enable_shared_from_this<recorder> {
+  public:
+    // Opens the store; recordings a crashed gateway left recording are marked failed (what came after
+    // their last stored batch is unknown). The error names the file.
+    static operation_result<std::shared_ptr<recorder>> open(boost::asio::any_io_executor executor,
+                                                            controller_registry& registry,
+                                                            recorder_settings settings);
+    ~recorder();
+
+    void start(recording_request r, recorder_handler<recording_record> h);
+    void stop(std::string id, recorder_handler<recording_record> h);
+    void get(std::string id, recorder_handler<recording_record> h);
+    void list(recording_filter f, recorder_handler<std::vector<recording_record>> h);
+    // Refused while it records (stop it first).
+    void remove(std::string id, recorder_handler<bool> h);
+    // A page of a recording's rows (frames and loss markers) in order, from row `from` (0: the first).
+    void rows(std::string id, std::int64_t from, std::size_t limit, recorder_handler<frame_page> h);
+    // Stops every recording (their input modes put back), stores what waits, then calls `done`.
+    void shutdown(std::function<void()> done);
+    // Like a crash: nothing more is recorded, written or put back (the next open marks the recordings
+    // failed).
+    void abandon();
+
+  private:
+    struct active {
+        recording_record record;                     // counters include `buffer`
+        std::vector<recorded_frame> buffer;          // rows not yet handed to the writer
+        std::optional<std::uint64_t> bytes_skipped;  // the decoder's count at the last frame
+        bool away = false;                           // the controller is away; a marker stands for it
+        bool ending = false;                         // a limit was reached: it ends and takes no more frames
+        std::chrono::steady_clock::time_point started;
+    };
+    class observer;
+
+    recorder(boost::asio::any_io_executor executor, controller_registry& registry, recorder_settings settings,
+             std::unique_ptr<recording_store> store);
+    void attach();
+    // The controller records now (any thread: the controllers' strands ask for every frame).
+    bool listens(std::string_view controller) const;
+
+    boost::asio::awaitable<void> run_start(recording_request r, recorder_handler<recording_record> h);
+    boost::asio::awaitable<operation_result<recording_record>> finish(std::string id, recording_state state,
+                                                                      std::string reason);
+    // On the strand.
+    void on_frame(const devices::report_event& e);
+    void on_away(const std::string& controller, const std::string& why);
+    void on_back(const std::string& controller);
+    void on_overrun(const std::string& controller);
+    void add_marker(active& a, loss_kind kind);
+    void check_limits(active& a);
+    void flush();
+    void schedule_flush();
+    // Hands `a`'s buffered rows to the writer; false when the writer has too much waiting.
+    bool hand_over(active& a);
+
+    // Runs `read` on the writer's thread and posts its result to `h`.
+    template <typename T, typename Read>
+    void read(recorder_handler<T> h, Read work);
+    template <typename T>
+    void deliver(recorder_handler<T> h, operation_result<T> r);
+
+    boost::asio::any_io_executor executor_;
+    boost::asio::strand<boost::asio::any_io_executor> strand_;
+    controller_registry& registry_;
+    recorder_settings settings_;
+    std::shared_ptr<spdlog::logger> log_;
+    std::shared_ptr<recording_store> store_;  // the writer's thread only
+    boost::asio::steady_timer flush_timer_;
+    bool flush_scheduled_ = false;
+    bool shutting_down_ = false;
+    std::atomic<bool> abandoned_{false};  // any thread
+
+    std::map<std::string, active> active_;              // strand: by recording id
+    std::map<std::string, std::string> by_controller_;  // strand: controller -> recording id
+    std::set<std::string> starting_;                    // strand: controllers being armed
+
+    mutable std::mutex listening_mutex_;  // the controllers' strands read it for every frame
+    std::set<std::string, std::less<>> listening_;
+    std::shared_ptr<devices::controller_observer> observer_;
+
+    worker_thread writer_{256};  // last: destroyed first, so no write runs on a store that is gone
+};
+
+}  // namespace gw::recordings

@@ -1,0 +1,69 @@
+#pragma once
+// Recordings on disk: <storage>/recordings.sqlite3, a file of its own (frames arrive by the thousand a
+// second and must neither wait for nor fill the job store). Not thread-safe: the recording_writer owns
+// it and uses it from its own thread only.
+//
+// Frames are appended in batches, each in one transaction with the recording's counters, so that after
+// a crash the counters match the frames on disk.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <boost/system/result.hpp>
+
+#include "gateway/recordings/recording.hpp"
+
+struct sqlite3;
+
+namespace gw::recordings {
+
+template <typename T>
+using store_result = boost::system::result<T, std::string>;
+
+struct recording_filter {
+    std::optional<std::string> controller;
+    std::optional<recording_state> state;
+    std::size_t limit = 100;
+};
+
+// One page of a recording's rows, in order; `next` is where the next page starts (nullopt: none left).
+struct frame_page {
+    std::vector<recorded_frame> rows;
+    std::optional<std::int64_t> next;
+};
+
+class recording_store {
+  public:
+    // Creates the directory and the file if needed; the error names the file.
+    static store_result<std::unique_ptr<recording_store>> open(const std::string& directory);
+    ~recording_store();
+    recording_store(const recording_store&) = delete;
+    recording_store& operator=(const recording_store&) = delete;
+
+    store_result<void> create(const recording_record& r);
+    // The record's state, reason, end, axes and counters.
+    store_result<void> update(const recording_record& r);
+    // `rows` and the record's counters (r.frames, r.losses, r.axes: as after these rows), in one
+    // transaction.
+    store_result<void> append(const recording_record& r, std::span<const recorded_frame> rows);
+
+    store_result<std::optional<recording_record>> get(const std::string& id) const;
+    // Newest first.
+    store_result<std::vector<recording_record>> list(const recording_filter& f) const;
+    // The recording and its rows; false when there was none.
+    store_result<bool> remove(const std::string& id);
+    // Up to `limit` rows from `from` (0: the first).
+    store_result<frame_page> rows(const std::string& id, std::int64_t from, std::size_t limit) const;
+
+  private:
+    recording_store(sqlite3* db, std::string path) : db_(db), path_(std::move(path)) {}
+    store_result<void> exec(const char* sql);
+    sqlite3* db_;
+    std::string path_;
+};
+
+}  // namespace gw::recordings
