@@ -1,7 +1,8 @@
 #include "gateway/audit/audit_store.hpp"
 
-#include <filesystem>
 #include <sqlite3.h>
+
+#include "gateway/storage/sqlite_file.hpp"
 
 namespace gw::audit {
 
@@ -27,52 +28,19 @@ CREATE INDEX IF NOT EXISTS audit_controller ON audit(controller, id);
 CREATE INDEX IF NOT EXISTS audit_principal ON audit(principal, id);
 )sql";
 
-// A prepared statement, finalized on every path.
-struct statement {
-    sqlite3_stmt* s = nullptr;
-    ~statement() { sqlite3_finalize(s); }
-};
-
-std::string error_of(sqlite3* db, const std::string& path, const char* what) {
-    return path + ": " + what + ": " + sqlite3_errmsg(db);
-}
-
-void bind_text(sqlite3_stmt* s, int index, const std::string& text) {
-    sqlite3_bind_text(s, index, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
-}
-
-std::string column_text(sqlite3_stmt* s, int column) {
-    const auto* text = reinterpret_cast<const char*>(sqlite3_column_text(s, column));
-    return text ? std::string(text, static_cast<std::size_t>(sqlite3_column_bytes(s, column)))
-                : std::string();
-}
+using sqlite::bind_text;
+using sqlite::column_text;
+using sqlite::error_of;
+using sqlite::statement;
 
 }  // namespace
 
 boost::system::result<std::unique_ptr<audit_store>, std::string> audit_store::open(
     const std::string& directory) {
     using result = boost::system::result<std::unique_ptr<audit_store>, std::string>;
-    std::error_code ec;
-    std::filesystem::create_directories(directory, ec);
-    const auto path = (std::filesystem::path(directory) / "audit.sqlite3").string();
-    if (ec)
-        return result(boost::system::in_place_error, path + ": cannot create the directory: " + ec.message());
-    sqlite3* db = nullptr;
-    if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
-                        nullptr) != SQLITE_OK) {
-        auto why = error_of(db, path, "cannot open");
-        sqlite3_close(db);
-        return result(boost::system::in_place_error, std::move(why));
-    }
-    sqlite3_busy_timeout(db, 5000);
-    for (const char* sql : {"PRAGMA journal_mode = WAL", "PRAGMA synchronous = NORMAL", schema}) {
-        if (sqlite3_exec(db, sql, nullptr, nullptr, nullptr) != SQLITE_OK) {
-            auto why = error_of(db, path, "cannot prepare the audit table");
-            sqlite3_close(db);
-            return result(boost::system::in_place_error, std::move(why));
-        }
-    }
-    return std::unique_ptr<audit_store>(new audit_store(db, path));
+    auto file = sqlite::open_file(directory, "audit.sqlite3", schema, "cannot prepare the audit table");
+    if (!file) return result(boost::system::in_place_error, file.error());
+    return std::unique_ptr<audit_store>(new audit_store(file->db, file->path));
 }
 
 audit_store::~audit_store() {

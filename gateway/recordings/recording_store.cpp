@@ -2,9 +2,10 @@
 
 #include <cmath>
 #include <cstring>
-#include <filesystem>
 #include <limits>
 #include <sqlite3.h>
+
+#include "gateway/storage/sqlite_file.hpp"
 
 namespace gw::recordings {
 
@@ -39,19 +40,10 @@ CREATE TABLE IF NOT EXISTS frames (
 CREATE INDEX IF NOT EXISTS frames_recording ON frames(recording, row);
 )sql";
 
-// A prepared statement, finalized on every path.
-struct statement {
-    sqlite3_stmt* s = nullptr;
-    ~statement() { sqlite3_finalize(s); }
-};
-
-std::string error_of(sqlite3* db, const std::string& path, const char* what) {
-    return path + ": " + what + ": " + sqlite3_errmsg(db);
-}
-
-void bind_text(sqlite3_stmt* s, int index, const std::string& text) {
-    sqlite3_bind_text(s, index, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
-}
+using sqlite::bind_text;
+using sqlite::column_text;
+using sqlite::error_of;
+using sqlite::statement;
 
 template <typename T>
 void bind_optional(sqlite3_stmt* s, int index, const std::optional<T>& v) {
@@ -61,12 +53,6 @@ void bind_optional(sqlite3_stmt* s, int index, const std::optional<T>& v) {
         sqlite3_bind_double(s, index, *v);
     else
         sqlite3_bind_int64(s, index, static_cast<sqlite3_int64>(*v));
-}
-
-std::string column_text(sqlite3_stmt* s, int column) {
-    const auto* text = reinterpret_cast<const char*>(sqlite3_column_text(s, column));
-    return text ? std::string(text, static_cast<std::size_t>(sqlite3_column_bytes(s, column)))
-                : std::string();
 }
 
 template <typename T>
@@ -154,29 +140,12 @@ recording_record record_of(sqlite3_stmt* s) {
 
 store_result<std::unique_ptr<recording_store>> recording_store::open(const std::string& directory) {
     using result = store_result<std::unique_ptr<recording_store>>;
-    std::error_code ec;
-    std::filesystem::create_directories(directory, ec);
-    const auto path = (std::filesystem::path(directory) / "recordings.sqlite3").string();
-    if (ec)
-        return result(boost::system::in_place_error, path + ": cannot create the directory: " + ec.message());
-    sqlite3* db = nullptr;
-    if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
-                        nullptr) != SQLITE_OK) {
-        auto why = error_of(db, path, "cannot open");
-        sqlite3_close(db);
-        return result(boost::system::in_place_error, std::move(why));
-    }
-    sqlite3_busy_timeout(db, 5000);
-    // WAL with synchronous NORMAL: a commit is durable at the next checkpoint's fsync; a crash loses at
-    // most the last commits, which the writer spaces by its flush interval.
-    for (const char* sql : {"PRAGMA journal_mode = WAL", "PRAGMA synchronous = NORMAL", schema}) {
-        if (sqlite3_exec(db, sql, nullptr, nullptr, nullptr) != SQLITE_OK) {
-            auto why = error_of(db, path, "cannot prepare the recordings tables");
-            sqlite3_close(db);
-            return result(boost::system::in_place_error, std::move(why));
-        }
-    }
-    return std::unique_ptr<recording_store>(new recording_store(db, path));
+    // WAL with synchronous NORMAL: a crash loses at most the last commits, which the writer spaces by
+    // its flush interval.
+    auto file =
+        sqlite::open_file(directory, "recordings.sqlite3", schema, "cannot prepare the recordings tables");
+    if (!file) return result(boost::system::in_place_error, file.error());
+    return std::unique_ptr<recording_store>(new recording_store(file->db, file->path));
 }
 
 recording_store::~recording_store() {

@@ -19,21 +19,9 @@
 #include "devices/sim/simulator.hpp"
 #include "tests/support/drv_command_call.hpp"
 #include "tests/support/drv_recording_observer.hpp"
+#include "tests/support/io_thread.hpp"
 
 namespace gw::test {
-
-// One io_context with its own thread.
-struct io_thread {
-    boost::asio::io_context io;
-    boost::asio::executor_work_guard<boost::asio::io_context::executor_type> work =
-        boost::asio::make_work_guard(io);
-    std::thread thread{[this] { io.run(); }};
-
-    ~io_thread() {
-        work.reset();
-        thread.join();
-    }
-};
 
 struct simulated_controller {
     std::shared_ptr<devices::sim::simulator> sim;

@@ -19,6 +19,7 @@
 #include "devices/sim/sim_config.hpp"
 #include "devices/sim/simulator.hpp"
 #include "gateway/controllers/controller_registry.hpp"
+#include "tests/support/io_thread.hpp"
 
 namespace gw::recordings {
 namespace {
@@ -27,26 +28,8 @@ namespace net = boost::asio;
 namespace sim = devices::sim;
 using namespace std::chrono_literals;
 using kind = operation_error_kind;
-
-struct io_thread {
-    net::io_context io;
-    std::optional<net::executor_work_guard<net::io_context::executor_type>> work{net::make_work_guard(io)};
-    std::thread thread{[this] { io.run(); }};
-    void join() {
-        work.reset();
-        if (thread.joinable()) thread.join();
-    }
-    ~io_thread() { join(); }
-};
-
-template <typename T>
-operation_result<T> await(std::future<operation_result<T>> f) {
-    if (f.wait_for(60s) != std::future_status::ready) {
-        ADD_FAILURE() << "the operation did not complete";
-        return make_error(kind::internal, "test: no completion");
-    }
-    return f.get();
-}
+using test::await;
+using test::io_thread;
 
 // The answer of a recorder call, waited for: `call` is given the handler.
 template <typename T, typename Call>

@@ -36,24 +36,15 @@
 #include "gateway/jobs/manager/job_manager.hpp"
 #include "gateway/leases/lease_manager.hpp"
 #include "tests/support/drv_recording_observer.hpp"
+#include "tests/support/io_thread.hpp"
 
 namespace gw::jobs::test {
 
 namespace net = boost::asio;
 namespace sim = devices::sim;
 using namespace std::chrono_literals;
-
-struct io_thread {
-    net::io_context io;
-    std::optional<net::executor_work_guard<net::io_context::executor_type>> work{net::make_work_guard(io)};
-    std::thread thread{[this] { io.run(); }};
-
-    void join() {
-        work.reset();
-        if (thread.joinable()) thread.join();
-    }
-    ~io_thread() { join(); }
-};
+using gw::test::await;
+using gw::test::io_thread;
 
 // Records every event of the hub's "jobs/#" topics, as parsed JSON messages, in arrival order.
 class recording_sink : public event_sink, public std::enable_shared_from_this<recording_sink> {
@@ -92,15 +83,6 @@ class recording_sink : public event_sink, public std::enable_shared_from_this<re
     std::mutex mutex_;
     std::vector<nlohmann::json> messages_;
 };
-
-template <typename T>
-operation_result<T> await(std::future<operation_result<T>> f, std::chrono::seconds timeout = 60s) {
-    if (f.wait_for(timeout) != std::future_status::ready) {
-        ADD_FAILURE() << "the operation did not complete";
-        return make_error(operation_error_kind::internal, "test: no completion");
-    }
-    return f.get();
-}
 
 class manager_fixture : public ::testing::Test {
   protected:

@@ -28,6 +28,7 @@
 #include "devices/sim/sim_config.hpp"
 #include "devices/sim/simulator.hpp"
 #include "gateway/controllers/controller_registry.hpp"
+#include "tests/support/io_thread.hpp"
 
 namespace gw::jobs {
 namespace {
@@ -35,18 +36,7 @@ namespace {
 namespace net = boost::asio;
 namespace sim = devices::sim;
 using namespace std::chrono_literals;
-
-struct io_thread {
-    net::io_context io;
-    std::optional<net::executor_work_guard<net::io_context::executor_type>> work{net::make_work_guard(io)};
-    std::thread thread{[this] { io.run(); }};
-
-    void join() {
-        work.reset();
-        if (thread.joinable()) thread.join();
-    }
-    ~io_thread() { join(); }
-};
+using test::io_thread;
 
 class snapshot_motion_model_test : public ::testing::Test {
   protected:

@@ -76,6 +76,7 @@ from .problems import (
     UnknownController,
     UnknownFile,
     UnknownJob,
+    UnknownRecording,
     UnsupportedMediaType,
 )
 from .stage import AsyncStage
@@ -157,5 +158,6 @@ __all__ = [
     "UnknownController",
     "UnknownFile",
     "UnknownJob",
+    "UnknownRecording",
     "UnsupportedMediaType",
 ]

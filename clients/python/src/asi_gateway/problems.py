@@ -250,6 +250,10 @@ class UnknownFile(NotFound):
     problem_type = PROBLEM_BASE + "unknown-file"
 
 
+class UnknownRecording(NotFound):
+    problem_type = PROBLEM_BASE + "unknown-recording"
+
+
 class InvalidGcode(Problem):
     """422: a program error at `line` and `column` (`message` is the translator's)."""
 
