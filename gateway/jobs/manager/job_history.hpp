@@ -25,10 +25,10 @@
 #include <boost/asio/strand.hpp>
 #include <nlohmann/json.hpp>
 
+#include "gateway/common/worker_thread.hpp"
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_query.hpp"
 #include "gateway/jobs/manager/job_manager_types.hpp"
-#include "gateway/common/worker_thread.hpp"
 #include "gateway/jobs/store/job_journal.hpp"
 #include "gateway/jobs/store/job_store.hpp"
 #include "gateway/jobs/store/job_store_handle.hpp"

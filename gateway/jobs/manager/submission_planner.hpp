@@ -16,10 +16,10 @@
 #include <boost/asio/strand.hpp>
 #include <nlohmann/json.hpp>
 
+#include "gateway/common/worker_thread.hpp"
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_plan.hpp"
 #include "gateway/jobs/manager/job_manager_types.hpp"
-#include "gateway/common/worker_thread.hpp"
 
 namespace gw {
 class controller_registry;
