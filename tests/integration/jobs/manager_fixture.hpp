@@ -37,6 +37,7 @@
 #include "gateway/leases/lease_manager.hpp"
 #include "tests/support/drv_recording_observer.hpp"
 #include "tests/support/io_thread.hpp"
+#include "tests/support/sim_controller_settings.hpp"
 
 namespace gw::jobs::test {
 
@@ -96,16 +97,7 @@ class manager_fixture : public ::testing::Test {
         auto s = std::make_shared<sim::simulator>(sim_io_.io.get_executor(), config);
         s->start();
         sims_[id] = s;
-        devices::controller_settings c;
-        c.id = id;
-        c.port = s->port_path();
-        c.report_port = s->report_port_path();
-        c.baud = config.baud;
-        c.poll_interval = 20ms;
-        c.command_timeout = 2000ms;
-        c.reconnect_min = 50ms;
-        c.reconnect_max = 300ms;
-        options_.controllers.push_back(c);
+        options_.controllers.push_back(gw::test::sim_controller_settings(id, *s, config.baud));
         return s;
     }
 

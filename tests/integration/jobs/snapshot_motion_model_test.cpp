@@ -29,6 +29,7 @@
 #include "devices/sim/simulator.hpp"
 #include "gateway/controllers/controller_registry.hpp"
 #include "tests/support/io_thread.hpp"
+#include "tests/support/sim_controller_settings.hpp"
 
 namespace gw::jobs {
 namespace {
@@ -57,15 +58,8 @@ class snapshot_motion_model_test : public ::testing::Test {
         config.report_link_path = dir_ + "/m1/report";
         sim_ = std::make_shared<sim::simulator>(sim_io_.io.get_executor(), config);
         sim_->start();
-        devices::controller_settings c;
-        c.id = "m1";
-        c.port = sim_->port_path();
-        c.report_port = sim_->report_port_path();
-        c.baud = config.baud;
-        c.poll_interval = 20ms;
+        auto c = gw::test::sim_controller_settings("m1", *sim_, config.baud);
         c.command_timeout = 3000ms;
-        c.reconnect_min = 50ms;
-        c.reconnect_max = 300ms;
         registry_options options;
         options.controllers.push_back(c);
         registry_ = std::make_unique<controller_registry>(gw_io_.io.get_executor(), options);
