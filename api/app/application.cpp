@@ -24,6 +24,7 @@
 #include "gateway/events/event_hub.hpp"
 #include "gateway/jobs/manager/job_manager.hpp"
 #include "gateway/leases/lease_manager.hpp"
+#include "gateway/recordings/recorder.hpp"
 #include "gateway/share/shared_ports.hpp"
 #include "gateway/version.hpp"
 
@@ -164,8 +165,17 @@ bool application::start() {
     }
     jobs_ = std::move(*jobs);
     shares_ = std::make_unique<shared_ports>(ioc_.get_executor(), config, *registry_, leases_, jobs_);
+    // Position recordings: <storage>/recordings.sqlite3 (an unusable file is fatal, as the job store).
+    recordings::recorder_settings recorder_settings;
+    recorder_settings.storage_path = config.storage.path;
+    auto recorder = recordings::recorder::open(ioc_.get_executor(), *registry_, std::move(recorder_settings));
+    if (!recorder) {
+        log_->error("cannot open the recordings in \"{}\": {}", config.storage.path, recorder.error().message);
+        return false;
+    }
+    recorder_ = std::move(*recorder);
     http_ = std::make_unique<api::server>(ioc_.get_executor(), config, *registry_, hub_, metrics_, jobs_,
-                                          leases_, state_texts_, shares_.get(), tls_);
+                                          leases_, state_texts_, shares_.get(), tls_, recorder_);
     shares_->set_audit(http_->context()->audit);
 
     try {
@@ -221,7 +231,7 @@ void application::stop_after_failed_start() {
 }
 
 // The order in which the gateway stops: no new requests; running jobs HALTed, TTL low, interrupted and
-// stored; the controllers (HALTed when shutdown.halt_on_exit); MQTT, which publishes "offline" itself;
+// stored; recordings stopped (their trigger input modes put back) and stored; the controllers (HALTed when shutdown.halt_on_exit); MQTT, which publishes "offline" itself;
 // last the hub, after the jobs' and controllers' final events have gone out.
 void application::shutdown() {
     http_->stop();
@@ -233,6 +243,7 @@ void application::shutdown() {
                 next();
             });
         },
+        [this](auto next) { recorder_->shutdown(std::move(next)); },
         [this](auto next) { registry_->async_shutdown(std::move(next)); },
         [this](auto next) {
             if (mqtt_)

@@ -35,6 +35,9 @@ class metrics;
 namespace jobs {
 class job_manager;
 }
+namespace recordings {
+class recorder;
+}
 namespace api {
 class server;
 class mqtt_bridge;
@@ -89,6 +92,7 @@ class application {
     std::shared_ptr<lease_manager> leases_;
     std::shared_ptr<jobs::job_manager> jobs_;
     std::unique_ptr<shared_ports> shares_;
+    std::shared_ptr<recordings::recorder> recorder_;
     std::shared_ptr<api::tls_server_context> tls_;  // http.tls; null: plain HTTP
     std::unique_ptr<api::server> http_;
     std::shared_ptr<api::mqtt_bridge> mqtt_;

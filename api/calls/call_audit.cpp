@@ -48,6 +48,13 @@ std::optional<audit::audit_entry> audit_entry_for(const caller& who, const call&
         e.detail = audit::bounded_detail(take->body);
     } else if (const auto* release = std::get_if<lease_release_call>(&c)) {
         e.controller = release->controller;
+    } else if (const auto* start = std::get_if<recording_start_call>(&c)) {
+        e.controller = start->controller;
+        e.detail = audit::bounded_detail(start->body);
+    } else if (const auto* stop = std::get_if<recording_stop_call>(&c)) {
+        e.target = stop->recording_id;
+    } else if (const auto* remove = std::get_if<recording_delete_call>(&c)) {
+        e.target = remove->recording_id;
     }
     if (e.detail.is_null()) e.detail = nlohmann::json::object();
     return e;
@@ -62,7 +69,7 @@ void complete_audit_entry(audit::audit_entry& e, const api_outcome& out, std::in
     }
     e.status = static_cast<int>(out.status);
     e.outcome = "ok";
-    if (e.action == "job.submit") e.target = string_field(out.body, "id");
+    if (e.action == "job.submit" || e.action == "recording.start") e.target = string_field(out.body, "id");
 }
 
 audit::audit_entry route_audit_entry(const caller& who, std::string action, std::string target,

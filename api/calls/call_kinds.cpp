@@ -54,6 +54,12 @@ const call_descriptor lease_release{"lease.release", role_need::operator_, lease
 const call_descriptor lease_break{"lease.break", role_need::admin, lease_rule::none, recorded};
 const call_descriptor gcode_check{"gcode.check", role_need::viewer, lease_rule::none, not_recorded};
 const call_descriptor halt_all{"halt_all", role_need::halt, lease_rule::none, recorded};
+// A start changes the trigger input's mode: a leased controller is its holder's.
+const call_descriptor recording_start{"recording.start", role_need::operator_, lease_rule::controller,
+                                      recorded};
+// A stop puts the mode back as it was; anyone who may operate may end a recording.
+const call_descriptor recording_stop{"recording.stop", role_need::operator_, lease_rule::none, recorded};
+const call_descriptor recording_delete{"recording.delete", role_need::operator_, lease_rule::none, recorded};
 }  // namespace call_kinds
 
 gw::role role_needed(const call_descriptor& d, gw::role halt_role) {

@@ -58,6 +58,9 @@ extern const call_descriptor lease_release;
 extern const call_descriptor lease_break;  // a forced release, without the lease
 extern const call_descriptor gcode_check;
 extern const call_descriptor halt_all;
+extern const call_descriptor recording_start;
+extern const call_descriptor recording_stop;
+extern const call_descriptor recording_delete;
 }  // namespace call_kinds
 
 // The role a descriptor asks for, `halt_role` standing for role_need::halt.

@@ -12,6 +12,7 @@
 #include "api/calls/halt_requests.hpp"
 #include "api/calls/lease_requests.hpp"
 #include "api/calls/operation_requests.hpp"
+#include "api/calls/recording_requests.hpp"
 #include "api/common/auth.hpp"
 #include "gateway/audit/audit_log.hpp"
 #include "gateway/common/timestamp.hpp"
@@ -73,6 +74,9 @@ const call_descriptor& descriptor_of(const call& c) {
     if (const auto* release = std::get_if<lease_release_call>(&c))
         return release->force ? call_kinds::lease_break : call_kinds::lease_release;
     if (std::holds_alternative<gcode_check_call>(c)) return call_kinds::gcode_check;
+    if (std::holds_alternative<recording_start_call>(c)) return call_kinds::recording_start;
+    if (std::holds_alternative<recording_stop_call>(c)) return call_kinds::recording_stop;
+    if (std::holds_alternative<recording_delete_call>(c)) return call_kinds::recording_delete;
     return call_kinds::halt_all;
 }
 
@@ -118,6 +122,12 @@ void run_call(api_context& ctx, const caller& who, call c, api_handler done) {
                        renew_lease(ctx, renew->controller, who.lease_id, renew->body, who.request_id));
     if (const auto* check = std::get_if<gcode_check_call>(&c))
         return check_stored_program(ctx, check->file, check->options, who.request_id, std::move(done));
+    if (const auto* start = std::get_if<recording_start_call>(&c))
+        return start_recording(ctx, who, start->controller, start->body, std::move(done));
+    if (const auto* stop = std::get_if<recording_stop_call>(&c))
+        return stop_recording(ctx, stop->recording_id, who.request_id, std::move(done));
+    if (const auto* remove = std::get_if<recording_delete_call>(&c))
+        return delete_recording(ctx, remove->recording_id, who.request_id, std::move(done));
     if (const auto* release = std::get_if<lease_release_call>(&c))
         return deliver(ctx, std::move(done),
                        release_lease(ctx, release->controller, who.lease_id, release->force, who.request_id));

@@ -70,9 +70,21 @@ struct gcode_check_call {
 // HALT ALL: every controller halted at once (api/halt_requests.hpp).
 struct halt_all_call {};
 
-using call =
-    std::variant<operation_call, job_submit_call, job_action_call, job_get_call, lease_get_call,
-                 lease_take_call, lease_renew_call, lease_release_call, gcode_check_call, halt_all_call>;
+// Position recordings (api/recording_requests.hpp): a start arms the controller's trigger input.
+struct recording_start_call {
+    std::string controller;
+    nlohmann::json body;  // {"name", "arm", "max_frames", "max_s", "metadata"}
+};
+struct recording_stop_call {
+    std::string recording_id;
+};
+struct recording_delete_call {
+    std::string recording_id;
+};
+
+using call = std::variant<operation_call, job_submit_call, job_action_call, job_get_call, lease_get_call,
+                          lease_take_call, lease_renew_call, lease_release_call, gcode_check_call,
+                          halt_all_call, recording_start_call, recording_stop_call, recording_delete_call>;
 
 // The call's descriptor (call_kinds): its name, role, lease rule and audit. An operation that does not
 // exist gets one with an empty name, needing operator (run_operation answers 404).

@@ -357,7 +357,8 @@ bool may_change_controller(const any_request& r) {
     return true;
 }
 
-// 409 job-active unless no job holds the controller, or the caller holds the lease the job runs under.
+}  // namespace
+
 std::optional<problem> job_hold_refusal(api_context& ctx, const std::string& controller,
                                         const std::optional<std::string>& lease_id) {
     if (!ctx.jobs) return std::nullopt;
@@ -370,6 +371,8 @@ std::optional<problem> job_hold_refusal(api_context& ctx, const std::string& con
             "now; reads and HALT are open to all (pause or cancel the job first)",
             hold->job_id, jobs::to_string(hold->state), controller)));
 }
+
+namespace {
 
 json base_result(std::string_view id, std::string_view op, const std::string& request_id) {
     return {{"id", id}, {"operation", op}, {"request_id", request_id}};

@@ -54,6 +54,10 @@ bool is_operation(std::string_view name);
 void run_operation(api_context& ctx, const caller& who, std::string_view controller_id,
                    std::string_view operation, const nlohmann::json& body, api_handler handler);
 
+// 409 job-active unless no job holds the controller, or `lease_id` is the lease the job runs under.
+std::optional<problem> job_hold_refusal(api_context& ctx, const std::string& controller,
+                                        const std::optional<std::string>& lease_id);
+
 // Whether `operation` is subject to leases (its descriptor's lease rule: every one but halt).
 bool needs_lease(std::string_view operation);
 

@@ -33,6 +33,10 @@ namespace gw::audit {
 class audit_log;
 }
 
+namespace gw::recordings {
+class recorder;
+}
+
 namespace gw::api {
 
 class batch_text_cache;
@@ -68,6 +72,8 @@ struct api_context {
     trusted_proxies proxies{};
     // HTTPS and WSS (http.tls); null: plain HTTP.
     std::shared_ptr<tls_server_context> tls{};
+    // Position recordings (gateway/recordings); null: the recording routes answer 503.
+    std::shared_ptr<recordings::recorder> recordings{};
 };
 
 }  // namespace gw::api

@@ -433,12 +433,11 @@ void http_session::serve_halt(const http::request_header<>& header, bool body_fo
 void http_session::on_handled(routed_response r) {
     body_memory_.reset();
     const bool close_after = !r.response.keep_alive();
+    if (r.stream) return do_write_stream(std::move(r.response), std::move(r.stream), r.route, close_after);
     do_write(std::move(r.response), std::move(r.route), close_after);
 }
 
-void http_session::do_write(string_response res, std::string route, bool close_after) {
-    if (close_after) res.keep_alive(false);
-    const auto status = res.result_int();
+void http_session::count_answer(unsigned status, const std::string& route) {
     auto elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
     auto& series = last_series_;
     if (series.status != status || series.route != route || series.method != method_) {
@@ -458,13 +457,91 @@ void http_session::do_write(string_response res, std::string route, bool close_a
         log_failed_authentication(ctx_->log, client_address_, method_, route);
     else
         ctx_->log->debug("{} {} -> {} [{}] {:.1f} ms", method_, route, status, request_id_, elapsed * 1e3);
+}
 
+void http_session::do_write(string_response res, std::string route, bool close_after) {
+    if (close_after) res.keep_alive(false);
+    count_answer(res.result_int(), route);
     // A write must not hang forever on a client that stopped reading.
     stream_.expires_after(ctx_->limits.read_timeout);
     auto msg = std::make_shared<string_response>(std::move(res));
     response_ = msg;
     http::async_write(stream_, *msg,
                       beast::bind_front_handler(&http_session::on_write, shared_from_this(), close_after));
+}
+
+// A streamed body: the header (chunked), then one piece at a time, each written before the next is asked
+// for; the last chunk only once the body says it is complete. HTTP/1.0 has no chunks: its body ends
+// when the connection closes.
+struct http_session::outgoing_stream {
+    explicit outgoing_stream(string_response head, std::shared_ptr<streamed_body> b)
+        : message(std::move(head.base())), body(std::move(b)), chunked(message.version() >= 11) {
+        if (chunked)
+            message.chunked(true);
+        else
+            message.keep_alive(false);
+    }
+    http::response<http::empty_body> message;
+    http::response_serializer<http::empty_body> serializer{message};
+    std::shared_ptr<streamed_body> body;
+    std::string piece;  // the chunk being written
+    bool chunked;
+};
+
+void http_session::do_write_stream(string_response head, std::shared_ptr<streamed_body> body,
+                                   const std::string& route, bool close_after) {
+    if (close_after) head.keep_alive(false);
+    count_answer(head.result_int(), route);
+    auto out = std::make_shared<outgoing_stream>(std::move(head), std::move(body));
+    close_after = close_after || !out->chunked;
+    response_ = out;
+    stream_.expires_after(ctx_->limits.read_timeout);
+    http::async_write_header(stream_, out->serializer,
+                             [self = shared_from_this(), out, close_after](beast::error_code ec, std::size_t) {
+                                 if (ec) return self->fail(ec, "write");
+                                 self->next_piece(out, close_after);
+                             });
+}
+
+void http_session::next_piece(const std::shared_ptr<outgoing_stream>& out, bool close_after) {
+    stream_.expires_never();  // the body may take its time; each write has its own timeout
+    out->body->next([self = shared_from_this(), out, close_after](std::optional<std::string> piece, bool last) {
+        auto ex = self->stream_.get_executor();
+        net::post(ex, [self = std::move(self), out, close_after, piece = std::move(piece), last]() mutable {
+            self->on_piece(out, close_after, std::move(piece), last);
+        });
+    });
+}
+
+void http_session::on_piece(const std::shared_ptr<outgoing_stream>& out, bool close_after,
+                            std::optional<std::string> piece, bool last) {
+    if (!stream_.socket().is_open()) return;  // closed meanwhile (stop)
+    if (!piece) {
+        // Too late for a status: the client sees the body end without its last chunk.
+        ctx_->log->warn("{} [{}]: the streamed body failed; the connection closes", method_, request_id_);
+        response_.reset();
+        return do_close();
+    }
+    out->piece = std::move(*piece);
+    auto written = [self = shared_from_this(), out, close_after, last](beast::error_code ec, std::size_t) {
+        if (ec) return self->fail(ec, "write");
+        if (!last) return self->next_piece(out, close_after);
+        self->end_stream(out, close_after);
+    };
+    stream_.expires_after(ctx_->limits.read_timeout);
+    if (out->piece.empty())
+        written({}, 0);
+    else if (out->chunked)
+        net::async_write(stream_, http::make_chunk(net::buffer(out->piece)), std::move(written));
+    else
+        net::async_write(stream_, net::buffer(out->piece), std::move(written));
+}
+
+void http_session::end_stream(const std::shared_ptr<outgoing_stream>& out, bool close_after) {
+    if (!out->chunked) return on_write(true, {}, 0);
+    stream_.expires_after(ctx_->limits.read_timeout);
+    net::async_write(stream_, http::make_chunk_last(),
+                     beast::bind_front_handler(&http_session::on_write, shared_from_this(), close_after));
 }
 
 void http_session::on_write(bool close_after, beast::error_code ec, std::size_t) {

@@ -5,7 +5,8 @@
 // within read_timeout_ms, hands the request to the router, writes the response, keeps the connection
 // alive when asked to, and passes WebSocket upgrades of /api/v1/ws to start_websocket_session. A
 // G-code program body is streamed to the store's temporary file in chunks (written on the worker's
-// upload thread), never held whole in memory. One request at a time (no pipelining).
+// upload thread), never held whole in memory. A streamed response body (a download) is written as
+// chunks, one piece at a time. One request at a time (no pipelining).
 // The session reports its phase to the connection table through its permit (waiting for a header,
 // idle, reading a body, serving), so a waiting or slow connection can be shed for a newcomer.
 // With http.tls, a TLS handshake comes first, within the header timeout.
@@ -71,7 +72,15 @@ class http_session : public std::enable_shared_from_this<http_session>, public t
     // body budget, and on a HALT reserve slot. A body it carries is not read: the connection closes.
     void serve_halt(const http::request_header<>& header, bool body_follows);
     void on_handled(routed_response r);
+    void count_answer(unsigned status, const std::string& route);
     void do_write(string_response res, std::string route, bool close_after);
+    struct outgoing_stream;
+    void do_write_stream(string_response head, std::shared_ptr<streamed_body> body, const std::string& route,
+                         bool close_after);
+    void next_piece(const std::shared_ptr<outgoing_stream>& out, bool close_after);
+    void on_piece(const std::shared_ptr<outgoing_stream>& out, bool close_after,
+                  std::optional<std::string> piece, bool last);
+    void end_stream(const std::shared_ptr<outgoing_stream>& out, bool close_after);
     void on_write(bool close_after, beast::error_code ec, std::size_t bytes);
     void do_close();
     void do_linger();

@@ -31,6 +31,16 @@ void request_context::reply_outcome(api_outcome o) {
     reply(outcome_response(std::move(o), req.version(), req.keep_alive(), req.target(), request_id));
 }
 
+void request_context::reply_stream(std::string_view content_type, std::shared_ptr<streamed_body> body,
+                                   std::vector<std::pair<http::field, std::string>> headers) {
+    string_response head{http::status::ok, req.version()};
+    set_common_headers(head, request_id, req.keep_alive());
+    head.set(http::field::content_type, content_type);
+    for (auto& [name, value] : headers)
+        head.set(name, std::move(value));
+    done(routed_response{std::move(head), route, std::move(body)});
+}
+
 api_handler request_context::async_reply() {
     return net::bind_executor(
         session_executor, [route = route, meta = meta(), done = std::move(done)](api_outcome o) {

@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -53,6 +54,9 @@ struct request_context {
     void reply_json(http::status status, const nlohmann::json& body);
     void reply_body(http::status status, std::string body, std::string_view content_type);
     void reply_outcome(api_outcome o);
+    // A 200 whose body `body` makes piece by piece (chunked); `headers` are added to the common ones.
+    void reply_stream(std::string_view content_type, std::shared_ptr<streamed_body> body,
+                      std::vector<std::pair<http::field, std::string>> headers = {});
     // The answer of an asynchronous route, delivered on the session's executor. Moves `done` out: call
     // it once, and answer nothing else after.
     api_handler async_reply();

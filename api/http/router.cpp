@@ -6,6 +6,7 @@
 #include "api/common/response_headers.hpp"
 #include "api/http/browser_guard.hpp"
 #include "api/http/gcode_requests.hpp"
+#include "api/http/recording_routes.hpp"
 #include "api/http/request_context.hpp"
 #include "api/http/rest_routes.hpp"
 #include "api/http/route_table.hpp"
@@ -21,6 +22,8 @@ const route_table& api_routes() {
     static const route_table table = [] {
         auto routes = rest_routes();
         for (auto& r : gcode_routes())
+            routes.push_back(std::move(r));
+        for (auto& r : recording_routes())
             routes.push_back(std::move(r));
         auto openapi = [](request_context& c) {
             c.reply_body(http::status::ok, std::string(openapi_document()), "application/yaml");

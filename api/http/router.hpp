@@ -20,6 +20,7 @@
 #include "api/common/problem.hpp"
 #include "api/common/problem_response.hpp"
 #include "api/common/response_headers.hpp"
+#include "api/common/streamed_body.hpp"
 
 namespace gw::api {
 
@@ -30,6 +31,8 @@ const route_table& api_routes();
 struct routed_response {
     string_response response;
     std::string route;  // the route template for metrics ("/api/v1/controllers/{id}/move"), or "unmatched"
+    // Not null: the body comes from here, chunked (`response` gives the status and headers only).
+    std::shared_ptr<streamed_body> stream{};
 };
 
 using response_handler = std::function<void(routed_response)>;

@@ -45,7 +45,7 @@ server::server(const io_executor& executor, const gateway_config& config, contro
                std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
                std::shared_ptr<jobs::job_manager> jobs, std::shared_ptr<lease_manager> leases,
                std::shared_ptr<const controller_state_texts> state_texts, const shared_ports* shares,
-               std::shared_ptr<tls_server_context> tls)
+               std::shared_ptr<tls_server_context> tls, std::shared_ptr<recordings::recorder> recordings)
     : executor_(executor),
       http_(config.http),
       ctx_(std::make_shared<api_context>(api_context{
@@ -54,7 +54,7 @@ server::server(const io_executor& executor, const gateway_config& config, contro
           std::make_shared<api::gcode_worker>(), std::make_shared<api::port_scan_worker>(),
           std::move(state_texts), std::make_shared<batch_text_cache>(),
           browser_rules{config.http.allowed_origins, config.http.allowed_hosts, config.auth.tokens.empty()},
-          shares, make_audit_log(config), config.http.proxies, std::move(tls)})) {
+          shares, make_audit_log(config), config.http.proxies, std::move(tls), std::move(recordings)})) {
     // main holds the storage lock by now: no other gateway uploads into this store.
     if (auto stale = ctx_->gcode_files->remove_stale_temporaries())
         ctx_->log->info("removed {} unfinished G-code uploads from {}", stale,

@@ -25,7 +25,8 @@ class server {
            std::shared_ptr<event_hub> hub, std::shared_ptr<gw::metrics> metrics,
            std::shared_ptr<jobs::job_manager> jobs = nullptr, std::shared_ptr<lease_manager> leases = nullptr,
            std::shared_ptr<const controller_state_texts> state_texts = nullptr,
-           const shared_ports* shares = nullptr, std::shared_ptr<tls_server_context> tls = nullptr);
+           const shared_ports* shares = nullptr, std::shared_ptr<tls_server_context> tls = nullptr,
+           std::shared_ptr<recordings::recorder> recordings = nullptr);
     ~server();
 
     // Binds http.listen_address:http.port. Throws std::runtime_error (refused address, port in use).

@@ -88,8 +88,10 @@ operation_result<std::shared_ptr<recorder>> recorder::open(net::any_io_executor 
     auto store = recording_store::open(settings.storage_path);
     if (!store) return store_error(store.error());
     // What a crashed gateway left recording: its frames after the last stored batch are unknown.
-    auto left =
-        (*store)->list({.controller = std::nullopt, .state = recording_state::recording, .limit = 10000});
+    recording_filter recording_now;
+    recording_now.state = recording_state::recording;
+    recording_now.limit = 10000;
+    auto left = (*store)->list(recording_now);
     if (!left) return store_error(left.error());
     for (auto& r : *left) {
         r.state = recording_state::failed;
@@ -138,7 +140,7 @@ void recorder::read(recorder_handler<T> h, Read work) {
         // The reference moves on with the result: the writer's thread never holds the last one.
         auto& ex = self->executor_;
         net::post(ex, [self = std::move(self), result = std::move(result), shared_h]() mutable {
-            (*shared_h)(std::move(result));
+            self->deliver<T>(std::move(*shared_h), std::move(result));  // on the handler's own executor
         });
     });
     if (!queued)

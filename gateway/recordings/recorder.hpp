@@ -4,11 +4,12 @@
 // 0 as the controller sends them and marks where frames were lost; stop(), a limit (max_frames, max_s)
 // or shutdown puts the previous input mode back. One recording at a time per controller.
 //
-// Threads: public methods may be called from any thread; handlers run on the executor given to open(),
-// never inline. Frames arrive from the registry's observer on the controllers' strands and cross to
-// the recorder's strand only for a controller that records. Every flush_interval the strand hands each
-// recording's new rows to the writer, a thread of its own that owns the store (so the disk never holds
-// up an I/O thread); reads run there too, after the writes before them.
+// Threads: public methods may be called from any thread; handlers run on their associated executor (by
+// default the executor given to open()), never inline. Frames arrive from the registry's observer on the
+// controllers' strands and cross to the recorder's strand only for a controller that records. Every
+// flush_interval the strand hands each recording's new rows to the writer, a thread of its own that owns
+// the store (so the disk never holds up an I/O thread); reads run there too, after the writes before
+// them.
 
 #include <atomic>
 #include <chrono>

@@ -257,12 +257,15 @@ store_result<std::vector<recording_record>> recording_store::list(const recordin
     const std::string sql =
         std::string("SELECT ") + record_columns +
         " FROM recordings WHERE (?1 IS NULL OR controller = ?1) AND (?2 IS NULL OR state = ?2)"
+        " AND (?4 IS NULL OR started_ms >= ?4) AND (?5 IS NULL OR started_ms < ?5)"
         " ORDER BY started_ms DESC, id DESC LIMIT ?3";
     if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &q.s, nullptr) != SQLITE_OK)
         return result(boost::system::in_place_error, error_of(db_, path_, "cannot list recordings"));
     if (f.controller) bind_text(q.s, 1, *f.controller);
     if (f.state) bind_text(q.s, 2, std::string(to_string(*f.state)));
     sqlite3_bind_int64(q.s, 3, static_cast<sqlite3_int64>(f.limit));
+    if (f.since_ms) sqlite3_bind_int64(q.s, 4, *f.since_ms);
+    if (f.until_ms) sqlite3_bind_int64(q.s, 5, *f.until_ms);
     std::vector<recording_record> out;
     int rc = SQLITE_ROW;
     while ((rc = sqlite3_step(q.s)) == SQLITE_ROW)

@@ -27,6 +27,8 @@ using store_result = boost::system::result<T, std::string>;
 struct recording_filter {
     std::optional<std::string> controller;
     std::optional<recording_state> state;
+    std::optional<std::int64_t> since_ms;  // started at or after (milliseconds since the epoch)
+    std::optional<std::int64_t> until_ms;  // started before
     std::size_t limit = 100;
 };
 

@@ -133,12 +133,23 @@ TEST_F(recording_store_test, lists_newest_first_by_controller_and_state_and_remo
     ASSERT_EQ(all->size(), 3u);
     EXPECT_EQ((*all)[0].id, "r-3");
     EXPECT_EQ((*all)[2].id, "r-1");
-    auto sim1 = store_->list({.controller = "sim1", .state = std::nullopt, .limit = 100});
+    recording_filter of_sim1;
+    of_sim1.controller = "sim1";
+    auto sim1 = store_->list(of_sim1);
     ASSERT_EQ(sim1->size(), 2u);
-    auto recording =
-        store_->list({.controller = std::nullopt, .state = recording_state::recording, .limit = 100});
+    recording_filter recording_now;
+    recording_now.state = recording_state::recording;
+    auto recording = store_->list(recording_now);
     ASSERT_EQ(recording->size(), 2u);
-    EXPECT_EQ(store_->list({.controller = std::nullopt, .state = std::nullopt, .limit = 1})->size(), 1u);
+    recording_filter one;
+    one.limit = 1;
+    EXPECT_EQ(store_->list(one)->size(), 1u);
+    recording_filter between;
+    between.since_ms = 2000;
+    between.until_ms = 3000;
+    auto in_time = store_->list(between);
+    ASSERT_EQ(in_time->size(), 1u);  // since is inclusive, until is not
+    EXPECT_EQ((*in_time)[0].id, "r-2");
 
     auto r1 = record("r-1", "sim1", 1000);
     r1.frames = 1;
