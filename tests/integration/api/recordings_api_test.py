@@ -1,0 +1,243 @@
+"""Position recordings end to end (issue 35): the real asi-gateway with an external ms2000-sim whose
+report port answers TTL pulses (its control socket's `pulse N RATE_HZ`), real HTTP clients, a real
+SQLite file, and the downloads read back by pandas (Debian's python3-pandas), the standard reader of
+analysis code:
+
+- a recording arms the trigger input, counts every frame from 0 at the stage's position at each
+  pulse, and puts the input mode back when it stops;
+- CSV and JSON Lines downloads come chunked and read into the same table;
+- limits (max_frames), the refusals (body, controller without a report port, leases, roles), the
+  list filters, deletion, and the audit trail.
+"""
+
+import argparse
+import http.client
+import io
+import json
+import os
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from gateway_fixture import (TOKENS, WAIT, Failure, Fixture, auth_tokens, check, free_port,  # noqa: E402
+                             http_request, run_main, wait_until)
+
+import pandas  # noqa: E402  (Debian python3-pandas)
+
+OPERATOR = TOKENS["operator"]
+
+
+def call(port, method, path, body=None, token=OPERATOR, headers=None):
+    status, text = http_request(port, method, path, body, token=token, headers=headers)
+    return status, (json.loads(text) if text else None)
+
+
+def problem_type(body):
+    return (body or {}).get("type", "").rsplit("/", 1)[-1]
+
+
+def download(port, rid, fmt):
+    """(headers, text) of GET /recordings/{rid}/frames?format=fmt."""
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=WAIT)
+    conn.request("GET", f"/api/v1/recordings/{rid}/frames?format={fmt}",
+                 headers={"Authorization": f"Bearer {TOKENS['viewer']}"})
+    r = conn.getresponse()
+    text = r.read().decode()
+    headers = {k.lower(): v for k, v in r.getheaders()}
+    conn.close()
+    check(r.status == 200, f"download {fmt}: {r.status} {text[:300]}")
+    return headers, text
+
+
+def move_x(port, x_um):
+    status, body = call(port, "POST", "/api/v1/controllers/ext2/move", {"axes": {"X": x_um}, "wait": True})
+    check(status == 200, f"move X to {x_um}: {status} {body}")
+
+
+def input_mode(port):
+    status, body = call(port, "POST", "/api/v1/controllers/ext2/command", {"command": "TTL X?"},
+                        token=TOKENS["admin"])
+    check(status == 200, f"TTL X?: {status} {body}")
+    return body["raw_reply"]
+
+
+def wait_frames(port, rid, n):
+    def stored():
+        status, body = call(port, "GET", f"/api/v1/recordings/{rid}", token=TOKENS["viewer"])
+        check(status == 200, f"GET recording: {status} {body}")
+        return body if body["frames"] >= n else None
+    return wait_until(f"{n} frames stored", stored)
+
+
+def pulses_done(sim, before, n):
+    wait_until(f"{n} pulses sent", lambda: json.loads(sim.control("state"))["reports_sent"] - before >= n)
+
+
+def test_refusals(port):
+    base = "/api/v1/controllers/ext2/recordings"
+    status, body = call(port, "POST", base, {"nmae": "x"})
+    check(status == 422 and body.get("field") == "nmae", f"unknown field: {status} {body}")
+    status, body = call(port, "POST", base, {})
+    check(status == 422 and body.get("field") == "name", f"no name: {status} {body}")
+    status, body = call(port, "POST", base, {"name": "a", "arm": {"ttl_in_mode": 0}})
+    check(status == 422 and body.get("field") == "arm.ttl_in_mode", f"mode 0: {status} {body}")
+    status, body = call(port, "POST", base, {"name": "a", "max_frames": -1})
+    check(status == 422 and body.get("field") == "max_frames", f"max_frames -1: {status} {body}")
+    status, body = call(port, "POST", base, {"name": "a"}, token=TOKENS["viewer"])
+    check(status == 403, f"a viewer may not record: {status} {body}")
+    status, body = call(port, "POST", "/api/v1/controllers/nope/recordings", {"name": "a"})
+    check(status == 404 and problem_type(body) == "unknown-controller", f"unknown controller: {status} {body}")
+    status, body = call(port, "POST", "/api/v1/controllers/ext1/recordings", {"name": "a"})
+    check(status == 409 and "report port" in body.get("detail", ""), f"no report port: {status} {body}")
+    for path in ("/api/v1/recordings/r-nothing", "/api/v1/recordings/..%2Fx"):
+        status, body = call(port, "GET", path, token=TOKENS["viewer"])
+        check(status == 404 and problem_type(body) == "unknown-recording", f"GET {path}: {status} {body}")
+    status, body = call(port, "GET", "/api/v1/recordings?state=paused", token=TOKENS["viewer"])
+    check(status == 422 and body.get("field") == "state", f"bad state filter: {status} {body}")
+    status, body = call(port, "GET", "/api/v1/recordings/r-nothing/frames?format=xlsx", token=TOKENS["viewer"])
+    check(status == 422 and body.get("field") == "format", f"bad format: {status} {body}")
+
+
+def test_record_and_download(port, sim):
+    before_mode = input_mode(port)
+    move_x(port, 1000)
+    status, rec = call(port, "POST", "/api/v1/controllers/ext2/recordings",
+                       {"name": "plate 1", "arm": {"ttl_in_mode": 1}, "metadata": {"camera": "cam0", "exposure_ms": 2}})
+    check(status == 201 and rec["state"] == "recording", f"start: {status} {rec}")
+    rid = rec["id"]
+    status, again = call(port, "POST", "/api/v1/controllers/ext2/recordings", {"name": "twice"})
+    check(status == 409, f"one recording at a time: {status} {again}")
+    status, busy = call(port, "DELETE", f"/api/v1/recordings/{rid}")
+    check(status == 409, f"no delete while it records: {status} {busy}")
+    check(input_mode(port) != before_mode or before_mode.endswith("1"), "armed")
+
+    n = 200
+    sent = json.loads(sim.control("state"))["reports_sent"]
+    check(sim.control(f"pulse {n} 500") == "ok", "pulse")
+    pulses_done(sim, sent, n)
+    wait_frames(port, rid, n)
+    move_x(port, 2000)
+    sent = json.loads(sim.control("state"))["reports_sent"]
+    check(sim.control(f"pulse {n} 500") == "ok", "pulse")
+    pulses_done(sim, sent, n)
+    wait_frames(port, rid, 2 * n)
+
+    status, done = call(port, "POST", f"/api/v1/recordings/{rid}/stop")
+    check(status == 200 and done["state"] == "stopped", f"stop: {status} {done}")
+    check(done["frames"] == 2 * n and done["losses"] == 0, f"every frame, none lost: {done}")
+    check(done["metadata"] == {"camera": "cam0", "exposure_ms": 2}, f"metadata kept: {done}")
+    check(input_mode(port) == before_mode, f"input mode put back: {input_mode(port)} vs {before_mode}")
+    status, again = call(port, "POST", f"/api/v1/recordings/{rid}/stop")
+    check(status == 200 and again["frames"] == 2 * n, f"a second stop tells the record: {status} {again}")
+
+    headers, csv_text = download(port, rid, "csv")
+    check(headers.get("transfer-encoding") == "chunked", f"streamed in chunks: {headers}")
+    check(headers.get("content-type", "").startswith("text/csv"), f"CSV type: {headers}")
+    frame = pandas.read_csv(io.StringIO(csv_text))
+    check(list(frame.columns[:3]) == ["index", "time_us", "loss"], f"columns {list(frame.columns)}")
+    check(list(frame["index"]) == list(range(2 * n)), "index 0..399, in order")
+    check(frame["loss"].isna().all(), "no loss markers")
+    check(((frame["X_um"][:n] - 1000).abs() < 0.5).all(), f"frames 0..199 at X=1000: {frame['X_um'][:n].unique()}")
+    check(((frame["X_um"][n:] - 2000).abs() < 0.5).all(), f"frames 200..399 at X=2000: {frame['X_um'][n:].unique()}")
+    check(frame["time_us"].is_monotonic_increasing, "receive times in order")
+
+    headers, jsonl_text = download(port, rid, "jsonl")
+    lines = pandas.read_json(io.StringIO(jsonl_text), lines=True)
+    check(list(lines.columns) == list(frame.columns), f"same columns: {list(lines.columns)}")
+    check((lines["index"] == frame["index"]).all() and (lines["X_counts"] == frame["X_counts"]).all(),
+          "JSON Lines and CSV hold the same rows")
+    return rid
+
+
+def test_max_frames(port, sim):
+    status, rec = call(port, "POST", "/api/v1/controllers/ext2/recordings", {"name": "short", "max_frames": 50})
+    check(status == 201, f"start: {status} {rec}")
+    # After the 50th frame the input mode is put back: the later edges make no report.
+    sent = json.loads(sim.control("state"))["reports_sent"]
+    check(sim.control("pulse 80 500") == "ok", "pulse")
+    pulses_done(sim, sent, 50)
+
+    def ended():
+        status, body = call(port, "GET", f"/api/v1/recordings/{rec['id']}", token=TOKENS["viewer"])
+        return body if body["state"] != "recording" else None
+    done = wait_until("the recording ends at max_frames", ended)
+    check(done["state"] == "stopped" and done["frames"] == 50 and "max_frames" in done["reason"], f"{done}")
+
+
+def test_leases(port):
+    status, lease = call(port, "POST", "/api/v1/controllers/ext2/lease", {"ttl_s": 60, "holder": "other"},
+                         token=TOKENS["admin"])
+    check(status in (200, 201), f"lease: {status} {lease}")
+    try:
+        status, body = call(port, "POST", "/api/v1/controllers/ext2/recordings", {"name": "not mine"})
+        check(status == 409, f"a leased controller is its holder's: {status} {body}")
+        status, body = call(port, "POST", "/api/v1/controllers/ext2/recordings", {"name": "mine"},
+                            token=TOKENS["admin"], headers={"Lease-Id": lease["lease_id"]})
+        check(status == 201, f"the holder records: {status} {body}")
+        status, body = call(port, "POST", f"/api/v1/recordings/{body['id']}/stop")
+        check(status == 200 and body["state"] == "stopped", f"anyone may stop: {status} {body}")
+    finally:
+        call(port, "DELETE", "/api/v1/controllers/ext2/lease", token=TOKENS["admin"],
+             headers={"Lease-Id": lease["lease_id"]})
+
+
+def test_list_delete_audit(port, rid):
+    status, body = call(port, "GET", "/api/v1/recordings?controller=ext2&state=stopped", token=TOKENS["viewer"])
+    check(status == 200 and rid in [r["id"] for r in body["recordings"]], f"listed: {status} {body}")
+    check(all(r["controller"] == "ext2" and r["state"] == "stopped" for r in body["recordings"]), "filtered")
+    future = int(time.time() * 1000) + 3_600_000
+    status, body = call(port, "GET", f"/api/v1/recordings?since={future}", token=TOKENS["viewer"])
+    check(status == 200 and body["recordings"] == [], f"none start in the future: {body}")
+    status, body = call(port, "GET", "/api/v1/recordings?until=1", token=TOKENS["viewer"])
+    check(status == 200 and body["recordings"] == [], f"none before 1970: {body}")
+
+    status, body = call(port, "GET", "/api/v1/audit?limit=500", token=TOKENS["admin"])
+    actions = [(e["action"], e.get("target")) for e in body["entries"]]
+    check(("recording.start", rid) in actions, f"the start is in the audit trail: {actions}")
+    check(("recording.stop", rid) in actions, f"the stop is in the audit trail: {actions}")
+
+    status, body = call(port, "DELETE", f"/api/v1/recordings/{rid}")
+    check(status == 204, f"delete: {status} {body}")
+    status, body = call(port, "GET", f"/api/v1/recordings/{rid}", token=TOKENS["viewer"])
+    check(status == 404 and problem_type(body) == "unknown-recording", f"gone: {status} {body}")
+    status, body = call(port, "GET", f"/api/v1/recordings/{rid}/frames", token=TOKENS["viewer"])
+    check(status == 404, f"its frames are gone: {status} {body}")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--gateway", required=True)
+    ap.add_argument("--sim", required=True)
+    args = ap.parse_args()
+
+    fx = Fixture("gw-recordings-test-")
+    try:
+        ext1 = fx.start_sim(args.sim, "ext1", "plain")
+        ext2 = fx.start_sim(args.sim, "ext2", "full", report=True)
+        port = free_port()
+        config = {
+            "http": {"listen_address": "127.0.0.1", "port": port},
+            "controllers": [{"id": "ext1", "port": ext1.link, "baud": 115200},
+                            {"id": "ext2", "port": ext2.link, "report_port": ext2.report_link, "baud": 115200}],
+            "auth": auth_tokens(),
+            "logging": {"level": "info"},
+        }
+        fx.start_gateway(args.gateway, config)
+        fx.run("refusals: body, roles, no report port, unknown ids, filters", test_refusals, port)
+        rid = None
+
+        def record():
+            nonlocal rid
+            rid = test_record_and_download(port, ext2)
+        fx.run("400 frames at 500 Hz, each at the stage's position; CSV and JSON Lines read by pandas", record)
+        fx.run("max_frames ends the recording", test_max_frames, port, ext2)
+        fx.run("a leased controller records for its holder only", test_leases, port)
+        if rid:
+            fx.run("list filters, the audit trail, delete", test_list_delete_audit, port, rid)
+        return fx.stop_and_report()
+    finally:
+        fx.cleanup()
+
+
+if __name__ == "__main__":
+    run_main(main)
