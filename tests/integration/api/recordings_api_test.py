@@ -1,6 +1,6 @@
 """Position recordings end to end (issue 35): the real asi-gateway with an external ms2000-sim whose
-report port answers TTL pulses (its control socket's `pulse N RATE_HZ`), real HTTP clients, a real
-SQLite file, and the downloads read back by pandas (Debian's python3-pandas), the standard reader of
+report port answers TTL pulses (its control socket's `pulse N RATE_HZ`), real HTTP clients (every answer checked against openapi/openapi.yaml), a
+real SQLite file, and the downloads read back by pandas (Debian's python3-pandas), the standard reader of
 analysis code:
 
 - a recording arms the trigger input, counts every frame from 0 at the stage's position at each
@@ -11,7 +11,6 @@ analysis code:
 """
 
 import argparse
-import http.client
 import io
 import json
 import os
@@ -19,17 +18,20 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gateway_fixture import (TOKENS, WAIT, Failure, Fixture, auth_tokens, check, free_port,  # noqa: E402
-                             http_request, run_main, wait_until)
+from gateway_fixture import TOKENS, Fixture, auth_tokens, check, free_port, run_main, wait_until  # noqa: E402
+
+from http_api_test import Client, Contract  # noqa: E402
 
 import pandas  # noqa: E402  (Debian python3-pandas)
 
 OPERATOR = TOKENS["operator"]
+CONTRACT = None  # openapi/openapi.yaml: every answer is checked against it
 
 
 def call(port, method, path, body=None, token=OPERATOR, headers=None):
-    status, text = http_request(port, method, path, body, token=token, headers=headers)
-    return status, (json.loads(text) if text else None)
+    """(status, JSON body or None), the answer validated against the OpenAPI document."""
+    r = Client(port, CONTRACT).request(method, path, body, token=token, headers=headers)
+    return r.status, (r.json() if r.body else None)
 
 
 def problem_type(body):
@@ -38,15 +40,9 @@ def problem_type(body):
 
 def download(port, rid, fmt):
     """(headers, text) of GET /recordings/{rid}/frames?format=fmt."""
-    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=WAIT)
-    conn.request("GET", f"/api/v1/recordings/{rid}/frames?format={fmt}",
-                 headers={"Authorization": f"Bearer {TOKENS['viewer']}"})
-    r = conn.getresponse()
-    text = r.read().decode()
-    headers = {k.lower(): v for k, v in r.getheaders()}
-    conn.close()
-    check(r.status == 200, f"download {fmt}: {r.status} {text[:300]}")
-    return headers, text
+    r = Client(port, CONTRACT).request("GET", f"/api/v1/recordings/{rid}/frames?format={fmt}", token=TOKENS["viewer"])
+    check(r.status == 200, f"download {fmt}: {r.status} {r.body[:300]}")
+    return {k.lower(): v for k, v in r.headers}, r.body
 
 
 def move_x(port, x_um):
@@ -208,7 +204,11 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--gateway", required=True)
     ap.add_argument("--sim", required=True)
+    ap.add_argument("--openapi", required=True)
     args = ap.parse_args()
+    global CONTRACT
+    with open(args.openapi) as f:
+        CONTRACT = Contract(f.read())
 
     fx = Fixture("gw-recordings-test-")
     try:
