@@ -168,6 +168,7 @@ bool application::start() {
     // Position recordings: <storage>/recordings.sqlite3 (an unusable file is fatal, as the job store).
     recordings::recorder_settings recorder_settings;
     recorder_settings.storage_path = config.storage.path;
+    recorder_settings.hub = hub_;
     auto recorder = recordings::recorder::open(ioc_.get_executor(), *registry_, std::move(recorder_settings));
     if (!recorder) {
         log_->error("cannot open the recordings in \"{}\": {}", config.storage.path, recorder.error().message);

@@ -113,6 +113,7 @@ void mqtt_bridge::subscribe_hub() {
     ctx_->hub->subscribe(subscriber_, "controllers/+/ttl", resume);
     ctx_->hub->subscribe(subscriber_, "controllers/+/errors", resume);
     ctx_->hub->subscribe(subscriber_, "jobs/#", resume);
+    ctx_->hub->subscribe(subscriber_, "recordings/#", resume);
 }
 
 void mqtt_bridge::async_stop(std::function<void()> done) {
@@ -240,7 +241,8 @@ void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& ba
     for (const auto& e : batch) {
         const auto kind = e->address.kind;
         const bool stream = kind == topic_kind::controller_reports || kind == topic_kind::controller_ttl ||
-                            kind == topic_kind::controller_errors || kind == topic_kind::job;
+                            kind == topic_kind::controller_errors || kind == topic_kind::job ||
+                            kind == topic_kind::recording;
         if (e->kind == event_kind::retired) {
             // The topic left the hub (an ended job's, after events.ended_job_topic_ttl_s): nothing to
             // resume there any more. A job's retained state goes on its own clock (clear_at).
@@ -276,6 +278,13 @@ void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& ba
                     drop("jobs", e->missed());
                 else
                     on_job(id, e);
+                break;
+            case topic_kind::recording:
+                // A flush's rows in one message: at most a few per second per recording.
+                if (e->kind == event_kind::gap)
+                    drop("recordings", e->missed());
+                else if (auto topic = topics_.for_hub_topic(kind, id))
+                    send({*topic, *e->message, qos.telemetry, false, {}}, "recordings");
                 break;
             case topic_kind::other:
                 break;

@@ -54,6 +54,10 @@ std::string mqtt_topics::job_state(std::string_view job_id) const {
     return t;
 }
 
+std::string mqtt_topics::recording(std::string_view recording_id) const {
+    return base_ + "/recordings/" + std::string(recording_id);
+}
+
 std::string mqtt_topics::job_command(mqtt_command_kind kind) const {
     return base_ + "/jobs/" + std::string(to_string(kind));
 }
@@ -106,6 +110,7 @@ std::optional<mqtt_command_target> mqtt_topics::parse_command_topic(std::string_
 std::optional<std::string> mqtt_topics::for_hub_topic(topic_kind kind, std::string_view key) const {
     if (!is_id_level(key)) return std::nullopt;
     if (kind == topic_kind::job) return job_state(key);
+    if (kind == topic_kind::recording) return recording(key);
     if (const auto leaf = controller_leaf(kind); !leaf.empty()) return controller(key, leaf);
     return std::nullopt;
 }

@@ -7,6 +7,7 @@
 //   <prefix>/<gateway>/controllers/<id>/reports       batched encoder report frames
 //   <prefix>/<gateway>/controllers/<id>/ttl           TTL events
 //   <prefix>/<gateway>/jobs/<job>/state               retained while active, cleared when old
+//   <prefix>/<gateway>/recordings/<recording>         a recording's new rows, every store flush
 // Commands (subscribed only when mqtt.commands.enabled):
 //   <prefix>/<gateway>/controllers/<id>/cmd
 //   <prefix>/<gateway>/jobs/submit | cancel | pause | resume | next
@@ -55,6 +56,7 @@ class mqtt_topics {
     // leaf: "state", "position", "reports", "ttl", "cmd".
     std::string controller(std::string_view id, std::string_view leaf) const;
     std::string job_state(std::string_view job_id) const;
+    std::string recording(std::string_view recording_id) const;
     std::string job_command(mqtt_command_kind kind) const;  // "<base>/jobs/submit"...
     std::string gcode_check() const;                        // "<base>/gcode/check"
     std::string halt_all() const;                           // "<base>/halt"
@@ -68,7 +70,8 @@ class mqtt_topics {
     std::optional<mqtt_command_target> parse_command_topic(std::string_view topic) const;
 
     // The MQTT topic of an event hub topic (an event's address: its kind and key):
-    // "controllers/<id>/<leaf>" -> controller(id, leaf), "jobs/<job>" -> job_state(job). nullopt for
+    // "controllers/<id>/<leaf>" -> controller(id, leaf), "jobs/<job>" -> job_state(job),
+    // "recordings/<id>" -> recording(id). nullopt for
     // anything else.
     std::optional<std::string> for_hub_topic(topic_kind kind, std::string_view key) const;
 

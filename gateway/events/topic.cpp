@@ -106,6 +106,8 @@ topic_address address_of(std::string_view name) {
     auto at = [&](std::size_t i) { return static_cast<std::size_t>(levels[i].data() - name.data()); };
     if (levels.size() == 2 && levels[0] == "jobs" && !levels[1].empty())
         return {topic_kind::job, at(1), levels[1].size()};
+    if (levels.size() == 2 && levels[0] == "recordings" && !levels[1].empty())
+        return {topic_kind::recording, at(1), levels[1].size()};
     if (levels.size() != 3 || levels[0] != "controllers" || levels[1].empty()) return {};
     static constexpr std::pair<std::string_view, topic_kind> leaves[] = {
         {"state", topic_kind::controller_state},     {"position", topic_kind::controller_position},
@@ -131,6 +133,7 @@ std::string_view controller_leaf(topic_kind kind) {
             return "errors";
         case topic_kind::other:
         case topic_kind::job:
+        case topic_kind::recording:
             break;
     }
     return {};

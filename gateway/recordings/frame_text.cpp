@@ -30,7 +30,9 @@ void append_csv(const recording_record& r, const recorded_frame& f, std::string&
     out += '\n';
 }
 
-void append_json_line(const recording_record& r, const recorded_frame& f, std::string& out) {
+}  // namespace
+
+std::string row_json(const recording_record& r, const recorded_frame& f) {
     nlohmann::ordered_json j{{"index", f.index}, {"time_us", f.time_us}};
     j["loss"] = f.loss == loss_kind::none ? nlohmann::ordered_json(nullptr)
                                           : nlohmann::ordered_json(std::string(to_string(f.loss)));
@@ -44,11 +46,24 @@ void append_json_line(const recording_record& r, const recorded_frame& f, std::s
         j[std::string(1, r.axes[i]) + "_counts"] =
             counts ? nlohmann::ordered_json(*counts) : nlohmann::ordered_json(nullptr);
     }
-    out += j.dump();
-    out += '\n';
+    return j.dump();
 }
 
-}  // namespace
+std::string live_event_json(const recording_record& r, std::span<const recorded_frame> rows) {
+    nlohmann::ordered_json head{{"id", r.id},           {"controller", r.controller},
+                                {"state", to_string(r.state)}, {"reason", r.reason},
+                                {"frames", r.frames},   {"losses", r.losses},
+                                {"axes", r.axes}};
+    std::string text = head.dump();
+    text.pop_back();  // the closing brace: the rows follow
+    text += R"(,"rows":[)";
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+        if (i > 0) text += ',';
+        text += row_json(r, rows[i]);
+    }
+    text += "]}";
+    return text;
+}
 
 std::vector<std::string> frame_columns(const recording_record& r) {
     std::vector<std::string> columns{"index", "time_us", "loss"};
@@ -74,7 +89,7 @@ void append_rows(frame_format format, const recording_record& r, std::span<const
         if (format == frame_format::csv)
             append_csv(r, f, out);
         else
-            append_json_line(r, f, out);
+            out += row_json(r, f) + '\n';
     }
 }
 

@@ -26,6 +26,13 @@ enum class frame_format : std::uint8_t { csv, jsonl };
 std::vector<std::string> frame_columns(const recording_record& r);
 // The CSV header line (with its newline).
 std::string csv_header(const recording_record& r);
+// One row as a JSON object with the columns as keys (a JSON Lines line without its newline).
+std::string row_json(const recording_record& r, const recorded_frame& f);
+// The event of a recording's live topic (recordings/<id>): its id, controller, state, reason and
+// counters (as after `rows`), and `rows`, the rows since the event before:
+//   {"id":"r-...","controller":"sim2","state":"recording","reason":"","frames":250,"losses":0,
+//    "axes":"XYZ","rows":[{"index":125,"time_us":...,"loss":null,"X_um":...},...]}
+std::string live_event_json(const recording_record& r, std::span<const recorded_frame> rows);
 // Appends one line per row to `out`.
 void append_rows(frame_format format, const recording_record& r, std::span<const recorded_frame> rows,
                  std::string& out);

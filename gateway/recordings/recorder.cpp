@@ -16,6 +16,8 @@
 #include "gateway/common/timestamp.hpp"
 #include "gateway/config/logging.hpp"
 #include "gateway/controllers/controller_registry.hpp"
+#include "gateway/events/event_hub.hpp"
+#include "gateway/recordings/frame_text.hpp"
 
 namespace gw::recordings {
 
@@ -245,6 +247,7 @@ net::awaitable<void> recorder::run_start(recording_request r, recorder_handler<r
     });
     log_->info("recording {} on {} started (TTL X={}, was {})", id, first.controller, first.ttl_in_mode,
                *previous);
+    publish(first, {});
     schedule_flush();
     deliver<recording_record>(std::move(h), std::move(first));
 }
@@ -295,6 +298,8 @@ net::awaitable<operation_result<recording_record>> recorder::finish(std::string 
     }
     auto rows = std::move(a.buffer);
     auto record = a.record;
+    publish(record, rows);
+    if (settings_.hub) (void)settings_.hub->retire_topic("recordings/" + id, settings_.ended_topic_ttl);
     writer_.post([self, record, rows = std::move(rows)]() mutable {
         if (!self->abandoned_) (void)self->store_->append(record, rows);
         auto& ex = self->executor_;
@@ -461,8 +466,17 @@ bool recorder::hand_over(active& a) {
                           net::detached);
         });
     });
-    if (!queued) a.buffer = std::move(*rows);  // kept for the next flush
-    return queued;
+    if (!queued) {
+        a.buffer = std::move(*rows);  // kept for the next flush
+        return false;
+    }
+    publish(record, *rows);
+    return true;
+}
+
+void recorder::publish(const recording_record& r, std::span<const recorded_frame> rows) {
+    if (!settings_.hub) return;
+    (void)settings_.hub->publish("recordings/" + r.id, std::make_shared<const std::string>(live_event_json(r, rows)));
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -21,6 +21,7 @@
 #include <mutex>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -44,6 +45,7 @@ class logger;
 
 namespace gw {
 class controller_registry;
+class event_hub;
 }
 
 namespace gw::devices {
@@ -56,6 +58,9 @@ struct recorder_settings {
     std::string storage_path;                       // <storage_path>/recordings.sqlite3
     std::chrono::milliseconds flush_interval{250};  // how often rows go to the store (what a crash may lose)
     std::size_t max_buffered_rows = 100'000;        // per recording, waiting for the store: beyond, it fails
+    // The live topic recordings/<id>: each flush's rows as one event, and the end (null: none).
+    std::shared_ptr<event_hub> hub{};
+    std::chrono::milliseconds ended_topic_ttl{60'000};  // an ended recording's topic, for late viewers
 };
 
 template <typename T>
@@ -115,6 +120,8 @@ class recorder : public std::enable_shared_from_this<recorder> {
     void schedule_flush();
     // Hands `a`'s buffered rows to the writer; false when the writer has too much waiting.
     bool hand_over(active& a);
+    // The rows on the live topic, with the record's state and counters.
+    void publish(const recording_record& r, std::span<const recorded_frame> rows);
 
     // Runs `read` on the writer's thread and posts its result to `h`.
     template <typename T, typename Read>

@@ -5,7 +5,8 @@ analysis code:
 
 - a recording arms the trigger input, counts every frame from 0 at the stage's position at each
   pulse, and puts the input mode back when it stops;
-- CSV and JSON Lines downloads come chunked and read into the same table;
+- CSV and JSON Lines downloads come chunked and read into the same table; a viewer of the live
+  topic recordings/<id> (WebSocket) gets the same rows and the end;
 - limits (max_frames), the refusals (body, controller without a report port, leases, roles), the
   list filters, deletion, and the audit trail.
 """
@@ -21,6 +22,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from gateway_fixture import TOKENS, Fixture, auth_tokens, check, free_port, run_main, wait_until  # noqa: E402
 
 from http_api_test import Client, Contract  # noqa: E402
+from ws_api_test import WsClient  # noqa: E402
 
 import pandas  # noqa: E402  (Debian python3-pandas)
 
@@ -101,6 +103,10 @@ def test_record_and_download(port, sim):
                        {"name": "plate 1", "arm": {"ttl_in_mode": 1}, "metadata": {"camera": "cam0", "exposure_ms": 2}})
     check(status == 201 and rec["state"] == "recording", f"start: {status} {rec}")
     rid = rec["id"]
+    # A viewer of the live topic, from its first event on (resume from 0).
+    topic = f"recordings/{rid}"
+    viewer = WsClient(port, TOKENS["viewer"], "recording-viewer")
+    viewer.request({"op": "subscribe", "id": 1, "topics": [topic], "resume": {topic: 0}})
     status, again = call(port, "POST", "/api/v1/controllers/ext2/recordings", {"name": "twice"})
     check(status == 409, f"one recording at a time: {status} {again}")
     status, busy = call(port, "DELETE", f"/api/v1/recordings/{rid}")
@@ -136,6 +142,18 @@ def test_record_and_download(port, sim):
     check(((frame["X_um"][:n] - 1000).abs() < 0.5).all(), f"frames 0..199 at X=1000: {frame['X_um'][:n].unique()}")
     check(((frame["X_um"][n:] - 2000).abs() < 0.5).all(), f"frames 200..399 at X=2000: {frame['X_um'][n:].unique()}")
     check(frame["time_us"].is_monotonic_increasing, "receive times in order")
+
+    # The live topic had every row, in order, and the end.
+    live, state = [], "recording"
+    while state == "recording":
+        m = viewer.wait_for(lambda m: m.get("topic") == topic, f"live events (have {len(live)} rows)")
+        check(m["type"] == "event", f"no gap on the live topic: {m}")
+        state = m["data"]["state"]
+        live += m["data"]["rows"]
+    viewer.close()
+    check([r["index"] for r in live] == list(range(2 * n)), f"live rows 0..399: {len(live)}")
+    check(state == "stopped" and m["data"]["frames"] == 2 * n, f"the last live event tells the end: {m['data']}")
+    check([r["X_counts"] for r in live] == list(frame["X_counts"]), "the live rows are the stored ones")
 
     headers, jsonl_text = download(port, rid, "jsonl")
     lines = pandas.read_json(io.StringIO(jsonl_text), lines=True)

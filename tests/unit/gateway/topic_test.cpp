@@ -145,6 +145,9 @@ TEST(topic, address_names_the_kind_and_where_the_key_is) {
         {"controllers/s-2/ttl", topic_kind::controller_ttl, "s-2"},
         {"controllers/s-2/errors", topic_kind::controller_errors, "s-2"},
         {"jobs/j-01M8", topic_kind::job, "j-01M8"},
+        {"recordings/r-01M9", topic_kind::recording, "r-01M9"},
+        {"recordings", topic_kind::other, ""},
+        {"recordings/r-1/rows", topic_kind::other, ""},
         {"controllers/stage1/cmd", topic_kind::other, ""},
         {"controllers/stage1", topic_kind::other, ""},
         {"controllers/stage1/state/x", topic_kind::other, ""},
@@ -164,6 +167,8 @@ TEST(topic, address_names_the_kind_and_where_the_key_is) {
     EXPECT_TRUE(gw::carries_document(topic_kind::job));
     EXPECT_FALSE(gw::carries_document(topic_kind::controller_reports));
     EXPECT_FALSE(gw::carries_document(topic_kind::controller_position));
+    EXPECT_FALSE(gw::carries_document(topic_kind::recording));
+    EXPECT_EQ(gw::classify_topic("recordings/r-1"), gw::topic_class::stream);
 }
 
 }  // namespace

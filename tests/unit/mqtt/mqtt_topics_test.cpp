@@ -40,6 +40,7 @@ TEST(mqtt_topics, hub_topics_map_to_the_tree) {
         {"controllers/s-2/ttl", "asi/gw/controllers/s-2/ttl"},
         {"controllers/s-2/errors", "asi/gw/controllers/s-2/errors"},
         {"jobs/j-1", "asi/gw/jobs/j-1/state"},
+        {"recordings/r-1", "asi/gw/recordings/r-1"},
         {"controllers/sim1/cmd", std::nullopt},
         {"controllers/sim1", std::nullopt},
         {"controllers/sim1/state/x", std::nullopt},
