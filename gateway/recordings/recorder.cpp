@@ -76,8 +76,11 @@ class recorder::observer final : public devices::controller_observer {
     void on_error_log(const devices::error_log_event& e) override {
         auto r = recorder_.lock();
         if (!r || !r->listens(e.controller_id)) return;
-        if (std::find(e.codes.begin(), e.codes.end(), report_overrun_code) == e.codes.end()) return;
-        net::post(r->strand_, [r, id = e.controller_id] { r->on_overrun(id); });
+        // One code per trigger the controller could not report.
+        const auto overruns =
+            static_cast<std::size_t>(std::count(e.codes.begin(), e.codes.end(), report_overrun_code));
+        if (overruns == 0) return;
+        net::post(r->strand_, [r, id = e.controller_id, overruns] { r->on_overrun(id, overruns); });
     }
 
   private:
@@ -393,9 +396,11 @@ void recorder::on_back(const std::string& controller) {
     if (id != by_controller_.end()) active_.at(id->second).away = false;
 }
 
-void recorder::on_overrun(const std::string& controller) {
+void recorder::on_overrun(const std::string& controller, std::size_t count) {
     auto id = by_controller_.find(controller);
-    if (id != by_controller_.end()) add_marker(active_.at(id->second), loss_kind::overrun);
+    if (id == by_controller_.end()) return;
+    for (std::size_t i = 0; i < count; ++i)
+        add_marker(active_.at(id->second), loss_kind::overrun);
 }
 
 void recorder::check_limits(active& a) {

@@ -113,7 +113,8 @@ class recorder : public std::enable_shared_from_this<recorder> {
     void on_frame(const devices::report_event& e);
     void on_away(const std::string& controller, const std::string& why);
     void on_back(const std::string& controller);
-    void on_overrun(const std::string& controller);
+    // `count` triggers the controller could not report (error 87 in its log): one marker each.
+    void on_overrun(const std::string& controller, std::size_t count);
     void add_marker(active& a, loss_kind kind);
     void check_limits(active& a);
     void flush();

@@ -56,7 +56,10 @@ enum class loss_kind : std::uint8_t {
     none,          // a frame, not a marker
     garbled,       // bytes on the report port that fit no frame (a frame damaged or cut)
     disconnected,  // the controller (or its report port) was away: triggers meanwhile are unknown
-    overrun,       // the controller reported that triggers came faster than it could send (error 87)
+    // The controller reported a trigger that came faster than it could send (error 87): one marker per
+    // trigger. The error log is read at the poll after, so the marker's index is where the gateway
+    // learned of it, at or after the place of the loss.
+    overrun,
 };
 std::string_view to_string(loss_kind k);
 

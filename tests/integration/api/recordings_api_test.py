@@ -7,6 +7,8 @@ analysis code:
   pulse, and puts the input mode back when it stops;
 - CSV and JSON Lines downloads come chunked and read into the same table; a viewer of the live
   topic recordings/<id> (WebSocket) gets the same rows and the end;
+- triggers faster than the report port (the controller's error 87): exactly the dropped count as
+  overrun markers;
 - limits (max_frames), the refusals (body, controller without a report port, leases, roles), the
   list filters, deletion, and the audit trail.
 """
@@ -178,6 +180,40 @@ def test_max_frames(port, sim):
     check(done["state"] == "stopped" and done["frames"] == 50 and "max_frames" in done["reason"], f"{done}")
 
 
+def test_overruns(port, sim):
+    # Triggers every 0.5 ms while a frame takes about 1.6 ms to go out: the controller drops most of
+    # them and logs error 87 once per dropped trigger. The recording holds exactly as many overrun
+    # markers as the controller dropped, and every frame it sent.
+    status, rec = call(port, "POST", "/api/v1/controllers/ext2/recordings", {"name": "too fast"})
+    check(status == 201, f"start: {status} {rec}")
+    before = json.loads(sim.control("state"))
+    n = 40
+
+    def sent_and_dropped():
+        now = json.loads(sim.control("state"))
+        return now["reports_sent"] - before["reports_sent"], now["reports_dropped"] - before["reports_dropped"]
+
+    check(sim.control(f"pulse {n} 2000") == "ok", "pulse")
+    wait_until("the pulse train ends", lambda: sum(sent_and_dropped()) >= n)
+    sent, dropped = sent_and_dropped()
+    check(dropped > 0, f"the simulator dropped none of {n}")
+
+    def all_counted():
+        status, body = call(port, "GET", f"/api/v1/recordings/{rec['id']}", token=TOKENS["viewer"])
+        return body if body["frames"] >= sent and body["losses"] >= dropped else None
+    wait_until(f"{sent} frames and {dropped} overruns stored", all_counted)
+    status, done = call(port, "POST", f"/api/v1/recordings/{rec['id']}/stop")
+    check(done["frames"] == sent and done["losses"] == dropped,
+          f"{done['frames']} frames, {done['losses']} markers; the controller sent {sent}, dropped {dropped}")
+    _, text = download(port, rec["id"], "csv")
+    frame = pandas.read_csv(io.StringIO(text))
+    markers = frame[frame["loss"].notna()]
+    check(len(markers) == dropped and (markers["loss"] == "overrun").all(), f"markers: {markers['loss'].tolist()}")
+    check(markers["X_um"].isna().all(), "a marker has no position")
+    frames = frame[frame["loss"].isna()]
+    check(list(frames["index"]) == list(range(sent)), "the frames are counted 0..sent-1")
+
+
 def test_leases(port):
     status, lease = call(port, "POST", "/api/v1/controllers/ext2/lease", {"ttl_s": 60, "holder": "other"},
                          token=TOKENS["admin"])
@@ -249,6 +285,8 @@ def main():
             rid = test_record_and_download(port, ext2)
         fx.run("400 frames at 500 Hz, each at the stage's position; CSV and JSON Lines read by pandas", record)
         fx.run("max_frames ends the recording", test_max_frames, port, ext2)
+        fx.run("triggers faster than the report port: one overrun marker per dropped trigger", test_overruns,
+               port, ext2)
         fx.run("a leased controller records for its holder only", test_leases, port)
         if rid:
             fx.run("list filters, the audit trail, delete", test_list_delete_audit, port, rid)
