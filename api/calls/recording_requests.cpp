@@ -24,6 +24,7 @@ constexpr std::uint64_t max_frames_limit = 1'000'000'000'000;
 constexpr double max_seconds = 366.0 * 24 * 3600;  // a year
 // Rows per piece of a download: a few hundred kilobytes of text.
 constexpr std::size_t rows_per_piece = 4096;
+constexpr std::size_t export_piece_bytes = std::size_t{256} * 1024;
 
 problem no_recorder_problem() {
     return make_problem(make_error(operation_error_kind::storage_unavailable,
@@ -152,7 +153,8 @@ operation_result<recordings::frame_format> parse_frame_format(const query_params
     auto v = query_value(q, "format");
     if (!v || *v == "csv") return recordings::frame_format::csv;
     if (*v == "jsonl") return recordings::frame_format::jsonl;
-    return invalid_field("format", "unknown format \"" + shown_in_message(*v) + "\" (one of: csv, jsonl)");
+    if (*v == "hdf5") return recordings::frame_format::hdf5;
+    return invalid_field("format", "unknown format \"" + shown_in_message(*v) + "\" (one of: csv, jsonl, hdf5)");
 }
 
 void start_recording(api_context& ctx, const caller& who, const std::string& controller, const json& body,
@@ -259,7 +261,34 @@ class frames_body final : public streamed_body, public std::enable_shared_from_t
     bool header_sent_ = false;
 };
 
+// An export file, a piece at a time (read on the recorder's exporter thread), removed at the end.
+class export_body final : public streamed_body, public std::enable_shared_from_this<export_body> {
+  public:
+    export_body(std::shared_ptr<recordings::recorder> recorder, recordings::export_file file)
+        : recorder_(std::move(recorder)), file_(std::move(file)) {}
+    ~export_body() override { recorder_->remove_export(file_.path); }
+
+    void next(piece_handler h) override {
+        recorder_->read_export(file_.path, offset_, export_piece_bytes,
+                               [self = shared_from_this(), h = std::move(h)](operation_result<std::string> piece) {
+                                   if (!piece) return h(std::nullopt, true);
+                                   self->offset_ += piece->size();
+                                   const bool last = piece->empty() || self->offset_ >= self->file_.bytes;
+                                   h(std::move(*piece), last);
+                               });
+    }
+
+  private:
+    std::shared_ptr<recordings::recorder> recorder_;
+    recordings::export_file file_;
+    std::uint64_t offset_ = 0;
+};
+
 }  // namespace
+
+std::shared_ptr<streamed_body> recording_export_body(api_context& ctx, recordings::export_file file) {
+    return std::make_shared<export_body>(ctx.recordings, std::move(file));
+}
 
 std::shared_ptr<streamed_body> recording_frames_body(api_context& ctx, recording_record record,
                                                      recordings::frame_format format) {

@@ -8,7 +8,7 @@
 //   DELETE /api/v1/recordings/{id}               operator   204 (refused while it records)
 //   GET    /api/v1/recordings?controller=&state=&since=&until=&limit=   viewer   {"recordings": [...]}
 //   GET    /api/v1/recordings/{id}               viewer     the recording
-//   GET    /api/v1/recordings/{id}/frames?format=csv|jsonl   viewer   its rows, streamed
+//   GET    /api/v1/recordings/{id}/frames?format=csv|jsonl|hdf5   viewer   its rows, streamed
 // A start is refused (409) while the controller is leased to someone else or a job holds it: the
 // recording changes the trigger input's mode. No recorder (no storage directory): 503.
 
@@ -26,6 +26,7 @@
 #include "api/common/streamed_body.hpp"
 #include "gateway/common/operation_error.hpp"
 #include "gateway/recordings/frame_text.hpp"
+#include "gateway/recordings/recorder.hpp"
 #include "gateway/recordings/recording.hpp"
 #include "gateway/recordings/recording_store.hpp"
 
@@ -39,7 +40,7 @@ operation_result<recordings::recording_request> parse_recording_request(const st
 // GET /api/v1/recordings: controller, state, since and until (milliseconds since the epoch: started at
 // or after, before), limit (1..500, default 100).
 operation_result<recordings::recording_filter> parse_recording_filter(const query_params& q);
-// GET /api/v1/recordings/{id}/frames: format csv (the default) or jsonl.
+// GET /api/v1/recordings/{id}/frames: format csv (the default), jsonl or hdf5.
 operation_result<recordings::frame_format> parse_frame_format(const query_params& q);
 
 // The calls (dispatch_call runs them after the role check).
@@ -58,5 +59,7 @@ void list_recordings(api_context& ctx, recordings::recording_filter filter, cons
 // then a page of rows per piece.
 std::shared_ptr<streamed_body> recording_frames_body(api_context& ctx, recordings::recording_record record,
                                                      recordings::frame_format format);
+// An export file (hdf5), in pieces; the file is removed when the body is done with (sent or not).
+std::shared_ptr<streamed_body> recording_export_body(api_context& ctx, recordings::export_file file);
 
 }  // namespace gw::api

@@ -1038,6 +1038,7 @@ std::vector<timed_output> ms2000_model::take_output(sim_time now) {
 
 std::optional<timed_output> ms2000_model::ttl_pulse(sim_time now) {
     advance(now);
+    ++ttl_edges_;
     if (has_module(config_, module::ttl_report)) {
         // TTL_REPORT_INT: every other IN0 function is off; any non-zero TTL X enables the interrupt.
         if (ttl_.in0_mode == 0) return std::nullopt;
@@ -1157,6 +1158,7 @@ nlohmann::json ms2000_model::state(sim_time now) const {
     j["errors"] = errors_;
     j["reports_sent"] = reports_sent_;
     j["reports_dropped"] = reports_dropped_;  // triggers that met a frame still going out (error 87)
+    j["ttl_edges"] = ttl_edges_;              // edges on IN0 so far, whatever they did
     j["planar_correction"] = {{"points", plane_points_.size()}, {"enabled", plane_enabled_}};
     j["crisp_state"] = std::string(1, crisp_state_);
     j["led"] = led_;

@@ -253,6 +253,7 @@ class ms2000_model {
     sim_time report_busy_until_{0};
     std::uint64_t reports_sent_ = 0;
     std::uint64_t reports_dropped_ = 0;
+    std::uint64_t ttl_edges_ = 0;
     std::optional<std::pair<std::string, int>> refuse_next_;
 };
 

@@ -88,7 +88,7 @@ void append_rows(frame_format format, const recording_record& r, std::span<const
     for (const auto& f : rows) {
         if (format == frame_format::csv)
             append_csv(r, f, out);
-        else
+        else if (format == frame_format::jsonl)
             out += row_json(r, f) + '\n';
     }
 }

@@ -20,7 +20,8 @@
 
 namespace gw::recordings {
 
-enum class frame_format : std::uint8_t { csv, jsonl };
+// The downloads: the two text forms here, and HDF5 (hdf5_export.hpp).
+enum class frame_format : std::uint8_t { csv, jsonl, hdf5 };
 
 // The column names, in order.
 std::vector<std::string> frame_columns(const recording_record& r);
@@ -33,7 +34,7 @@ std::string row_json(const recording_record& r, const recorded_frame& f);
 //   {"id":"r-...","controller":"sim2","state":"recording","reason":"","frames":250,"losses":0,
 //    "axes":"XYZ","rows":[{"index":125,"time_us":...,"loss":null,"X_um":...},...]}
 std::string live_event_json(const recording_record& r, std::span<const recorded_frame> rows);
-// Appends one line per row to `out`.
+// Appends one line per row to `out` (csv or jsonl; hdf5 is not text: nothing).
 void append_rows(frame_format format, const recording_record& r, std::span<const recorded_frame> rows,
                  std::string& out);
 

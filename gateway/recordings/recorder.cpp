@@ -1,7 +1,9 @@
 #include "gateway/recordings/recorder.hpp"
 
 #include <algorithm>
+#include <filesystem>
 #include <fmt/format.h>
+#include <fstream>
 
 #include <boost/asio/append.hpp>
 #include <boost/asio/co_spawn.hpp>
@@ -18,6 +20,7 @@
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/events/event_hub.hpp"
 #include "gateway/recordings/frame_text.hpp"
+#include "gateway/recordings/hdf5_export.hpp"
 
 namespace gw::recordings {
 
@@ -98,6 +101,9 @@ operation_result<std::shared_ptr<recorder>> recorder::open(net::any_io_executor 
     recording_now.limit = 10000;
     auto left = (*store)->list(recording_now);
     if (!left) return store_error(left.error());
+    // Export files a stopped gateway left behind were being sent: nobody waits for them any more.
+    std::error_code ignored;
+    std::filesystem::remove_all(settings.storage_path + "/exports", ignored);
     for (auto& r : *left) {
         r.state = recording_state::failed;
         r.reason = "the gateway stopped while it recorded: frames after the last stored ones are unknown";
@@ -118,7 +124,8 @@ recorder::recorder(net::any_io_executor executor, controller_registry& registry,
       settings_(std::move(settings)),
       log_(get_logger("gateway")),
       store_(std::move(store)),
-      flush_timer_(strand_) {}
+      flush_timer_(strand_),
+      exports_path_(settings_.storage_path + "/exports") {}
 
 recorder::~recorder() = default;
 
@@ -139,9 +146,14 @@ void recorder::deliver(recorder_handler<T> h, operation_result<T> r) {
 
 template <typename T, typename Read>
 void recorder::read(recorder_handler<T> h, Read work) {
+    run_on<T>(writer_, std::move(h), [work = std::move(work)](recorder& self) { return work(*self.store_); });
+}
+
+template <typename T, typename Work>
+void recorder::run_on(worker_thread& worker, recorder_handler<T> h, Work work) {
     auto shared_h = std::make_shared<recorder_handler<T>>(std::move(h));
-    const bool queued = writer_.post([self = shared_from_this(), work = std::move(work), shared_h]() mutable {
-        operation_result<T> result = work(*self->store_);
+    const bool queued = worker.post([self = shared_from_this(), work = std::move(work), shared_h]() mutable {
+        operation_result<T> result = work(*self);
         // The reference moves on with the result: the writer's thread never holds the last one.
         auto& ex = self->executor_;
         net::post(ex, [self = std::move(self), result = std::move(result), shared_h]() mutable {
@@ -151,6 +163,76 @@ void recorder::read(recorder_handler<T> h, Read work) {
     if (!queued)
         deliver<T>(std::move(*shared_h),
                    make_error(kind::queue_full, "the recordings store is busy: ask again shortly"));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Exports, on the exporter's thread.
+
+void recorder::export_hdf5(std::string id, recorder_handler<export_file> h) {
+    run_on<export_file>(exporter_, std::move(h), [id = std::move(id)](recorder& self) { return self.write_export(id); });
+}
+
+operation_result<export_file> recorder::write_export(const std::string& id) {
+    if (!export_store_) {
+        auto opened = recording_store::open(settings_.storage_path);
+        if (!opened) return store_error(opened.error());
+        export_store_ = std::move(*opened);
+    }
+    auto record = export_store_->get(id);
+    if (!record) return store_error(record.error());
+    if (!*record) return make_error(kind::unknown_recording, "no recording with id \"" + id + "\"", "id");
+    std::error_code ec;
+    std::filesystem::create_directories(exports_path_, ec);
+    export_file out;
+    out.record = std::move(**record);
+    out.path = fmt::format("{}/{}-{}.h5", exports_path_, id, ++exports_made_);
+    auto file = hdf5_export::create(out.path, out.record);
+    const auto failed = [&](const std::string& why) -> operation_result<export_file> {
+        if (file) file->reset();  // closes it
+        std::filesystem::remove(out.path, ec);
+        return store_error(why);
+    };
+    if (!file) return failed(file.error());
+    // The rows the record counts: those stored with it (later ones belong to a later read).
+    std::uint64_t left = out.record.frames + out.record.losses;
+    std::int64_t from = 0;
+    while (left > 0) {
+        auto page = export_store_->rows(id, from, static_cast<std::size_t>(std::min<std::uint64_t>(left, 8192)));
+        if (!page) return failed(page.error());
+        if (page->rows.empty()) return failed("recording " + id + " lost rows while it was exported");
+        if (auto appended = (*file)->append(page->rows); !appended) return failed(appended.error());
+        left -= std::min<std::uint64_t>(left, page->rows.size());
+        if (!page->next) break;
+        from = *page->next;
+    }
+    if (left > 0) return failed("recording " + id + " has fewer rows than it counts");
+    if (auto finished = (*file)->finish(out.record); !finished) return failed(finished.error());
+    out.bytes = std::filesystem::file_size(out.path, ec);
+    return out;
+}
+
+void recorder::read_export(std::string path, std::uint64_t offset, std::size_t max_bytes,
+                           recorder_handler<std::string> h) {
+    run_on<std::string>(exporter_, std::move(h),
+                        [path = std::move(path), offset, max_bytes](recorder&) -> operation_result<std::string> {
+                            std::ifstream in(path, std::ios::binary);
+                            if (!in) return store_error(path + ": cannot open the export");
+                            in.seekg(static_cast<std::streamoff>(offset));
+                            std::string piece(max_bytes, '\0');
+                            in.read(piece.data(), static_cast<std::streamsize>(max_bytes));
+                            if (in.bad()) return store_error(path + ": cannot read the export");
+                            piece.resize(static_cast<std::size_t>(in.gcount()));
+                            return piece;
+                        });
+}
+
+void recorder::remove_export(std::string path) {
+    exporter_.post([self = shared_from_this(), path = std::move(path)]() mutable {
+        std::error_code ec;
+        std::filesystem::remove(path, ec);
+        auto& ex = self->executor_;
+        net::post(ex, [self = std::move(self)] {});  // the last reference never goes on the exporter's thread
+    });
 }
 
 // ---------------------------------------------------------------------------------------------

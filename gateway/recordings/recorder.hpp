@@ -66,6 +66,13 @@ struct recorder_settings {
 template <typename T>
 using recorder_handler = boost::asio::any_completion_handler<void(operation_result<T>)>;
 
+// A recording written into a file of its own for a download (hdf5_export.hpp).
+struct export_file {
+    std::string path;  // under <storage>/exports/: remove_export() it once sent
+    recording_record record;
+    std::uint64_t bytes = 0;
+};
+
 class recorder : public std::enable_shared_from_this<recorder> {
   public:
     // Opens the store; recordings a crashed gateway left recording are marked failed (what came after
@@ -83,6 +90,13 @@ class recorder : public std::enable_shared_from_this<recorder> {
     void remove(std::string id, recorder_handler<bool> h);
     // A page of a recording's rows (frames and loss markers) in order, from row `from` (0: the first).
     void rows(std::string id, std::int64_t from, std::size_t limit, recorder_handler<frame_page> h);
+    // The recording as stored now, as an HDF5 file under <storage>/exports/, written on the exporter's
+    // thread (with a reading connection of its own: the writer goes on meanwhile).
+    void export_hdf5(std::string id, recorder_handler<export_file> h);
+    // Up to `max_bytes` of an export file from `offset` (empty at its end), read on the exporter's thread.
+    void read_export(std::string path, std::uint64_t offset, std::size_t max_bytes, recorder_handler<std::string> h);
+    // Removes an export file (on the exporter's thread).
+    void remove_export(std::string path);
     // Stops every recording (their input modes put back), stores what waits, then calls `done`.
     void shutdown(std::function<void()> done);
     // Like a crash: nothing more is recorded, written or put back (the next open marks the recordings
@@ -124,9 +138,14 @@ class recorder : public std::enable_shared_from_this<recorder> {
     // The rows on the live topic, with the record's state and counters.
     void publish(const recording_record& r, std::span<const recorded_frame> rows);
 
-    // Runs `read` on the writer's thread and posts its result to `h`.
+    // Runs `work(*this)` on `worker` and posts its result to `h`.
+    template <typename T, typename Work>
+    void run_on(worker_thread& worker, recorder_handler<T> h, Work work);
+    // Runs `work(store)` on the writer's thread (after the writes before it) and posts its result to `h`.
     template <typename T, typename Read>
     void read(recorder_handler<T> h, Read work);
+    // On the exporter's thread.
+    operation_result<export_file> write_export(const std::string& id);
     template <typename T>
     void deliver(recorder_handler<T> h, operation_result<T> r);
 
@@ -149,7 +168,11 @@ class recorder : public std::enable_shared_from_this<recorder> {
     std::set<std::string, std::less<>> listening_;
     std::shared_ptr<devices::controller_observer> observer_;
 
-    worker_thread writer_{256};  // last: destroyed first, so no write runs on a store that is gone
+    std::string exports_path_;                      // <storage>/exports
+    std::unique_ptr<recording_store> export_store_;  // the exporter's thread only (opened there)
+    std::uint64_t exports_made_ = 0;                 // the exporter's thread only: file names
+    worker_thread writer_{256};   // destroyed before the stores, so no write runs on a store that is gone
+    worker_thread exporter_{16};  // likewise
 };
 
 }  // namespace gw::recordings

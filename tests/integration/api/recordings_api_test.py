@@ -1,11 +1,11 @@
 """Position recordings end to end (issue 35): the real asi-gateway with an external ms2000-sim whose
 report port answers TTL pulses (its control socket's `pulse N RATE_HZ`), real HTTP clients (every answer checked against openapi/openapi.yaml), a
-real SQLite file, and the downloads read back by pandas (Debian's python3-pandas), the standard reader of
-analysis code:
+real SQLite file, and the downloads read back by pandas and h5py (Debian's python3-pandas, python3-h5py),
+the standard readers of analysis code:
 
 - a recording arms the trigger input, counts every frame from 0 at the stage's position at each
   pulse, and puts the input mode back when it stops;
-- CSV and JSON Lines downloads come chunked and read into the same table; a viewer of the live
+- CSV, JSON Lines and HDF5 downloads come chunked and read (pandas, h5py) into the same table; a viewer of the live
   topic recordings/<id> (WebSocket) gets the same rows and the end;
 - triggers faster than the report port (the controller's error 87): exactly the dropped count as
   overrun markers;
@@ -26,6 +26,7 @@ from gateway_fixture import TOKENS, Fixture, auth_tokens, check, free_port, run_
 from http_api_test import Client, Contract  # noqa: E402
 from ws_api_test import WsClient  # noqa: E402
 
+import h5py  # noqa: E402  (Debian python3-h5py)
 import pandas  # noqa: E402  (Debian python3-pandas)
 
 OPERATOR = TOKENS["operator"]
@@ -42,11 +43,12 @@ def problem_type(body):
     return (body or {}).get("type", "").rsplit("/", 1)[-1]
 
 
-def download(port, rid, fmt):
-    """(headers, text) of GET /recordings/{rid}/frames?format=fmt."""
-    r = Client(port, CONTRACT).request("GET", f"/api/v1/recordings/{rid}/frames?format={fmt}", token=TOKENS["viewer"])
+def download(port, rid, fmt, binary=False):
+    """(headers, text, or bytes when `binary`) of GET /recordings/{rid}/frames?format=fmt."""
+    r = Client(port, CONTRACT).request("GET", f"/api/v1/recordings/{rid}/frames?format={fmt}", token=TOKENS["viewer"],
+                                       validate=not binary)
     check(r.status == 200, f"download {fmt}: {r.status} {r.body[:300]}")
-    return {k.lower(): v for k, v in r.headers}, r.body
+    return {k.lower(): v for k, v in r.headers}, (r.raw if binary else r.body)
 
 
 def move_x(port, x_um):
@@ -71,6 +73,13 @@ def wait_frames(port, rid, n):
 
 def pulses_done(sim, before, n):
     wait_until(f"{n} pulses sent", lambda: json.loads(sim.control("state"))["reports_sent"] - before >= n)
+
+
+def pulse_train(sim, n, rate_hz):
+    """`n` edges on IN0 at `rate_hz`, waited for to the last edge (on the simulator's clock)."""
+    edges = json.loads(sim.control("state"))["ttl_edges"]
+    check(sim.control(f"pulse {n} {rate_hz}") == "ok", "pulse")
+    wait_until(f"{n} edges", lambda: json.loads(sim.control("state"))["ttl_edges"] - edges >= n)
 
 
 def test_refusals(port):
@@ -137,7 +146,7 @@ def test_record_and_download(port, sim):
     headers, csv_text = download(port, rid, "csv")
     check(headers.get("transfer-encoding") == "chunked", f"streamed in chunks: {headers}")
     check(headers.get("content-type", "").startswith("text/csv"), f"CSV type: {headers}")
-    frame = pandas.read_csv(io.StringIO(csv_text))
+    frame = pandas.read_csv(io.StringIO(csv_text), float_precision="round_trip")
     check(list(frame.columns[:3]) == ["index", "time_us", "loss"], f"columns {list(frame.columns)}")
     check(list(frame["index"]) == list(range(2 * n)), "index 0..399, in order")
     check(frame["loss"].isna().all(), "no loss markers")
@@ -162,6 +171,19 @@ def test_record_and_download(port, sim):
     check(list(lines.columns) == list(frame.columns), f"same columns: {list(lines.columns)}")
     check((lines["index"] == frame["index"]).all() and (lines["X_counts"] == frame["X_counts"]).all(),
           "JSON Lines and CSV hold the same rows")
+
+    headers, raw = download(port, rid, "hdf5", binary=True)
+    check(headers.get("content-type") == "application/x-hdf5", f"HDF5 type: {headers}")
+    with h5py.File(io.BytesIO(raw), "r") as f:
+        check(f.attrs["id"] == rid and f.attrs["frames"] == 2 * n and f.attrs["state"] == "stopped",
+              f"the record in the root's attributes: {dict(f.attrs)}")
+        check(json.loads(f.attrs["metadata"]) == {"camera": "cam0", "exposure_ms": 2}, "metadata")
+        columns = f.attrs["columns"].split(",")
+        check(columns == list(frame.columns), f"the CSV's columns: {columns}")
+        table = pandas.DataFrame({c: f[c][:] for c in columns})
+    check(list(table["index"]) == list(range(2 * n)) and (table["loss"] == 0).all(), "HDF5 rows 0..399, no loss")
+    check((table["X_counts"] == frame["X_counts"]).all() and (table["X_um"] == frame["X_um"]).all(),
+          "HDF5 holds the CSV's values")
     return rid
 
 
@@ -170,7 +192,7 @@ def test_max_frames(port, sim):
     check(status == 201, f"start: {status} {rec}")
     # After the 50th frame the input mode is put back: the later edges make no report.
     sent = json.loads(sim.control("state"))["reports_sent"]
-    check(sim.control("pulse 80 500") == "ok", "pulse")
+    pulse_train(sim, 80, 500)
     pulses_done(sim, sent, 50)
 
     def ended():
@@ -283,7 +305,7 @@ def main():
         def record():
             nonlocal rid
             rid = test_record_and_download(port, ext2)
-        fx.run("400 frames at 500 Hz, each at the stage's position; CSV and JSON Lines read by pandas", record)
+        fx.run("400 frames at 500 Hz at the stage's positions; CSV, JSON Lines, HDF5 and the live topic agree", record)
         fx.run("max_frames ends the recording", test_max_frames, port, ext2)
         fx.run("triggers faster than the report port: one overrun marker per dropped trigger", test_overruns,
                port, ext2)
