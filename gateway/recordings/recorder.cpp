@@ -518,13 +518,12 @@ void recorder::schedule_flush() {
 }
 
 void recorder::flush() {
+    for (auto& [id, a] : active_)
+        check_limits(a);  // max_s is checked here too: a recording whose triggers stopped still ends in time
+    if (hand_over()) return;
     std::vector<std::string> failed;
-    for (auto& [id, a] : active_) {
-        // max_s is checked here too: a recording whose triggers stopped still ends in time.
-        check_limits(a);
-        if (a.buffer.empty() || hand_over(a)) continue;
+    for (auto& [id, a] : active_)
         if (a.buffer.size() > settings_.max_buffered_rows) failed.push_back(id);
-    }
     for (const auto& id : failed)
         net::co_spawn(strand_,
                       finish(id, recording_state::failed,
@@ -532,32 +531,46 @@ void recorder::flush() {
                       net::detached);
 }
 
-bool recorder::hand_over(active& a) {
-    // Shared, so that the rows stay here when the writer refuses them.
-    auto rows = std::make_shared<std::vector<recorded_frame>>(std::move(a.buffer));
-    a.buffer.clear();
-    auto record = a.record;
-    const bool queued = writer_.post([self = shared_from_this(), record, rows]() mutable {
+bool recorder::hand_over() {
+    // Every recording's new rows in one batch: one transaction, one disk flush, however many record.
+    auto batches = std::make_shared<std::vector<row_batch>>();
+    for (auto& [id, a] : active_)
+        if (!a.buffer.empty()) batches->push_back({a.record, std::move(a.buffer)});
+    if (batches->empty()) return true;
+    const bool queued = writer_.post([self = shared_from_this(), batches]() mutable {
         if (self->abandoned_) {
             auto& ex = self->executor_;
             return net::post(ex, [self = std::move(self)] {});
         }
-        auto appended = self->store_->append(record, *rows);
+        auto appended = self->store_->append_all(*batches);
+        std::vector<std::string> ids;
+        for (const auto& b : *batches)
+            ids.push_back(b.record.id);
         auto& strand = self->strand_;
-        net::post(strand, [self = std::move(self), id = record.id, appended = std::move(appended)]() mutable {
-            if (appended || !self->active_.contains(id)) return;
-            self->log_->error("recording {}: its frames cannot be stored: {}", id, appended.error());
-            net::co_spawn(self->strand_,
-                          self->finish(id, recording_state::failed,
-                                       "the store refused its frames: " + appended.error()),
-                          net::detached);
+        net::post(strand, [self = std::move(self), ids = std::move(ids), appended = std::move(appended)]() mutable {
+            if (appended) return;
+            for (const auto& id : ids) {
+                if (!self->active_.contains(id)) continue;
+                self->log_->error("recording {}: its frames cannot be stored: {}", id, appended.error());
+                net::co_spawn(self->strand_,
+                              self->finish(id, recording_state::failed,
+                                           "the store refused its frames: " + appended.error()),
+                              net::detached);
+            }
         });
     });
     if (!queued) {
-        a.buffer = std::move(*rows);  // kept for the next flush
+        // Kept for the next flush, in order.
+        for (auto& b : *batches) {
+            auto& a = active_.at(b.record.id);
+            b.rows.insert(b.rows.end(), std::make_move_iterator(a.buffer.begin()),
+                          std::make_move_iterator(a.buffer.end()));
+            a.buffer = std::move(b.rows);
+        }
         return false;
     }
-    publish(record, *rows);
+    for (const auto& b : *batches)
+        publish(b.record, b.rows);
     return true;
 }
 

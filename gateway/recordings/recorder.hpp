@@ -133,8 +133,9 @@ class recorder : public std::enable_shared_from_this<recorder> {
     void check_limits(active& a);
     void flush();
     void schedule_flush();
-    // Hands `a`'s buffered rows to the writer; false when the writer has too much waiting.
-    bool hand_over(active& a);
+    // Hands every recording's buffered rows to the writer, as one batch; false when the writer has too
+    // much waiting (the rows stay buffered).
+    bool hand_over();
     // The rows on the live topic, with the record's state and counters.
     void publish(const recording_record& r, std::span<const recorded_frame> rows);
 

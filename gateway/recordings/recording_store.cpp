@@ -11,9 +11,13 @@ namespace gw::recordings {
 
 namespace {
 
+// The layout: a recording's rows are clustered under its integer key in the order they came (seq), so
+// a row costs its values and a few bytes of key, and a page of rows is one range of the table.
+constexpr int layout_version = 2;
 constexpr const char* schema = R"sql(
 CREATE TABLE IF NOT EXISTS recordings (
-  id TEXT PRIMARY KEY,
+  key INTEGER PRIMARY KEY,
+  id TEXT NOT NULL UNIQUE,
   controller TEXT NOT NULL,
   name TEXT NOT NULL,
   state TEXT NOT NULL,
@@ -30,14 +34,15 @@ CREATE TABLE IF NOT EXISTS recordings (
   metadata TEXT NOT NULL);
 CREATE INDEX IF NOT EXISTS recordings_controller ON recordings(controller, started_ms);
 CREATE TABLE IF NOT EXISTS frames (
-  row INTEGER PRIMARY KEY AUTOINCREMENT,
-  recording TEXT NOT NULL,
+  recording INTEGER NOT NULL,
+  seq INTEGER NOT NULL,
   idx INTEGER NOT NULL,
   time_us INTEGER NOT NULL,
   loss INTEGER NOT NULL,
   counts BLOB NOT NULL,
-  um BLOB NOT NULL);
-CREATE INDEX IF NOT EXISTS frames_recording ON frames(recording, row);
+  um BLOB NOT NULL,
+  PRIMARY KEY (recording, seq)) WITHOUT ROWID;
+PRAGMA user_version = 2;
 )sql";
 
 using sqlite::bind_text;
@@ -140,12 +145,29 @@ recording_record record_of(sqlite3_stmt* s) {
 
 store_result<std::unique_ptr<recording_store>> recording_store::open(const std::string& directory) {
     using result = store_result<std::unique_ptr<recording_store>>;
-    // WAL with synchronous NORMAL: a crash loses at most the last commits, which the writer spaces by
-    // its flush interval.
-    auto file =
-        sqlite::open_file(directory, "recordings.sqlite3", schema, "cannot prepare the recordings tables");
+    // A file of the first layout (never released: the recorder was not reachable from outside) is
+    // replaced.
+    auto file = sqlite::open_file(
+        directory, "recordings.sqlite3",
+        "SELECT 1", "cannot open the recordings");
     if (!file) return result(boost::system::in_place_error, file.error());
-    return std::unique_ptr<recording_store>(new recording_store(file->db, file->path));
+    std::unique_ptr<recording_store> store(new recording_store(file->db, file->path));
+    int found = 0;
+    {
+        statement version;  // finalized before the tables may be dropped
+        if (sqlite3_prepare_v2(store->db_, "PRAGMA user_version", -1, &version.s, nullptr) == SQLITE_OK &&
+            sqlite3_step(version.s) == SQLITE_ROW)
+            found = sqlite3_column_int(version.s, 0);
+    }
+    if (found != layout_version)
+        if (auto dropped = store->exec("DROP TABLE IF EXISTS frames; DROP TABLE IF EXISTS recordings;"); !dropped)
+            return result(boost::system::in_place_error, dropped.error());
+    if (auto made = store->exec(schema); !made) return result(boost::system::in_place_error, made.error());
+    // Each commit (one per flush interval) reaches the disk before the next: a crash, even of the
+    // machine, loses at most the rows of one interval.
+    if (auto full = store->exec("PRAGMA synchronous = FULL"); !full)
+        return result(boost::system::in_place_error, full.error());
+    return store;
 }
 
 recording_store::~recording_store() {
@@ -209,27 +231,44 @@ store_result<void> recording_store::update(const recording_record& r) {
     return {};
 }
 
-store_result<void> recording_store::append(const recording_record& r, std::span<const recorded_frame> rows) {
-    if (auto begun = exec("BEGIN IMMEDIATE"); !begun) return begun;
+bool recording_store::insert_rows(const recording_record& r, std::span<const recorded_frame> rows) {
+    statement key_of;
+    if (sqlite3_prepare_v2(db_, "SELECT key FROM recordings WHERE id = ?1", -1, &key_of.s, nullptr) != SQLITE_OK)
+        return false;
+    bind_text(key_of.s, 1, r.id);
+    if (sqlite3_step(key_of.s) != SQLITE_ROW) return false;
+    const auto key = sqlite3_column_int64(key_of.s, 0);
     statement q;
     const char* sql =
-        "INSERT INTO frames (recording, idx, time_us, loss, counts, um) VALUES (?1, ?2, ?3, ?4, ?5, ?6)";
-    bool ok = sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) == SQLITE_OK;
+        "INSERT INTO frames (recording, seq, idx, time_us, loss, counts, um) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
+    if (sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) != SQLITE_OK) return false;
+    // The record's counters are as after these rows: the first of them is row number total - size.
+    auto seq = static_cast<sqlite3_int64>(r.frames + r.losses - rows.size());
     for (const auto& f : rows) {
-        if (!ok) break;
-        bind_text(q.s, 1, r.id);
-        sqlite3_bind_int64(q.s, 2, static_cast<sqlite3_int64>(f.index));
-        sqlite3_bind_int64(q.s, 3, f.time_us);
-        sqlite3_bind_int(q.s, 4, static_cast<int>(f.loss));
+        sqlite3_bind_int64(q.s, 1, key);
+        sqlite3_bind_int64(q.s, 2, seq++);
+        sqlite3_bind_int64(q.s, 3, static_cast<sqlite3_int64>(f.index));
+        sqlite3_bind_int64(q.s, 4, f.time_us);
+        sqlite3_bind_int(q.s, 5, static_cast<int>(f.loss));
         const auto counts = counts_blob(f.counts);
         const auto um = um_blob(f.um);
-        sqlite3_bind_blob(q.s, 5, counts.data(), static_cast<int>(counts.size()), SQLITE_TRANSIENT);
-        sqlite3_bind_blob(q.s, 6, um.data(), static_cast<int>(um.size()), SQLITE_TRANSIENT);
-        ok = sqlite3_step(q.s) == SQLITE_DONE;
+        sqlite3_bind_blob(q.s, 6, counts.data(), static_cast<int>(counts.size()), SQLITE_TRANSIENT);
+        sqlite3_bind_blob(q.s, 7, um.data(), static_cast<int>(um.size()), SQLITE_TRANSIENT);
+        if (sqlite3_step(q.s) != SQLITE_DONE) return false;
         sqlite3_reset(q.s);
     }
-    if (ok) ok = static_cast<bool>(update(r));
-    if (!ok) {
+    return static_cast<bool>(update(r));
+}
+
+store_result<void> recording_store::append(const recording_record& r, std::span<const recorded_frame> rows) {
+    const row_batch one{r, {rows.begin(), rows.end()}};
+    return append_all(std::span<const row_batch>(&one, 1));
+}
+
+store_result<void> recording_store::append_all(std::span<const row_batch> batches) {
+    if (auto begun = exec("BEGIN IMMEDIATE"); !begun) return begun;
+    for (const auto& b : batches) {
+        if (insert_rows(b.record, b.rows)) continue;
         auto why = error_of(db_, path_, "cannot store frames");
         (void)exec("ROLLBACK");
         return store_result<void>(boost::system::in_place_error, std::move(why));
@@ -282,7 +321,8 @@ store_result<bool> recording_store::remove(const std::string& id) {
     bool ok = true;
     bool found = false;
     for (const char* sql :
-         {"DELETE FROM frames WHERE recording = ?1", "DELETE FROM recordings WHERE id = ?1"}) {
+         {"DELETE FROM frames WHERE recording = (SELECT key FROM recordings WHERE id = ?1)",
+          "DELETE FROM recordings WHERE id = ?1"}) {
         statement q;
         ok = ok && sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) == SQLITE_OK;
         if (!ok) break;
@@ -305,9 +345,8 @@ store_result<frame_page> recording_store::rows(const std::string& id, std::int64
     using result = store_result<frame_page>;
     statement q;
     const char* sql =
-        "SELECT row, idx, time_us, loss, counts, um FROM frames WHERE recording = ?1 AND row >= ?2 ORDER BY "
-        "row "
-        "LIMIT ?3";
+        "SELECT seq, idx, time_us, loss, counts, um FROM frames WHERE recording = (SELECT key FROM recordings "
+        "WHERE id = ?1) AND seq >= ?2 ORDER BY seq LIMIT ?3";
     if (sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) != SQLITE_OK)
         return result(boost::system::in_place_error, error_of(db_, path_, "cannot read frames"));
     bind_text(q.s, 1, id);

@@ -4,7 +4,8 @@
 // it and uses it from its own thread only.
 //
 // Frames are appended in batches, each in one transaction with the recording's counters, so that after
-// a crash the counters match the frames on disk.
+// a crash the counters match the frames on disk. Commits are synchronous (FULL): the recorder commits
+// once per flush interval, all recordings together, so a crash loses at most that interval.
 
 #include <cstdint>
 #include <memory>
@@ -32,6 +33,12 @@ struct recording_filter {
     std::size_t limit = 100;
 };
 
+// A recording's new rows with its record as after them (its counters count them).
+struct row_batch {
+    recording_record record;
+    std::vector<recorded_frame> rows;
+};
+
 // One page of a recording's rows, in order; `next` is where the next page starts (nullopt: none left).
 struct frame_page {
     std::vector<recorded_frame> rows;
@@ -52,18 +59,22 @@ class recording_store {
     // `rows` and the record's counters (r.frames, r.losses, r.axes: as after these rows), in one
     // transaction.
     store_result<void> append(const recording_record& r, std::span<const recorded_frame> rows);
+    // Several recordings' rows and counters in one transaction: one commit (one disk flush) for all.
+    store_result<void> append_all(std::span<const row_batch> batches);
 
     store_result<std::optional<recording_record>> get(const std::string& id) const;
     // Newest first.
     store_result<std::vector<recording_record>> list(const recording_filter& f) const;
     // The recording and its rows; false when there was none.
     store_result<bool> remove(const std::string& id);
-    // Up to `limit` rows from `from` (0: the first).
+    // Up to `limit` rows from row number `from` (0: the first).
     store_result<frame_page> rows(const std::string& id, std::int64_t from, std::size_t limit) const;
 
   private:
     recording_store(sqlite3* db, std::string path) : db_(db), path_(std::move(path)) {}
     store_result<void> exec(const char* sql);
+    // Inside a transaction: false on any failure (the caller rolls back).
+    bool insert_rows(const recording_record& r, std::span<const recorded_frame> rows);
     sqlite3* db_;
     std::string path_;
 };

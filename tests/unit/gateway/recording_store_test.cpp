@@ -179,3 +179,54 @@ TEST_F(recording_store_test, a_loss_value_no_writer_makes_reads_as_a_loss) {
 
 }  // namespace
 }  // namespace gw::recordings
+
+namespace gw::recordings {
+namespace {
+
+TEST_F(recording_store_test, several_recordings_go_in_one_transaction_or_none_does) {
+    for (const char* id : {"r-1", "r-2"})
+        ASSERT_TRUE(store_->create(record(id, "sim1", 1000)));
+    auto r1 = record("r-1", "sim1", 1000);
+    auto r2 = record("r-2", "sim1", 1000);
+    r1.frames = 2;
+    r2.frames = 1;
+    std::vector<row_batch> both{{r1, {frame(0, 10, 1.0), frame(1, 11, 1.1)}}, {r2, {frame(0, 20, 2.0)}}};
+    ASSERT_TRUE(store_->append_all(both));
+    EXPECT_EQ(store_->rows("r-1", 0, 10)->rows.size(), 2u);
+    EXPECT_EQ(store_->rows("r-2", 0, 10)->rows.at(0).counts.at(0), 20);
+    EXPECT_EQ((*store_->get("r-2"))->frames, 1u);
+
+    // A batch of a recording the file does not have: nothing of the transaction stays.
+    auto more = r1;
+    more.frames = 3;
+    auto unknown = record("r-9", "sim1", 1000);
+    unknown.frames = 1;
+    std::vector<row_batch> bad{{more, {frame(2, 12, 1.2)}}, {unknown, {frame(0, 1, 0.1)}}};
+    EXPECT_FALSE(store_->append_all(bad));
+    EXPECT_EQ(store_->rows("r-1", 0, 10)->rows.size(), 2u);
+    EXPECT_EQ((*store_->get("r-1"))->frames, 2u);
+}
+
+TEST_F(recording_store_test, a_file_of_another_layout_is_replaced) {
+    store_.reset();
+    const auto path = fs::path(dir_) / "recordings.sqlite3";
+    fs::remove(path);
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE frames (row INTEGER PRIMARY KEY, recording TEXT);"
+                               "CREATE TABLE recordings (id TEXT PRIMARY KEY);",
+                           nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+    store_ = open();
+    ASSERT_TRUE(store_);
+    ASSERT_TRUE(store_->create(record("r-1", "sim1", 1000)));
+    auto r = record("r-1", "sim1", 1000);
+    r.frames = 1;
+    EXPECT_TRUE(store_->append(r, std::vector<recorded_frame>{frame(0, 5, 0.5)}));
+    store_ = open();  // the new layout stays
+    EXPECT_EQ(store_->rows("r-1", 0, 10)->rows.size(), 1u);
+}
+
+}  // namespace
+}  // namespace gw::recordings
