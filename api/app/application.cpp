@@ -169,6 +169,7 @@ bool application::start() {
     recordings::recorder_settings recorder_settings;
     recorder_settings.storage_path = config.storage.path;
     recorder_settings.hub = hub_;
+    recorder_settings.max_mb = config.storage.recordings_max_mb;
     auto recorder = recordings::recorder::open(ioc_.get_executor(), *registry_, std::move(recorder_settings));
     if (!recorder) {
         log_->error("cannot open the recordings in \"{}\": {}", config.storage.path, recorder.error().message);

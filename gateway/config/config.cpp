@@ -597,10 +597,12 @@ gateway_config read_config(const json& j) {
     }
     if (auto* v = r.get("simulate")) read_simulate(*v, c.simulate);
     if (auto* v = r.get("storage")) {
-        object_reader s(*v, "storage", {"path", "max_size_mb", "retention"});
+        object_reader s(*v, "storage", {"path", "max_size_mb", "recordings_max_mb", "retention"});
         if (auto* p = s.get("path")) c.storage.path = read_string(*p, s.path("path"));
         if (auto* m = s.get("max_size_mb"))
             c.storage.max_size_mb = read_uint(*m, s.path("max_size_mb"), 1, max_storage_size_mb);
+        if (auto* m = s.get("recordings_max_mb"))
+            c.storage.recordings_max_mb = read_uint(*m, s.path("recordings_max_mb"), 1, max_storage_size_mb);
         if (auto* k = s.get("retention")) read_retention(*k, c.storage.retention);
     }
     if (auto* v = r.get("jobs")) {

@@ -78,6 +78,9 @@ struct storage_config {
     // gateway/storage/storage_path.hpp ($STATE_DIRECTORY, $XDG_STATE_HOME/asi-gateway, ~/.local/state/...).
     std::string path;
     std::size_t max_size_mb = 1024;  // bound on jobs.sqlite3; beyond it submissions fail (503)
+    // Bound on recordings.sqlite3: a recording that reaches it fails with the reason, new ones are
+    // refused (503) until recordings are deleted.
+    std::size_t recordings_max_mb = 10240;
     history_retention retention;     // storage.retention: nothing deleted unless set
 };
 

@@ -93,7 +93,7 @@ class recorder::observer final : public devices::controller_observer {
 operation_result<std::shared_ptr<recorder>> recorder::open(net::any_io_executor executor,
                                                            controller_registry& registry,
                                                            recorder_settings settings) {
-    auto store = recording_store::open(settings.storage_path);
+    auto store = recording_store::open(settings.storage_path, settings.max_mb);
     if (!store) return store_error(store.error());
     // What a crashed gateway left recording: its frames after the last stored batch are unknown.
     recording_filter recording_now;
@@ -266,6 +266,10 @@ net::awaitable<void> recorder::run_start(recording_request r, recorder_handler<r
                                         " has no report port: configure its report_port (the TTL_REPORT "
                                         "module's SERIAL OUT) to record",
                                     "controller"));
+    if (store_full_)
+        co_return refuse(make_error(kind::storage_unavailable,
+                                    "the recordings storage is full (the disk, or storage.recordings_max_mb): "
+                                    "delete recordings to make room"));
     if (by_controller_.contains(r.controller) || starting_.contains(r.controller))
         co_return refuse(
             make_error(kind::busy, r.controller + " is recording already: one recording at a time"));
@@ -543,6 +547,7 @@ bool recorder::hand_over() {
             return net::post(ex, [self = std::move(self)] {});
         }
         auto appended = self->store_->append_all(*batches);
+        self->store_full_ = !appended && self->store_->last_write_was_full();
         std::vector<std::string> ids;
         for (const auto& b : *batches)
             ids.push_back(b.record.id);
@@ -608,9 +613,10 @@ void recorder::remove(std::string id, recorder_handler<bool> h) {
             return self->deliver<bool>(
                 std::move(h),
                 make_error(kind::invalid_state, "recording " + id + " is recording: stop it first", "state"));
-        self->read<bool>(std::move(h), [id](recording_store& s) -> operation_result<bool> {
+        self->read<bool>(std::move(h), [id, full = &self->store_full_](recording_store& s) -> operation_result<bool> {
             auto r = s.remove(id);
             if (!r) return store_error(r.error());
+            if (*r) *full = false;  // room again, perhaps
             if (!*r) return make_error(kind::unknown_recording, "no recording with id \"" + id + "\"", "id");
             return true;
         });

@@ -58,6 +58,7 @@ struct recorder_settings {
     std::string storage_path;                       // <storage_path>/recordings.sqlite3
     std::chrono::milliseconds flush_interval{250};  // how often rows go to the store (what a crash may lose)
     std::size_t max_buffered_rows = 100'000;        // per recording, waiting for the store: beyond, it fails
+    std::size_t max_mb = 0;  // storage.recordings_max_mb: the file's bound (0: none)
     // The live topic recordings/<id>: each flush's rows as one event, and the end (null: none).
     std::shared_ptr<event_hub> hub{};
     std::chrono::milliseconds ended_topic_ttl{60'000};  // an ended recording's topic, for late viewers
@@ -160,6 +161,9 @@ class recorder : public std::enable_shared_from_this<recorder> {
     bool flush_scheduled_ = false;
     bool shutting_down_ = false;
     std::atomic<bool> abandoned_{false};  // any thread
+    // The store refused rows for want of room (the disk or max_mb) and nothing was deleted since: new
+    // recordings are refused. Set and cleared by the writer.
+    std::atomic<bool> store_full_{false};
 
     std::map<std::string, active> active_;              // strand: by recording id
     std::map<std::string, std::string> by_controller_;  // strand: controller -> recording id

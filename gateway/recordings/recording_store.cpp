@@ -143,7 +143,8 @@ recording_record record_of(sqlite3_stmt* s) {
 
 }  // namespace
 
-store_result<std::unique_ptr<recording_store>> recording_store::open(const std::string& directory) {
+store_result<std::unique_ptr<recording_store>> recording_store::open(const std::string& directory,
+                                                                     std::size_t max_mb) {
     using result = store_result<std::unique_ptr<recording_store>>;
     // A file of the first layout (never released: the recorder was not reachable from outside) is
     // replaced.
@@ -152,13 +153,7 @@ store_result<std::unique_ptr<recording_store>> recording_store::open(const std::
         "SELECT 1", "cannot open the recordings");
     if (!file) return result(boost::system::in_place_error, file.error());
     std::unique_ptr<recording_store> store(new recording_store(file->db, file->path));
-    int found = 0;
-    {
-        statement version;  // finalized before the tables may be dropped
-        if (sqlite3_prepare_v2(store->db_, "PRAGMA user_version", -1, &version.s, nullptr) == SQLITE_OK &&
-            sqlite3_step(version.s) == SQLITE_ROW)
-            found = sqlite3_column_int(version.s, 0);
-    }
+    const auto found = store->pragma_number("PRAGMA user_version");
     if (found != layout_version)
         if (auto dropped = store->exec("DROP TABLE IF EXISTS frames; DROP TABLE IF EXISTS recordings;"); !dropped)
             return result(boost::system::in_place_error, dropped.error());
@@ -167,11 +162,26 @@ store_result<std::unique_ptr<recording_store>> recording_store::open(const std::
     // machine, loses at most the rows of one interval.
     if (auto full = store->exec("PRAGMA synchronous = FULL"); !full)
         return result(boost::system::in_place_error, full.error());
+    if (max_mb > 0) {
+        // The page count the bound allows (PRAGMA takes no parameters: a number computed here).
+        const auto page_size = std::max<std::int64_t>(512, store->pragma_number("PRAGMA page_size"));
+        const auto pages = std::max<std::uint64_t>(1, std::uint64_t{max_mb} * 1024 * 1024 /
+                                                          static_cast<std::uint64_t>(page_size));
+        const auto sql = "PRAGMA max_page_count = " + std::to_string(pages);
+        if (auto bounded = store->exec(sql.c_str()); !bounded)
+            return result(boost::system::in_place_error, bounded.error());
+    }
     return store;
 }
 
 recording_store::~recording_store() {
     sqlite3_close(db_);
+}
+
+std::int64_t recording_store::pragma_number(const char* sql) const {
+    statement q;
+    if (sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) != SQLITE_OK || sqlite3_step(q.s) != SQLITE_ROW) return 0;
+    return sqlite3_column_int64(q.s, 0);
 }
 
 store_result<void> recording_store::exec(const char* sql) {
@@ -231,17 +241,26 @@ store_result<void> recording_store::update(const recording_record& r) {
     return {};
 }
 
-bool recording_store::insert_rows(const recording_record& r, std::span<const recorded_frame> rows) {
+store_result<void> recording_store::insert_rows(const recording_record& r, std::span<const recorded_frame> rows) {
+    // The error as the failing call left it: finalizing the statements after it would reset it.
+    const auto failed = [&] {
+        last_write_full_ = sqlite3_errcode(db_) == SQLITE_FULL;
+        return store_result<void>(
+            boost::system::in_place_error,
+            last_write_full_ ? path_ + ": full: the disk, or storage.recordings_max_mb (delete recordings to make room)"
+                             : error_of(db_, path_, "cannot store frames"));
+    };
     statement key_of;
     if (sqlite3_prepare_v2(db_, "SELECT key FROM recordings WHERE id = ?1", -1, &key_of.s, nullptr) != SQLITE_OK)
-        return false;
+        return failed();
     bind_text(key_of.s, 1, r.id);
-    if (sqlite3_step(key_of.s) != SQLITE_ROW) return false;
+    if (sqlite3_step(key_of.s) != SQLITE_ROW)
+        return store_result<void>(boost::system::in_place_error, path_ + ": no recording " + r.id + " to store frames of");
     const auto key = sqlite3_column_int64(key_of.s, 0);
     statement q;
     const char* sql =
         "INSERT INTO frames (recording, seq, idx, time_us, loss, counts, um) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
-    if (sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) != SQLITE_OK) return false;
+    if (sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) != SQLITE_OK) return failed();
     // The record's counters are as after these rows: the first of them is row number total - size.
     auto seq = static_cast<sqlite3_int64>(r.frames + r.losses - rows.size());
     for (const auto& f : rows) {
@@ -254,10 +273,15 @@ bool recording_store::insert_rows(const recording_record& r, std::span<const rec
         const auto um = um_blob(f.um);
         sqlite3_bind_blob(q.s, 6, counts.data(), static_cast<int>(counts.size()), SQLITE_TRANSIENT);
         sqlite3_bind_blob(q.s, 7, um.data(), static_cast<int>(um.size()), SQLITE_TRANSIENT);
-        if (sqlite3_step(q.s) != SQLITE_DONE) return false;
+        if (sqlite3_step(q.s) != SQLITE_DONE) return failed();
         sqlite3_reset(q.s);
     }
-    return static_cast<bool>(update(r));
+    if (auto updated = update(r); !updated) {
+        // Its statement is finalized by now: SQLite's message says what the code would have.
+        last_write_full_ = updated.error().find("database or disk is full") != std::string::npos;
+        return updated;
+    }
+    return {};
 }
 
 store_result<void> recording_store::append(const recording_record& r, std::span<const recorded_frame> rows) {
@@ -266,14 +290,20 @@ store_result<void> recording_store::append(const recording_record& r, std::span<
 }
 
 store_result<void> recording_store::append_all(std::span<const row_batch> batches) {
+    last_write_full_ = false;
     if (auto begun = exec("BEGIN IMMEDIATE"); !begun) return begun;
     for (const auto& b : batches) {
-        if (insert_rows(b.record, b.rows)) continue;
-        auto why = error_of(db_, path_, "cannot store frames");
+        auto inserted = insert_rows(b.record, b.rows);
+        if (inserted) continue;
         (void)exec("ROLLBACK");
-        return store_result<void>(boost::system::in_place_error, std::move(why));
+        return inserted;
     }
-    return exec("COMMIT");
+    auto committed = exec("COMMIT");
+    if (!committed) {
+        last_write_full_ = sqlite3_errcode(db_) == SQLITE_FULL;
+        (void)exec("ROLLBACK");
+    }
+    return committed;
 }
 
 store_result<std::optional<recording_record>> recording_store::get(const std::string& id) const {

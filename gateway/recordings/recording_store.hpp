@@ -47,8 +47,10 @@ struct frame_page {
 
 class recording_store {
   public:
-    // Creates the directory and the file if needed; the error names the file.
-    static store_result<std::unique_ptr<recording_store>> open(const std::string& directory);
+    // Creates the directory and the file if needed; the error names the file. `max_mb`: the file's
+    // bound (0: none); a write beyond it fails as a full disk does, with a message that says so.
+    static store_result<std::unique_ptr<recording_store>> open(const std::string& directory,
+                                                               std::size_t max_mb = 0);
     ~recording_store();
     recording_store(const recording_store&) = delete;
     recording_store& operator=(const recording_store&) = delete;
@@ -61,6 +63,8 @@ class recording_store {
     store_result<void> append(const recording_record& r, std::span<const recorded_frame> rows);
     // Several recordings' rows and counters in one transaction: one commit (one disk flush) for all.
     store_result<void> append_all(std::span<const row_batch> batches);
+    // The last append failed for want of room: the disk, or the bound given to open().
+    bool last_write_was_full() const { return last_write_full_; }
 
     store_result<std::optional<recording_record>> get(const std::string& id) const;
     // Newest first.
@@ -73,10 +77,13 @@ class recording_store {
   private:
     recording_store(sqlite3* db, std::string path) : db_(db), path_(std::move(path)) {}
     store_result<void> exec(const char* sql);
-    // Inside a transaction: false on any failure (the caller rolls back).
-    bool insert_rows(const recording_record& r, std::span<const recorded_frame> rows);
+    // A PRAGMA's number (0 when it cannot be read).
+    std::int64_t pragma_number(const char* sql) const;
+    // Inside a transaction (the caller rolls back on an error).
+    store_result<void> insert_rows(const recording_record& r, std::span<const recorded_frame> rows);
     sqlite3* db_;
     std::string path_;
+    bool last_write_full_ = false;
 };
 
 }  // namespace gw::recordings

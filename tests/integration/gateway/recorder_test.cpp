@@ -19,6 +19,7 @@
 #include "devices/sim/sim_config.hpp"
 #include "devices/sim/simulator.hpp"
 #include "gateway/controllers/controller_registry.hpp"
+#include "gateway/recordings/recording_store.hpp"
 #include "tests/support/io_thread.hpp"
 #include "tests/support/sim_controller_settings.hpp"
 
@@ -68,6 +69,7 @@ class recorder_test : public ::testing::Test {
         recorder_settings s;
         s.storage_path = dir_ + "/store";
         s.flush_interval = 50ms;
+        s.max_mb = max_mb_;
         auto r = recorder::open(gw_io_.io.get_executor(), *registry_, s);
         ASSERT_TRUE(r) << r.error().message;
         recorder_ = *r;
@@ -135,6 +137,7 @@ class recorder_test : public ::testing::Test {
                        std::string(testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
                        std::to_string(::getpid());
     registry_options options_;
+    std::size_t max_mb_ = 0;
     std::map<std::string, std::shared_ptr<sim::simulator>> sims_;
     std::unique_ptr<controller_registry> registry_;
     std::shared_ptr<recorder> recorder_;
@@ -293,6 +296,54 @@ TEST_F(recorder_test, a_recording_the_gateway_did_not_end_is_failed_at_the_next_
     EXPECT_EQ(record->state, recording_state::failed);
     EXPECT_NE(record->reason.find("unknown"), std::string::npos) << record->reason;
     EXPECT_EQ(all_rows(started->id).size(), record->frames + record->losses);
+}
+
+TEST_F(recorder_test, a_full_store_fails_the_recording_with_the_reason_and_refuses_new_ones_until_room_is_made) {
+    // A 1 MB bound, nearly reached by an old recording written straight into the file.
+    max_mb_ = 1;
+    {
+        auto store = recording_store::open(dir_ + "/store", max_mb_);
+        ASSERT_TRUE(store) << store.error();
+        recording_record old;
+        old.id = "r-old";
+        old.controller = "cam1";
+        old.name = "old";
+        old.state = recording_state::stopped;
+        ASSERT_TRUE((*store)->create(old));
+        std::vector<recorded_frame> page(500);
+        for (int n = 0; (*store)->append(old, page); ++n) {
+            ASSERT_LT(n, 1000) << "the bound never stopped the appends";
+            for (auto& f : page) {
+                f.index = old.frames++;
+                f.counts = {1, 2, 3};
+                f.um = {0.1, 0.2, 0.3};
+            }
+        }
+        EXPECT_TRUE((*store)->last_write_was_full());
+    }
+    auto s = add_sim("cam1", "full");
+    start();
+    recording_request r;
+    r.controller = "cam1";
+    r.name = "too much";
+    auto started = start_recording(r);
+    ASSERT_TRUE(started) << started.error().message;
+    s->ttl_pulse_train(600, 500);
+    ASSERT_TRUE(wait_until([&] {
+        auto g = get(started->id);
+        return g && g->state != recording_state::recording;
+    })) << "the recording went on with a full store";
+    auto failed = get(started->id);
+    EXPECT_EQ(failed->state, recording_state::failed);
+    EXPECT_NE(failed->reason.find("recordings_max_mb"), std::string::npos) << failed->reason;
+    EXPECT_EQ(in0_mode("cam1"), 0);  // the input put back all the same
+
+    auto refused = start_recording(r);
+    ASSERT_FALSE(refused);
+    EXPECT_EQ(refused.error().kind, kind::storage_unavailable);
+    ASSERT_TRUE(remove("r-old"));
+    auto again = start_recording(r);
+    EXPECT_TRUE(again) << again.error().message;
 }
 
 }  // namespace

@@ -32,6 +32,7 @@ TEST(config, empty_object_gives_the_safe_defaults) {
     EXPECT_EQ(c->simulate.time_scale, 1.0);
     EXPECT_EQ(c->storage.path, "");  // the default location is resolved by main
     EXPECT_EQ(c->storage.max_size_mb, 1024u);
+    EXPECT_EQ(c->storage.recordings_max_mb, 10240u);
     EXPECT_FALSE(c->jobs.restart_queued);
     EXPECT_EQ(c->jobs.max_queued_per_controller, 1000u);
     EXPECT_EQ(c->gcode.max_file_mb, 64u);
@@ -63,7 +64,7 @@ TEST(config, reads_every_key) {
         {"id": "stage-2_b", "port": "/dev/serial/by-id/x"}
       ],
       "simulate": {"count": 2, "time_scale": 10.5, "directory": "/tmp/sims"},
-      "storage": {"path": "/var/lib/asi", "max_size_mb": 64},
+      "storage": {"path": "/var/lib/asi", "max_size_mb": 64, "recordings_max_mb": 500},
       "jobs": {"restart_queued": true, "max_queued_per_controller": 20},
       "auth": {"tokens": [{"name": "dash", "token": "Tok-0123456789abcdef", "role": "viewer"},
                           {"name": "ops", "token": "Tok-0123456789abcdeX", "role": "operator"},
@@ -105,6 +106,7 @@ TEST(config, reads_every_key) {
     EXPECT_EQ(c->simulate.directory, "/tmp/sims");
     EXPECT_EQ(c->storage.path, "/var/lib/asi");
     EXPECT_EQ(c->storage.max_size_mb, 64u);
+    EXPECT_EQ(c->storage.recordings_max_mb, 500u);
     EXPECT_TRUE(c->jobs.restart_queued);
     EXPECT_EQ(c->jobs.max_queued_per_controller, 20u);
     ASSERT_EQ(c->auth.tokens.size(), 4u);
@@ -226,6 +228,8 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
         {R"({"simulate": {"directory": ""}})", "simulate.directory: must not be empty"},
         {R"({"storage": {"path": ""}})", "storage.path: must not be empty"},
         {R"({"storage": {"max_size_mb": 0}})", "storage.max_size_mb: must be an integer from 1 to 1048576"},
+        {R"({"storage": {"recordings_max_mb": 0}})",
+         "storage.recordings_max_mb: must be an integer from 1 to 1048576"},
         {R"({"storage": {"max_size_mb": 1048577}})",
          "storage.max_size_mb: must be an integer from 1 to 1048576"},
         {R"({"storage": {"max_size_mb": "1G"}})",
