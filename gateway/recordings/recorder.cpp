@@ -101,6 +101,10 @@ operation_result<std::shared_ptr<recorder>> recorder::open(net::any_io_executor 
     recording_now.limit = 10000;
     auto left = (*store)->list(recording_now);
     if (!left) return store_error(left.error());
+    // Their controllers' trigger inputs are still armed: put back once each is connected again.
+    std::map<std::string, int> armed;
+    for (const auto& r : *left)
+        if (r.previous_in_mode) armed[r.controller] = *r.previous_in_mode;
     // Export files a stopped gateway left behind were being sent: nobody waits for them any more.
     std::error_code ignored;
     std::filesystem::remove_all(settings.storage_path + "/exports", ignored);
@@ -112,7 +116,16 @@ operation_result<std::shared_ptr<recorder>> recorder::open(net::any_io_executor 
     }
     std::shared_ptr<recorder> out(
         new recorder(std::move(executor), registry, std::move(settings), std::move(*store)));
+    for (const auto& [controller, mode] : armed)
+        out->listening_.insert(controller);
+    out->restore_after_crash_ = armed;  // before anything runs on the strand
     out->attach();
+    // A controller connected already sends no new snapshot: its input is put back now.
+    for (const auto& [controller, mode] : armed) {
+        const auto s = registry.get(controller);
+        if (s && s->state == devices::connection_state::connected)
+            net::post(out->strand_, [out, controller = controller] { out->on_back(controller); });
+    }
     return out;
 }
 
@@ -282,7 +295,11 @@ net::awaitable<void> recorder::run_start(recording_request r, recorder_handler<r
     auto before =
         co_await registry_.async_command(controller, std::move(ask), request_id, net::use_awaitable);
     std::optional<int> previous;
-    if (before && before->reply.what != devices::ms2000::reply::kind::error) {
+    if (auto armed = restore_after_crash_.find(r.controller); armed != restore_after_crash_.end()) {
+        // Armed by a recording the gateway did not end: the mode before that one is the one to restore.
+        previous = armed->second;
+        restore_after_crash_.erase(armed);
+    } else if (before && before->reply.what != devices::ms2000::reply::kind::error) {
         const auto* x = before->reply.axis('X');
         std::optional<double> v = x ? x->number : std::nullopt;
         if (!v) v = before->reply.number(0);
@@ -480,6 +497,29 @@ void recorder::on_away(const std::string& controller, const std::string& why) {
 void recorder::on_back(const std::string& controller) {
     auto id = by_controller_.find(controller);
     if (id != by_controller_.end()) active_.at(id->second).away = false;
+    auto armed = restore_after_crash_.find(controller);
+    if (armed == restore_after_crash_.end() || starting_.contains(controller) || id != by_controller_.end())
+        return;
+    const int mode = armed->second;
+    restore_after_crash_.erase(armed);
+    {
+        std::lock_guard lock(listening_mutex_);
+        listening_.erase(controller);
+    }
+    net::co_spawn(strand_, put_back_after_crash(controller, mode), net::detached);
+}
+
+net::awaitable<void> recorder::put_back_after_crash(std::string controller, int mode) {
+    auto self = shared_from_this();
+    ttl_request back;
+    back.in0_mode = mode;
+    std::string request_id = "recording";
+    auto put_back = co_await registry_.async_ttl(controller, back, request_id, net::use_awaitable);
+    if (put_back)
+        log_->info("{}: TTL X={} put back, as before the recording the gateway did not end", controller, mode);
+    else
+        log_->warn("{}: cannot put TTL X={} back after a recording the gateway did not end: {}", controller, mode,
+                   put_back.error().message);
 }
 
 void recorder::on_overrun(const std::string& controller, std::size_t count) {

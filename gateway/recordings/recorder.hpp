@@ -128,6 +128,7 @@ class recorder : public std::enable_shared_from_this<recorder> {
     void on_frame(const devices::report_event& e);
     void on_away(const std::string& controller, const std::string& why);
     void on_back(const std::string& controller);
+    boost::asio::awaitable<void> put_back_after_crash(std::string controller, int mode);
     // `count` triggers the controller could not report (error 87 in its log): one marker each.
     void on_overrun(const std::string& controller, std::size_t count);
     void add_marker(active& a, loss_kind kind);
@@ -168,6 +169,9 @@ class recorder : public std::enable_shared_from_this<recorder> {
     std::map<std::string, active> active_;              // strand: by recording id
     std::map<std::string, std::string> by_controller_;  // strand: controller -> recording id
     std::set<std::string> starting_;                    // strand: controllers being armed
+    // strand: controllers whose trigger input a crashed gateway left armed, and the mode to put back
+    // once they are connected (or the mode a new recording there restores at its end).
+    std::map<std::string, int> restore_after_crash_;
 
     mutable std::mutex listening_mutex_;  // the controllers' strands read it for every frame
     std::set<std::string, std::less<>> listening_;

@@ -284,18 +284,25 @@ TEST_F(recorder_test, a_recording_the_gateway_did_not_end_is_failed_at_the_next_
     recording_request r;
     r.controller = "cam1";
     r.name = "crash";
+    const int before = in0_mode("cam1");
     auto started = start_recording(r);
     ASSERT_TRUE(started);
     s->ttl_pulse_train(30, 500);
     ASSERT_TRUE(wait_until([&] { return get(started->id)->frames >= 30; }));
     recorder_->abandon();  // gone without a shutdown, as a crash leaves it
     recorder_.reset();
+    EXPECT_EQ(in0_mode("cam1"), 1);  // still armed
     open_recorder();
     const auto record = get(started->id);
     ASSERT_TRUE(record);
     EXPECT_EQ(record->state, recording_state::failed);
     EXPECT_NE(record->reason.find("unknown"), std::string::npos) << record->reason;
     EXPECT_EQ(all_rows(started->id).size(), record->frames + record->losses);
+    // The input the crashed recording armed is put back as it was before it.
+    EXPECT_TRUE(wait_until([&] { return in0_mode("cam1") == before; })) << "TTL X=" << in0_mode("cam1");
+    auto next = start_recording(r);
+    ASSERT_TRUE(next);
+    EXPECT_EQ(next->previous_in_mode, before);
 }
 
 TEST_F(recorder_test, a_full_store_fails_the_recording_with_the_reason_and_refuses_new_ones_until_room_is_made) {
