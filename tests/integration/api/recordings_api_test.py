@@ -11,7 +11,8 @@ the standard readers of analysis code:
   overrun markers;
 - kill -9 mid-recording: after the restart it is failed with the reason, and at most a write
   window of frames is lost;
-- limits (max_frames), the refusals (body, controller without a report port, leases, roles), the
+- limits (max_frames), the refusals (body, controller without a report port, leases, a running job,
+  roles), the
   list filters, deletion, and the audit trail.
 """
 
@@ -255,6 +256,27 @@ def test_leases(port):
              headers={"Lease-Id": lease["lease_id"]})
 
 
+def test_job_holds_the_controller(port):
+    # A job that runs on the controller holds its trigger input: a recording is refused (409
+    # job-active), and allowed again once the job has ended.
+    spec = {"grid": {"columns": 3, "rows": 1, "column_step_mm": 1, "row_step_mm": -1},
+            "a1": {"X": 0, "Y": 0}, "dwell_ms": 3000, "mode": "host"}
+    status, job = call(port, "POST", "/api/v1/jobs", {"controller": "ext2", "type": "array", "spec": spec})
+    check(status == 201, f"job: {status} {job}")
+    try:
+        wait_until("the job runs", lambda: call(port, "GET", f"/api/v1/jobs/{job['id']}",
+                                                token=TOKENS["viewer"])[1]["state"] == "running")
+        status, body = call(port, "POST", "/api/v1/controllers/ext2/recordings", {"name": "during a job"})
+        check(status == 409 and problem_type(body) == "job-active", f"refused while the job runs: {status} {body}")
+    finally:
+        call(port, "POST", f"/api/v1/jobs/{job['id']}/cancel")
+    wait_until("the job ends", lambda: call(port, "GET", f"/api/v1/jobs/{job['id']}",
+                                            token=TOKENS["viewer"])[1]["state"] == "cancelled")
+    status, body = call(port, "POST", "/api/v1/controllers/ext2/recordings", {"name": "after the job"})
+    check(status == 201, f"allowed after the job: {status} {body}")
+    call(port, "POST", f"/api/v1/recordings/{body['id']}/stop")
+
+
 def test_list_delete_audit(port, rid):
     status, body = call(port, "GET", "/api/v1/recordings?controller=ext2&state=stopped", token=TOKENS["viewer"])
     check(status == 200 and rid in [r["id"] for r in body["recordings"]], f"listed: {status} {body}")
@@ -341,6 +363,8 @@ def main():
         fx.run("triggers faster than the report port: one overrun marker per dropped trigger", test_overruns,
                port, ext2)
         fx.run("a leased controller records for its holder only", test_leases, port)
+        fx.run("a job that holds the controller refuses a recording (job-active)", test_job_holds_the_controller,
+               port)
         if rid:
             fx.run("list filters, the audit trail, delete", test_list_delete_audit, port, rid)
         fx.run("kill -9 mid-recording: it says so after the restart, at most a write window lost", test_kill_9,
