@@ -172,7 +172,8 @@ bool application::start() {
     recorder_settings.max_mb = config.storage.recordings_max_mb;
     auto recorder = recordings::recorder::open(ioc_.get_executor(), *registry_, std::move(recorder_settings));
     if (!recorder) {
-        log_->error("cannot open the recordings in \"{}\": {}", config.storage.path, recorder.error().message);
+        log_->error("cannot open the recordings in \"{}\": {}", config.storage.path,
+                    recorder.error().message);
         return false;
     }
     recorder_ = std::move(*recorder);
@@ -233,8 +234,9 @@ void application::stop_after_failed_start() {
 }
 
 // The order in which the gateway stops: no new requests; running jobs HALTed, TTL low, interrupted and
-// stored; recordings stopped (their trigger input modes put back) and stored; the controllers (HALTed when shutdown.halt_on_exit); MQTT, which publishes "offline" itself;
-// last the hub, after the jobs' and controllers' final events have gone out.
+// stored; recordings stopped (their trigger input modes put back) and stored; the controllers (HALTed when
+// shutdown.halt_on_exit); MQTT, which publishes "offline" itself; last the hub, after the jobs' and
+// controllers' final events have gone out.
 void application::shutdown() {
     http_->stop();
     shares_->stop();

@@ -27,8 +27,9 @@ constexpr std::size_t rows_per_piece = 4096;
 constexpr std::size_t export_piece_bytes = std::size_t{256} * 1024;
 
 problem no_recorder_problem() {
-    return make_problem(make_error(operation_error_kind::storage_unavailable,
-                                   "recordings are not available: the gateway runs without a storage directory"));
+    return make_problem(
+        make_error(operation_error_kind::storage_unavailable,
+                   "recordings are not available: the gateway runs without a storage directory"));
 }
 
 // `done` with what `make` makes of the recorder's answer, or its error; on `done`'s executor.
@@ -68,8 +69,9 @@ operation_result<recordings::recording_request> parse_recording_request(const st
     static const json empty = json::object();
     const json& body = body_in.is_null() ? empty : body_in;
     if (!body.is_object())
-        return invalid_field("", "the body must be a JSON object {\"name\", \"arm\", \"max_frames\", \"max_s\", "
-                                 "\"metadata\"}");
+        return invalid_field("",
+                             "the body must be a JSON object {\"name\", \"arm\", \"max_frames\", \"max_s\", "
+                             "\"metadata\"}");
     if (auto unknown = find_unknown_field(body, {"name", "arm", "max_frames", "max_s", "metadata"}))
         return invalid_field(unknown->field, unknown->message);
     recordings::recording_request r;
@@ -83,8 +85,8 @@ operation_result<recordings::recording_request> parse_recording_request(const st
     r.name = *text.value;
     if (auto arm = body.find("arm"); arm != body.end()) {
         if (!arm->is_object())
-            return invalid_field("arm", "arm must be an object {\"ttl_in_mode\"}, not " +
-                                            std::string(json_type_name(*arm)));
+            return invalid_field(
+                "arm", "arm must be an object {\"ttl_in_mode\"}, not " + std::string(json_type_name(*arm)));
         if (auto unknown = find_unknown_field(*arm, {"ttl_in_mode"}))
             return invalid_field("arm." + unknown->field, unknown->message);
         if (auto mode = arm->find("ttl_in_mode"); mode != arm->end()) {
@@ -108,7 +110,8 @@ operation_result<recordings::recording_request> parse_recording_request(const st
     }
     if (auto m = body.find("metadata"); m != body.end() && !m->is_null()) {
         if (!m->is_object())
-            return invalid_field("metadata", "metadata must be an object, not " + std::string(json_type_name(*m)));
+            return invalid_field("metadata",
+                                 "metadata must be an object, not " + std::string(json_type_name(*m)));
         if (m->dump().size() > max_metadata_bytes)
             return invalid_field("metadata", "metadata must be at most 16 KiB of JSON");
         r.metadata = *m;
@@ -154,7 +157,8 @@ operation_result<recordings::frame_format> parse_frame_format(const query_params
     if (!v || *v == "csv") return recordings::frame_format::csv;
     if (*v == "jsonl") return recordings::frame_format::jsonl;
     if (*v == "hdf5") return recordings::frame_format::hdf5;
-    return invalid_field("format", "unknown format \"" + shown_in_message(*v) + "\" (one of: csv, jsonl, hdf5)");
+    return invalid_field("format",
+                         "unknown format \"" + shown_in_message(*v) + "\" (one of: csv, jsonl, hdf5)");
 }
 
 void start_recording(api_context& ctx, const caller& who, const std::string& controller, const json& body,
@@ -172,16 +176,18 @@ void start_recording(api_context& ctx, const caller& who, const std::string& con
         if (!allowed && refused(ctx, make_problem(allowed.error()), who.request_id, done)) return;
     }
     if (refused(ctx, job_hold_refusal(ctx, controller, who.lease_id), who.request_id, done)) return;
-    ctx.recordings->start(std::move(*request),
-                          answer<recording_record>(ctx, who.request_id, std::move(done), [](const recording_record& r) {
-                              auto out = record_outcome(r);
-                              out.status = 201;
-                              out.location = "/api/v1/recordings/" + r.id;
-                              return out;
-                          }));
+    ctx.recordings->start(
+        std::move(*request),
+        answer<recording_record>(ctx, who.request_id, std::move(done), [](const recording_record& r) {
+            auto out = record_outcome(r);
+            out.status = 201;
+            out.location = "/api/v1/recordings/" + r.id;
+            return out;
+        }));
 }
 
-void stop_recording(api_context& ctx, const std::string& id, const std::string& request_id, api_handler done) {
+void stop_recording(api_context& ctx, const std::string& id, const std::string& request_id,
+                    api_handler done) {
     if (refused(ctx, without_recorder(ctx), request_id, done)) return;
     ctx.recordings->stop(id, answer<recording_record>(ctx, request_id, std::move(done), record_outcome));
 }
@@ -230,13 +236,15 @@ class frames_body final : public streamed_body, public std::enable_shared_from_t
     void next(piece_handler h) override {
         if (!header_sent_) {
             header_sent_ = true;
-            if (format_ == recordings::frame_format::csv) return h(recordings::csv_header(record_), rows_left_ == 0);
+            if (format_ == recordings::frame_format::csv)
+                return h(recordings::csv_header(record_), rows_left_ == 0);
         }
         if (rows_left_ == 0) return h(std::string(), true);
         const auto limit = static_cast<std::size_t>(std::min<std::uint64_t>(rows_left_, rows_per_piece));
-        recorder_->rows(record_.id, from_, limit,
-                        [self = shared_from_this(), h = std::move(h)](
-                            operation_result<recordings::frame_page> page) mutable { self->on_page(page, h); });
+        recorder_->rows(
+            record_.id, from_, limit,
+            [self = shared_from_this(), h = std::move(h)](
+                operation_result<recordings::frame_page> page) mutable { self->on_page(page, h); });
     }
 
   private:
@@ -269,13 +277,14 @@ class export_body final : public streamed_body, public std::enable_shared_from_t
     ~export_body() override { recorder_->remove_export(file_.path); }
 
     void next(piece_handler h) override {
-        recorder_->read_export(file_.path, offset_, export_piece_bytes,
-                               [self = shared_from_this(), h = std::move(h)](operation_result<std::string> piece) {
-                                   if (!piece) return h(std::nullopt, true);
-                                   self->offset_ += piece->size();
-                                   const bool last = piece->empty() || self->offset_ >= self->file_.bytes;
-                                   h(std::move(*piece), last);
-                               });
+        recorder_->read_export(
+            file_.path, offset_, export_piece_bytes,
+            [self = shared_from_this(), h = std::move(h)](operation_result<std::string> piece) {
+                if (!piece) return h(std::nullopt, true);
+                self->offset_ += piece->size();
+                const bool last = piece->empty() || self->offset_ >= self->file_.bytes;
+                h(std::move(*piece), last);
+            });
     }
 
   private:

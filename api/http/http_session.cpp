@@ -496,21 +496,22 @@ void http_session::do_write_stream(string_response head, std::shared_ptr<streame
     close_after = close_after || !out->chunked;
     response_ = out;
     stream_.expires_after(ctx_->limits.read_timeout);
-    http::async_write_header(stream_, out->serializer,
-                             [self = shared_from_this(), out, close_after](beast::error_code ec, std::size_t) {
-                                 if (ec) return self->fail(ec, "write");
-                                 self->next_piece(out, close_after);
-                             });
+    http::async_write_header(
+        stream_, out->serializer,
+        [self = shared_from_this(), out, close_after](beast::error_code ec, std::size_t) {
+            if (ec) return self->fail(ec, "write");
+            self->next_piece(out, close_after);
+        });
 }
 
 void http_session::next_piece(const std::shared_ptr<outgoing_stream>& out, bool close_after) {
     stream_.expires_never();  // the body may take its time; each write has its own timeout
-    out->body->next([self = shared_from_this(), out, close_after](std::optional<std::string> piece, bool last) {
-        auto ex = self->stream_.get_executor();
-        net::post(ex, [self = std::move(self), out, close_after, piece = std::move(piece), last]() mutable {
-            self->on_piece(out, close_after, std::move(piece), last);
+    out->body->next(
+        [self = shared_from_this(), out, close_after](std::optional<std::string> piece, bool last) {
+            auto ex = self->stream_.get_executor();
+            net::post(ex, [self = std::move(self), out, close_after, piece = std::move(piece),
+                           last]() mutable { self->on_piece(out, close_after, std::move(piece), last); });
         });
-    });
 }
 
 void http_session::on_piece(const std::shared_ptr<outgoing_stream>& out, bool close_after,

@@ -67,31 +67,36 @@ void frames(request_context& c) {
     auto format = parse_frame_format(*q);
     if (!format) return c.fail(format.error());
     if (!c.ctx->recordings)
-        return c.fail(make_error(operation_error_kind::storage_unavailable,
-                                 "recordings are not available: the gateway runs without a storage directory"));
+        return c.fail(
+            make_error(operation_error_kind::storage_unavailable,
+                       "recordings are not available: the gateway runs without a storage directory"));
     auto held = std::make_shared<request_context>(std::move(c));
     auto ex = held->session_executor;
     if (*format == recordings::frame_format::hdf5) {
         // The file first (written on the exporter's thread): its errors can still be a status.
         held->ctx->recordings->export_hdf5(
-            held->params[0], boost::asio::bind_executor(ex, [held](operation_result<recordings::export_file> r) {
+            held->params[0],
+            boost::asio::bind_executor(ex, [held](operation_result<recordings::export_file> r) {
                 if (!r) return held->fail(r.error());
                 const std::string file = r->record.id + ".h5";
-                held->reply_stream("application/x-hdf5", recording_export_body(*held->ctx, std::move(*r)),
-                                   {{http::field::content_disposition, "attachment; filename=\"" + file + "\""}});
+                held->reply_stream(
+                    "application/x-hdf5", recording_export_body(*held->ctx, std::move(*r)),
+                    {{http::field::content_disposition, "attachment; filename=\"" + file + "\""}});
             }));
         return;
     }
     held->ctx->recordings->get(
         held->params[0],
-        boost::asio::bind_executor(ex, [held, format = *format](operation_result<recordings::recording_record> r) {
-            if (!r) return held->fail(r.error());
-            const bool csv = format == recordings::frame_format::csv;
-            const std::string file = r->id + (csv ? ".csv" : ".jsonl");
-            auto body = recording_frames_body(*held->ctx, std::move(*r), format);
-            held->reply_stream(csv ? "text/csv; charset=utf-8" : "application/jsonl; charset=utf-8", std::move(body),
-                               {{http::field::content_disposition, "attachment; filename=\"" + file + "\""}});
-        }));
+        boost::asio::bind_executor(
+            ex, [held, format = *format](operation_result<recordings::recording_record> r) {
+                if (!r) return held->fail(r.error());
+                const bool csv = format == recordings::frame_format::csv;
+                const std::string file = r->id + (csv ? ".csv" : ".jsonl");
+                auto body = recording_frames_body(*held->ctx, std::move(*r), format);
+                held->reply_stream(
+                    csv ? "text/csv; charset=utf-8" : "application/jsonl; charset=utf-8", std::move(body),
+                    {{http::field::content_disposition, "attachment; filename=\"" + file + "\""}});
+            }));
 }
 
 }  // namespace

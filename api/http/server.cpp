@@ -49,12 +49,26 @@ server::server(const io_executor& executor, const gateway_config& config, contro
     : executor_(executor),
       http_(config.http),
       ctx_(std::make_shared<api_context>(api_context{
-          executor, registry, std::move(hub), std::move(metrics), config.http.limits, config.auth,
-          get_logger("api"), std::move(jobs), std::move(leases), make_gcode_store(config),
-          std::make_shared<api::gcode_worker>(), std::make_shared<api::port_scan_worker>(),
-          std::move(state_texts), std::make_shared<batch_text_cache>(),
+          executor,
+          registry,
+          std::move(hub),
+          std::move(metrics),
+          config.http.limits,
+          config.auth,
+          get_logger("api"),
+          std::move(jobs),
+          std::move(leases),
+          make_gcode_store(config),
+          std::make_shared<api::gcode_worker>(),
+          std::make_shared<api::port_scan_worker>(),
+          std::move(state_texts),
+          std::make_shared<batch_text_cache>(),
           browser_rules{config.http.allowed_origins, config.http.allowed_hosts, config.auth.tokens.empty()},
-          shares, make_audit_log(config), config.http.proxies, std::move(tls), std::move(recordings)})) {
+          shares,
+          make_audit_log(config),
+          config.http.proxies,
+          std::move(tls),
+          std::move(recordings)})) {
     // main holds the storage lock by now: no other gateway uploads into this store.
     if (auto stale = ctx_->gcode_files->remove_stale_temporaries())
         ctx_->log->info("removed {} unfinished G-code uploads from {}", stale,

@@ -81,7 +81,7 @@ struct storage_config {
     // Bound on recordings.sqlite3: a recording that reaches it fails with the reason, new ones are
     // refused (503) until recordings are deleted.
     std::size_t recordings_max_mb = 10240;
-    history_retention retention;     // storage.retention: nothing deleted unless set
+    history_retention retention;  // storage.retention: nothing deleted unless set
 };
 
 struct jobs_config {

@@ -58,7 +58,8 @@ enum class topic_kind : std::uint8_t {
 };
 struct topic_address {
     topic_kind kind = topic_kind::other;
-    // The controller's, the job's or the recording's id in the name: name.substr(key_at, key_size); empty for other.
+    // The controller's, the job's or the recording's id in the name: name.substr(key_at, key_size); empty for
+    // other.
     std::size_t key_at = 0;
     std::size_t key_size = 0;
 };

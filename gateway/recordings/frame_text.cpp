@@ -50,10 +50,10 @@ std::string row_json(const recording_record& r, const recorded_frame& f) {
 }
 
 std::string live_event_json(const recording_record& r, std::span<const recorded_frame> rows) {
-    nlohmann::ordered_json head{{"id", r.id},           {"controller", r.controller},
-                                {"state", to_string(r.state)}, {"reason", r.reason},
-                                {"frames", r.frames},   {"losses", r.losses},
-                                {"axes", r.axes}};
+    nlohmann::ordered_json head{
+        {"id", r.id},         {"controller", r.controller}, {"state", to_string(r.state)},
+        {"reason", r.reason}, {"frames", r.frames},         {"losses", r.losses},
+        {"axes", r.axes}};
     std::string text = head.dump();
     text.pop_back();  // the closing brace: the rows follow
     text += R"(,"rows":[)";

@@ -1,10 +1,9 @@
 #include "gateway/recordings/hdf5_export.hpp"
 
 #include <cmath>
+#include <hdf5.h>
 #include <limits>
 #include <mutex>
-
-#include <hdf5.h>
 
 #include "gateway/common/timestamp.hpp"
 
@@ -67,7 +66,7 @@ struct hdf5_export::column {
 };
 
 store_result<std::unique_ptr<hdf5_export>> hdf5_export::create(const std::string& path,
-                                                              const recording_record& r) {
+                                                               const recording_record& r) {
     using result = store_result<std::unique_ptr<hdf5_export>>;
     silence_library_errors();
     const hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
@@ -93,9 +92,10 @@ store_result<std::unique_ptr<hdf5_export>> hdf5_export::create(const std::string
     if (!space.ok() || !layout.ok() || H5Pset_chunk(layout.get(), 1, &chunk_rows) < 0)
         return result(boost::system::in_place_error, path + ": cannot lay out the HDF5 datasets");
     for (const auto& s : specs) {
-        const hid_t dataset =
-            H5Dcreate2(file, s.name.c_str(), s.file_type, space.get(), H5P_DEFAULT, layout.get(), H5P_DEFAULT);
-        if (dataset < 0) return result(boost::system::in_place_error, path + ": cannot create dataset " + s.name);
+        const hid_t dataset = H5Dcreate2(file, s.name.c_str(), s.file_type, space.get(), H5P_DEFAULT,
+                                         layout.get(), H5P_DEFAULT);
+        if (dataset < 0)
+            return result(boost::system::in_place_error, path + ": cannot create dataset " + s.name);
         out->columns_.push_back({s.name, dataset, s.memory_type});
     }
     if (!write_text_attribute(out->columns_[2].dataset, "names", "none,garbled,disconnected,overrun"))
@@ -163,18 +163,19 @@ store_result<void> hdf5_export::finish(const recording_record& r) {
     std::string columns;
     for (const auto& c : columns_)
         columns += (columns.empty() ? "" : ",") + c.name;
-    const bool ok = root.ok() && write_text_attribute(root.get(), "id", r.id) &&
-                    write_text_attribute(root.get(), "controller", r.controller) &&
-                    write_text_attribute(root.get(), "name", r.name) &&
-                    write_text_attribute(root.get(), "state", std::string(to_string(r.state))) &&
-                    write_text_attribute(root.get(), "reason", r.reason) &&
-                    write_text_attribute(root.get(), "started", timestamp_of(r.started_ms)) &&
-                    write_text_attribute(root.get(), "stopped", r.stopped_ms ? timestamp_of(*r.stopped_ms) : "") &&
-                    write_text_attribute(root.get(), "axes", r.axes) &&
-                    write_text_attribute(root.get(), "columns", columns) &&
-                    write_text_attribute(root.get(), "metadata", r.metadata.dump()) &&
-                    write_count_attribute(root.get(), "frames", r.frames) &&
-                    write_count_attribute(root.get(), "losses", r.losses);
+    const bool ok =
+        root.ok() && write_text_attribute(root.get(), "id", r.id) &&
+        write_text_attribute(root.get(), "controller", r.controller) &&
+        write_text_attribute(root.get(), "name", r.name) &&
+        write_text_attribute(root.get(), "state", std::string(to_string(r.state))) &&
+        write_text_attribute(root.get(), "reason", r.reason) &&
+        write_text_attribute(root.get(), "started", timestamp_of(r.started_ms)) &&
+        write_text_attribute(root.get(), "stopped", r.stopped_ms ? timestamp_of(*r.stopped_ms) : "") &&
+        write_text_attribute(root.get(), "axes", r.axes) &&
+        write_text_attribute(root.get(), "columns", columns) &&
+        write_text_attribute(root.get(), "metadata", r.metadata.dump()) &&
+        write_count_attribute(root.get(), "frames", r.frames) &&
+        write_count_attribute(root.get(), "losses", r.losses);
     if (!ok) return fail("cannot write the recording's attributes");
     for (auto& c : columns_) {
         H5Dclose(c.dataset);

@@ -29,7 +29,8 @@ namespace gw::recordings {
 class hdf5_export {
   public:
     // Creates (or truncates) the file at `path`, with the columns of `r`'s axes.
-    static store_result<std::unique_ptr<hdf5_export>> create(const std::string& path, const recording_record& r);
+    static store_result<std::unique_ptr<hdf5_export>> create(const std::string& path,
+                                                             const recording_record& r);
     ~hdf5_export();
     hdf5_export(const hdf5_export&) = delete;
     hdf5_export& operator=(const hdf5_export&) = delete;

@@ -182,7 +182,8 @@ void recorder::run_on(worker_thread& worker, recorder_handler<T> h, Work work) {
 // Exports, on the exporter's thread.
 
 void recorder::export_hdf5(std::string id, recorder_handler<export_file> h) {
-    run_on<export_file>(exporter_, std::move(h), [id = std::move(id)](recorder& self) { return self.write_export(id); });
+    run_on<export_file>(exporter_, std::move(h),
+                        [id = std::move(id)](recorder& self) { return self.write_export(id); });
 }
 
 operation_result<export_file> recorder::write_export(const std::string& id) {
@@ -210,7 +211,8 @@ operation_result<export_file> recorder::write_export(const std::string& id) {
     std::uint64_t left = out.record.frames + out.record.losses;
     std::int64_t from = 0;
     while (left > 0) {
-        auto page = export_store_->rows(id, from, static_cast<std::size_t>(std::min<std::uint64_t>(left, 8192)));
+        auto page =
+            export_store_->rows(id, from, static_cast<std::size_t>(std::min<std::uint64_t>(left, 8192)));
         if (!page) return failed(page.error());
         if (page->rows.empty()) return failed("recording " + id + " lost rows while it was exported");
         if (auto appended = (*file)->append(page->rows); !appended) return failed(appended.error());
@@ -226,17 +228,18 @@ operation_result<export_file> recorder::write_export(const std::string& id) {
 
 void recorder::read_export(std::string path, std::uint64_t offset, std::size_t max_bytes,
                            recorder_handler<std::string> h) {
-    run_on<std::string>(exporter_, std::move(h),
-                        [path = std::move(path), offset, max_bytes](recorder&) -> operation_result<std::string> {
-                            std::ifstream in(path, std::ios::binary);
-                            if (!in) return store_error(path + ": cannot open the export");
-                            in.seekg(static_cast<std::streamoff>(offset));
-                            std::string piece(max_bytes, '\0');
-                            in.read(piece.data(), static_cast<std::streamsize>(max_bytes));
-                            if (in.bad()) return store_error(path + ": cannot read the export");
-                            piece.resize(static_cast<std::size_t>(in.gcount()));
-                            return piece;
-                        });
+    run_on<std::string>(
+        exporter_, std::move(h),
+        [path = std::move(path), offset, max_bytes](recorder&) -> operation_result<std::string> {
+            std::ifstream in(path, std::ios::binary);
+            if (!in) return store_error(path + ": cannot open the export");
+            in.seekg(static_cast<std::streamoff>(offset));
+            std::string piece(max_bytes, '\0');
+            in.read(piece.data(), static_cast<std::streamsize>(max_bytes));
+            if (in.bad()) return store_error(path + ": cannot read the export");
+            piece.resize(static_cast<std::size_t>(in.gcount()));
+            return piece;
+        });
 }
 
 void recorder::remove_export(std::string path) {
@@ -280,9 +283,10 @@ net::awaitable<void> recorder::run_start(recording_request r, recorder_handler<r
                                         "module's SERIAL OUT) to record",
                                     "controller"));
     if (store_full_)
-        co_return refuse(make_error(kind::storage_unavailable,
-                                    "the recordings storage is full (the disk, or storage.recordings_max_mb): "
-                                    "delete recordings to make room"));
+        co_return refuse(
+            make_error(kind::storage_unavailable,
+                       "the recordings storage is full (the disk, or storage.recordings_max_mb): "
+                       "delete recordings to make room"));
     if (by_controller_.contains(r.controller) || starting_.contains(r.controller))
         co_return refuse(
             make_error(kind::busy, r.controller + " is recording already: one recording at a time"));
@@ -516,10 +520,11 @@ net::awaitable<void> recorder::put_back_after_crash(std::string controller, int 
     std::string request_id = "recording";
     auto put_back = co_await registry_.async_ttl(controller, back, request_id, net::use_awaitable);
     if (put_back)
-        log_->info("{}: TTL X={} put back, as before the recording the gateway did not end", controller, mode);
+        log_->info("{}: TTL X={} put back, as before the recording the gateway did not end", controller,
+                   mode);
     else
-        log_->warn("{}: cannot put TTL X={} back after a recording the gateway did not end: {}", controller, mode,
-                   put_back.error().message);
+        log_->warn("{}: cannot put TTL X={} back after a recording the gateway did not end: {}", controller,
+                   mode, put_back.error().message);
 }
 
 void recorder::on_overrun(const std::string& controller, std::size_t count) {
@@ -592,17 +597,18 @@ bool recorder::hand_over() {
         for (const auto& b : *batches)
             ids.push_back(b.record.id);
         auto& strand = self->strand_;
-        net::post(strand, [self = std::move(self), ids = std::move(ids), appended = std::move(appended)]() mutable {
-            if (appended) return;
-            for (const auto& id : ids) {
-                if (!self->active_.contains(id)) continue;
-                self->log_->error("recording {}: its frames cannot be stored: {}", id, appended.error());
-                net::co_spawn(self->strand_,
-                              self->finish(id, recording_state::failed,
-                                           "the store refused its frames: " + appended.error()),
-                              net::detached);
-            }
-        });
+        net::post(
+            strand, [self = std::move(self), ids = std::move(ids), appended = std::move(appended)]() mutable {
+                if (appended) return;
+                for (const auto& id : ids) {
+                    if (!self->active_.contains(id)) continue;
+                    self->log_->error("recording {}: its frames cannot be stored: {}", id, appended.error());
+                    net::co_spawn(self->strand_,
+                                  self->finish(id, recording_state::failed,
+                                               "the store refused its frames: " + appended.error()),
+                                  net::detached);
+                }
+            });
     });
     if (!queued) {
         // Kept for the next flush, in order.
@@ -621,7 +627,8 @@ bool recorder::hand_over() {
 
 void recorder::publish(const recording_record& r, std::span<const recorded_frame> rows) {
     if (!settings_.hub) return;
-    (void)settings_.hub->publish("recordings/" + r.id, std::make_shared<const std::string>(live_event_json(r, rows)));
+    (void)settings_.hub->publish("recordings/" + r.id,
+                                 std::make_shared<const std::string>(live_event_json(r, rows)));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -653,13 +660,15 @@ void recorder::remove(std::string id, recorder_handler<bool> h) {
             return self->deliver<bool>(
                 std::move(h),
                 make_error(kind::invalid_state, "recording " + id + " is recording: stop it first", "state"));
-        self->read<bool>(std::move(h), [id, full = &self->store_full_](recording_store& s) -> operation_result<bool> {
-            auto r = s.remove(id);
-            if (!r) return store_error(r.error());
-            if (*r) *full = false;  // room again, perhaps
-            if (!*r) return make_error(kind::unknown_recording, "no recording with id \"" + id + "\"", "id");
-            return true;
-        });
+        self->read<bool>(
+            std::move(h), [id, full = &self->store_full_](recording_store& s) -> operation_result<bool> {
+                auto r = s.remove(id);
+                if (!r) return store_error(r.error());
+                if (*r) *full = false;  // room again, perhaps
+                if (!*r)
+                    return make_error(kind::unknown_recording, "no recording with id \"" + id + "\"", "id");
+                return true;
+            });
     });
 }
 

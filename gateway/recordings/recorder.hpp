@@ -46,7 +46,7 @@ class logger;
 namespace gw {
 class controller_registry;
 class event_hub;
-}
+}  // namespace gw
 
 namespace gw::devices {
 class controller_observer;
@@ -58,7 +58,7 @@ struct recorder_settings {
     std::string storage_path;                       // <storage_path>/recordings.sqlite3
     std::chrono::milliseconds flush_interval{250};  // how often rows go to the store (what a crash may lose)
     std::size_t max_buffered_rows = 100'000;        // per recording, waiting for the store: beyond, it fails
-    std::size_t max_mb = 0;  // storage.recordings_max_mb: the file's bound (0: none)
+    std::size_t max_mb = 0;                         // storage.recordings_max_mb: the file's bound (0: none)
     // The live topic recordings/<id>: each flush's rows as one event, and the end (null: none).
     std::shared_ptr<event_hub> hub{};
     std::chrono::milliseconds ended_topic_ttl{60'000};  // an ended recording's topic, for late viewers
@@ -95,7 +95,8 @@ class recorder : public std::enable_shared_from_this<recorder> {
     // thread (with a reading connection of its own: the writer goes on meanwhile).
     void export_hdf5(std::string id, recorder_handler<export_file> h);
     // Up to `max_bytes` of an export file from `offset` (empty at its end), read on the exporter's thread.
-    void read_export(std::string path, std::uint64_t offset, std::size_t max_bytes, recorder_handler<std::string> h);
+    void read_export(std::string path, std::uint64_t offset, std::size_t max_bytes,
+                     recorder_handler<std::string> h);
     // Removes an export file (on the exporter's thread).
     void remove_export(std::string path);
     // Stops every recording (their input modes put back), stores what waits, then calls `done`.
@@ -177,7 +178,7 @@ class recorder : public std::enable_shared_from_this<recorder> {
     std::set<std::string, std::less<>> listening_;
     std::shared_ptr<devices::controller_observer> observer_;
 
-    std::string exports_path_;                      // <storage>/exports
+    std::string exports_path_;                       // <storage>/exports
     std::unique_ptr<recording_store> export_store_;  // the exporter's thread only (opened there)
     std::uint64_t exports_made_ = 0;                 // the exporter's thread only: file names
     worker_thread writer_{256};   // destroyed before the stores, so no write runs on a store that is gone

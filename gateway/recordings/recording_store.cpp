@@ -148,14 +148,13 @@ store_result<std::unique_ptr<recording_store>> recording_store::open(const std::
     using result = store_result<std::unique_ptr<recording_store>>;
     // A file of the first layout (never released: the recorder was not reachable from outside) is
     // replaced.
-    auto file = sqlite::open_file(
-        directory, "recordings.sqlite3",
-        "SELECT 1", "cannot open the recordings");
+    auto file = sqlite::open_file(directory, "recordings.sqlite3", "SELECT 1", "cannot open the recordings");
     if (!file) return result(boost::system::in_place_error, file.error());
     std::unique_ptr<recording_store> store(new recording_store(file->db, file->path));
     const auto found = store->pragma_number("PRAGMA user_version");
     if (found != layout_version)
-        if (auto dropped = store->exec("DROP TABLE IF EXISTS frames; DROP TABLE IF EXISTS recordings;"); !dropped)
+        if (auto dropped = store->exec("DROP TABLE IF EXISTS frames; DROP TABLE IF EXISTS recordings;");
+            !dropped)
             return result(boost::system::in_place_error, dropped.error());
     if (auto made = store->exec(schema); !made) return result(boost::system::in_place_error, made.error());
     // Each commit (one per flush interval) reaches the disk before the next: a crash, even of the
@@ -165,8 +164,8 @@ store_result<std::unique_ptr<recording_store>> recording_store::open(const std::
     if (max_mb > 0) {
         // The page count the bound allows (PRAGMA takes no parameters: a number computed here).
         const auto page_size = std::max<std::int64_t>(512, store->pragma_number("PRAGMA page_size"));
-        const auto pages = std::max<std::uint64_t>(1, std::uint64_t{max_mb} * 1024 * 1024 /
-                                                          static_cast<std::uint64_t>(page_size));
+        const auto pages = std::max<std::uint64_t>(
+            1, std::uint64_t{max_mb} * 1024 * 1024 / static_cast<std::uint64_t>(page_size));
         const auto sql = "PRAGMA max_page_count = " + std::to_string(pages);
         if (auto bounded = store->exec(sql.c_str()); !bounded)
             return result(boost::system::in_place_error, bounded.error());
@@ -180,7 +179,8 @@ recording_store::~recording_store() {
 
 std::int64_t recording_store::pragma_number(const char* sql) const {
     statement q;
-    if (sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) != SQLITE_OK || sqlite3_step(q.s) != SQLITE_ROW) return 0;
+    if (sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) != SQLITE_OK || sqlite3_step(q.s) != SQLITE_ROW)
+        return 0;
     return sqlite3_column_int64(q.s, 0);
 }
 
@@ -241,25 +241,30 @@ store_result<void> recording_store::update(const recording_record& r) {
     return {};
 }
 
-store_result<void> recording_store::insert_rows(const recording_record& r, std::span<const recorded_frame> rows) {
+store_result<void> recording_store::insert_rows(const recording_record& r,
+                                                std::span<const recorded_frame> rows) {
     // The error as the failing call left it: finalizing the statements after it would reset it.
     const auto failed = [&] {
         last_write_full_ = sqlite3_errcode(db_) == SQLITE_FULL;
         return store_result<void>(
             boost::system::in_place_error,
-            last_write_full_ ? path_ + ": full: the disk, or storage.recordings_max_mb (delete recordings to make room)"
-                             : error_of(db_, path_, "cannot store frames"));
+            last_write_full_
+                ? path_ + ": full: the disk, or storage.recordings_max_mb (delete recordings to make room)"
+                : error_of(db_, path_, "cannot store frames"));
     };
     statement key_of;
-    if (sqlite3_prepare_v2(db_, "SELECT key FROM recordings WHERE id = ?1", -1, &key_of.s, nullptr) != SQLITE_OK)
+    if (sqlite3_prepare_v2(db_, "SELECT key FROM recordings WHERE id = ?1", -1, &key_of.s, nullptr) !=
+        SQLITE_OK)
         return failed();
     bind_text(key_of.s, 1, r.id);
     if (sqlite3_step(key_of.s) != SQLITE_ROW)
-        return store_result<void>(boost::system::in_place_error, path_ + ": no recording " + r.id + " to store frames of");
+        return store_result<void>(boost::system::in_place_error,
+                                  path_ + ": no recording " + r.id + " to store frames of");
     const auto key = sqlite3_column_int64(key_of.s, 0);
     statement q;
     const char* sql =
-        "INSERT INTO frames (recording, seq, idx, time_us, loss, counts, um) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
+        "INSERT INTO frames (recording, seq, idx, time_us, loss, counts, um) VALUES (?1, ?2, ?3, ?4, ?5, ?6, "
+        "?7)";
     if (sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) != SQLITE_OK) return failed();
     // The record's counters are as after these rows: the first of them is row number total - size.
     auto seq = static_cast<sqlite3_int64>(r.frames + r.losses - rows.size());
@@ -350,9 +355,8 @@ store_result<bool> recording_store::remove(const std::string& id) {
         return result(boost::system::in_place_error, begun.error());
     bool ok = true;
     bool found = false;
-    for (const char* sql :
-         {"DELETE FROM frames WHERE recording = (SELECT key FROM recordings WHERE id = ?1)",
-          "DELETE FROM recordings WHERE id = ?1"}) {
+    for (const char* sql : {"DELETE FROM frames WHERE recording = (SELECT key FROM recordings WHERE id = ?1)",
+                            "DELETE FROM recordings WHERE id = ?1"}) {
         statement q;
         ok = ok && sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) == SQLITE_OK;
         if (!ok) break;
@@ -375,7 +379,8 @@ store_result<frame_page> recording_store::rows(const std::string& id, std::int64
     using result = store_result<frame_page>;
     statement q;
     const char* sql =
-        "SELECT seq, idx, time_us, loss, counts, um FROM frames WHERE recording = (SELECT key FROM recordings "
+        "SELECT seq, idx, time_us, loss, counts, um FROM frames WHERE recording = (SELECT key FROM "
+        "recordings "
         "WHERE id = ?1) AND seq >= ?2 ORDER BY seq LIMIT ?3";
     if (sqlite3_prepare_v2(db_, sql, -1, &q.s, nullptr) != SQLITE_OK)
         return result(boost::system::in_place_error, error_of(db_, path_, "cannot read frames"));

@@ -305,7 +305,8 @@ TEST_F(recorder_test, a_recording_the_gateway_did_not_end_is_failed_at_the_next_
     EXPECT_EQ(next->previous_in_mode, before);
 }
 
-TEST_F(recorder_test, a_full_store_fails_the_recording_with_the_reason_and_refuses_new_ones_until_room_is_made) {
+TEST_F(recorder_test,
+       a_full_store_fails_the_recording_with_the_reason_and_refuses_new_ones_until_room_is_made) {
     // A 1 MB bound, nearly reached by an old recording written straight into the file.
     max_mb_ = 1;
     {

@@ -1,11 +1,10 @@
 // The text forms of a recording's rows (gateway/recordings/frame_text): CSV and JSON Lines, one row
 // per frame or marker, the same columns in both.
 
-#include <gtest/gtest.h>
-
-#include <nlohmann/json.hpp>
-
 #include "gateway/recordings/frame_text.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 namespace gw::recordings {
 namespace {
@@ -17,7 +16,8 @@ recording_record two_axes() {
     return r;
 }
 
-recorded_frame frame(std::uint64_t index, std::vector<std::int32_t> counts, std::vector<std::optional<double>> um) {
+recorded_frame frame(std::uint64_t index, std::vector<std::int32_t> counts,
+                     std::vector<std::optional<double>> um) {
     recorded_frame f;
     f.index = index;
     f.time_us = 1'765'000'000'000'000 + static_cast<std::int64_t>(index);
@@ -43,8 +43,7 @@ TEST(FrameText, ColumnsFollowTheAxesMicrometresFirst) {
 }
 
 TEST(FrameText, CsvRowsFramesAndMarkers) {
-    std::vector<recorded_frame> rows{frame(0, {20010, -400}, {1000.5, -20.0}),
-                                     marker(1, loss_kind::garbled),
+    std::vector<recorded_frame> rows{frame(0, {20010, -400}, {1000.5, -20.0}), marker(1, loss_kind::garbled),
                                      frame(1, {7, 8}, {std::nullopt, 0.25})};
     std::string out;
     append_rows(frame_format::csv, two_axes(), rows, out);

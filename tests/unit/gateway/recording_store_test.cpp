@@ -213,8 +213,9 @@ TEST_F(recording_store_test, a_file_of_another_layout_is_replaced) {
     fs::remove(path);
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE frames (row INTEGER PRIMARY KEY, recording TEXT);"
-                               "CREATE TABLE recordings (id TEXT PRIMARY KEY);",
+    ASSERT_EQ(sqlite3_exec(db,
+                           "CREATE TABLE frames (row INTEGER PRIMARY KEY, recording TEXT);"
+                           "CREATE TABLE recordings (id TEXT PRIMARY KEY);",
                            nullptr, nullptr, nullptr),
               SQLITE_OK);
     sqlite3_close(db);
