@@ -82,6 +82,22 @@ export async function request(method, path, body, options = {}) {
   return value;
 }
 
+// A GET whose body the caller reads itself (a download as a Blob, rows streamed line by line): the
+// Response once it is 2xx, sent with the token as request() sends it (a plain link would not be).
+export async function fetchResponse(path) {
+  const res = await fetch(path, { headers: token() ? { Authorization: `Bearer ${token()}` } : {} });
+  if (res.status === 401) onUnauthorized();
+  if (res.ok) return res;
+  const text = await res.text();
+  let problem;
+  try {
+    problem = JSON.parse(text);
+  } catch {
+    problem = { detail: text };
+  }
+  throw new ApiError(res.status, problem);
+}
+
 export const whoami = () => request("GET", "/api/v1/whoami");
 export const listControllers = () => request("GET", "/api/v1/controllers");
 export const controller = (id) => request("GET", `/api/v1/controllers/${enc(id)}`);
@@ -133,3 +149,17 @@ export const submitJob = (body, dryRun = false) =>
 // action: cancel, pause, resume, next; controller: the job's (for its lease).
 export const jobAction = (id, action, controller) =>
   request("POST", `/api/v1/jobs/${enc(id)}/${action}`, {}, { controller });
+
+// Position recordings. query: {controller, state, until, limit} as GET /api/v1/recordings takes them.
+export function listRecordings(query = {}) {
+  const q = new URLSearchParams(Object.entries(query).filter(([, v]) => v !== undefined && v !== ""));
+  return request("GET", `/api/v1/recordings${q.size ? `?${q}` : ""}`);
+}
+export const recording = (id) => request("GET", `/api/v1/recordings/${enc(id)}`);
+// body: RecordingRequest ({name, arm: {ttl_in_mode}, max_frames, max_s, metadata}).
+export const startRecording = (controllerId, body) =>
+  request("POST", `/api/v1/controllers/${enc(controllerId)}/recordings`, body);
+export const stopRecording = (id) => request("POST", `/api/v1/recordings/${enc(id)}/stop`);
+export const deleteRecording = (id) => request("DELETE", `/api/v1/recordings/${enc(id)}`);
+// format: csv, jsonl or hdf5 (read with fetchResponse: the body is a stream, not JSON).
+export const recordingFramesPath = (id, format) => `/api/v1/recordings/${enc(id)}/frames?format=${format}`;

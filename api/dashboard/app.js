@@ -14,6 +14,8 @@ route("/jobs/new", () => import("./job_forms.js"));  // before /jobs/:id, which 
 route("/jobs/:id", () => import("./job_view.js"));
 route("/gcode", () => import("./gcode_view.js"));
 route("/audit", () => import("./audit_view.js"));
+route("/recordings", () => import("./recordings_view.js"));
+route("/recordings/:id", () => import("./recording_view.js"));
 
 let started = false;
 
