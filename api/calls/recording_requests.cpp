@@ -19,7 +19,7 @@ using recordings::recording_record;
 namespace {
 
 constexpr std::size_t max_list_limit = 500;
-constexpr std::size_t max_metadata_bytes = 16 * 1024;
+constexpr std::size_t max_metadata_bytes = std::size_t{16} * 1024;
 constexpr std::uint64_t max_frames_limit = 1'000'000'000'000;
 constexpr double max_seconds = 366.0 * 24 * 3600;  // a year
 // Rows per piece of a download: a few hundred kilobytes of text.

@@ -7,6 +7,7 @@
 #include "api/common/auth_failure_log.hpp"
 #include "api/common/gcode_worker.hpp"
 #include "api/common/request_id.hpp"
+#include "api/http/browser_guard.hpp"
 #include "api/http/gcode_requests.hpp"
 #include "api/http/tls_server_context.hpp"
 #include "api/ws/websocket_protocol.hpp"
@@ -219,14 +220,14 @@ void http_session::on_header(beast::error_code ec, std::size_t) {
     // costs anything; the connection closes without reading it. A program upload too.
     if (has_body) {
         if (auto refused = refusal_from_header(*ctx_, header, request_id_, client_address_))
-            return do_write(std::move(refused->response), std::move(refused->route), true);
+            return do_write(std::move(refused->response), refused->route, true);
     }
     // A G-code program (a route_body::program route): its query and a planner slot decided from the
     // header, the body streamed to the store.
     auto program = admit_gcode_program(ctx_, header, request_id_, client_address_);
     if (program.refusal) {
         auto& r = *program.refusal;
-        return do_write(std::move(r.response), std::move(r.route), true);
+        return do_write(std::move(r.response), r.route, true);
     }
     // Any other body is held in memory: it must fit in the budget of all bodies (a chunked one may
     // grow to the route's limit).
@@ -301,13 +302,13 @@ bool http_session::answer_read_error(beast::error_code ec, const http::request_h
     return true;
 }
 
-void http_session::refuse(problem p, const http::request_header<>& header, std::string route) {
+void http_session::refuse(problem p, const http::request_header<>& header, const std::string& route) {
     drop_upload();
     body_memory_.reset();
     std::string target = header.target().empty() ? "/" : std::string(header.target());
     do_write(
         problem_response(std::move(p), header.version() ? header.version() : 11, false, target, request_id_),
-        std::move(route), true);
+        route, true);
 }
 
 void http_session::on_read(beast::error_code ec, std::size_t) {
@@ -434,7 +435,7 @@ void http_session::on_handled(routed_response r) {
     body_memory_.reset();
     const bool close_after = !r.response.keep_alive();
     if (r.stream) return do_write_stream(std::move(r.response), std::move(r.stream), r.route, close_after);
-    do_write(std::move(r.response), std::move(r.route), close_after);
+    do_write(std::move(r.response), r.route, close_after);
 }
 
 void http_session::count_answer(unsigned status, const std::string& route) {
@@ -459,7 +460,7 @@ void http_session::count_answer(unsigned status, const std::string& route) {
         ctx_->log->debug("{} {} -> {} [{}] {:.1f} ms", method_, route, status, request_id_, elapsed * 1e3);
 }
 
-void http_session::do_write(string_response res, std::string route, bool close_after) {
+void http_session::do_write(string_response res, const std::string& route, bool close_after) {
     if (close_after) res.keep_alive(false);
     count_answer(res.result_int(), route);
     // A write must not hang forever on a client that stopped reading.
@@ -509,8 +510,9 @@ void http_session::next_piece(const std::shared_ptr<outgoing_stream>& out, bool 
     out->body->next(
         [self = shared_from_this(), out, close_after](std::optional<std::string> piece, bool last) {
             auto ex = self->stream_.get_executor();
-            net::post(ex, [self = std::move(self), out, close_after, piece = std::move(piece),
-                           last]() mutable { self->on_piece(out, close_after, std::move(piece), last); });
+            net::post(ex, [self, out, close_after, piece = std::move(piece), last]() mutable {
+                self->on_piece(out, close_after, std::move(piece), last);
+            });
         });
 }
 

@@ -67,13 +67,13 @@ class http_session : public std::enable_shared_from_this<http_session>, public t
     void drop_upload();
     // A client mistake found while reading (limits, unparseable): answered, then the connection closes.
     bool answer_read_error(beast::error_code ec, const http::request_header<>& header);
-    void refuse(problem p, const http::request_header<>& header, std::string route);
+    void refuse(problem p, const http::request_header<>& header, const std::string& route);
     // A HALT (one controller, or all), served from its header alone: before any body limit, upload or
     // body budget, and on a HALT reserve slot. A body it carries is not read: the connection closes.
     void serve_halt(const http::request_header<>& header, bool body_follows);
     void on_handled(routed_response r);
     void count_answer(unsigned status, const std::string& route);
-    void do_write(string_response res, std::string route, bool close_after);
+    void do_write(string_response res, const std::string& route, bool close_after);
     struct outgoing_stream;
     void do_write_stream(string_response head, std::shared_ptr<streamed_body> body, const std::string& route,
                          bool close_after);
