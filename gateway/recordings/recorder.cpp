@@ -363,18 +363,18 @@ net::awaitable<void> recorder::run_start(recording_request r, recorder_handler<r
 }
 
 void recorder::stop(std::string id, recorder_handler<recording_record> h) {
-    net::co_spawn(
-        strand_,
-        [self = shared_from_this(), id = std::move(id), h = std::move(h)]() mutable -> net::awaitable<void> {
-            if (!self->active_.contains(id)) {
-                // Not recording: its stored record says so.
-                self->get(std::move(id), std::move(h));
-                co_return;
-            }
-            auto r = co_await self->finish(id, recording_state::stopped, "stopped");
-            self->deliver<recording_record>(std::move(h), std::move(r));
-        },
-        net::detached);
+    net::co_spawn(strand_, run_stop(std::move(id), std::move(h)), net::detached);
+}
+
+net::awaitable<void> recorder::run_stop(std::string id, recorder_handler<recording_record> h) {
+    auto self = shared_from_this();
+    if (!active_.contains(id)) {
+        // Not recording: its stored record says so.
+        get(std::move(id), std::move(h));
+        co_return;
+    }
+    auto r = co_await finish(id, recording_state::stopped, "stopped");
+    deliver<recording_record>(std::move(h), std::move(r));
 }
 
 net::awaitable<operation_result<recording_record>> recorder::finish(std::string id, recording_state state,

@@ -123,6 +123,7 @@ class recorder : public std::enable_shared_from_this<recorder> {
     bool listens(std::string_view controller) const;
 
     boost::asio::awaitable<void> run_start(recording_request r, recorder_handler<recording_record> h);
+    boost::asio::awaitable<void> run_stop(std::string id, recorder_handler<recording_record> h);
     boost::asio::awaitable<operation_result<recording_record>> finish(std::string id, recording_state state,
                                                                       std::string reason);
     // On the strand.
