@@ -36,6 +36,16 @@ export function showConnectionState(root, badge, state) {
 export const formatUm = (v) => (typeof v === "number" ? v.toFixed(1) : "–");
 
 // "1 h 02 min", "3 min 05 s", "12.3 s": durations for people.
+// A filter's <select> of controller ids: "every controller" first, the choice kept (even when its
+// controller is gone from the list).
+export function fillControllerFilter(select, controllerIds) {
+  const chosen = select.value;
+  const ids = [...controllerIds].sort();
+  if (chosen && !ids.includes(chosen)) ids.push(chosen);
+  select.replaceChildren(el("option", { value: "" }, "every controller"),
+                         ...ids.map((id) => el("option", { value: id, selected: id === chosen }, id)));
+}
+
 export function formatDuration(seconds) {
   if (typeof seconds !== "number" || !Number.isFinite(seconds)) return "–";
   const s = Math.max(0, seconds);

@@ -4,7 +4,7 @@
 // the feed could not say (a gap, a job deleted from the store).
 
 import * as api from "./api.js";
-import { el, errorText } from "./dom.js";
+import { el, errorText, fillControllerFilter } from "./dom.js";
 import { JOB_STATES, ProgressClock, formatTime, noteGatewayTime, progressBar, progressOfStep,
          stateBadge } from "./job_status.js";
 import { store } from "./store.js";
@@ -69,11 +69,7 @@ class JobList {
   }
 
   fillControllers() {
-    const chosen = this.controllerFilter.value;
-    const ids = [...store.controllers.keys()].sort();
-    if (chosen && !ids.includes(chosen)) ids.push(chosen);
-    this.controllerFilter.replaceChildren(el("option", { value: "" }, "every controller"),
-                                          ...ids.map((id) => el("option", { value: id, selected: id === chosen }, id)));
+    fillControllerFilter(this.controllerFilter, store.controllers.keys());
   }
 
   query(extra = {}) {

@@ -4,7 +4,7 @@
 // form that starts a recording (recording_form.js).
 
 import * as api from "./api.js";
-import { el, errorText } from "./dom.js";
+import { el, errorText, fillControllerFilter } from "./dom.js";
 import { formatTime } from "./job_status.js";
 import { RecordingForm } from "./recording_form.js";
 import { store } from "./store.js";
@@ -75,11 +75,7 @@ class RecordingList {
   }
 
   fillControllers() {
-    const chosen = this.controllerFilter.value;
-    const ids = [...store.controllers.keys()].sort();
-    if (chosen && !ids.includes(chosen)) ids.push(chosen);
-    this.controllerFilter.replaceChildren(el("option", { value: "" }, "every controller"),
-                                          ...ids.map((id) => el("option", { value: id, selected: id === chosen }, id)));
+    fillControllerFilter(this.controllerFilter, store.controllers.keys());
   }
 
   query(extra) {

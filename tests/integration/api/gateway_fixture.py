@@ -64,6 +64,15 @@ def wait_until(what, fn, timeout=WAIT):
     raise Failure(f"timed out waiting for {what} (last: {last!r})")
 
 
+def vm_kib(pid, field):
+    """A process's /proc status field in KiB ("VmRSS", "VmHWM")."""
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith(field + ":"):
+                return int(line.split()[1])
+    raise AssertionError(f"no {field} in /proc/{pid}/status")
+
+
 def auth_tokens():
     """The config's auth section: one token per role, named <role>1."""
     return {"tokens": [{"name": role + "1", "token": tok, "role": role} for role, tok in TOKENS.items()]}

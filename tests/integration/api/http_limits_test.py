@@ -34,7 +34,8 @@ import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gateway_fixture import TOKENS, WAIT, Fixture, auth_tokens, check, free_port, wait_until  # noqa: E402
+from gateway_fixture import (TOKENS, WAIT, Fixture, auth_tokens, check, free_port, vm_kib,  # noqa: E402
+                             wait_until)
 from http_api_test import Contract  # noqa: E402
 
 VIEW = TOKENS["viewer"]
@@ -204,14 +205,6 @@ def expect_problem(contract, s, method, path, status, kind, what):
     check(p["type"] == PROBLEM + kind, f"{what}: problem type {p['type']}")
     contract.validate_response(method, path.split("?")[0], got, headers.get("content-type"), body.decode())
     return headers, p
-
-
-def vm_kib(pid, field):
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith(field + ":"):
-                return int(line.split()[1])
-    raise AssertionError(f"no {field} in /proc/{pid}/status")
 
 
 def program(lines):

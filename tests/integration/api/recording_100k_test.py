@@ -13,7 +13,8 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gateway_fixture import TOKENS, Fixture, auth_tokens, check, free_port, run_main, wait_until  # noqa: E402
+from gateway_fixture import (TOKENS, Fixture, auth_tokens, check, free_port, run_main, vm_kib,  # noqa: E402
+                             wait_until)
 from recordings_api_test import call, download, move_x  # noqa: E402
 import recordings_api_test  # noqa: E402
 from http_api_test import Contract  # noqa: E402
@@ -23,14 +24,6 @@ import pandas  # noqa: E402  (Debian python3-pandas)
 TRAINS = 5
 PER_TRAIN = 20_000
 RATE_HZ = 500
-
-
-def resident_kb(pid):
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1])
-    return 0
 
 
 def test_100k(fx, port, sim):
@@ -56,10 +49,10 @@ def test_100k(fx, port, sim):
     total = TRAINS * PER_TRAIN
     check(done["frames"] == total and done["losses"] == 0, f"every frame, none lost: {done}")
 
-    before_kb = resident_kb(fx.gateway.pid)
+    before_kb = vm_kib(fx.gateway.pid, "VmRSS")
     _, text = download(port, rid, "csv")
     _, lines = download(port, rid, "jsonl")
-    grown_mb = (resident_kb(fx.gateway.pid) - before_kb) / 1024
+    grown_mb = (vm_kib(fx.gateway.pid, "VmRSS") - before_kb) / 1024
     print(f"    downloads of {len(text) / 1e6:.1f} MB CSV and {len(lines) / 1e6:.1f} MB JSON Lines: "
           f"resident memory grew {grown_mb:.1f} MB")
     check(grown_mb < 8, f"the downloads grew the gateway by {grown_mb:.1f} MB: not streamed")
