@@ -292,6 +292,7 @@ class Contract:
                        "{prefix}/{gateway}/controllers/{controller}/ttl",
                        "{prefix}/{gateway}/controllers/{controller}/errors",
                        "{prefix}/{gateway}/jobs/{job}/state", "{prefix}/{gateway}/controllers/{controller}/cmd",
+                       "{prefix}/{gateway}/recordings/{recording}",
                        "{prefix}/{gateway}/jobs/submit", "{prefix}/{gateway}/jobs/cancel",
                        "{prefix}/{gateway}/jobs/pause", "{prefix}/{gateway}/jobs/resume",
                        "{prefix}/{gateway}/jobs/next", "{prefix}/{gateway}/gcode/check", "{reply_topic}"]:
@@ -976,6 +977,38 @@ def test_reports(gw, sims, broker, contract):
         c.close()
 
 
+def test_recording(gw, sims, broker, contract):
+    # A position recording's live topic: its rows, every one, in order, and its end.
+    c = Client(broker.port, "recording-watch")
+    try:
+        c.subscribe(gw.topic("recordings", "#"))
+        status, text = http_request(gw.port, "POST", "/api/v1/controllers/extr/recordings", {"name": "mqtt"},
+                                    token=TOKENS["operator"])
+        check(status == 201, f"start: {status} {text}")
+        rid = json.loads(text)["id"]
+        topic = gw.topic("recordings", rid)
+        n = 30
+        check(sims["extr"].control(f"pulse {n} 100") == "ok", "pulse")
+        wait_until(f"{n} frames stored", lambda: json.loads(http_request(
+            gw.port, "GET", f"/api/v1/recordings/{rid}", token=TOKENS["viewer"])[1])["frames"] >= n)
+        status, text = http_request(gw.port, "POST", f"/api/v1/recordings/{rid}/stop", token=TOKENS["operator"])
+        check(status == 200, f"stop: {status} {text}")
+        stored = json.loads(text)["frames"]
+
+        def ended():
+            events = [json.loads(p) for _, p, _, _ in c.all(lambda t: t == topic)]
+            return events if events and events[-1]["data"]["state"] != "recording" else None
+        events = wait_until("the recording's end over MQTT", ended)
+        for t, p, r, _ in c.all(lambda t: t == topic):
+            check(not r, "recording events are not retained")
+            contract.validate(t, p)
+        rows = [row for e in events for row in e["data"]["rows"]]
+        check([row["index"] for row in rows] == list(range(stored)), f"every row in order: {len(rows)} of {stored}")
+        check(events[-1]["data"]["state"] == "stopped", f"the end: {events[-1]['data']['state']}")
+    finally:
+        c.close()
+
+
 def test_report_gap(gw, sims, broker, contract):
     # Frames that arrive while the broker is down cannot be published: the first batch after the
     # reconnect says how many ("missed"), /metrics counts them, and the sequence numbers agree.
@@ -1358,6 +1391,7 @@ def main():
         run("encoder reports: frames missed while the broker is down are counted", test_report_gap, gw_x, sims,
             broker_x, contract)
         run("TTL events", test_ttl_events, gw_x, sims, broker_x, contract)
+        run("a position recording's rows and end on its topic", test_recording, gw_x, sims, broker_x, contract)
         run("refused commands send no serial byte", test_no_serial_byte, gw_x, sims, broker_x, contract)
         run("job state changes queued while the broker is down (bounded, in order)", test_job_queue, gw_x, sims,
             broker_x, contract)
