@@ -411,13 +411,30 @@ net::awaitable<operation_result<recording_record>> recorder::finish(std::string 
     publish(record, rows);
     if (settings_.hub) (void)settings_.hub->retire_topic("recordings/" + id, settings_.ended_topic_ttl);
     writer_.post([self, record, rows = std::move(rows)]() mutable {
-        if (!self->abandoned_) (void)self->store_->append(record, rows);
+        if (!self->abandoned_) self->store_end(record, rows);
         auto& ex = self->executor_;
         net::post(ex, [self = std::move(self)] {});  // the last reference never goes on the writer's thread
     });
     log_->info("recording {} on {} {}: {} frames, {} losses{}{}", id, record.controller, to_string(state),
                record.frames, record.losses, reason.empty() ? "" : ": ", reason);
     co_return record;
+}
+
+void recorder::store_end(const recording_record& record, std::span<const recorded_frame> rows) {
+    if (!broken_.contains(record.id) && store_->append(record, rows)) return;
+    // Rows are missing (refused now or before): the record keeps the counters of what is stored, so
+    // that its downloads hold what it counts, and says how it ended.
+    broken_.erase(record.id);
+    auto stored = store_->get(record.id);
+    if (!stored || !*stored) return;
+    auto ended = **stored;
+    ended.state = recording_state::failed;
+    ended.reason = record.state == recording_state::failed
+                       ? record.reason
+                       : "the store refused its last frames (" + record.reason + ")";
+    ended.stopped_ms = record.stopped_ms;
+    if (auto updated = store_->update(ended); !updated)
+        log_->error("recording {}: its end cannot be stored: {}", record.id, updated.error());
 }
 
 void recorder::shutdown(std::function<void()> done) {
@@ -557,7 +574,11 @@ void recorder::check_limits(active& a) {
 void recorder::schedule_flush() {
     if (flush_scheduled_ || shutting_down_ || active_.empty()) return;
     flush_scheduled_ = true;
-    flush_timer_.expires_after(settings_.flush_interval);
+    // A fixed period, not an interval after the flush's own work: the write window stays
+    // flush_interval (one late tick does not push the later ones back).
+    const auto now = steady_clock::now();
+    next_flush_ = std::max(next_flush_ + settings_.flush_interval, now);
+    flush_timer_.expires_at(next_flush_);
     flush_timer_.async_wait([self = shared_from_this()](boost::system::error_code ec) {
         self->flush_scheduled_ = false;
         if (ec) return;
@@ -591,11 +612,15 @@ bool recorder::hand_over() {
             auto& ex = self->executor_;
             return net::post(ex, [self = std::move(self)] {});
         }
+        // A recording whose rows the store refused before takes no more: its rows would follow a hole.
+        std::erase_if(*batches, [&](const row_batch& b) { return self->broken_.contains(b.record.id); });
         auto appended = self->store_->append_all(*batches);
         self->store_full_ = !appended && self->store_->last_write_was_full();
         std::vector<std::string> ids;
-        for (const auto& b : *batches)
+        for (const auto& b : *batches) {
             ids.push_back(b.record.id);
+            if (!appended) self->broken_.insert(b.record.id);
+        }
         auto& strand = self->strand_;
         net::post(
             strand, [self = std::move(self), ids = std::move(ids), appended = std::move(appended)]() mutable {

@@ -143,6 +143,9 @@ class recorder : public std::enable_shared_from_this<recorder> {
     // The rows on the live topic, with the record's state and counters.
     void publish(const recording_record& r, std::span<const recorded_frame> rows);
 
+    // On the writer's thread: a recording's last rows and its end, or, when rows of it are missing, its
+    // end with the counters of what is stored.
+    void store_end(const recording_record& record, std::span<const recorded_frame> rows);
     // Runs `work(*this)` on `worker` and posts its result to `h`.
     template <typename T, typename Work>
     void run_on(worker_thread& worker, recorder_handler<T> h, Work work);
@@ -162,6 +165,7 @@ class recorder : public std::enable_shared_from_this<recorder> {
     std::shared_ptr<recording_store> store_;  // the writer's thread only
     boost::asio::steady_timer flush_timer_;
     bool flush_scheduled_ = false;
+    std::chrono::steady_clock::time_point next_flush_{};  // strand: when the next flush is due
     bool shutting_down_ = false;
     std::atomic<bool> abandoned_{false};  // any thread
     // The store refused rows for want of room (the disk or max_mb) and nothing was deleted since: new
@@ -180,6 +184,7 @@ class recorder : public std::enable_shared_from_this<recorder> {
     std::shared_ptr<devices::controller_observer> observer_;
 
     std::string exports_path_;                       // <storage>/exports
+    std::set<std::string> broken_;                   // the writer's thread only: recordings with rows refused
     std::unique_ptr<recording_store> export_store_;  // the exporter's thread only (opened there)
     std::uint64_t exports_made_ = 0;                 // the exporter's thread only: file names
     worker_thread writer_{256};   // destroyed before the stores, so no write runs on a store that is gone

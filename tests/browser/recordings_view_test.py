@@ -127,8 +127,9 @@ async def figure(b, key):
 
 async def test_list(b, port, steps, lossy):
     await sign_in(b, port, TOKENS["operator"], "/recordings")
-    active = await b.evaluate("document.querySelector('nav a[data-nav=recordings]').classList.contains('active')")
-    check(active, "the Recordings nav link is there and marked")
+    # The router marks the link when it mounts the view, which may come after the page is live.
+    await b.wait_for("the Recordings nav link, marked",
+                     "!!document.querySelector('nav a[data-nav=recordings]')?.classList.contains('active')")
     await b.wait_for("two rows", f"{ROWS}.length === 2")
     rows = await list_rows(b)
     check([r["id"] for r in rows] == [lossy, steps], f"newest first: {rows}")

@@ -344,6 +344,8 @@ TEST_F(recorder_test,
     auto failed = get(started->id);
     EXPECT_EQ(failed->state, recording_state::failed);
     EXPECT_NE(failed->reason.find("recordings_max_mb"), std::string::npos) << failed->reason;
+    // What it counts is what is stored: its download holds every row it says it has.
+    EXPECT_EQ(all_rows(started->id).size(), failed->frames + failed->losses);
     EXPECT_EQ(in0_mode("cam1"), 0);  // the input put back all the same
 
     auto refused = start_recording(r);
