@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fmt/format.h>
 #include <fstream>
+#include <iterator>
 
 #include <boost/asio/append.hpp>
 #include <boost/asio/co_spawn.hpp>
@@ -613,11 +614,19 @@ bool recorder::hand_over() {
             return net::post(ex, [self = std::move(self)] {});
         }
         // A recording whose rows the store refused before takes no more: its rows would follow a hole.
-        std::erase_if(*batches, [&](const row_batch& b) { return self->broken_.contains(b.record.id); });
-        auto appended = self->store_->append_all(*batches);
+        // (The batches stay as they are: the strand reads them too, to publish.)
+        const std::vector<row_batch>* to_store = batches.get();
+        std::vector<row_batch> kept;
+        const auto broken = [&](const row_batch& b) { return self->broken_.contains(b.record.id); };
+        if (std::any_of(batches->begin(), batches->end(), broken)) {
+            std::copy_if(batches->begin(), batches->end(), std::back_inserter(kept),
+                         [&](const row_batch& b) { return !broken(b); });
+            to_store = &kept;
+        }
+        auto appended = self->store_->append_all(*to_store);
         self->store_full_ = !appended && self->store_->last_write_was_full();
         std::vector<std::string> ids;
-        for (const auto& b : *batches) {
+        for (const auto& b : *to_store) {
             ids.push_back(b.record.id);
             if (!appended) self->broken_.insert(b.record.id);
         }
