@@ -34,7 +34,6 @@ import http.client
 import json
 import os
 import shutil
-import socket
 import sqlite3
 import subprocess
 import sys
@@ -47,6 +46,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_gateway import Gateway  # noqa: E402
 from bench_machine import publish_section  # noqa: E402
 from fanout import build, cpu_seconds, metric_sum, pairs, read_line, rss_mib, stop_all  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "integration", "api"))
+from gateway_fixture import Sim  # noqa: E402  (the simulator's control socket, as the tests use it)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TICKS = os.sysconf("SC_CLK_TCK")
@@ -77,17 +78,7 @@ class Sims:
 
     def control(self, line):
         """One command on the control socket; its one-line answer."""
-        with socket.socket(socket.AF_UNIX) as s:
-            s.settimeout(10)
-            s.connect(self.control_path)
-            s.sendall(line.encode() + b"\n")
-            data = b""
-            while not data.endswith(b"\n"):
-                chunk = s.recv(65536)
-                if not chunk:
-                    break
-                data += chunk
-            return data.decode().strip()
+        return Sim(None, None, self.control_path).control(line)
 
     def pulse_all(self, n, rate):
         for name in self.names:
