@@ -423,25 +423,39 @@ class GcodeView {
     this.stopFollow = store.follow(topic, (msg) => this.onJobMessage(msg));
     this.showJob(job);
     clearInterval(this.clock);
-    this.clock = setInterval(() => this.showJob(this.trace.job), 1000);
+    this.clock = setInterval(() => this.tick(), 1000);
     // What happened before the subscription: the steps done so far (their lines) and the state.
     api.jobEvents(job.id).then(({ events }) => {
       for (const ev of events) this.onJobEvent(ev);
-    }).catch(() => {});
+    }).catch(() => {}).finally(() => this.resync());
+  }
+
+  // Once a second: the times shown move on. While the job still looks queued, REST says where it is:
+  // a state change published before the subscription took effect (and not yet in the stored
+  // history) reaches the view no other way.
+  tick() {
+    const t = this.trace;
+    if (!t) return;
+    this.showJob(t.job);
+    if (!t.ended && t.job.state === "queued") this.resync();
   }
 
   onJobMessage(msg) {
     if (!this.trace) return;
     if (msg.type === "event") this.onJobEvent(msg.data, msg.time);
-    else this.resync();  // a gap or a retired topic: ask REST where the job is
+    else this.resync({ steps: true });  // a gap or a retired topic: ask REST where the job is
   }
 
-  async resync() {
+  // The job's record from REST; with steps, also the lines its stored step events say are done (the
+  // record's current_step is the step under way: its line is not done yet).
+  async resync({ steps = false } = {}) {
     const t = this.trace;
     try {
-      const job = await api.job(t.id);
+      const [job, history] = await Promise.all([api.job(t.id), steps ? api.jobEvents(t.id) : null]);
       if (this.trace !== t) return;
-      t.doneLine = Math.max(t.doneLine, lastLineOf(job.progress?.current_step));
+      for (const ev of history?.events || []) {
+        if (ev.type === "step") t.doneLine = Math.max(t.doneLine, ev.line ?? lastLineOf(ev.name));
+      }
       this.setJob(job);
     } catch {
       // The next event or the next resync tells.
