@@ -151,21 +151,8 @@ bool application::start() {
     registry_->add_observer(std::shared_ptr<devices::controller_observer>(
         std::make_shared<controller_events_bridge>(hub_, state_texts_)));
 
-    // Jobs: leases and the job manager over the durable store (an unusable storage path is fatal).
-    leases_ = std::make_shared<lease_manager>();
-    const auto job_settings = jobs::make_job_manager_settings(config);
-    jobs_work_.emplace(boost::asio::make_work_guard(jobs_ioc_));
-    jobs_thread_ = std::thread([this] { run_logging_exceptions(jobs_ioc_); });
-    auto jobs = jobs::job_manager::create(ioc_.get_executor(), jobs_ioc_.get_executor(), *registry_, hub_,
-                                          leases_, job_settings);
-    if (!jobs) {
-        log_->error("cannot open the job store in \"{}\": {}", job_settings.storage_path,
-                    jobs.error().message);
-        return false;
-    }
-    jobs_ = std::move(*jobs);
-    shares_ = std::make_unique<shared_ports>(ioc_.get_executor(), config, *registry_, leases_, jobs_);
-    // Position recordings: <storage>/recordings.sqlite3 (an unusable file is fatal, as the job store).
+    // Position recordings: <storage>/recordings.sqlite3 (an unusable file is fatal); the
+    // job manager's runs record there too.
     recordings::recorder_settings recorder_settings;
     recorder_settings.storage_path = config.storage.path;
     recorder_settings.hub = hub_;
@@ -177,6 +164,22 @@ bool application::start() {
         return false;
     }
     recorder_ = std::move(*recorder);
+
+    // Jobs: leases and the job manager over the durable store (an unusable storage path is fatal).
+    leases_ = std::make_shared<lease_manager>();
+    auto job_settings = jobs::make_job_manager_settings(config);
+    job_settings.recorder = recorder_;
+    jobs_work_.emplace(boost::asio::make_work_guard(jobs_ioc_));
+    jobs_thread_ = std::thread([this] { run_logging_exceptions(jobs_ioc_); });
+    auto jobs = jobs::job_manager::create(ioc_.get_executor(), jobs_ioc_.get_executor(), *registry_, hub_,
+                                          leases_, job_settings);
+    if (!jobs) {
+        log_->error("cannot open the job store in \"{}\": {}", job_settings.storage_path,
+                    jobs.error().message);
+        return false;
+    }
+    jobs_ = std::move(*jobs);
+    shares_ = std::make_unique<shared_ports>(ioc_.get_executor(), config, *registry_, leases_, jobs_);
     http_ = std::make_unique<api::server>(ioc_.get_executor(), config, *registry_, hub_, metrics_, jobs_,
                                           leases_, state_texts_, shares_.get(), tls_, recorder_);
     shares_->set_audit(http_->context()->audit);

@@ -120,13 +120,19 @@ operation_result<recordings::recording_request> parse_recording_request(const st
 }
 
 operation_result<recordings::recording_filter> parse_recording_filter(const query_params& q) {
-    if (auto known = check_known_parameters(q, {"controller", "state", "since", "until", "limit"}); !known)
+    if (auto known = check_known_parameters(q, {"controller", "state", "since", "until", "job", "limit"});
+        !known)
         return known.error();
     recordings::recording_filter f;
     if (auto v = query_value(q, "controller")) {
         if (v->empty() || v->size() > 64 || !is_printable_word(*v))
             return invalid_field("controller", "controller must be a controller id");
         f.controller = *v;
+    }
+    if (auto v = query_value(q, "job")) {
+        if (v->empty() || v->size() > 64 || !is_printable_word(*v))
+            return invalid_field("job", "job must be a job id");
+        f.job = *v;
     }
     if (auto v = query_value(q, "state")) {
         f.state = recordings::parse_recording_state(*v);

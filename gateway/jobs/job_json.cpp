@@ -124,6 +124,7 @@ json to_json(const job_plan& plan, std::size_t max_steps) {
         {"estimated_s", rounded(plan.estimated_s, 1000)},
         {"bounds", std::move(bounds)},
         {"warnings", plan.warnings},
+        {"record", plan.record},
     };
 }
 

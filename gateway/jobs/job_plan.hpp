@@ -49,6 +49,9 @@ struct job_plan {
     double estimated_s = 0;
     bounding_box bounds;
     std::vector<std::string> warnings;
+    // spec.record: the run records the report port's frames (a recording of its own, started before
+    // it moves and stopped after it ends).
+    bool record = false;
 };
 
 inline constexpr std::size_t max_preview_commands = 200;

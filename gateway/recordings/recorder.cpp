@@ -292,36 +292,14 @@ net::awaitable<void> recorder::run_start(recording_request r, recorder_handler<r
         co_return refuse(
             make_error(kind::busy, r.controller + " is recording already: one recording at a time"));
     starting_.insert(r.controller);
-    // The input mode to put back, then the mode that triggers a report.
-    // Named arguments only: g++ 12 mishandles temporaries that live across a co_await.
-    std::string controller = r.controller;
-    std::string request_id = "recording";
-    command_request ask{devices::ms2000::query("TTL", "X"), std::nullopt};
-    auto before =
-        co_await registry_.async_command(controller, std::move(ask), request_id, net::use_awaitable);
     std::optional<int> previous;
-    if (auto armed = restore_after_crash_.find(r.controller); armed != restore_after_crash_.end()) {
-        // Armed by a recording the gateway did not end: the mode before that one is the one to restore.
-        previous = armed->second;
-        restore_after_crash_.erase(armed);
-    } else if (before && before->reply.what != devices::ms2000::reply::kind::error) {
-        const auto* x = before->reply.axis('X');
-        std::optional<double> v = x ? x->number : std::nullopt;
-        if (!v) v = before->reply.number(0);
-        if (v) previous = static_cast<int>(*v);
-    }
-    if (!previous) {
-        starting_.erase(r.controller);
-        co_return refuse(before ? make_error(kind::controller_error,
-                                             r.controller + " did not tell its TTL input mode (TTL X?)")
-                                : before.error());
-    }
-    ttl_request arm;
-    arm.in0_mode = r.ttl_in_mode;
-    auto armed = co_await registry_.async_ttl(controller, arm, request_id, net::use_awaitable);
-    if (!armed) {
-        starting_.erase(r.controller);
-        co_return refuse(armed.error());
+    if (r.arm) {
+        auto armed = co_await arm_input(r);
+        if (!armed) {
+            starting_.erase(r.controller);
+            co_return refuse(armed.error());
+        }
+        previous = *armed;
     }
     active a;
     a.record.id = new_recording_id();
@@ -333,6 +311,7 @@ net::awaitable<void> recorder::run_start(recording_request r, recorder_handler<r
     a.record.max_frames = r.max_frames;
     a.record.max_s = r.max_s;
     a.record.metadata = r.metadata.is_object() ? r.metadata : nlohmann::json::object();
+    a.record.job = r.job;
     a.started = steady_clock::now();
     const auto id = a.record.id;
     auto first = a.record;
@@ -356,11 +335,45 @@ net::awaitable<void> recorder::run_start(recording_request r, recorder_handler<r
                               net::detached);
         });
     });
-    log_->info("recording {} on {} started (TTL X={}, was {})", id, first.controller, first.ttl_in_mode,
-               *previous);
+    if (previous)
+        log_->info("recording {} on {} started (TTL X={}, was {})", id, first.controller, first.ttl_in_mode,
+                   *previous);
+    else
+        log_->info("recording {} on {} started for job {}", id, first.controller, first.job.value_or("-"));
     publish(first, {});
     schedule_flush();
     deliver<recording_record>(std::move(h), std::move(first));
+}
+
+net::awaitable<operation_result<int>> recorder::arm_input(const recording_request& r) {
+    auto self = shared_from_this();
+    // The input mode to put back, then the mode that triggers a report.
+    // Named arguments only: g++ 12 mishandles temporaries that live across a co_await.
+    std::string controller = r.controller;
+    std::string request_id = "recording";
+    command_request ask{devices::ms2000::query("TTL", "X"), std::nullopt};
+    auto before =
+        co_await registry_.async_command(controller, std::move(ask), request_id, net::use_awaitable);
+    std::optional<int> previous;
+    if (auto armed = restore_after_crash_.find(r.controller); armed != restore_after_crash_.end()) {
+        // Armed by a recording the gateway did not end: the mode before that one is the one to restore.
+        previous = armed->second;
+        restore_after_crash_.erase(armed);
+    } else if (before && before->reply.what != devices::ms2000::reply::kind::error) {
+        const auto* x = before->reply.axis('X');
+        std::optional<double> v = x ? x->number : std::nullopt;
+        if (!v) v = before->reply.number(0);
+        if (v) previous = static_cast<int>(*v);
+    }
+    if (!previous)
+        co_return before
+            ? make_error(kind::controller_error, r.controller + " did not tell its TTL input mode (TTL X?)")
+            : before.error();
+    ttl_request arm;
+    arm.in0_mode = r.ttl_in_mode;
+    auto armed = co_await registry_.async_ttl(controller, arm, request_id, net::use_awaitable);
+    if (!armed) co_return armed.error();
+    co_return *previous;
 }
 
 void recorder::stop(std::string id, recorder_handler<recording_record> h) {

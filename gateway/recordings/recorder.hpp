@@ -1,8 +1,9 @@
 #pragma once
 // The recorder: records the report port's frames of a controller (recording.hpp) into the recordings
-// store. start() arms the trigger input (TTL X=<mode>, remembering the mode before), counts frames from
-// 0 as the controller sends them and marks where frames were lost; stop(), a limit (max_frames, max_s)
-// or shutdown puts the previous input mode back. One recording at a time per controller.
+// store. start() arms the trigger input (TTL X=<mode>, remembering the mode before; a job's run arms it
+// itself), counts frames from 0 as the controller sends them and marks where frames were lost; stop(),
+// a limit (max_frames, max_s) or shutdown puts the previous input mode back. One recording at a time
+// per controller.
 //
 // Threads: public methods may be called from any thread; handlers run on their associated executor (by
 // default the executor given to open()), never inline. Frames arrive from the registry's observer on the
@@ -123,6 +124,8 @@ class recorder : public std::enable_shared_from_this<recorder> {
     bool listens(std::string_view controller) const;
 
     boost::asio::awaitable<void> run_start(recording_request r, recorder_handler<recording_record> h);
+    // Reads the trigger input's mode (TTL X?), then sets the request's: the mode to put back at the end.
+    boost::asio::awaitable<operation_result<int>> arm_input(const recording_request& r);
     boost::asio::awaitable<void> run_stop(std::string id, recorder_handler<recording_record> h);
     boost::asio::awaitable<operation_result<recording_record>> finish(std::string id, recording_state state,
                                                                       std::string reason);

@@ -46,6 +46,7 @@ nlohmann::json to_json(const recording_record& r) {
                      {"metadata", r.metadata}};
     j["max_frames"] = r.max_frames ? nlohmann::json(*r.max_frames) : nlohmann::json(nullptr);
     j["max_s"] = r.max_s ? nlohmann::json(*r.max_s) : nlohmann::json(nullptr);
+    j["job"] = r.job ? nlohmann::json(*r.job) : nlohmann::json(nullptr);
     const auto end_ms = r.stopped_ms.value_or(r.started_ms);
     const double seconds = static_cast<double>(end_ms - r.started_ms) / 1000.0;
     j["rate_hz"] = r.stopped_ms && seconds > 0 ? nlohmann::json(static_cast<double>(r.frames) / seconds)

@@ -28,9 +28,13 @@ struct recording_request {
     std::string controller;
     std::string name;
     int ttl_in_mode = 1;  // TTL X=<mode> while it records: any non-zero mode triggers a report
+    // false: the caller has set the trigger input (a job's run, which puts it back itself): the
+    // recording neither sets it nor puts it back.
+    bool arm = true;
     std::optional<std::uint64_t> max_frames;  // stops after this many frames
     std::optional<double> max_s;              // stops after this long
     nlohmann::json metadata = nlohmann::json::object();
+    std::optional<std::string> job;  // the job whose run records (spec.record)
 };
 
 struct recording_record {
@@ -49,6 +53,7 @@ struct recording_record {
     std::optional<std::uint64_t> max_frames;
     std::optional<double> max_s;
     nlohmann::json metadata = nlohmann::json::object();
+    std::optional<std::string> job;  // the job whose run made it
 };
 
 // Why frames are missing before a marker.

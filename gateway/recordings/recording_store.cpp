@@ -13,7 +13,7 @@ namespace {
 
 // The layout: a recording's rows are clustered under its integer key in the order they came (seq), so
 // a row costs its values and a few bytes of key, and a page of rows is one range of the table.
-constexpr int layout_version = 2;
+constexpr int layout_version = 3;
 constexpr const char* schema = R"sql(
 CREATE TABLE IF NOT EXISTS recordings (
   key INTEGER PRIMARY KEY,
@@ -31,8 +31,10 @@ CREATE TABLE IF NOT EXISTS recordings (
   previous_in_mode INTEGER,
   max_frames INTEGER,
   max_s REAL,
-  metadata TEXT NOT NULL);
+  metadata TEXT NOT NULL,
+  job TEXT);
 CREATE INDEX IF NOT EXISTS recordings_controller ON recordings(controller, started_ms);
+CREATE INDEX IF NOT EXISTS recordings_job ON recordings(job);
 CREATE TABLE IF NOT EXISTS frames (
   recording INTEGER NOT NULL,
   seq INTEGER NOT NULL,
@@ -42,7 +44,7 @@ CREATE TABLE IF NOT EXISTS frames (
   counts BLOB NOT NULL,
   um BLOB NOT NULL,
   PRIMARY KEY (recording, seq)) WITHOUT ROWID;
-PRAGMA user_version = 2;
+PRAGMA user_version = 3;
 )sql";
 
 using sqlite::bind_text;
@@ -118,7 +120,7 @@ std::vector<std::optional<double>> um_of(const unsigned char* bytes, std::size_t
 
 constexpr const char* record_columns =
     "id, controller, name, state, reason, started_ms, stopped_ms, frames, losses, axes, ttl_in_mode, "
-    "previous_in_mode, max_frames, max_s, metadata";
+    "previous_in_mode, max_frames, max_s, metadata, job";
 
 recording_record record_of(sqlite3_stmt* s) {
     recording_record r;
@@ -138,6 +140,7 @@ recording_record record_of(sqlite3_stmt* s) {
     r.max_s = column_optional<double>(s, 13);
     r.metadata = nlohmann::json::parse(column_text(s, 14), nullptr, false);
     if (r.metadata.is_discarded()) r.metadata = nlohmann::json::object();
+    if (sqlite3_column_type(s, 15) != SQLITE_NULL) r.job = column_text(s, 15);
     return r;
 }
 
@@ -147,12 +150,15 @@ store_result<std::unique_ptr<recording_store>> recording_store::open(const std::
                                                                      std::size_t max_mb) {
     using result = store_result<std::unique_ptr<recording_store>>;
     // A file of the first layout (never released: the recorder was not reachable from outside) is
-    // replaced.
+    // replaced; the second gains the column of the job that made a recording.
     auto file = sqlite::open_file(directory, "recordings.sqlite3", "SELECT 1", "cannot open the recordings");
     if (!file) return result(boost::system::in_place_error, file.error());
     std::unique_ptr<recording_store> store(new recording_store(file->db, file->path));
     const auto found = store->pragma_number("PRAGMA user_version");
-    if (found != layout_version)
+    if (found == 2)
+        if (auto added = store->exec("ALTER TABLE recordings ADD COLUMN job TEXT"); !added)
+            return result(boost::system::in_place_error, added.error());
+    if (found != layout_version && found != 2)
         if (auto dropped = store->exec("DROP TABLE IF EXISTS frames; DROP TABLE IF EXISTS recordings;");
             !dropped)
             return result(boost::system::in_place_error, dropped.error());
@@ -192,8 +198,9 @@ store_result<void> recording_store::exec(const char* sql) {
 
 store_result<void> recording_store::create(const recording_record& r) {
     statement q;
-    const std::string sql = std::string("INSERT INTO recordings (") + record_columns +
-                            ") VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)";
+    const std::string sql =
+        std::string("INSERT INTO recordings (") + record_columns +
+        ") VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16)";
     if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &q.s, nullptr) != SQLITE_OK)
         return store_result<void>(boost::system::in_place_error,
                                   error_of(db_, path_, "cannot add a recording"));
@@ -212,6 +219,7 @@ store_result<void> recording_store::create(const recording_record& r) {
     bind_optional(q.s, 13, r.max_frames);
     bind_optional(q.s, 14, r.max_s);
     bind_text(q.s, 15, r.metadata.dump());
+    if (r.job) bind_text(q.s, 16, *r.job);
     if (sqlite3_step(q.s) != SQLITE_DONE)
         return store_result<void>(boost::system::in_place_error,
                                   error_of(db_, path_, "cannot add a recording"));
@@ -331,7 +339,8 @@ store_result<std::vector<recording_record>> recording_store::list(const recordin
     const std::string sql =
         std::string("SELECT ") + record_columns +
         " FROM recordings WHERE (?1 IS NULL OR controller = ?1) AND (?2 IS NULL OR state = ?2)"
-        " AND (?4 IS NULL OR started_ms >= ?4) AND (?5 IS NULL OR started_ms < ?5)"
+        " AND (?4 IS NULL OR started_ms >= ?4) AND (?5 IS NULL OR started_ms < ?5) AND (?6 IS NULL OR job = "
+        "?6)"
         " ORDER BY started_ms DESC, id DESC LIMIT ?3";
     if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &q.s, nullptr) != SQLITE_OK)
         return result(boost::system::in_place_error, error_of(db_, path_, "cannot list recordings"));
@@ -340,6 +349,7 @@ store_result<std::vector<recording_record>> recording_store::list(const recordin
     sqlite3_bind_int64(q.s, 3, static_cast<sqlite3_int64>(f.limit));
     if (f.since_ms) sqlite3_bind_int64(q.s, 4, *f.since_ms);
     if (f.until_ms) sqlite3_bind_int64(q.s, 5, *f.until_ms);
+    if (f.job) bind_text(q.s, 6, *f.job);
     std::vector<recording_record> out;
     int rc = SQLITE_ROW;
     while ((rc = sqlite3_step(q.s)) == SQLITE_ROW)

@@ -30,6 +30,7 @@ struct recording_filter {
     std::optional<recording_state> state;
     std::optional<std::int64_t> since_ms;  // started at or after (milliseconds since the epoch)
     std::optional<std::int64_t> until_ms;  // started before
+    std::optional<std::string> job;        // made by this job's runs
     std::size_t limit = 100;
 };
 

@@ -76,7 +76,7 @@ operation_result<array_spec> parse_array_spec(const json& spec) {
         return make_error(operation_error_kind::invalid_value, "spec must be an object", "spec");
     if (auto known = spec_known_fields(spec, "",
                                        {"plate", "grid", "a1", "rotation_deg", "order", "wells", "dwell_ms",
-                                        "advance", "ttl_pulse", "resume_from", "mode"});
+                                        "advance", "ttl_pulse", "resume_from", "mode", "record"});
         !known)
         return known.error();
 

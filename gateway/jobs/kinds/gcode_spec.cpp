@@ -29,8 +29,8 @@ std::optional<std::string> option_text(const json& v) {
 operation_result<gcode_spec> parse_gcode_spec(const json& spec) {
     if (!spec.is_object())
         return make_error(operation_error_kind::invalid_value, "spec must be an object", "spec");
-    if (const auto key = first_unknown_key(spec, {"program", "file", "options"}))
-        return bad(*key, "unknown field " + *key + " (program, file, options)");
+    if (const auto key = first_unknown_key(spec, {"program", "file", "options", "record"}))
+        return bad(*key, "unknown field " + *key + " (program, file, options, record)");
     gcode_spec out;
     if (spec.contains("program") == spec.contains("file"))
         return bad(spec.contains("file") ? "file" : "program", "give exactly one of program and file");

@@ -24,7 +24,7 @@ operation_result<ring_buffer_spec> parse_ring_buffer_spec(const json& spec) {
     if (!spec.is_object())
         return make_error(operation_error_kind::invalid_value, "spec must be an object", "spec");
     if (auto known = spec_known_fields(
-            spec, "", {"positions", "axes", "trigger", "delay_ms", "repeat", "cycles", "mode"});
+            spec, "", {"positions", "axes", "trigger", "delay_ms", "repeat", "cycles", "mode", "record"});
         !known)
         return known.error();
     ring_buffer_spec s;

@@ -46,7 +46,7 @@ operation_result<scan_spec> parse_scan_spec(const json& spec) {
     if (!spec.is_object())
         return make_error(operation_error_kind::invalid_value, "spec must be an object", "spec");
     if (auto k = spec_known_fields(
-            spec, "", {"fast_axis", "slow_axis", "fast", "slow", "pattern", "speed_mm_s", "mode"});
+            spec, "", {"fast_axis", "slow_axis", "fast", "slow", "pattern", "speed_mm_s", "mode", "record"});
         !k)
         return k.error();
     scan_spec s;

@@ -90,7 +90,8 @@ job_coordinator::job_coordinator(net::any_io_executor executor, const net::any_i
       states_(std::make_shared<job_states>(history_, settings_, log_)),
       recovery_(std::make_shared<job_recovery>(strand_, registry_, history_, log_)),
       planner_(std::make_shared<submission_planner>(strand_, registry_, leases_, history_, settings_)),
-      scheduler_(std::make_shared<lane_scheduler>(strand_, registry_, states_, recovery_, planner_, log_)) {}
+      scheduler_(std::make_shared<lane_scheduler>(strand_, registry_, states_, recovery_, planner_,
+                                                  settings_.recorder, log_)) {}
 
 job_coordinator::~job_coordinator() = default;
 

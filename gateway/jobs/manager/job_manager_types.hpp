@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstddef>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -17,6 +18,10 @@
 #include "gateway/common/operation_error.hpp"
 #include "gateway/jobs/job.hpp"
 #include "gateway/jobs/job_plan.hpp"
+
+namespace gw::recordings {
+class recorder;
+}
 
 namespace gw::jobs {
 
@@ -43,6 +48,8 @@ struct job_manager_settings {
     // Called on the planner's thread as each plan starts (tests hold a plan there to show that the
     // manager goes on meanwhile); empty in the gateway.
     std::function<void(const std::string& controller)> on_plan_started;
+    // Where the runs of jobs whose spec has "record": true record; null: such runs fail before they move.
+    std::shared_ptr<recordings::recorder> recorder;
 };
 
 struct submit_request {

@@ -13,6 +13,7 @@
 #include "gateway/jobs/kinds/job_kinds.hpp"
 #include "gateway/jobs/manager/job_recovery.hpp"
 #include "gateway/jobs/manager/job_states.hpp"
+#include "gateway/jobs/manager/run_recording.hpp"
 #include "gateway/jobs/manager/submission_planner.hpp"
 
 namespace gw::jobs {
@@ -23,12 +24,14 @@ using kind = operation_error_kind;
 lane_scheduler::lane_scheduler(net::strand<net::any_io_executor> strand, controller_registry& registry,
                                std::shared_ptr<job_states> states, std::shared_ptr<job_recovery> recovery,
                                std::shared_ptr<submission_planner> planner,
+                               std::shared_ptr<recordings::recorder> recorder,
                                std::shared_ptr<spdlog::logger> log)
     : strand_(std::move(strand)),
       registry_(registry),
       states_(std::move(states)),
       recovery_(std::move(recovery)),
       planner_(std::move(planner)),
+      recorder_(std::move(recorder)),
       log_(std::move(log)) {}
 
 // ---------------------------------------------------------------------------------------------
@@ -179,7 +182,10 @@ void lane_scheduler::launch(const std::shared_ptr<live_job>& job) {
         strand_,
         [self = shared_from_this(), job, exec]() -> net::awaitable<void> {
             co_await self->recovery_->put_back_before_run(job);
-            co_await run_job(*exec);
+            if (job->plan->record)
+                co_await run_recorded(self->recorder_, *exec);
+            else
+                co_await run_job(*exec);
         },
         [self = shared_from_this(), exec](const std::exception_ptr& e) { self->run_finished(exec, e); });
 }

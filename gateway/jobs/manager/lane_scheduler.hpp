@@ -3,7 +3,8 @@
 // (job_lanes); the oldest queued job takes the controller once nothing holds it and its HALT latch is
 // released, runs (job_execution, after what earlier runs owe the controller is put back), and hands
 // the controller on when it ends: succeeded, failed (its settings put back first), cancelled, or paused
-// keeping it (a HALT, a disconnect). It hears of the controllers' events (a disconnect, a HALT latch,
+// keeping it (a HALT, a disconnect). A run whose spec records does so inside a recording of its own
+// (run_recording). It hears of the controllers' events (a disconnect, a HALT latch,
 // a TTL edge) from the registry's observer and passes them to the run there. Strand only, but
 // counts_ttl_edges, which the controllers' strands call.
 //
@@ -33,6 +34,10 @@ namespace gw {
 class controller_registry;
 }
 
+namespace gw::recordings {
+class recorder;
+}
+
 namespace gw::jobs {
 
 class job_states;
@@ -43,7 +48,8 @@ class lane_scheduler final : public std::enable_shared_from_this<lane_scheduler>
   public:
     lane_scheduler(boost::asio::strand<boost::asio::any_io_executor> strand, controller_registry& registry,
                    std::shared_ptr<job_states> states, std::shared_ptr<job_recovery> recovery,
-                   std::shared_ptr<submission_planner> planner, std::shared_ptr<spdlog::logger> log);
+                   std::shared_ptr<submission_planner> planner,
+                   std::shared_ptr<recordings::recorder> recorder, std::shared_ptr<spdlog::logger> log);
 
     // At the back of its controller's lane; `first`: at the front.
     void queue(live_job& job, bool first = false);
@@ -107,6 +113,7 @@ class lane_scheduler final : public std::enable_shared_from_this<lane_scheduler>
     std::shared_ptr<job_states> states_;
     std::shared_ptr<job_recovery> recovery_;
     std::shared_ptr<submission_planner> planner_;
+    std::shared_ptr<recordings::recorder> recorder_;  // the runs that record (spec.record); null: none
     std::shared_ptr<spdlog::logger> log_;
 
     job_lanes lanes_;
