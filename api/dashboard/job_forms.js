@@ -1,7 +1,8 @@
 // A new job (#/jobs/new): a form per job type (job_form_types.js), a dry run shown before submitting
 // (POST /api/v1/jobs?dry_run=true: the estimate, the firmware or host path, the warnings, and the
 // bounding box and planned path on the XY map with the controller's soft limits and position), the
-// gateway's validation errors next to the field they name, then Submit (201) opens the job.
+// gateway's validation errors next to the field they name, then Submit (201) opens the job. Any type
+// may record its run (spec.record).
 
 import * as api from "./api.js";
 import { el, errorText, formatDuration } from "./dom.js";
@@ -104,7 +105,10 @@ class NewJob {
       position: () => positionOf(this.controllerId()),
       gcodeFiles: () => this.gcodeFiles,
     });
-    this.typeHost.replaceChildren(this.form.root);
+    // Every type of this form can record its run (spec.record): the frames of the report port.
+    const record = this.fields.checkbox("spec.record", "Record each trigger's stage position",
+                                        { hint: "a recording of the run (needs a controller with a report port)" });
+    this.typeHost.replaceChildren(this.form.root, record);
     this.formEl.dataset.type = type.type;
     this.invalidate();
     this.clearPlan();
@@ -177,7 +181,9 @@ class NewJob {
     this.fields.clearErrors();
     this.topError.textContent = "";
     try {
-      return { controller: this.controllerId(), type: this.type.type, spec: this.form.spec() };
+      const spec = this.form.spec();
+      if (this.fields.raw("spec.record")) spec.record = true;
+      return { controller: this.controllerId(), type: this.type.type, spec };
     } catch (e) {
       if (!(e instanceof FieldError)) throw e;
       this.showError(e.field, e.message);

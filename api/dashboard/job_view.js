@@ -269,7 +269,8 @@ class JobView {
   listEvent(e, time, seq) {
     const detail = e.type === "step"
       ? `${e.name}: ${e.steps_done}/${e.steps_total}${e.position ? ` at ${positionText(e.position)}` : ""}`
-      : e.type === "state" ? `${e.state}${e.reason && e.reason !== e.state ? `: ${e.reason}` : ""}` : JSON.stringify(e).slice(0, 160);
+      : e.type === "state" ? `${e.state}${e.reason && e.reason !== e.state ? `: ${e.reason}` : ""}`
+      : e.type === "recording" ? recordingDetail(e) : JSON.stringify(e).slice(0, 160);
     const tr = el("tr", { "data-event": e.type }, el("td", { class: "num" }, seq ?? ""),
                   el("td", { class: "num" }, time ? formatTime(time) : elapsedLabel(e)),
                   el("td", {}, e.type), el("td", {}, detail));
@@ -297,6 +298,14 @@ class JobView {
 }
 
 // Events carry no id: a step is known by its index, a state event by its state and time.
+// A recording run's recording (spec.record): a link to it, and how it ended.
+function recordingDetail(e) {
+  const link = el("a", { href: `#/recordings/${encodeURIComponent(e.recording)}`, "data-recording": e.recording }, e.recording);
+  const counts = typeof e.frames === "number" ? `: ${e.frames} frames, ${e.losses ?? 0} losses` : "";
+  const reason = e.state === "failed" || e.state === "unknown" ? ` (${e.reason})` : "";
+  return el("span", {}, link, ` ${e.state}${counts}${reason}`);
+}
+
 function eventKey(e) {
   if (e.type === "step") return `step:${e.index}:${e.steps_done}`;
   if (e.type === "state") return `state:${e.state}:${e.job?.updated ?? ""}`;

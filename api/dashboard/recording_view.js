@@ -228,6 +228,7 @@ class RecordingView {
     this.badge.id = "rec-state";
     this.meta.replaceChildren(el("span", { class: "mono" }, r.id), " · on ",
                               el("a", { href: `#/controller/${encodeURIComponent(r.controller)}` }, r.controller),
+                              ...(r.job ? [" · by job ", el("a", { href: `#/jobs/${encodeURIComponent(r.job)}`, id: "rec-job" }, r.job)] : []),
                               ` · axes ${r.axes || "(none yet)"} · trigger input mode ${r.ttl_in_mode}`);
     const f = this.figures;
     f.frames.textContent = String(r.frames);

@@ -420,6 +420,8 @@ net::awaitable<operation_result<recording_record>> recorder::finish(std::string 
                                            *a.record.previous_in_mode, put_back.error().message);
         }
     }
+    // What a crashed gateway left armed there waits while a recording runs (a job's sets no input).
+    put_back_left_by_crash(a.record.controller);
     auto rows = std::move(a.buffer);
     auto record = a.record;
     publish(record, rows);
@@ -532,8 +534,13 @@ void recorder::on_away(const std::string& controller, const std::string& why) {
 void recorder::on_back(const std::string& controller) {
     auto id = by_controller_.find(controller);
     if (id != by_controller_.end()) active_.at(id->second).away = false;
+    put_back_left_by_crash(controller);
+}
+
+void recorder::put_back_left_by_crash(const std::string& controller) {
     auto armed = restore_after_crash_.find(controller);
-    if (armed == restore_after_crash_.end() || starting_.contains(controller) || id != by_controller_.end())
+    if (armed == restore_after_crash_.end() || starting_.contains(controller) ||
+        by_controller_.contains(controller))
         return;
     const int mode = armed->second;
     restore_after_crash_.erase(armed);

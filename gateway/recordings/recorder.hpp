@@ -133,6 +133,9 @@ class recorder : public std::enable_shared_from_this<recorder> {
     void on_frame(const devices::report_event& e);
     void on_away(const std::string& controller, const std::string& why);
     void on_back(const std::string& controller);
+    // The input mode a crashed gateway's recording left armed on the controller, put back unless a
+    // recording runs or starts there now.
+    void put_back_left_by_crash(const std::string& controller);
     boost::asio::awaitable<void> put_back_after_crash(std::string controller, int mode);
     // `count` triggers the controller could not report (error 87 in its log): one marker each.
     void on_overrun(const std::string& controller, std::size_t count);

@@ -91,15 +91,18 @@ def upload_gcode(port, name, text):
 
 async def test_gcode_from_form(b, port):
     file_id = upload_gcode(port, "form-square.ngc", "G21 G90\nG00 X1 Y1\nG01 X2 F600\nG01 Y2\nG01 X1\nM2\n")
-    await open_form(b, port, "sim2")
+    await open_form(b, port, "sim1")  # the controller with a report port: the run records
     await b.click("#job-form [data-type=gcode]")
     await b.wait_for("the uploaded program offered", "[...document.querySelectorAll(\"[name='spec.file'] option\")]"
                      f".some(o => o.value === {json.dumps(file_id)})")
     await set_value(b, "[name='spec.file']", file_id)
+    await b.click("[name='spec.record']")  # the run records its triggers' positions
     await b.click("#dry-run")
     await b.wait_for("the dry run's estimate", "document.querySelector('.plan-estimate dd')?.textContent")
     path = await b.evaluate("document.querySelector('.plan-path dd').textContent")
     check(path == "host", f"a G-code trace runs host-driven: path {path!r}")
+    summary = await b.evaluate("document.querySelector('.plan-summary').textContent")
+    check("records each trigger" in summary, f"the plan says it records: {summary!r}")
     await b.click("#submit-job")
     job_id = await b.wait_for("the job's page", "/^#\\/jobs\\/j-/.test(location.hash) && location.hash.slice(7)")
     await b.wait_for("succeeded on the page", "document.getElementById('job-state')?.dataset.state === 'succeeded'",
@@ -107,6 +110,15 @@ async def test_gcode_from_form(b, port):
     j = job(port, job_id)
     check(j["type"] == "gcode" and j["state"] == "succeeded" and j["spec"]["file"] == file_id,
           f"REST job {j['type']} {j['state']} {j['spec']}")
+    check(j["spec"].get("record") is True, f"the form asked to record: {j['spec']}")
+    # The run's recording in the job's events, a link to its page, which links back to the job.
+    rid = await b.wait_for("the recording's end in the events",
+                           "[...document.querySelectorAll('tr[data-event=recording]')]"
+                           ".find(r => r.textContent.includes('stopped'))?.querySelector('a')?.dataset.recording")
+    await b.click(f"a[data-recording='{rid}']")
+    await b.wait_for("the recording's page", f"location.hash === '#/recordings/{rid}'")
+    back = await b.wait_for("the link to its job", "document.getElementById('rec-job')?.getAttribute('href')")
+    check(back == f"#/jobs/{job_id}", f"the recording names its job: {back}")
 
 
 async def test_array_from_form(b, port, shots):

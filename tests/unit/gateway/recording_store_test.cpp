@@ -177,12 +177,6 @@ TEST_F(recording_store_test, a_loss_value_no_writer_makes_reads_as_a_loss) {
     EXPECT_EQ(page->rows[0].loss, loss_kind::garbled);
 }
 
-}  // namespace
-}  // namespace gw::recordings
-
-namespace gw::recordings {
-namespace {
-
 TEST_F(recording_store_test, several_recordings_go_in_one_transaction_or_none_does) {
     for (const char* id : {"r-1", "r-2"})
         ASSERT_TRUE(store_->create(record(id, "sim1", 1000)));
@@ -227,6 +221,41 @@ TEST_F(recording_store_test, a_file_of_another_layout_is_replaced) {
     EXPECT_TRUE(store_->append(r, std::vector<recorded_frame>{frame(0, 5, 0.5)}));
     store_ = open();  // the new layout stays
     EXPECT_EQ(store_->rows("r-1", 0, 10)->rows.size(), 1u);
+}
+
+TEST_F(recording_store_test, a_file_of_the_second_layout_keeps_its_recordings_and_gains_their_job) {
+    ASSERT_TRUE(store_->create(record("r-1", "sim1", 1000)));
+    auto r = record("r-1", "sim1", 1000);
+    r.frames = 1;
+    ASSERT_TRUE(store_->append(r, std::vector<recorded_frame>{frame(0, 5, 0.5)}));
+    store_.reset();
+    // Back to the second layout: the recordings table without its job column.
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((fs::path(dir_) / "recordings.sqlite3").c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db,
+                           "DROP INDEX recordings_job; ALTER TABLE recordings DROP COLUMN job; "
+                           "PRAGMA user_version = 2;",
+                           nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+
+    store_ = open();
+    ASSERT_TRUE(store_);
+    auto kept = store_->get("r-1");
+    ASSERT_TRUE(kept && *kept);
+    EXPECT_EQ((*kept)->frames, 1u);
+    EXPECT_EQ((*kept)->job, std::nullopt);
+    EXPECT_EQ(store_->rows("r-1", 0, 10)->rows.size(), 1u);
+    auto by_job = record("r-2", "sim1", 2000);
+    by_job.job = "j-7";
+    ASSERT_TRUE(store_->create(by_job));
+    recording_filter f;
+    f.job = "j-7";
+    auto listed = store_->list(f);
+    ASSERT_TRUE(listed);
+    ASSERT_EQ(listed->size(), 1u);
+    EXPECT_EQ((*listed)[0].id, "r-2");
+    EXPECT_EQ((*listed)[0].job, "j-7");
 }
 
 }  // namespace
