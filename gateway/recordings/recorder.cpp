@@ -388,7 +388,15 @@ net::awaitable<void> recorder::run_stop(std::string id, recorder_handler<recordi
         co_return;
     }
     auto r = co_await finish(id, recording_state::stopped, "stopped");
-    deliver<recording_record>(std::move(h), std::move(r));
+    if (!r) co_return deliver<recording_record>(std::move(h), std::move(r));
+    // The stored record, read after its end is written: when the store refused rows, it says failed
+    // with the counters of what is stored, as every later read will.
+    read<recording_record>(std::move(h),
+                           [ended = std::move(*r)](recording_store& s) -> operation_result<recording_record> {
+                               auto stored = s.get(ended.id);
+                               if (stored && *stored) return std::move(**stored);
+                               return ended;
+                           });
 }
 
 net::awaitable<operation_result<recording_record>> recorder::finish(std::string id, recording_state state,
