@@ -105,6 +105,12 @@ def test_spec_and_plan(port):
     check(status == 200 and plan["record"] is True and "records" in plan["summary"], f"the plan records: {body}")
     check(plan["commands"][0] == "TTL X=1" and plan["commands"][-1] == "TTL X=0",
           f"the input is set first and put back last: {plan['commands']}")
+    # Every type that moves can record.
+    scan = {"fast": {"start_mm": 0, "stop_mm": 1}, "slow": {"lines": 2, "stop_mm": 0.1}}
+    tour = {"positions": [{"X": 0, "Y": 0}, {"X": 500, "Y": 0}], "trigger": "ttl"}
+    for job_type, spec in (("scan", scan), ("ring_buffer", tour), ("gcode", {"program": "G01 X1 F60\n"})):
+        status, body = submit(port, "ext2", job_type, {**spec, "record": True}, dry_run=True)
+        check(status == 200 and body["plan"]["record"] is True, f"a {job_type} job records: {status} {body}")
 
 
 def test_array_records_each_trigger(port, sim):
