@@ -44,24 +44,9 @@ from bench_broker import Mosquitto  # noqa: E402
 from bench_gateway import Gateway  # noqa: E402
 from bench_machine import publish_section  # noqa: E402
 from bench_sim import Sim  # noqa: E402
+from gateway_rig import cpu_seconds, rss_mib  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-TICKS = os.sysconf("SC_CLK_TCK")
-
-
-def cpu_seconds(pid):
-    """User + system CPU time of a process (its threads included)."""
-    with open(f"/proc/{pid}/stat") as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / TICKS
-
-
-def rss_mib(pid):
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    return 0.0
 
 
 def metric_sum(gw, name):

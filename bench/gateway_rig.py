@@ -2,7 +2,7 @@
 
 A free loopback port, polling until a condition holds, one keep-alive HTTP connection, a stdlib
 WebSocket client subscribed to a topic filter, starting the gateway from a config file and stopping
-processes, and the run's metadata (load average, commit). Imported by job_rss.py and store_latency.py,
+processes, a process's CPU time and resident memory, and the run's metadata (load average, commit). Imported by job_rss.py and store_latency.py,
 which are run as `/usr/bin/python3 bench/NAME.py` (so bench/ is on sys.path).
 """
 
@@ -134,6 +134,24 @@ class WsClient(threading.Thread):
         except (OSError, EOFError) as e:
             if self.error is None:
                 self.error = str(e)
+
+
+TICKS = os.sysconf("SC_CLK_TCK")
+
+
+def cpu_seconds(pid):
+    """User + system CPU time of a process (its threads included)."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / TICKS
+
+
+def rss_mib(pid):
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    return 0.0
 
 
 def log_tail(tmp, n=30):

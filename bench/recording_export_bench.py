@@ -42,26 +42,11 @@ import pandas  # Debian python3-pandas
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_machine import publish_section  # noqa: E402
-from gateway_rig import free_port, start_gateway, stop_process  # noqa: E402
+from gateway_rig import cpu_seconds, free_port, rss_mib, start_gateway, stop_process  # noqa: E402
 
 FORMATS = ("csv", "jsonl", "hdf5")
 CHUNK_ROWS = 16384  # the gateway's HDF5 chunk (gateway/recordings/hdf5_export.cpp)
 RSS_GOAL_MIB = 32  # a download may not grow the gateway by more than this, whatever the recording's length
-CLK_TCK = os.sysconf("SC_CLK_TCK")
-
-
-def cpu_s(pid):
-    with open(f"/proc/{pid}/stat") as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK
-
-
-def rss_mib(pid):
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    return 0.0
 
 
 class RssSampler(threading.Thread):
@@ -126,7 +111,7 @@ def download(port, pid, rid, fmt, path):
     sampler = RssSampler(pid)
     rss0 = sampler.peak
     sampler.start()
-    cpu0, t0 = cpu_s(pid), time.monotonic()
+    cpu0, t0 = cpu_seconds(pid), time.monotonic()
     conn.request("GET", f"/api/v1/recordings/{rid}/frames?format={fmt}")
     r = conn.getresponse()
     if r.status != 200:
@@ -142,7 +127,7 @@ def download(port, pid, rid, fmt, path):
             size += len(piece)
             f.write(piece)
     total = time.monotonic() - t0
-    cpu = cpu_s(pid) - cpu0
+    cpu = cpu_seconds(pid) - cpu0
     peak = sampler.stop()
     conn.close()
     return {"first_s": first or total, "total_s": total, "bytes": size, "cpu_s": cpu, "rss0": rss0, "peak": peak}

@@ -21,7 +21,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gateway_fixture import TOKENS, Fixture, auth_tokens, check, free_port, run_main, wait_until  # noqa: E402
+from gateway_fixture import TOKENS, Fixture, check, run_main, wait_until  # noqa: E402
 
 from http_api_test import Contract  # noqa: E402
 import recordings_api_test as rec  # noqa: E402  (its call/download/input_mode, against the same contract)
@@ -227,17 +227,7 @@ def main():
 
     fx = Fixture("gw-job-recordings-test-")
     try:
-        ext1 = fx.start_sim(args.sim, "ext1", "plain")
-        ext2 = fx.start_sim(args.sim, "ext2", "full", report=True)
-        port = free_port()
-        config = {
-            "http": {"listen_address": "127.0.0.1", "port": port},
-            "controllers": [{"id": "ext1", "port": ext1.link, "baud": 115200},
-                            {"id": "ext2", "port": ext2.link, "report_port": ext2.report_link, "baud": 115200}],
-            "auth": auth_tokens(),
-            "logging": {"level": "info"},
-        }
-        fx.start_gateway(args.gateway, config)
+        port, ext2, _ = rec.start_rig(fx, args)
         fx.run("spec.record is checked; the dry run shows the recording and the input it sets", test_spec_and_plan,
                port)
         fx.run("an array run advanced by triggers: a frame per trigger at its well, named in the job's history",

@@ -329,6 +329,23 @@ def test_kill_9(fx, args, config, port, sim):
     wait_until("the input mode put back", lambda: input_mode(port) == before_mode)
 
 
+def start_rig(fx, args):
+    """ext1 (no report port) and ext2 (a report port, pulsed through its control socket) behind a
+    gateway with the test tokens: (port, ext2's Sim, the config)."""
+    ext1 = fx.start_sim(args.sim, "ext1", "plain")
+    ext2 = fx.start_sim(args.sim, "ext2", "full", report=True)
+    port = free_port()
+    config = {
+        "http": {"listen_address": "127.0.0.1", "port": port},
+        "controllers": [{"id": "ext1", "port": ext1.link, "baud": 115200},
+                        {"id": "ext2", "port": ext2.link, "report_port": ext2.report_link, "baud": 115200}],
+        "auth": auth_tokens(),
+        "logging": {"level": "info"},
+    }
+    fx.start_gateway(args.gateway, config)
+    return port, ext2, config
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--gateway", required=True)
@@ -341,17 +358,7 @@ def main():
 
     fx = Fixture("gw-recordings-test-")
     try:
-        ext1 = fx.start_sim(args.sim, "ext1", "plain")
-        ext2 = fx.start_sim(args.sim, "ext2", "full", report=True)
-        port = free_port()
-        config = {
-            "http": {"listen_address": "127.0.0.1", "port": port},
-            "controllers": [{"id": "ext1", "port": ext1.link, "baud": 115200},
-                            {"id": "ext2", "port": ext2.link, "report_port": ext2.report_link, "baud": 115200}],
-            "auth": auth_tokens(),
-            "logging": {"level": "info"},
-        }
-        fx.start_gateway(args.gateway, config)
+        port, ext2, config = start_rig(fx, args)
         fx.run("refusals: body, roles, no report port, unknown ids, filters", test_refusals, port)
         rid = None
 

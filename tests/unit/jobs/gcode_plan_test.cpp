@@ -17,6 +17,7 @@
 #include "gateway/jobs/kinds/gcode_spec.hpp"
 #include "gateway/jobs/kinds/gcode_trace.hpp"
 #include "gateway/jobs/kinds/job_kinds.hpp"
+#include "tests/support/plan_context_fixture.hpp"
 
 namespace gw::jobs {
 namespace {
@@ -160,24 +161,7 @@ TEST(gcode_spec_parse, step_names_round_trip) {
 }
 
 plan_context xy_context() {
-    plan_context ctx;
-    auto& s = ctx.snapshot;
-    s.id = "sim1";
-    s.state = devices::connection_state::connected;
-    devices::controller_identity identity;
-    identity.build.name = "STD_XY";
-    identity.build.motor_axes = "XY";
-    s.identity = identity;
-    for (char a : std::string("XY")) {
-        devices::axis_state st;
-        st.axis = a;
-        st.position_um = 0;
-        st.counts_per_mm = 45397.6;
-        st.lower_limit_mm = -110;
-        st.upper_limit_mm = 110;
-        s.axes.push_back(st);
-    }
-    return ctx;
+    return test_support::connected_context("XY", "STD_XY");
 }
 
 TEST(gcode_plan, long_programs_get_a_bounded_list_of_contiguous_line_groups) {

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gateway/jobs/kinds/job_kinds.hpp"
+#include "tests/support/plan_context_fixture.hpp"
 
 namespace gw::jobs {
 namespace {
@@ -13,25 +14,11 @@ namespace {
 using json = nlohmann::json;
 
 plan_context make_context(devices::report_port_state report, std::optional<int> in0_mode) {
-    plan_context ctx;
-    auto& s = ctx.snapshot;
-    s.id = "sim1";
-    s.state = devices::connection_state::connected;
-    devices::controller_identity identity;
-    identity.build.motor_axes = "XY";
-    s.identity = identity;
-    for (char a : std::string("XY")) {
-        devices::axis_state st;
-        st.axis = a;
-        st.position_um = 0;
-        st.counts_per_mm = 45397.6;
-        st.lower_limit_mm = -110;
-        st.upper_limit_mm = 110;
-        s.axes.push_back(st);
+    auto ctx = test_support::connected_context("XY");
+    for (char a : std::string("XY"))
         ctx.motion.set_axis(a, {5.5, 20, 14});
-    }
-    s.ttl_in0_mode = in0_mode;
-    s.report = report;
+    ctx.snapshot.ttl_in0_mode = in0_mode;
+    ctx.snapshot.report = report;
     return ctx;
 }
 

@@ -7,6 +7,7 @@
 
 #include "gateway/jobs/kinds/job_kinds.hpp"
 #include "gateway/jobs/kinds/ring_buffer_spec.hpp"
+#include "tests/support/plan_context_fixture.hpp"
 
 namespace gw::jobs {
 namespace {
@@ -15,26 +16,12 @@ using json = nlohmann::json;
 using devices::ms2000::module;
 
 plan_context make_context(std::vector<module> modules, int ring_size = 50) {
-    plan_context ctx;
-    auto& s = ctx.snapshot;
-    s.id = "sim1";
-    s.state = devices::connection_state::connected;
-    devices::controller_identity identity;
-    identity.build.motor_axes = "XYZ";
+    auto ctx = test_support::connected_context("XYZ");
+    auto& build = ctx.snapshot.identity->build;
     for (auto m : modules)
-        identity.build.modules.set(static_cast<std::size_t>(m));
-    identity.build.ring_buffer_size = ring_size;
-    s.identity = identity;
-    for (char a : std::string("XYZ")) {
-        devices::axis_state st;
-        st.axis = a;
-        st.position_um = 0;
-        st.counts_per_mm = 45397.6;
-        st.lower_limit_mm = -110;
-        st.upper_limit_mm = 110;
-        s.axes.push_back(st);
-    }
-    s.ttl_in0_mode = 0;
+        build.modules.set(static_cast<std::size_t>(m));
+    build.ring_buffer_size = ring_size;
+    ctx.snapshot.ttl_in0_mode = 0;
     for (char a : std::string("XYZ"))
         ctx.motion.set_axis(a, {5.5, 20, 14});
     return ctx;
