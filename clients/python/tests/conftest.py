@@ -69,6 +69,8 @@ def clean_gateway(request: pytest.FixtureRequest) -> Iterator[None]:
             for job in jobs:
                 with contextlib.suppress(InvalidState, NotFound):
                     gw.jobs.cancel(job.id)
+        for recording in gw.recordings.list(state="recording"):
+            gw.recordings.stop(recording.id)
         for lease in gw.leases():
             with contextlib.suppress(InvalidState, NotFound):
                 gw.stage(lease.controller).force_release_lease()

@@ -49,6 +49,15 @@ class Sim:
     name: str
     link: str
     control_path: str
+    report_link: str | None = None  # its report port (TTL_REPORT frames), when it has one
+
+    def pulse(self, n: int, rate_hz: float) -> None:
+        """`n` trigger edges on IN0 at `rate_hz`, waited for to the last one (each is a report
+        frame when the input is armed)."""
+        edges = json.loads(self.control("state"))["ttl_edges"]
+        if self.control(f"pulse {n} {rate_hz}") != "ok":
+            raise RuntimeError(f"{self.name}: pulse refused")
+        wait_until(f"{n} edges", lambda: json.loads(self.control("state"))["ttl_edges"] - edges >= n, 60)
 
     def control(self, line: str) -> str:
         with socket.socket(socket.AF_UNIX) as s:
@@ -71,6 +80,7 @@ class RunningGateway:
     tmp: Path
     log_path: Path
     ext: Sim  # "ext1", a plain XYZ controller behind a control socket
+    cam: Sim  # "cam1", STD_XYZ_SCAN with a report port: its pulses are recorded frames
     tokens: dict[str, str] = field(default_factory=lambda: dict(TOKENS))
 
     def log_tail(self, lines: int = 60) -> str:
@@ -86,21 +96,28 @@ class GatewayProcesses:
         self.tmp = Path(tempfile.mkdtemp(prefix="asi-gateway-pyclient-"))
         self.procs: list[subprocess.Popen[bytes]] = []
 
-    def start_sim(self, name: str, preset: str) -> Sim:
+    def start_sim(self, name: str, preset: str, report: bool = False) -> Sim:
         link = str(self.tmp / name / "port")
+        report_link = str(self.tmp / name / "report") if report else None
         control = str(self.tmp / f"{name}.control.sock")
-        cmd = [self.sim_bin, "--preset", preset, "--name", name, "--link", link, "--no-report-port"]
+        cmd = [self.sim_bin, "--preset", preset, "--name", name, "--link", link]
+        cmd += ["--report-link", report_link] if report_link else ["--no-report-port"]
         cmd += ["--control", control]
         self.procs.append(subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT))
-        wait_until(f"ms2000-sim {name}", lambda: os.path.exists(link) and os.path.exists(control))
-        return Sim(name, link, control)
+        paths = [p for p in (link, report_link, control) if p]
+        wait_until(f"ms2000-sim {name}", lambda: all(os.path.exists(p) for p in paths))
+        return Sim(name, link, control, report_link)
 
     def start(self) -> RunningGateway:
         ext = self.start_sim("ext1", "plain")
+        cam = self.start_sim("cam1", "full", report=True)
         port = free_port()
         config = {
             "http": {"listen_address": "127.0.0.1", "port": port},
-            "controllers": [{"id": "ext1", "port": ext.link, "baud": 115200}],
+            "controllers": [
+                {"id": "ext1", "port": ext.link, "baud": 115200},
+                {"id": "cam1", "port": cam.link, "report_port": cam.report_link, "baud": 115200},
+            ],
             # sim1: STD_XYZ_SCAN (ARRAY module), sim2: STD_XYZ (plain); real time.
             "simulate": {"count": 2, "time_scale": 1, "directory": str(self.tmp / "sim")},
             "storage": {"path": str(self.tmp / "store")},
@@ -125,7 +142,7 @@ class GatewayProcesses:
                 return False
 
         wait_until("the gateway to be ready", ready)
-        return RunningGateway(url=url, port=port, tmp=self.tmp, log_path=log_path, ext=ext)
+        return RunningGateway(url=url, port=port, tmp=self.tmp, log_path=log_path, ext=ext, cam=cam)
 
     def stop(self) -> None:
         for p in reversed(self.procs):

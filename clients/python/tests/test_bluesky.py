@@ -1,11 +1,13 @@
 """The ophyd-async devices (asi_gateway.bluesky) against the real gateway: a grid scan with one of
-ophyd-async's simulated detectors in a RunEngine, a plate as a fly scan, readbacks pushed from
+ophyd-async's simulated detectors in a RunEngine, a plate as a fly scan (and one that records each
+camera trigger's position), readbacks pushed from
 the position topic, set() failing with the gateway's reason (a HALT from another client, a
 lease), locate and stop."""
 
 from __future__ import annotations
 
 import asyncio
+import threading
 import time
 from collections.abc import Iterator
 from typing import Any
@@ -96,6 +98,43 @@ def test_fly_scan_of_a_plate_collects_every_well(gateway: RunningGateway, run_en
         assert abs(data["plate-x_position"] - data["plate-x_target"]) <= TOLERANCE_UM
         assert abs(data["plate-y_position"] - data["plate-y_target"]) <= TOLERANCE_UM
     assert {round(e["data"]["plate-x_target"]) for e in events} == {0, 300, 600}
+    assert flyer.job is not None and flyer.job.state == "succeeded"
+    close_in_loop(gw)
+
+
+def test_a_recording_fly_scan_collects_each_triggers_positions(gateway: RunningGateway, run_engine: RunEngine) -> None:
+    # A plate advanced by camera triggers on cam1 (a report port): each trigger is an event of the
+    # "plate_triggers" stream with the position the controller latched, the well the stage stood at.
+    gw = AsyncGateway(gateway.url, token=TOKENS["operator"])
+    grid = {"columns": 3, "rows": 1, "column_step_mm": 0.5, "row_step_mm": -0.5}
+    spec = {"grid": grid, "a1": {"X": 0, "Y": 0}, "mode": "host", "advance": "ttl"}
+    flyer = GatewayJobFlyer(gw, "cam1", "array", spec, record=True, name="plate")
+
+    def camera() -> None:  # triggers the two advances while the plan runs
+        with Gateway(gateway.url, token=TOKENS["viewer"]) as watcher:
+            for done in (1, 2):
+                deadline = time.monotonic() + 60
+                while time.monotonic() < deadline:
+                    jobs, _ = watcher.jobs.list(controller="cam1", state="running")
+                    if jobs and jobs[0].progress.steps_done == done and jobs[0].progress.waiting_for == "ttl":
+                        break
+                    time.sleep(0.1)
+                gateway.cam.pulse(1, 10)
+
+    trigger_thread = threading.Thread(target=camera)
+    trigger_thread.start()
+    try:
+        docs = documents_of(run_engine, bp.fly([flyer]))
+    finally:
+        trigger_thread.join()
+    streams = {doc["uid"]: doc["name"] for name, doc in docs if name == "descriptor"}
+    events = [doc for name, doc in docs if name == "event"]
+    steps = [e["data"] for e in events if streams[e["descriptor"]] == "plate"]
+    triggers = [e["data"] for e in events if streams[e["descriptor"]] == "plate_triggers"]
+    assert [s["plate-step_name"] for s in steps] == ["A1", "A2", "A3"]
+    assert [t["plate-frame"] for t in triggers] == [0, 1]
+    for k in (0, 1):
+        assert abs(triggers[k]["plate-x_trigger"] - steps[k]["plate-x_position"]) <= TOLERANCE_UM
     assert flyer.job is not None and flyer.job.state == "succeeded"
     close_in_loop(gw)
 

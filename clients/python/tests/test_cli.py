@@ -25,10 +25,10 @@ def test_list(gateway: RunningGateway) -> None:
     done = run(gateway, "list")
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    assert [line.split()[0] for line in lines] == ["ext1", "sim1", "sim2"]
+    assert [line.split()[0] for line in lines] == ["ext1", "cam1", "sim1", "sim2"]
     assert all("connected" in line for line in lines)
     as_json = json.loads(run(gateway, "list", "--json", module=True).stdout)
-    assert [c["id"] for c in as_json] == ["ext1", "sim1", "sim2"]
+    assert [c["id"] for c in as_json] == ["ext1", "cam1", "sim1", "sim2"]
 
 
 def test_move_and_halt(gateway: RunningGateway) -> None:
@@ -41,7 +41,7 @@ def test_move_and_halt(gateway: RunningGateway) -> None:
     halted = run(gateway, "halt", "sim2")
     assert halted.returncode == 0 and json.loads(halted.stdout)["operation"] == "halt"
     every = run(gateway, "halt", "--all")
-    assert every.returncode == 0 and set(json.loads(every.stdout)) == {"ext1", "sim1", "sim2"}
+    assert every.returncode == 0 and set(json.loads(every.stdout)) == {"cam1", "ext1", "sim1", "sim2"}
 
 
 def test_errors_exit_1_with_the_problem(gateway: RunningGateway) -> None:

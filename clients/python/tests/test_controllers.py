@@ -12,7 +12,7 @@ from asi_gateway import AsyncGateway, Gateway, UnknownController
 
 def test_list_and_get(operator: Gateway) -> None:
     controllers = operator.list_controllers()
-    assert [c.id for c in controllers] == ["ext1", "sim1", "sim2"]
+    assert [c.id for c in controllers] == ["ext1", "cam1", "sim1", "sim2"]
     assert all(c.connected for c in controllers)
     sim1 = operator.get_controller("sim1")
     assert sim1.identity is not None and sim1.identity.build == "STD_XYZ_SCAN"
@@ -28,7 +28,7 @@ def test_whoami_names_the_token(gateway: RunningGateway) -> None:
 
 
 def test_wait_connected_follows_an_unplugged_controller(gateway: RunningGateway, operator: Gateway) -> None:
-    assert [c.id for c in operator.wait_connected(timeout_s=30)] == ["ext1", "sim1", "sim2"]
+    assert [c.id for c in operator.wait_connected(timeout_s=30)] == ["ext1", "cam1", "sim1", "sim2"]
     assert gateway.ext.control("unplug") == "ok"
     try:
         with pytest.raises(TimeoutError, match="ext1"):
@@ -45,7 +45,7 @@ def test_async_list_get_wait(gateway: RunningGateway) -> None:
             states = await gw.wait_connected(["sim1", "sim2"], timeout_s=30)
             assert [s.id for s in states] == ["sim1", "sim2"]
             listed = await gw.list_controllers()
-            assert {c.id for c in listed} == {"ext1", "sim1", "sim2"}
+            assert {c.id for c in listed} == {"cam1", "ext1", "sim1", "sim2"}
             sim2 = await gw.get_controller("sim2")
             assert sim2.identity is not None and sim2.identity.modules == ()
             with pytest.raises(UnknownController):

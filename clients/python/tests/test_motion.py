@@ -90,7 +90,7 @@ def test_async_move_and_halt_all(gateway: RunningGateway) -> None:
             for cid in ("ext1", "sim1", "sim2"):
                 await gw.stage(cid).move_relative({"X": 50000})
             halted = await gw.halt_all()
-            assert set(halted) == {"ext1", "sim1", "sim2"}
+            assert set(halted) == {"cam1", "ext1", "sim1", "sim2"}
             assert all(r.operation == "halt" for r in halted.values())
             # Every stage stops short of its 50 mm.
             deadline = time.monotonic() + 30

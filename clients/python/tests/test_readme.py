@@ -69,6 +69,7 @@ EXPECTED = {
     5: "succeeded",
     6: "well B1: X=0.0 Y=-500.0",
     7: "at X=1000 Y=-500",
+    8: "plate 7: stopped, 0 frames, 0 losses",
 }
 
 

@@ -108,7 +108,7 @@ def test_async_wildcard_subscription_gets_every_controller(gateway: RunningGatew
             gw.subscribe("controllers/+/state") as sub,
         ):
             seen: set[str] = set()
-            while seen != {"ext1", "sim1", "sim2"}:
+            while seen != {"cam1", "ext1", "sim1", "sim2"}:
                 message = await asyncio.wait_for(sub.__anext__(), 30)
                 assert isinstance(message, Event) and message.data["state"] == "connected"
                 seen.add(message.data["id"])

@@ -53,7 +53,7 @@ def test_self_signed_gateway_is_refused_by_default(tls_proxy: CuttableProxy) -> 
 
 def test_ca_file_trusts_it_for_rest_and_websocket(tls_proxy: CuttableProxy, certificate: tuple[Path, Path]) -> None:
     with Gateway(tls_proxy.url, token=TOKENS["viewer"], ca_file=str(certificate[0])) as gw:
-        assert [c.id for c in gw.list_controllers()] == ["ext1", "sim1", "sim2"]
+        assert [c.id for c in gw.list_controllers()] == ["ext1", "cam1", "sim1", "sim2"]
         with gw.subscribe("controllers/sim1/state") as sub:
             message = sub.next(timeout_s=30)
             assert isinstance(message, Event)

@@ -30,6 +30,7 @@ from .models import (
     LeaseInfo,
     MoveResult,
     OperationResult,
+    Recording,
 )
 from .problems import (
     PROBLEM_CLASSES,
@@ -79,9 +80,10 @@ from .problems import (
     UnknownRecording,
     UnsupportedMediaType,
 )
+from .recordings import AsyncRecordings
 from .stage import AsyncStage
 from .subscription import Event, Gap, Message, Retired, Subscription
-from .sync import Gateway, Gcode, Jobs, Lease, Stage, SyncSubscription
+from .sync import Gateway, Gcode, Jobs, Lease, Recordings, Stage, SyncSubscription
 
 __version__ = "0.1.0"
 
@@ -91,6 +93,7 @@ __all__ = [
     "AsyncGcode",
     "AsyncJobs",
     "AsyncLease",
+    "AsyncRecordings",
     "AsyncStage",
     "AxisState",
     "BadRequest",
@@ -146,6 +149,8 @@ __all__ = [
     "PortScanBusy",
     "Problem",
     "QueueFull",
+    "Recording",
+    "Recordings",
     "Retired",
     "Stage",
     "StorageUnavailable",

@@ -18,7 +18,8 @@
   subscription per controller, resumed after a dropped connection), never polled.
 - `GatewayJobFlyer` runs a gateway job (plate, scan, ring buffer, G-code) as a Bluesky flyer:
   `kickoff` submits it, `complete` ends with it, `collect` yields one event per completed step
-  with the target and measured position the gateway recorded.
+  with the target and measured position the gateway recorded, and with `record=True` one event
+  per camera trigger with the positions the controller latched at it (the job's recording).
 
 The devices use the AsyncGateway from the RunEngine's event loop (init_devices connects them
 there): give them an AsyncGateway that nothing else uses from another loop.
@@ -172,7 +173,12 @@ class GatewayJobFlyer(Flyable, Collectable):
     """A gateway job as a Bluesky flyer: `kickoff` submits it (it is running or queued when the
     status completes), `complete` ends when the job does (and fails with JobFailed or
     JobCancelled), `collect` yields one event per completed step: its index, name, and the
-    target and measured position of each axis the gateway recorded (array jobs record both)."""
+    target and measured position of each axis the gateway recorded (array jobs record both).
+
+    With `record=True` (a controller with a report port) the job records its run, and `collect`
+    also yields, in a second stream named `<name>_triggers`, one event per trigger the controller
+    reported: the frame index and each axis's position latched at that trigger, timed by the
+    gateway's receive time. Frames lost (loss markers) are left out: the frame indices say where."""
 
     def __init__(
         self,
@@ -182,12 +188,16 @@ class GatewayJobFlyer(Flyable, Collectable):
         spec: Mapping[str, Any],
         *,
         axes: Sequence[str] = ("X", "Y"),
+        record: bool = False,
         name: str = "job",
     ) -> None:
         self._gateway = gateway
         self.controller = controller
         self.job_type = job_type
         self.spec = dict(spec)
+        if record:
+            self.spec["record"] = True
+        self.record = record
         self.axes = [a.upper() for a in axes]
         self._name = name
         self.job: Job | None = None
@@ -221,7 +231,16 @@ class GatewayJobFlyer(Flyable, Collectable):
             for kind in ("target", "position"):
                 key = f"{self.name}-{axis.lower()}_{kind}"
                 keys[key] = DataKey(source=source, dtype="number", shape=[], units="um")
-        return {self.name: keys}
+        streams = {self.name: keys}
+        if self.record:
+            triggers: dict[str, DataKey] = {
+                f"{self.name}-frame": DataKey(source=f"{source}:recording", dtype="integer", shape=[])
+            }
+            for axis in self.axes:
+                key = f"{self.name}-{axis.lower()}_trigger"
+                triggers[key] = DataKey(source=f"{source}:recording", dtype="number", shape=[], units="um")
+            streams[f"{self.name}_triggers"] = triggers
+        return streams
 
     async def collect(self) -> AsyncIterator[PartialEvent]:
         if self.job is None:
@@ -229,6 +248,22 @@ class GatewayJobFlyer(Flyable, Collectable):
         for event in await self._gateway.jobs.events(self.job.id):
             if event.get("type") == "step":
                 yield self._partial_event(event)
+        if not self.record:
+            return
+        # Every run's recording (a resumed job has one per run), oldest first.
+        recordings = await self._gateway.recordings.list(job=self.job.id)
+        for recording in sorted(recordings, key=lambda r: r.started):
+            for row in await self._gateway.recordings.rows(recording.id):
+                if row.get("loss") is None:
+                    yield self._trigger_event(row)
+
+    def _trigger_event(self, row: JsonObject) -> PartialEvent:
+        data: dict[str, Any] = {f"{self.name}-frame": row["index"]}
+        for axis in self.axes:
+            value = row.get(f"{axis}_um")
+            data[f"{self.name}-{axis.lower()}_trigger"] = float("nan") if value is None else float(value)
+        when = row["time_us"] / 1e6
+        return PartialEvent(data=data, timestamps=dict.fromkeys(data, when), time=when)
 
     def _partial_event(self, step: JsonObject) -> PartialEvent:
         data: dict[str, Any] = {f"{self.name}-step": step["index"], f"{self.name}-step_name": step["name"]}

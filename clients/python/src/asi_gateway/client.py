@@ -11,6 +11,7 @@ from .jobs import AsyncJobs
 from .leases import AsyncLease
 from .models import ControllerState, LeaseInfo, OperationResult
 from .problems import HaltIncomplete, Problem, problem_from_body
+from .recordings import AsyncRecordings
 from .stage import AsyncStage
 from .subscription import Subscription
 from .transport import Transport
@@ -40,6 +41,7 @@ class AsyncGateway:
         self._stages: dict[str, AsyncStage] = {}
         self.jobs = AsyncJobs(self.transport, self._lease_held_on)
         self.gcode = AsyncGcode(self.transport, self.jobs)
+        self.recordings = AsyncRecordings(self.transport, self._lease_held_on)
 
     @property
     def url(self) -> str:

@@ -341,3 +341,56 @@ class GcodeFile:
     @classmethod
     def from_json(cls, d: JsonObject) -> GcodeFile:
         return cls(d["id"], d["name"], d["bytes"], d["lines"], d["created"])
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A position recording (GET /api/v1/recordings/{id}): the encoder positions a controller with a
+    report port sends at each trigger on its IN0 input, counted from 0, losses marked. `job` names
+    the job whose run made it (a spec with "record": true)."""
+
+    SCHEMA: ClassVar[str] = "Recording"
+
+    id: str
+    controller: str
+    name: str
+    state: str
+    reason: str
+    started: str
+    stopped: str | None
+    frames: int
+    losses: int
+    axes: str
+    ttl_in_mode: int
+    metadata: JsonObject
+    max_frames: int | None
+    max_s: float | None
+    rate_hz: float | None
+    job: str | None
+    raw: JsonObject = field(default_factory=dict, repr=False, compare=False)
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> Recording:
+        return cls(
+            id=d["id"],
+            controller=d["controller"],
+            name=d["name"],
+            state=d["state"],
+            reason=d["reason"],
+            started=d["started"],
+            stopped=d["stopped"],
+            frames=d["frames"],
+            losses=d["losses"],
+            axes=d["axes"],
+            ttl_in_mode=d["ttl_in_mode"],
+            metadata=d["metadata"],
+            max_frames=d["max_frames"],
+            max_s=d["max_s"],
+            rate_hz=d["rate_hz"],
+            job=d["job"],
+            raw=d,
+        )
+
+    @property
+    def ended(self) -> bool:
+        return self.state != "recording"

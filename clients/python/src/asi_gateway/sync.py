@@ -13,6 +13,7 @@ import builtins
 import threading
 from collections.abc import Callable, Coroutine, Iterable, Iterator, Mapping
 from concurrent.futures import Future
+from pathlib import Path
 from types import TracebackType
 from typing import Any, TypeVar
 
@@ -31,8 +32,10 @@ from .models import (
     LeaseInfo,
     MoveResult,
     OperationResult,
+    Recording,
 )
 from .problems import LeaseLost
+from .recordings import AsyncRecordings, Moment
 from .stage import DEFAULT_MOVE_TIMEOUT_S, AsyncStage
 from .subscription import Message, Subscription
 
@@ -88,6 +91,7 @@ class Gateway:
             raise
         self.jobs = Jobs(self._runner, self.aio.jobs)
         self.gcode = Gcode(self._runner, self.aio.gcode)
+        self.recordings = Recordings(self._runner, self.aio.recordings)
 
     @property
     def url(self) -> str:
@@ -269,6 +273,72 @@ SyncLeaseArg = Lease | AsyncLease | str | None
 
 def _async_lease(lease: SyncLeaseArg) -> AsyncLease | str | None:
     return lease.aio if isinstance(lease, Lease) else lease
+
+
+class Recordings:
+    """See AsyncRecordings; `lease` takes a Lease block, or a lease id."""
+
+    def __init__(self, runner: _EventLoopThread, recordings: AsyncRecordings) -> None:
+        self._runner = runner
+        self.aio = recordings
+
+    def start(
+        self,
+        controller: str,
+        name: str,
+        *,
+        ttl_in_mode: int | None = None,
+        max_frames: int | None = None,
+        max_s: float | None = None,
+        metadata: Mapping[str, Any] | None = None,
+        lease: SyncLeaseArg = None,
+    ) -> Recording:
+        return self._runner.run(
+            self.aio.start(
+                controller,
+                name,
+                ttl_in_mode=ttl_in_mode,
+                max_frames=max_frames,
+                max_s=max_s,
+                metadata=metadata,
+                lease=_async_lease(lease),
+            )
+        )
+
+    def stop(self, recording_id: str) -> Recording:
+        return self._runner.run(self.aio.stop(recording_id))
+
+    def get(self, recording_id: str) -> Recording:
+        return self._runner.run(self.aio.get(recording_id))
+
+    def list(
+        self,
+        *,
+        controller: str | None = None,
+        state: str | None = None,
+        job: str | None = None,
+        since: Moment = None,
+        until: Moment = None,
+        limit: int | None = None,
+    ) -> builtins.list[Recording]:
+        return self._runner.run(
+            self.aio.list(controller=controller, state=state, job=job, since=since, until=until, limit=limit)
+        )
+
+    def delete(self, recording_id: str) -> None:
+        self._runner.run(self.aio.delete(recording_id))
+
+    def wait(self, recording_id: str, *, frames: int | None = None, timeout_s: float | None = None) -> Recording:
+        return self._runner.run(self.aio.wait(recording_id, frames=frames, timeout_s=timeout_s))
+
+    def download(self, recording_id: str, target: str | Path, *, format: str = "csv") -> int:
+        return self._runner.run(self.aio.download(recording_id, target, format=format))
+
+    def rows(self, recording_id: str) -> builtins.list[JsonObject]:
+        return self._runner.run(self.aio.rows(recording_id))
+
+    def dataframe(self, recording_id: str, *, losses: bool = False) -> Any:
+        return self._runner.run(self.aio.dataframe(recording_id, losses=losses))
 
 
 class Jobs:

@@ -3,8 +3,10 @@ turned into exceptions. Everything else in the package talks to the gateway thro
 
 from __future__ import annotations
 
+import asyncio
 import ssl
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit, urlunsplit
 
@@ -124,8 +126,48 @@ class Transport:
         except ValueError as e:
             raise UnexpectedResponse(response.status_code, response.text) from e
 
+    async def download(
+        self,
+        path: str,
+        target: Path,
+        *,
+        params: Mapping[str, Any] | None = None,
+        request_timeout_s: float | None = None,
+    ) -> int:
+        """Streams a GET's body into the file `target` (created or replaced) and returns its size;
+        raises the mapped Problem for an error answer. A body that ends early (the gateway closes a
+        chunked body without its last chunk when it fails midway) raises GatewayUnreachable and
+        leaves no file."""
+        try:
+            async with self._client.stream(
+                "GET",
+                path,
+                params=_query(params),
+                timeout=request_timeout_s if request_timeout_s is not None else self.timeout,
+            ) as response:
+                if response.status_code >= 400:
+                    await response.aread()
+                    raise_for_problem(response)
+                return await _write_body(response, target)
+        except httpx.TransportError as e:
+            await asyncio.to_thread(target.unlink, missing_ok=True)
+            raise GatewayUnreachable(f"GET {self.url}{API_PREFIX}{path}: {e!r}") from e
+
     async def aclose(self) -> None:
         await self._client.aclose()
+
+
+async def _write_body(response: httpx.Response, target: Path) -> int:
+    """The body into the file, piece by piece as it arrives (file writes off the event loop)."""
+    size = 0
+    file = await asyncio.to_thread(target.open, "wb")
+    try:
+        async for piece in response.aiter_bytes():
+            await asyncio.to_thread(file.write, piece)
+            size += len(piece)
+    finally:
+        await asyncio.to_thread(file.close)
+    return size
 
 
 def _query(params: Mapping[str, Any] | None) -> dict[str, str] | None:
