@@ -12,7 +12,9 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
+import bluesky.plan_stubs as bps
 import bluesky.plans as bp
+import bluesky.preprocessors as bpp
 import pytest
 from bluesky import RunEngine
 from bluesky.run_engine import call_in_bluesky_event_loop
@@ -169,6 +171,41 @@ def test_set_fails_with_the_gateways_reason_and_readback_is_pushed(gateway: Runn
             await x.feed.stop()
 
     asyncio.run(scenario())
+
+
+def test_the_xy_stage_moves_both_axes_at_once_and_fails_like_an_axis(
+    gateway: RunningGateway, run_engine: RunEngine
+) -> None:
+    gw = AsyncGateway(gateway.url, token=TOKENS["operator"])
+    with init_devices():
+        stage = GatewayXYStage(gw, "sim2")
+    targets = [(300.0, -300.0), (900.0, 600.0)]
+
+    def visit() -> Any:
+        for target in targets:
+            yield from bps.mv(stage, target)
+            yield from bps.trigger_and_read([stage])
+
+    docs = documents_of(run_engine, bpp.run_wrapper(visit()))  # type: ignore[no-untyped-call]
+    points = [(e["data"]["stage-x"], e["data"]["stage-y"]) for name, e in docs if name == "event"]
+    for (x, y), (tx, ty) in zip(points, targets, strict=True):
+        assert abs(x - tx) <= TOLERANCE_UM and abs(y - ty) <= TOLERANCE_UM, (x, y)
+
+    async def halted_midway() -> None:
+        async with AsyncGateway(gateway.url, token=TOKENS["operator"]) as other:
+            status = stage.set((40000.0, 30000.0))
+            deadline = time.monotonic() + 30
+            while await stage.x.readback.get_value() < 2000:
+                assert time.monotonic() < deadline, "the stage never moved"
+                await asyncio.sleep(0.05)
+            await other.stage("sim2").halt()
+            with pytest.raises(MoveStoppedShort, match="short of X=40000"):
+                await status
+            # One MOVE: both axes were under way when the HALT came.
+            assert await stage.y.readback.get_value() > 1000
+
+    call_in_bluesky_event_loop(halted_midway())
+    close_in_loop(gw, stage.feed)
 
 
 def test_stop_halts_and_a_lease_refuses(gateway: RunningGateway) -> None:

@@ -14,6 +14,7 @@
 - Each axis is Movable (`set` returns a status that completes when the gateway's waited move
   ends, and fails with the gateway's reason: its problem, or `MoveStoppedShort` when a HALT or a
   limit stopped it), Locatable, Readable and Stoppable (HALT on the controller).
+- The XY stage is Movable too: `set((x, y))` is one MOVE of both axes.
 - Readbacks are pushed from the gateway's `controllers/<id>/position` WebSocket topic (one
   subscription per controller, resumed after a dropped connection), never polled.
 - `GatewayJobFlyer` runs a gateway job (plate, scan, ring buffer, G-code) as a Bluesky flyer:
@@ -35,7 +36,7 @@ from datetime import datetime
 from functools import cached_property
 from typing import Any
 
-from bluesky.protocols import Collectable, Flyable
+from bluesky.protocols import Collectable, Flyable, Movable, Stoppable
 from event_model import DataKey
 from event_model.documents.event import PartialEvent
 from ophyd_async.core import (
@@ -96,14 +97,14 @@ class _GatewayMoveLogic(MovableLogic[float]):
         )
         reached = result.positions.get(self.axis)
         if reached is not None:
-            await self._readback_shows(reached)
+            await self.readback_shows(reached)
         if not result.arrived(self.tolerance_um):
             raise MoveStoppedShort(
                 f"{self.stage.id} {self.axis}: stopped at {reached} um, short of {new_position} um "
                 "(a HALT or a limit stopped it)"
             )
 
-    async def _readback_shows(self, reached: float) -> None:
+    async def readback_shows(self, reached: float) -> None:
         """A read right after set() must show where the stage stopped: wait for the position
         event that says so (it may come just after the move's answer); should none come (the
         feed is reconnecting), take the move's own read-back."""
@@ -157,16 +158,42 @@ class GatewayAxis(StandardReadable, StandardMovable[float]):
         )  # fmt: skip
 
 
-class GatewayXYStage(StandardReadable):
+class GatewayXYStage(StandardReadable, Movable[tuple[float, float]], Stoppable):
     """A controller's X and Y axes as children `x` and `y`, sharing one position feed. (Its Z,
-    or any other axis, is a GatewayAxis of its own: `GatewayAxis(gateway, "sim1", "Z")`.)"""
+    or any other axis, is a GatewayAxis of its own: `GatewayAxis(gateway, "sim1", "Z")`.)
+
+    The stage is Movable itself: `set((x, y))` (`bps.mv(stage, (x, y))`) is one MOVE of both
+    axes, so the stage goes straight to the point; its status fails like an axis's (the gateway's
+    problem, or MoveStoppedShort). `stop()` HALTs the controller."""
 
     def __init__(self, gateway: AsyncGateway, controller: str, *, tolerance_um: float = 1.0, name: str = "") -> None:
         self.feed = PositionFeed(gateway, controller)
+        self._stage = gateway.stage(controller)
+        self._tolerance_um = tolerance_um
         with self.add_children_as_readables():
             self.x = GatewayAxis(gateway, controller, "X", feed=self.feed, tolerance_um=tolerance_um)
             self.y = GatewayAxis(gateway, controller, "Y", feed=self.feed, tolerance_um=tolerance_um)
         super().__init__(name=name)
+
+    @AsyncStatus.wrap
+    async def set(self, value: tuple[float, float], timeout: float | None = None) -> None:  # noqa: ASYNC109 - Movable's
+        x, y = (float(v) for v in value)
+        await self.x.setpoint.set(x)
+        await self.y.setpoint.set(y)
+        result = await self._stage.move(
+            {"X": x, "Y": y}, wait=True, timeout_s=timeout if timeout is not None else DEFAULT_MOVE_TIMEOUT_S
+        )
+        for axis, reached in ((self.x, result.positions.get("X")), (self.y, result.positions.get("Y"))):
+            if reached is not None:
+                await axis.movable_logic.readback_shows(reached)
+        if not result.arrived(self._tolerance_um):
+            raise MoveStoppedShort(
+                f"{self._stage.id}: stopped at X={result.positions.get('X')} Y={result.positions.get('Y')} um, "
+                f"short of X={x} Y={y} um (a HALT or a limit stopped it)"
+            )
+
+    async def stop(self, success: bool = True) -> None:
+        await self._stage.halt()
 
 
 class GatewayJobFlyer(Flyable, Collectable):
