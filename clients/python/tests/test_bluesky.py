@@ -203,6 +203,9 @@ def test_the_xy_stage_moves_both_axes_at_once_and_fails_like_an_axis(
                 await status
             # One MOVE: both axes were under way when the HALT came.
             assert await stage.y.readback.get_value() > 1000
+            where = await stage.locate()
+            assert where["setpoint"] == (40000.0, 30000.0)
+            assert 2000 <= where["readback"][0] < 39000 and where["readback"][1] > 1000
 
     call_in_bluesky_event_loop(halted_midway())
     close_in_loop(gw, stage.feed)

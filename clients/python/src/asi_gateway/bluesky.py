@@ -14,7 +14,7 @@
 - Each axis is Movable (`set` returns a status that completes when the gateway's waited move
   ends, and fails with the gateway's reason: its problem, or `MoveStoppedShort` when a HALT or a
   limit stopped it), Locatable, Readable and Stoppable (HALT on the controller).
-- The XY stage is Movable too: `set((x, y))` is one MOVE of both axes.
+- The XY stage is Movable and Locatable too: `set((x, y))` is one MOVE of both axes.
 - Readbacks are pushed from the gateway's `controllers/<id>/position` WebSocket topic (one
   subscription per controller, resumed after a dropped connection), never polled.
 - `GatewayJobFlyer` runs a gateway job (plate, scan, ring buffer, G-code) as a Bluesky flyer:
@@ -36,7 +36,7 @@ from datetime import datetime
 from functools import cached_property
 from typing import Any
 
-from bluesky.protocols import Collectable, Flyable, Movable, Stoppable
+from bluesky.protocols import Collectable, Flyable, Locatable, Location, Stoppable
 from event_model import DataKey
 from event_model.documents.event import PartialEvent
 from ophyd_async.core import (
@@ -158,13 +158,14 @@ class GatewayAxis(StandardReadable, StandardMovable[float]):
         )  # fmt: skip
 
 
-class GatewayXYStage(StandardReadable, Movable[tuple[float, float]], Stoppable):
+class GatewayXYStage(StandardReadable, Locatable[tuple[float, float]], Stoppable):
     """A controller's X and Y axes as children `x` and `y`, sharing one position feed. (Its Z,
     or any other axis, is a GatewayAxis of its own: `GatewayAxis(gateway, "sim1", "Z")`.)
 
     The stage is Movable itself: `set((x, y))` (`bps.mv(stage, (x, y))`) is one MOVE of both
     axes, so the stage goes straight to the point; its status fails like an axis's (the gateway's
-    problem, or MoveStoppedShort). `stop()` HALTs the controller."""
+    problem, or MoveStoppedShort). `locate()` gives both setpoints and readbacks as (x, y);
+    `stop()` HALTs the controller."""
 
     def __init__(self, gateway: AsyncGateway, controller: str, *, tolerance_um: float = 1.0, name: str = "") -> None:
         self.feed = PositionFeed(gateway, controller)
@@ -191,6 +192,10 @@ class GatewayXYStage(StandardReadable, Movable[tuple[float, float]], Stoppable):
                 f"{self._stage.id}: stopped at X={result.positions.get('X')} Y={result.positions.get('Y')} um, "
                 f"short of X={x} Y={y} um (a HALT or a limit stopped it)"
             )
+
+    async def locate(self) -> Location[tuple[float, float]]:
+        x, y = await self.x.locate(), await self.y.locate()
+        return Location(setpoint=(x["setpoint"], y["setpoint"]), readback=(x["readback"], y["readback"]))
 
     async def stop(self, success: bool = True) -> None:
         await self._stage.halt()
