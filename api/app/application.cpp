@@ -11,6 +11,7 @@
 
 #include "api/app/crash_halt.hpp"
 #include "api/app/startup_summary.hpp"
+#include "api/common/mqtt_link_state.hpp"
 #include "api/http/server.hpp"
 #include "api/http/tls_server_context.hpp"
 #include "api/mqtt/mqtt_bridge.hpp"
@@ -183,6 +184,8 @@ bool application::start() {
     http_ = std::make_unique<api::server>(ioc_.get_executor(), config, *registry_, hub_, metrics_, jobs_,
                                           leases_, state_texts_, shares_.get(), tls_, recorder_);
     shares_->set_audit(http_->context()->audit);
+    // Set before any session runs: /api/v1/health reads it.
+    if (config.mqtt.enabled) http_->context()->mqtt_link = std::make_shared<api::mqtt_link_state>();
 
     try {
         registry_->start();

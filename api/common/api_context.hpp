@@ -40,6 +40,7 @@ class recorder;
 namespace gw::api {
 
 class batch_text_cache;
+class mqtt_link_state;
 class tls_server_context;
 class gcode_worker;
 class port_scan_worker;
@@ -74,6 +75,8 @@ struct api_context {
     std::shared_ptr<tls_server_context> tls{};
     // Position recordings (gateway/recordings); null: the recording routes answer 503.
     std::shared_ptr<recordings::recorder> recordings{};
+    // The MQTT bridge's link to its broker, for /api/v1/health; null: MQTT is off.
+    std::shared_ptr<mqtt_link_state> mqtt_link{};
 };
 
 }  // namespace gw::api

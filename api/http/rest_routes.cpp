@@ -10,6 +10,7 @@
 #include "api/calls/operation_requests.hpp"
 #include "api/calls/port_requests.hpp"
 #include "api/calls/share_json.hpp"
+#include "api/common/mqtt_link_state.hpp"
 #include "gateway/common/metrics.hpp"
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/events/controller_state_texts.hpp"
@@ -48,7 +49,9 @@ problem unknown_controller(const std::string& id) {
 // ---- service ----
 
 void health(request_context& c) {
-    c.reply_json(http::status::ok, {{"status", "ok"}, {"version", gw::version}});
+    json body = {{"status", "ok"}, {"version", gw::version}};
+    body["mqtt"] = c.ctx->mqtt_link ? c.ctx->mqtt_link->to_json() : json(nullptr);
+    c.reply_json(http::status::ok, body);
 }
 
 void ready(request_context& c) {

@@ -7,6 +7,7 @@
 #include <boost/asio/post.hpp>
 #include <spdlog/logger.h>
 
+#include "api/common/mqtt_link_state.hpp"
 #include "api/mqtt/mqtt_commands.hpp"
 #include "gateway/common/metrics.hpp"
 #include "gateway/controllers/controller_registry.hpp"
@@ -24,6 +25,8 @@ namespace {
 void describe_metrics(gw::metrics& m) {
     m.describe("gw_mqtt_connected", metric_type::gauge, "1 while connected to the MQTT broker");
     m.describe("gw_mqtt_connects_total", metric_type::counter, "Successful MQTT (re)connects");
+    m.describe("gw_mqtt_broker", metric_type::gauge,
+               "1 for the configured broker the gateway is connected to, 0 for the others");
     m.describe("gw_mqtt_published_total", metric_type::counter,
                "MQTT messages handed to the client, by kind");
     m.describe("gw_mqtt_dropped_total", metric_type::counter,
@@ -188,7 +191,10 @@ void mqtt_bridge::on_connected() {
     if (ctx_->metrics) {
         ctx_->metrics->set("gw_mqtt_connected", {}, 1);
         ctx_->metrics->increment("gw_mqtt_connects_total", {});
+        for (const auto& broker : settings_.config.brokers)
+            ctx_->metrics->set("gw_mqtt_broker", {{"broker", broker}}, broker == client_->broker() ? 1 : 0);
     }
+    if (ctx_->mqtt_link) ctx_->mqtt_link->connected(client_->broker());
     // Subscribe before the birth: the broker handles one connection's packets in order, so a client
     // that sees the birth and sends a command at once finds the subscription in place.
     if (commands_) client_->subscribe(topics_.command_filters(), settings_.config.qos.responses);
@@ -218,7 +224,12 @@ void mqtt_bridge::on_connected() {
 }
 
 void mqtt_bridge::on_disconnected() {
-    if (ctx_->metrics) ctx_->metrics->set("gw_mqtt_connected", {}, 0);
+    if (ctx_->metrics) {
+        ctx_->metrics->set("gw_mqtt_connected", {}, 0);
+        for (const auto& broker : settings_.config.brokers)
+            ctx_->metrics->set("gw_mqtt_broker", {{"broker", broker}}, 0);
+    }
+    if (ctx_->mqtt_link) ctx_->mqtt_link->disconnected();
     maybe_request_more();  // nothing is in flight any more: keep draining the hub
 }
 
@@ -228,6 +239,7 @@ void mqtt_bridge::publish_birth() {
     b.version = settings_.version;
     b.protocol = settings_.config.protocol == mqtt_protocol::v5 ? "5" : "3.1.1";
     b.prefix = settings_.config.topic_prefix;
+    b.broker = client_->broker();
     b.commands = commands_ != nullptr;
     for (const auto& s : ctx_->registry.list())
         b.controllers.push_back(birth_controller(state_json(s)));

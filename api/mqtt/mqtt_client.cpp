@@ -55,10 +55,13 @@ std::string describe(const mqtt::token& t) {
 class mqtt_client::listener final : public mqtt::iaction_listener {
   public:
     using callback = std::function<void(mqtt_client&, bool ok, std::string what)>;
-    listener(std::weak_ptr<mqtt_client> owner, strand s, callback cb)
-        : owner_(std::move(owner)), strand_(std::move(s)), cb_(std::move(cb)) {}
+    // `connects`: the listener of connect actions; its success carries the broker that answered.
+    listener(std::weak_ptr<mqtt_client> owner, strand s, callback cb, bool connects = false)
+        : owner_(std::move(owner)), strand_(std::move(s)), cb_(std::move(cb)), connects_(connects) {}
 
-    void on_success(const mqtt::token&) override { post(true, {}); }
+    void on_success(const mqtt::token& t) override {
+        post(true, connects_ ? t.get_connect_response().get_server_uri() : std::string());
+    }
     void on_failure(const mqtt::token& t) override {
         post(false, describe(t), t.get_return_code(),
              t.get_reason_code() == mqtt::SUCCESS ? 0 : int(t.get_reason_code()));
@@ -79,6 +82,7 @@ class mqtt_client::listener final : public mqtt::iaction_listener {
     std::weak_ptr<mqtt_client> owner_;
     strand strand_;
     callback cb_;
+    bool connects_ = false;
 };
 
 std::shared_ptr<mqtt_client> mqtt_client::create(strand executor, const mqtt_config& config,
@@ -102,6 +106,7 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
       log_(std::move(log)),
       retry_timer_(strand_),
       stop_timer_(strand_),
+      resubscribe_timer_(strand_),
       backoff_(config.reconnect_min, config.reconnect_max, std::random_device{}()) {
     const int version = paho_mqtt_version(config_.protocol);
     mqtt::create_options create(version);
@@ -135,7 +140,7 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
     o.set_keep_alive_interval(static_cast<int>(config_.keepalive.count()));
     o.set_connect_timeout(10);
     o.set_automatic_reconnect(false);
-    if (config_.brokers.size() > 1) o.set_servers(std::make_shared<mqtt::string_collection>(config_.brokers));
+    try_brokers_from(0);
     if (!config_.username.empty()) o.set_user_name(config_.username);
     if (!config_.password.empty()) o.set_password(config_.password);
     mqtt::will_options w(will_.topic, will_.payload, will_.qos, will_.retained);
@@ -164,7 +169,7 @@ void mqtt_client::install_callbacks() {
     std::weak_ptr<mqtt_client> weak = weak_from_this();
     connect_listener_ = std::make_unique<listener>(
         weak, strand_,
-        [](mqtt_client& c, bool ok, const std::string& what) { c.on_connect_result(ok, what); });
+        [](mqtt_client& c, bool ok, const std::string& what) { c.on_connect_result(ok, what); }, true);
     publish_listener_ =
         std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
             if (c.in_flight_ > 0) --c.in_flight_;
@@ -172,8 +177,8 @@ void mqtt_client::install_callbacks() {
             if (c.handlers_.publish_done) c.handlers_.publish_done();
         });
     subscribe_listener_ =
-        std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
-            if (!ok && c.log_) c.log_->error("subscribe refused: {}", what);
+        std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, const std::string& what) {
+            if (!ok) c.on_subscribe_refused(what);
         });
     last_listener_ = std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
         if (!ok && c.log_) c.log_->warn("the last message failed: {}", what);
@@ -219,6 +224,23 @@ void mqtt_client::start() {
     do_connect();
 }
 
+void mqtt_client::try_brokers_from(std::size_t first) {
+    const auto& all = config_.brokers;
+    order_.clear();
+    for (std::size_t i = 0; i < all.size(); ++i)
+        order_.push_back(all[(first + i) % all.size()]);
+    // One broker: the client's own URI. Several: Paho tries them in this order within one attempt.
+    if (all.size() > 1) options_->set_servers(std::make_shared<mqtt::string_collection>(order_));
+}
+
+std::string mqtt_client::brokers_tried() const {
+    if (order_.size() == 1) return order_.front();
+    std::string out = "any of ";
+    for (std::size_t i = 0; i < order_.size(); ++i)
+        out += (i ? ", " : "") + order_[i];
+    return out;
+}
+
 void mqtt_client::do_connect() {
     if (stopping_ || connected_ || connecting_) return;
     connecting_ = true;
@@ -226,7 +248,15 @@ void mqtt_client::do_connect() {
         cli_->connect(*options_, nullptr, *connect_listener_);
     } catch (const mqtt::exception& e) {
         connecting_ = false;
-        if (log_) log_->warn("connect to {} refused at once: {}", config_.brokers.front(), e.what());
+        if (e.get_return_code() == MQTTASYNC_COMMAND_IGNORED) {
+            // Paho is still closing the lost connection: asked again in a moment, not after a backoff.
+            retry_timer_.expires_after(std::chrono::milliseconds(50));
+            retry_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
+                if (auto self = weak.lock(); self && !ec) self->do_connect();
+            });
+            return;
+        }
+        if (log_) log_->warn("connect to {} refused at once: {}", brokers_tried(), e.what());
         schedule_reconnect();
     }
 }
@@ -245,24 +275,27 @@ void mqtt_client::on_connect_result(bool ok, const std::string& what) {
     connected_ = true;
     ++connects_;
     failed_attempts_ = 0;
+    refused_subscribes_ = 0;
+    resubscribe_rounds_ = 0;
     backoff_.reset();
     if (config_.tcp_nodelay) disable_nagle_towards(broker_ports(config_.brokers));
-    if (log_) log_->info("connected to {} as {}", cli_->get_server_uri(), client_id_);
+    // The broker that answered (Paho's client URI is only the first configured one).
+    broker_ = what.empty() ? order_.front() : what;
+    if (log_) log_->info("connected to {} as {}", broker_, client_id_);
     if (handlers_.connected) handlers_.connected();
 }
 
 void mqtt_client::log_connect_failure(std::chrono::milliseconds wait, spdlog::level::level_enum level) {
     connect_failure f{failure_rc_, failure_reason_, {}, {}};
     const auto failed = failed_attempts_;
-    auto write = [log = log_, broker = config_.brokers.front(), wait, level,
-                  failed](const connect_failure& f) {
+    auto write = [log = log_, broker = brokers_tried(), wait, level, failed](const connect_failure& f) {
         log->log(level, "cannot connect to {}: {}; next attempt in {} ms ({} failed so far)", broker,
                  explain_connect_failure(f), wait.count(), failed);
     };
     const bool paho_said_why = f.reason_code != 0 || f.return_code > 0;  // a CONNACK code or reason
     if (paho_said_why || level < spdlog::level::warn) return write(f);
     // Paho's "failure" alone: the broker is asked directly (TCP, and the TLS handshake for mqtts://).
-    const auto& broker = config_.brokers.front();
+    const auto& broker = order_.front();
     probe_broker(strand_, parse_broker_address(broker), uses_tls({broker}), config_.tls,
                  [f, write](std::string tcp_error, std::string tls_error) mutable {
                      f.tcp_error = std::move(tcp_error);
@@ -276,11 +309,21 @@ void mqtt_client::on_lost(std::string cause) {
     const bool was = connected_;
     connected_ = false;
     in_flight_ = 0;  // Paho fails or forgets them; none completes later
+    const auto lost = std::exchange(broker_, std::string());
     if (was) {
-        if (log_) log_->warn("connection to the broker lost: {}", cause);
+        if (log_) log_->warn("connection to {} lost: {}", lost, cause);
         if (handlers_.disconnected) handlers_.disconnected(cause);
     }
-    if (!connecting_) schedule_reconnect();
+    if (connecting_) return;
+    // The next broker at once, the lost one last (a cluster's node died: another one has the
+    // session); later attempts back off.
+    const auto& all = config_.brokers;
+    const auto at = std::find(all.begin(), all.end(), lost);
+    try_brokers_from(at == all.end() ? 0 : static_cast<std::size_t>(at - all.begin()) + 1);
+    if (was)
+        do_connect();
+    else
+        schedule_reconnect();
 }
 
 std::chrono::milliseconds mqtt_client::schedule_reconnect() {
@@ -314,6 +357,8 @@ bool mqtt_client::publish(const mqtt_message_out& m) {
 }
 
 void mqtt_client::subscribe(const std::vector<std::string>& filters, int qos) {
+    filters_ = filters;
+    filters_qos_ = qos;
     if (!connected_ || filters.empty()) return;
     try {
         // Retain-as-published (MQTT 5): the retain flag arrives as the sender set it, even on live
@@ -325,6 +370,27 @@ void mqtt_client::subscribe(const std::vector<std::string>& filters, int qos) {
     } catch (const mqtt::exception& e) {
         if (log_) log_->warn("subscribe refused: {}", e.what());
     }
+}
+
+void mqtt_client::on_subscribe_refused(const std::string& what) {
+    if (stopping_ || !connected_) return;  // a lost connection's: the next connect subscribes again
+    // A broker may refuse for a while and then take it (a cluster electing the leader of the streams
+    // behind its subscriptions): asked again until it does, the first refusal of a connection logged.
+    // Every second at first, then less often (a broker that will never allow it, an ACL).
+    const auto delay = std::min(resubscribe_delay * (1 << std::min<std::uint64_t>(resubscribe_rounds_, 5)),
+                                std::chrono::milliseconds(30'000));
+    const auto level = refused_subscribes_++ == 0 ? spdlog::level::warn : spdlog::level::debug;
+    if (log_) log_->log(level, "subscribe refused: {}; asking again in {} ms", what, delay.count());
+    if (resubscribe_pending_) return;
+    resubscribe_pending_ = true;
+    ++resubscribe_rounds_;
+    resubscribe_timer_.expires_after(delay);
+    resubscribe_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
+        auto self = weak.lock();
+        if (!self) return;
+        self->resubscribe_pending_ = false;
+        if (!ec && self->connected_) self->subscribe(self->filters_, self->filters_qos_);
+    });
 }
 
 void mqtt_client::stop(const mqtt_message_out& last, std::chrono::milliseconds timeout,

@@ -4,7 +4,9 @@
 // strand. Everything else happens on the strand.
 //
 // Connection: MQTT 5 (clean start) or 3.1.1 (clean session), the Last Will given at creation, TLS
-// for mqtts:// and ssl:// brokers. After a failed connect or a lost connection it reconnects forever
+// for mqtts:// and ssl:// brokers. With several brokers (a cluster's nodes), each attempt tries them
+// all in order; after a lost connection the next attempt starts at once with the broker after the
+// lost one (the lost one last). After a failed connect or a lost connection it reconnects forever
 // with capped exponential backoff and jitter (reconnect_backoff.hpp: reconnect_min doubling up to
 // reconnect_max, each wait drawn from its upper half), so the broker's return is noticed within
 // reconnect_max however long it was away; Paho's own
@@ -12,6 +14,7 @@
 // learns about every (re)connect. Publishes while disconnected are refused (the caller decides what
 // to keep). Publishes in flight are counted; the bridge stops taking events when too many are.
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -78,9 +81,14 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     bool connected() const { return connected_; }
     std::size_t in_flight() const { return in_flight_; }
     std::uint64_t connects() const { return connects_; }
+    // The broker it is connected to (one of mqtt.brokers, as configured); empty while disconnected.
+    const std::string& broker() const { return broker_; }
     // False (nothing sent) while disconnected or when Paho refuses it.
     bool publish(const mqtt_message_out& m);
+    // Kept: made again after a refusal while connected (after resubscribe_delay, doubling up to 30 s).
+    // The caller subscribes again after each connect.
     void subscribe(const std::vector<std::string>& filters, int qos);
+    static constexpr std::chrono::milliseconds resubscribe_delay{1000};
     // Stops reconnecting; if connected, publishes `last`, waits until it is delivered (QoS 1: the
     // broker acknowledged it) but at most `timeout`, and disconnects without waiting for anything
     // else. Calls `done` on the strand (at once when not connected).
@@ -92,11 +100,15 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
                 mqtt_client_handlers handlers, std::shared_ptr<spdlog::logger> log);
     void install_callbacks();
     void do_connect();
+    // The brokers in the order the next attempts try them: from mqtt.brokers[first] on, wrapping.
+    void try_brokers_from(std::size_t first);
+    std::string brokers_tried() const;  // for the log: "tcp://a:1883" or "any of tcp://a, tcp://b"
     void on_connect_result(bool ok, const std::string& what);
     // The warning for a failed connect, with a reason a person can act on (connect_failure.hpp); when
     // Paho gives none, after broker_probe has asked the broker itself (TCP, TLS handshake).
     void log_connect_failure(std::chrono::milliseconds wait, spdlog::level::level_enum level);
     void on_lost(std::string cause);
+    void on_subscribe_refused(const std::string& what);
     std::chrono::milliseconds schedule_reconnect();  // the wait until the attempt
     std::shared_ptr<const mqtt::message> make_paho_message(const mqtt_message_out& m) const;
     void disconnect_now();  // stop(): `last` is through or given up on
@@ -110,6 +122,12 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::shared_ptr<spdlog::logger> log_;
     boost::asio::steady_timer retry_timer_;
     boost::asio::steady_timer stop_timer_;  // bounds stop()'s waits
+    boost::asio::steady_timer resubscribe_timer_;
+    bool resubscribe_pending_ = false;
+    std::uint64_t refused_subscribes_ = 0;  // since the last connect (for the log)
+    std::uint64_t resubscribe_rounds_ = 0;  // since the last connect: the retries' backoff
+    std::vector<std::string> filters_;      // the last subscribe()'s, made again after a refusal
+    int filters_qos_ = 0;
     reconnect_backoff backoff_;
     bool connected_ = false;
     bool connecting_ = false;
@@ -118,8 +136,10 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::uint64_t failed_attempts_ = 0;  // since the last connect (for the log)
     std::size_t in_flight_ = 0;
     std::uint64_t connects_ = 0;
-    int failure_rc_ = 0;      // of the last failed action (set by the listener, on the strand)
-    int failure_reason_ = 0;  // MQTT 5 reason code of it, 0 if none
+    std::string broker_;              // connected to; empty while disconnected
+    std::vector<std::string> order_;  // the brokers the next attempt tries, in order
+    int failure_rc_ = 0;              // of the last failed action (set by the listener, on the strand)
+    int failure_reason_ = 0;          // MQTT 5 reason code of it, 0 if none
     std::unique_ptr<listener> connect_listener_;  // outlives cli_ (declared before it)
     std::unique_ptr<listener> publish_listener_;
     std::unique_ptr<listener> subscribe_listener_;

@@ -31,6 +31,7 @@ std::string birth_payload(const mqtt_birth& b) {
     j["version"] = b.version;
     j["protocol"] = b.protocol;
     j["prefix"] = b.prefix;
+    j["broker"] = b.broker;
     j["capabilities"] = capabilities(b.commands);
     j["controllers"] = b.controllers.is_array() ? b.controllers : json::array();
     j["time"] = format_timestamp(b.time);

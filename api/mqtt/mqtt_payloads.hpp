@@ -37,6 +37,7 @@ struct mqtt_birth {
     std::string version;
     std::string protocol;  // "5" or "3.1.1"
     std::string prefix;
+    std::string broker;  // the broker it is connected to (one of mqtt.brokers)
     bool commands = false;
     nlohmann::json controllers = nlohmann::json::array();  // birth_controller() entries
     std::chrono::system_clock::time_point time;

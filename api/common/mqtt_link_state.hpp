@@ -1,0 +1,38 @@
+#pragma once
+// What the MQTT bridge tells of its link to the broker, for GET /api/v1/health: written on the
+// bridge's strand, read by HTTP sessions on the I/O threads (thread-safe).
+
+#include <cstdint>
+#include <mutex>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace gw::api {
+
+class mqtt_link_state {
+  public:
+    void connected(std::string broker) {
+        std::lock_guard lock(mutex_);
+        broker_ = std::move(broker);
+        ++connects_;
+    }
+    void disconnected() {
+        std::lock_guard lock(mutex_);
+        broker_.clear();
+    }
+    // {"connected", "broker" (null while disconnected), "connects"}
+    nlohmann::json to_json() const {
+        std::lock_guard lock(mutex_);
+        return {{"connected", !broker_.empty()},
+                {"broker", broker_.empty() ? nlohmann::json(nullptr) : nlohmann::json(broker_)},
+                {"connects", connects_}};
+    }
+
+  private:
+    mutable std::mutex mutex_;
+    std::string broker_;  // the broker connected to; empty while disconnected
+    std::uint64_t connects_ = 0;
+};
+
+}  // namespace gw::api

@@ -1,0 +1,201 @@
+"""MQTT failover on a clustered broker (issue 37, first point): a 3-node NATS JetStream cluster with
+its MQTT front end (Debian's nats-server; MQTT 3.1.1, sessions and retained messages replicated on
+all three nodes) and the real asi-gateway given every node in mqtt.brokers, its reconnect settings
+left at their defaults.
+
+- The gateway tells which node it is connected to: in its log, GET /api/v1/health (mqtt.broker),
+  /metrics (gw_mqtt_broker{broker=...} 1) and its birth ("broker").
+- kill -9 of that node: the gateway connects to another node at once (not after a backoff, and not
+  after trying the dead node first) and publishes its birth and every controller's state again; a
+  watcher on the third node sees them, and says how long after the kill. The log, health, metrics
+  and birth then name the node it is on. A fresh client on any live node reads the retained birth.
+- Its command subscriptions are made again: a command through a live node is answered.
+- The same again once the first node is back (two of three must live for the cluster's quorum): the
+  node it moved to is killed, and it moves on.
+
+Command subscriptions at QoS 0 (mqtt.qos.responses 0), as the README advises for NATS: a QoS 1
+subscription there is a JetStream consumer, which the cluster cannot create for many seconds after a
+node's death, and the birth waits behind the subscriptions (the broker handles a connection's packets
+in order).
+
+Run by ctest (mqtt_cluster); by hand:
+  /usr/bin/python3 tests/integration/api/mqtt_cluster_test.py --gateway build/gateway/asi-gateway \\
+      --asyncapi openapi/asyncapi.yaml
+"""
+
+import argparse
+import json
+import os
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from gateway_fixture import TOKENS, Fixture, check, http_request, run_main, wait_until  # noqa: E402
+from mqtt_api_test import Client, Contract, Gateway, command, payload_json  # noqa: E402
+from nats_cluster import NatsCluster  # noqa: E402
+
+# Time from a node's death to the birth on another one. NATS itself needs a few seconds after the
+# death when the node led the cluster's MQTT session stream (a connect waits for its new leader:
+# about 5 s, more on a loaded machine); this bound catches a gateway that hangs on the dead node or lets its
+# command subscriptions hold the birth up (NATS creates a JetStream consumer for each QoS 1
+# subscription, which timed out for 15 s after a death: the test subscribes at QoS 0, as the README
+# advises for NATS).
+REPUBLISH_BOUND_S = 30.0
+
+
+def health_mqtt(gw):
+    status, body = http_request(gw.port, "GET", "/api/v1/health", token=None)
+    check(status == 200, f"health: {status} {body}")
+    return json.loads(body)["mqtt"]
+
+
+def broker_metric(gw):
+    """{broker: value} of gw_mqtt_broker in /metrics."""
+    status, text = http_request(gw.port, "GET", "/api/v1/metrics", token=TOKENS["viewer"])
+    check(status == 200, f"metrics: {status}")
+    out = {}
+    for line in text.splitlines():
+        if line.startswith('gw_mqtt_broker{broker="'):
+            name = line.split('"')[1]
+            out[name] = float(line.rsplit(" ", 1)[1])
+    return out
+
+
+def birth_after(watcher, gw, start, contract):
+    """The first birth (state online) of `gw` recorded from message index `start`: (arrival, payload)."""
+    topic = gw.topic("status")
+
+    def pred(t, p, retained, props):
+        return t == topic and p and payload_json(p).get("state") == "online"
+    watcher.wait_for(f"{gw.name}'s birth", pred, timeout=30, start=start)
+    with watcher.cv:
+        for arrived, m in zip(watcher.arrived[start:], watcher.messages[start:]):
+            if pred(*m):
+                contract.validate(m[0], m[1])
+                return arrived, payload_json(m[1])
+    raise AssertionError("unreachable")
+
+
+class StampedClient(Client):
+    """A 3.1.1 client that notes when each message arrived. It subscribes at QoS 0: on NATS a QoS 1
+    subscription is a JetStream consumer, which the cluster cannot create while it elects leaders."""
+
+    def __init__(self, port, name):
+        self.arrived = []
+        super().__init__(port, name, v5=False)
+
+    def subscribe(self, *filters):
+        for f in filters:
+            self.c.subscribe(f, qos=0)
+        time.sleep(0.3)
+
+    def _on_message(self, client, userdata, msg):
+        self.arrived.append(time.monotonic())
+        super()._on_message(client, userdata, msg)
+
+
+def fail_over(fx, cluster, gw, contract, label):
+    """Kills the node the gateway is on; checks it comes back through another and says so. Returns
+    the seconds from the kill to the birth a watcher saw."""
+    before = health_mqtt(gw)
+    check(before["connected"] and before["broker"] in cluster.broker_uris(), f"{label}: health before: {before}")
+    on = cluster.broker_uris().index(before["broker"])
+    dead = before["broker"]
+    watch_port = next(p for i, p in enumerate(cluster.mqtt_ports) if i != on and cluster.nodes[i].poll() is None)
+    watcher = StampedClient(watch_port, f"watcher-{label}")
+    watcher.subscribe(gw.topic("status"), gw.topic("controllers", "+", "state"))
+    mark = watcher.mark()
+    with open(gw.log_path) as f:
+        log_mark = len(f.read())
+    killed_at = time.monotonic()
+    cluster.kill(on)
+    arrived, birth = birth_after(watcher, gw, mark, contract)
+    seconds = arrived - killed_at
+    print(f"    {label}: node n{on + 1} killed; birth through {birth['broker']} after {seconds:.2f} s")
+    check(birth["broker"] != dead and birth["broker"] in cluster.broker_uris(),
+          f"{label}: the birth names a live node: {birth['broker']} (was on {dead})")
+    check(seconds < REPUBLISH_BOUND_S, f"{label}: the birth came {seconds:.1f} s after the node's death")
+    for cid in ("sim1", "sim2"):
+        topic = gw.topic("controllers", cid, "state")
+        watcher.wait_for(f"{cid}'s state again", lambda t, p, r, props, topic=topic: t == topic, timeout=10,
+                         start=mark)
+    # Its command subscriptions are in place again: a command through the watcher's node is answered.
+    reply = f"clients/{label}/replies"
+    watcher.subscribe(reply)
+    answer = command(watcher, gw.topic("controllers", "sim2", "cmd"),
+                     {"id": 1, "operation": "here", "args": {"axes": {"Y": 0}}, "token": TOKENS["operator"],
+                      "reply_to": reply}, reply, v5=False)
+    check(answer["type"] == "result" and answer["id"] == 1, f"{label}: a command after the failover: {answer}")
+    watcher.close()
+    # Health, metrics and the log name the node it is on (NATS may have moved it on once more).
+    after = health_mqtt(gw)
+    check(after["connected"] and after["broker"] != dead and after["broker"] in cluster.broker_uris()
+          and after["connects"] > before["connects"], f"{label}: health after: {after} (before: {before})")
+    metric = broker_metric(gw)
+    check(metric.get(after["broker"]) == 1 and sum(metric.values()) == 1, f"{label}: gw_mqtt_broker: {metric}")
+    with open(gw.log_path) as f:
+        log = f.read()[log_mark:]
+    check(f"connected to {after['broker']}" in log, f"{label}: the log names the node: {gw.tail(10)}")
+    # Every attempt after the loss tried the live nodes first, the dead one last.
+    for line in log.splitlines():
+        if "cannot connect to any of" in line:
+            tried = line.split("cannot connect to any of ", 1)[1].split(":", 2)
+            first_tried = ":".join(tried[:3]).split(",")[0]
+            check(first_tried != dead, f"{label}: an attempt tried the dead node first: {line}")
+    # The retained birth is there for a newcomer on any live node.
+    for i, port in enumerate(cluster.mqtt_ports):
+        if cluster.nodes[i].poll() is not None:
+            continue
+        fresh = StampedClient(port, f"fresh-{label}-{i}")
+        fresh.subscribe(gw.topic("status"))
+        fresh.wait_for(f"the retained birth on n{i + 1}",
+                       lambda t, p, retained, props: retained and payload_json(p).get("broker") == after["broker"])
+        fresh.close()
+    return seconds
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--gateway", required=True)
+    ap.add_argument("--asyncapi", required=True)
+    args = ap.parse_args()
+    contract = Contract(args.asyncapi)
+    fx = Fixture("gw-mqtt-cluster-")
+    try:
+        cluster = NatsCluster(fx.tmp, fx.procs)
+        cluster.start()
+        gw = Gateway(fx, args.gateway, "gw-cluster", cluster.broker_uris(), mqtt_extra={"protocol": "3.1.1"})
+        gw.config["mqtt"].pop("reconnect", None)  # the defaults, as a lab would run it
+        gw.config["mqtt"]["keepalive_s"] = 30
+        gw.config["mqtt"]["qos"] = {"responses": 0}
+        gw.start()
+
+        def connected():
+            h = health_mqtt(gw)
+            return h if h["connected"] else None
+        first = wait_until("connected to a node", connected)
+        fx.run("the gateway names the node it is on (health, metrics, log)", lambda: (
+            check(first["broker"] in cluster.broker_uris(), f"health: {first}"),
+            check(broker_metric(gw).get(first["broker"]) == 1, f"metrics: {broker_metric(gw)}"),
+            check(f"connected to {first['broker']}" in open(gw.log_path).read(), "log"),
+        ))
+        fx.run("kill -9 of its node: birth and states through another node at once",
+               lambda: fail_over(fx, cluster, gw, contract, "first"))
+        def second():
+            # The dead node back first: two of three must live for the cluster's quorum.
+            dead = next(i for i, p in enumerate(cluster.nodes) if p.poll() is not None)
+            cluster.start_node(dead)
+            wait_until(f"n{dead + 1} back in the cluster", lambda: cluster.rejoined(dead), timeout=60)
+            fail_over(fx, cluster, gw, contract, "second")
+        fx.run("n1 back, then kill -9 of the node it moved to: it moves on again", second)
+        if fx.failures:
+            print("---- gateway log (tail) ----\n" + gw.tail(60))
+            for i in range(len(cluster.nodes)):
+                print(f"---- n{i + 1} (tail) ----\n" + cluster.tail(i, 8))
+        return fx.report()
+    finally:
+        fx.cleanup()
+
+
+if __name__ == "__main__":
+    run_main(main)
