@@ -79,7 +79,8 @@ def test_flags_and_startup_line(fx, gateway, version):
                                     "--storage", "../flag-store", "--sim-dir", os.path.join(fx.tmp, "sims1")],
                       base_env(HOME=os.path.join(fx.tmp, "home-unused")), cwd)
     status, body = http_request(port, "GET", "/api/v1/health", token=None)
-    check(status == 200 and json.loads(body) == {"status": "ok", "version": version}, f"health: {status} {body}")
+    check(status == 200 and json.loads(body) == {"status": "ok", "version": version, "mqtt": None},
+          f"health (MQTT off): {status} {body}")
     v, url, storage, controllers = serving_line(log)
     check(v == version, f"start-up line version {v}")
     check(url == f"http://127.0.0.1:{port}/", f"URL {url}")

@@ -53,6 +53,7 @@ class NatsCluster:
         self.route_ports = ports[nodes:2 * nodes]
         self.mqtt_ports = ports[2 * nodes:3 * nodes]
         self.nodes = [None] * nodes
+        self.restarted = set()  # nodes started again after a kill
         for i in range(nodes):
             self._write_config(i)
 
@@ -77,6 +78,8 @@ mqtt {{ listen: 127.0.0.1:{self.mqtt_ports[i]}, stream_replicas: {len(self.nodes
         return [f"tcp://127.0.0.1:{p}" for p in self.mqtt_ports]
 
     def start_node(self, i):
+        if self.nodes[i] is not None:
+            self.restarted.add(i)
         log = open(self.log(i), "a")
         self.nodes[i] = subprocess.Popen([NATS_SERVER, "-c", self.conf(i)], stdout=log, stderr=subprocess.STDOUT)
         log.close()
