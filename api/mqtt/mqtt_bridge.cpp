@@ -188,13 +188,8 @@ void mqtt_bridge::close(std::string reason) {
 
 void mqtt_bridge::on_connected() {
     if (stopped_) return;
-    if (ctx_->metrics) {
-        ctx_->metrics->set("gw_mqtt_connected", {}, 1);
-        ctx_->metrics->increment("gw_mqtt_connects_total", {});
-        for (const auto& broker : settings_.config.brokers)
-            ctx_->metrics->set("gw_mqtt_broker", {{"broker", broker}}, broker == client_->broker() ? 1 : 0);
-    }
-    if (ctx_->mqtt_link) ctx_->mqtt_link->connected(client_->broker());
+    if (ctx_->metrics) ctx_->metrics->increment("gw_mqtt_connects_total", {});
+    show_link();
     // Subscribe before the birth: the broker handles one connection's packets in order, so a client
     // that sees the birth and sends a command at once finds the subscription in place.
     if (commands_) client_->subscribe(topics_.command_filters(), settings_.config.qos.responses);
@@ -224,13 +219,22 @@ void mqtt_bridge::on_connected() {
 }
 
 void mqtt_bridge::on_disconnected() {
-    if (ctx_->metrics) {
-        ctx_->metrics->set("gw_mqtt_connected", {}, 0);
-        for (const auto& broker : settings_.config.brokers)
-            ctx_->metrics->set("gw_mqtt_broker", {{"broker", broker}}, 0);
-    }
-    if (ctx_->mqtt_link) ctx_->mqtt_link->disconnected();
+    show_link();
     maybe_request_more();  // nothing is in flight any more: keep draining the hub
+}
+
+void mqtt_bridge::show_link() {
+    const auto& on = client_->broker();  // empty while disconnected
+    if (ctx_->metrics) {
+        ctx_->metrics->set("gw_mqtt_connected", {}, on.empty() ? 0 : 1);
+        for (const auto& broker : settings_.config.brokers)
+            ctx_->metrics->set("gw_mqtt_broker", {{"broker", broker}}, broker == on ? 1 : 0);
+    }
+    if (!ctx_->mqtt_link) return;
+    if (on.empty())
+        ctx_->mqtt_link->disconnected();
+    else
+        ctx_->mqtt_link->connected(on);
 }
 
 void mqtt_bridge::publish_birth() {

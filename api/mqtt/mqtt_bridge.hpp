@@ -106,6 +106,8 @@ class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_
 
     void on_connected();
     void on_disconnected();
+    // The link as it is now (connected or not, and to which broker) in /metrics and for /api/v1/health.
+    void show_link();
     void on_deliver(const std::vector<std::shared_ptr<const event>>& batch);
     void open_batch_window();
     void on_state(const std::string& id, const std::shared_ptr<const event>& e);
