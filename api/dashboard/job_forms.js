@@ -106,8 +106,7 @@ class NewJob {
       gcodeFiles: () => this.gcodeFiles,
     });
     // Every type of this form can record its run (spec.record): the frames of the report port.
-    const record = this.fields.checkbox("spec.record", "Record each trigger's stage position",
-                                        { hint: "a recording of the run (needs a controller with a report port)" });
+    const record = this.fields.checkbox("spec.record", "Record each trigger's stage position (needs a report port)");
     this.typeHost.replaceChildren(this.form.root, record);
     this.formEl.dataset.type = type.type;
     this.invalidate();
