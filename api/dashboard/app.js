@@ -16,6 +16,7 @@ route("/gcode", () => import("./gcode_view.js"));
 route("/audit", () => import("./audit_view.js"));
 route("/recordings", () => import("./recordings_view.js"));
 route("/recordings/:id", () => import("./recording_view.js"));
+route("/fleet", () => import("./fleet_view.js"));
 
 let started = false;
 

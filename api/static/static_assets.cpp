@@ -20,10 +20,12 @@ bool names_the_page_folder(std::string_view path) {
 }
 
 // Only this origin; no inline script or style, no plugins, not framed. 'self' covers ws:/wss: to the
-// same host in CSP Level 3 browsers.
+// same host in CSP Level 3 browsers. connect-src also allows ws: and wss: anywhere (WebSockets only,
+// no fetch to other origins): the fleet view (#/fleet) opens the MQTT broker's WebSocket listener,
+// whose host and port the person types in and cannot be known here.
 constexpr std::string_view content_security_policy =
     "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
-    "connect-src 'self'; object-src 'none'; base-uri 'none'; frame-ancestors 'none'; form-action 'self'";
+    "connect-src 'self' ws: wss:; object-src 'none'; base-uri 'none'; frame-ancestors 'none'; form-action 'self'";
 
 std::string_view content_type_of(std::string_view name) {
     auto ends = [&](std::string_view ext) { return name.ends_with(ext); };
