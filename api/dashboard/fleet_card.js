@@ -15,7 +15,8 @@ function onlineBadge(gw) {
 function statusLine(gw) {
   if (gw.online === false) {
     const when = gw.offline.time ? ` at ${formatTime(gw.offline.time)}` : "";
-    return el("div", { class: "fleet-offline-reason", role: "status" }, `offline: ${gw.offline.reason}${when}`);
+    return el("div", {}, el("div", { class: "fleet-offline-reason", role: "status" }, `offline: ${gw.offline.reason}${when}`),
+              el("div", { class: "meta" }, "its controllers and jobs as it last published them"));
   }
   if (gw.online === true) {
     const b = gw.birth;

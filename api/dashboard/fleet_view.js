@@ -112,7 +112,7 @@ class FleetView {
     const online = all.filter((g) => g.online === true).length;
     const jobs = all.reduce((n, g) => n + g.jobs.size, 0);
     this.summary.textContent = all.length
-      ? `${all.length} gateways: ${online} online, ${all.length - online} offline or unknown; ${jobs} jobs running`
+      ? `${all.length} gateways: ${online} online, ${all.length - online} offline or unknown; ${jobs} job${jobs === 1 ? "" : "s"} running`
       : "";
     this.empty.hidden = all.length > 0;
     this.capped.hidden = !this.fleet.capped;
