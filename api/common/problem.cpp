@@ -46,6 +46,8 @@ kind_info info(operation_error_kind k) {
             return {409, "Job active"};
         case unknown_recording:
             return {404, "Unknown recording"};
+        case stale_command:
+            return {408, "Stale command"};
         case internal:
             break;
     }

@@ -93,7 +93,8 @@ void mqtt_bridge::start() {
             },
             c.command_max_payload_bytes,
             mqtt_commands::authentication{c.command_signing_keys, c.command_signature_window,
-                                          c.accept_bearer_tokens});
+                                          c.accept_bearer_tokens},
+            mqtt_commands::freshness{c.command_max_age, c.command_redelivery_window});
     }
     net::post(strand_, [self = shared_from_this()] {
         self->subscribe_hub();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <chrono>
 #include <cstdint>
 #include <mqtt/async_client.h>
 #include <random>
@@ -14,6 +15,7 @@
 #include "api/mqtt/broker_probe.hpp"
 #include "api/mqtt/connect_failure.hpp"
 #include "api/mqtt/tcp_nodelay.hpp"
+#include "gateway/common/timestamp.hpp"
 
 namespace gw::api {
 
@@ -204,12 +206,15 @@ void mqtt_client::install_callbacks() {
         in.topic = msg->get_topic();
         in.payload = msg->get_payload_str();
         in.retained = msg->is_retained();
+        in.received_ms = epoch_ms(std::chrono::system_clock::now());
         const auto& props = msg->get_properties();
         try {
             if (props.contains(mqtt::property::RESPONSE_TOPIC))
                 in.response_topic = mqtt::get<std::string>(props, mqtt::property::RESPONSE_TOPIC);
             if (props.contains(mqtt::property::CORRELATION_DATA))
                 in.correlation_data = mqtt::get<std::string>(props, mqtt::property::CORRELATION_DATA);
+            if (props.contains(mqtt::property::MESSAGE_EXPIRY_INTERVAL))
+                in.expiry_s = mqtt::get<std::uint32_t>(props, mqtt::property::MESSAGE_EXPIRY_INTERVAL);
         } catch (const std::exception&) {
             // a property of an unexpected type: treated as absent
         }

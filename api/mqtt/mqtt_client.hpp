@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,8 @@ struct mqtt_message_in {
     std::string response_topic;    // MQTT 5 property, "" when absent
     std::string correlation_data;  // MQTT 5 property, "" when absent
     bool retained = false;
+    std::optional<std::uint32_t> expiry_s;  // MQTT 5 message expiry interval (what was left of it)
+    std::int64_t received_ms = 0;           // Unix ms, when Paho handed it over
 };
 
 struct mqtt_message_out {

@@ -9,6 +9,7 @@
 #include <spdlog/logger.h>
 
 #include "api/calls/job_requests.hpp"
+#include "api/mqtt/command_deadline.hpp"
 #include "api/mqtt/mqtt_request.hpp"
 #include "api/ws/websocket_protocol.hpp"
 #include "gateway/common/metrics.hpp"
@@ -19,9 +20,29 @@ namespace gw::api {
 namespace net = boost::asio;
 using nlohmann::json;
 
+namespace {
+
+// The call a parsed request asks for (a copy: the request is still needed for its answer).
+std::optional<call> call_of(const mqtt_request& r) {
+    if (const auto* command = std::get_if<command_message>(&r.message))
+        return to_call(command_message(*command));
+    if (const auto* job = std::get_if<job_message>(&r.message)) return to_call(job_message(*job));
+    if (const auto* gcode = std::get_if<gcode_message>(&r.message)) return to_call(gcode_message(*gcode));
+    if (std::holds_alternative<halt_all_message>(r.message)) return halt_all_call{};
+    return std::nullopt;  // parse_mqtt_request only builds commands, jobs, G-code checks and HALT ALL
+}
+
+std::optional<std::string> lease_of(const mqtt_request& r) {
+    if (const auto* command = std::get_if<command_message>(&r.message)) return command->lease;
+    if (const auto* job = std::get_if<job_message>(&r.message)) return job->lease;
+    return std::nullopt;
+}
+
+}  // namespace
+
 mqtt_commands::mqtt_commands(std::shared_ptr<api_context> ctx, mqtt_topics topics, int response_qos, strand s,
                              publish_fn publish, std::size_t max_payload_bytes, authentication auth,
-                             std::size_t max_in_flight)
+                             freshness fresh, std::size_t max_in_flight)
     : ctx_(std::move(ctx)),
       topics_(std::move(topics)),
       response_qos_(response_qos),
@@ -30,6 +51,8 @@ mqtt_commands::mqtt_commands(std::shared_ptr<api_context> ctx, mqtt_topics topic
       max_payload_bytes_(max_payload_bytes),
       auth_(std::move(auth)),
       replays_(auth_.signature_window, max_remembered_signatures),
+      freshness_(fresh),
+      delivered_(fresh.redelivery_window, max_remembered_ids),
       max_in_flight_(max_in_flight) {}
 
 mqtt_commands::reply_target mqtt_commands::reply_for(const mqtt_message_in& in,
@@ -76,10 +99,11 @@ void mqtt_commands::handle(const mqtt_message_in& in) {
                         std::to_string(max_payload_bytes_) + ")");
     std::optional<auth_identity> who;
     std::optional<mqtt_envelope> envelope;
+    std::optional<std::int64_t> signed_ts_ms;
     if (looks_signed(in.payload)) {
         auto verified = verify_signed(in);
         if (!verified) return;
-        auto opened = open_mqtt_envelope(verified->second, max_payload_bytes_);
+        auto opened = open_mqtt_envelope(verified->body, max_payload_bytes_);
         if (!opened) return drop(in.topic, "unreadable", "the signed body: " + opened.error());
         if (!opened->token.empty()) {
             // Known sender, so answered: a token next to a signature is a token published for nothing.
@@ -89,8 +113,9 @@ void mqtt_commands::handle(const mqtt_message_in& in) {
                                              "token"));
             return answer_error(reply_for(in, std::nullopt), json(), std::move(p), in.topic);
         }
-        who = std::move(verified->first);
+        who = std::move(verified->sender);
         envelope = std::move(*opened);
+        signed_ts_ms = verified->ts_ms;
     } else {
         if (!auth_.accept_bearer_tokens)
             return drop(in.topic, "unauthenticated",
@@ -119,20 +144,75 @@ void mqtt_commands::handle(const mqtt_message_in& in) {
     }
     auto& request = *parsed;
     const auto to = reply_for(in, request.reply_to);
-    // The bound on commands running at once never holds back a HALT.
-    const auto* command = std::get_if<command_message>(&request.message);
-    const bool halt = std::holds_alternative<halt_all_message>(request.message) ||
-                      (command && command->operation == "halt");
-    if (in_flight_ >= max_in_flight_ && !halt) {
+    auto c = call_of(request);
+    if (!c) return;
+    // A HALT is never held back: not for its age, the bound, or as a repeat.
+    if (is_emergency_stop(*c)) return run(std::move(*c), request, *who, to);
+    if (refused_as_late(request, *c, in, signed_ts_ms, to)) return;
+    if (in_flight_ >= max_in_flight_) {
         auto p = make_problem(make_error(
             operation_error_kind::queue_full,
             "too many MQTT commands running (" + std::to_string(max_in_flight_) + "); try again later"));
         return answer_error(to, request.id, std::move(p), in.topic);
     }
-    run(request, *who, to);
+    // After the refusals above, so that a command refused for now can be sent again under its id.
+    if (is_redelivery(request, *who, in, to)) return;
+    run(std::move(*c), request, *who, to);
 }
 
-std::optional<std::pair<auth_identity, std::string>> mqtt_commands::verify_signed(const mqtt_message_in& in) {
+bool mqtt_commands::refused_as_late(const mqtt_request& request, const call& c, const mqtt_message_in& in,
+                                    std::optional<std::int64_t> signed_ts_ms, const reply_target& to) {
+    const auto deadline = earliest_deadline({in.received_ms, in.expiry_s, request.not_after_ms, signed_ts_ms},
+                                            freshness_.max_age);
+    if (!deadline) {
+        // A read may come late; a change (a move above all) must say until when it may run.
+        if (!descriptor_of(c).audited) return false;
+        auto p = make_problem(make_error(operation_error_kind::invalid_value,
+                                         "a command that changes something needs a deadline over MQTT: "
+                                         "\"not_after\" (Unix milliseconds) or MQTT 5 message expiry",
+                                         "not_after"));
+        answer_error(to, request.id, std::move(p), in.topic);
+        return true;
+    }
+    const auto now_ms = epoch_ms(std::chrono::system_clock::now());
+    if (now_ms <= deadline->at_ms) return false;
+    auto p = make_problem(make_error(operation_error_kind::stale_command,
+                                     "not run: it arrived " + std::to_string(now_ms - deadline->at_ms) +
+                                         " ms after its deadline (" + std::string(deadline->source) + ")"));
+    answer_error(to, request.id, std::move(p), in.topic);
+    return true;
+}
+
+bool mqtt_commands::is_redelivery(const mqtt_request& request, const auth_identity& who,
+                                  const mqtt_message_in& in, const reply_target& to) {
+    std::string key;
+    if (request.id_given)
+        key = "id " + request.id.dump();
+    else if (!in.correlation_data.empty())
+        key = "correlation " + in.correlation_data;
+    else
+        return false;  // nothing to know it by: a command without id or correlation data
+    const auto now_ms = epoch_ms(std::chrono::system_clock::now());
+    switch (delivered_.admit(who.name, key, now_ms, now_ms)) {
+        case replay_window::verdict::fresh:
+        case replay_window::verdict::stale:  // not with ts = now
+            return false;
+        case replay_window::verdict::replayed:
+            drop(in.topic, "duplicate", who.name + "'s command " + key + " was taken before (a redelivery?)");
+            return true;
+        case replay_window::verdict::full: {
+            // Not knowing a redelivery again, the gateway would risk running one twice: refused.
+            auto p = make_problem(make_error(operation_error_kind::queue_full,
+                                             "too many commands within mqtt.commands.redelivery_window_s to "
+                                             "remember; try again later"));
+            answer_error(to, request.id, std::move(p), in.topic);
+            return true;
+        }
+    }
+    return false;
+}
+
+std::optional<mqtt_commands::verified_command> mqtt_commands::verify_signed(const mqtt_message_in& in) {
     auto signed_command = read_signed_command(in.payload);
     if (!signed_command) {
         drop(in.topic, "unreadable", signed_command.error());
@@ -151,22 +231,22 @@ std::optional<std::pair<auth_identity, std::string>> mqtt_commands::verify_signe
     }
     const auto now_ms = epoch_ms(std::chrono::system_clock::now());
     switch (replays_.admit(c.key, c.nonce, c.ts_ms, now_ms)) {
-        case signature_replay_guard::verdict::fresh:
+        case replay_window::verdict::fresh:
             break;
-        case signature_replay_guard::verdict::stale:
+        case replay_window::verdict::stale:
             drop(in.topic, "unauthenticated",
                  "ts " + std::to_string(c.ts_ms) + " is " + std::to_string((now_ms - c.ts_ms) / 1000) +
                      " s from the gateway's clock, outside mqtt.commands.signature_window_s (clocks in "
                      "sync?)");
             return std::nullopt;
-        case signature_replay_guard::verdict::replayed:
+        case replay_window::verdict::replayed:
             drop(in.topic, "replayed", "key \"" + c.key + "\" used nonce " + c.nonce + " before");
             return std::nullopt;
-        case signature_replay_guard::verdict::full:
+        case replay_window::verdict::full:
             drop(in.topic, "replayed", "too many signed commands within the window to remember");
             return std::nullopt;
     }
-    return std::make_pair(auth_identity{key->name, key->role}, std::move(c.body));
+    return verified_command{auth_identity{key->name, key->role}, std::move(c.body), c.ts_ms};
 }
 
 void mqtt_commands::drop(std::string_view topic, std::string_view outcome, const std::string& why) {
@@ -182,33 +262,14 @@ void mqtt_commands::drop(std::string_view topic, std::string_view outcome, const
     ++dropped_;
 }
 
-void mqtt_commands::run(mqtt_request& request, const auth_identity& who, const reply_target& to) {
-    const auto request_id = mqtt_request_id(request.id);
-    const std::string topic = topics_.command(request.target);
-    // The same dispatch as REST and WebSocket: role, lease, validation, request id.
-    std::optional<call> c;
-    json id;
-    std::optional<std::string> lease;
-    if (auto* command = std::get_if<command_message>(&request.message)) {
-        id = command->id;
-        lease = command->lease;
-        c = to_call(std::move(*command));
-    } else if (auto* job = std::get_if<job_message>(&request.message)) {
-        id = job->id;
-        lease = job->lease;
-        c = to_call(std::move(*job));
-    } else if (auto* gcode = std::get_if<gcode_message>(&request.message)) {
-        id = gcode->id;
-        c = to_call(std::move(*gcode));
-    } else if (auto* halt = std::get_if<halt_all_message>(&request.message)) {
-        id = halt->id;
-        c = halt_all_call{};
-    } else {
-        return;  // parse_mqtt_request only builds commands, jobs, G-code checks and HALT ALL
-    }
+void mqtt_commands::run(call c, const mqtt_request& request, const auth_identity& who,
+                        const reply_target& to) {
     ++in_flight_;
-    dispatch_call(*ctx_, caller{who.name, who.role, request_id, std::move(lease), "mqtt", {}}, std::move(*c),
-                  net::bind_executor(strand_, [self = shared_from_this(), to, id, topic](api_outcome out) {
+    dispatch_call(*ctx_,
+                  caller{who.name, who.role, mqtt_request_id(request.id), lease_of(request), "mqtt", {}},
+                  std::move(c),
+                  net::bind_executor(strand_, [self = shared_from_this(), to, id = request.id,
+                                               topic = topics_.command(request.target)](api_outcome out) {
                       --self->in_flight_;
                       if (out.error) return self->answer_error(to, id, std::move(*out.error), topic);
                       self->answer(to, call_result_message(id, out.body, out.replayed), "ok");

@@ -12,7 +12,15 @@
 // signature does not hold (unknown key, wrong signature, ts outside the window, a nonce used before)
 // or, without a signature, without a bearer token the gateway takes, is dropped unanswered (counted,
 // logged at most once a second): an unauthenticated sender gets nothing published. At most max_in_flight
-// commands run at once; more are refused with 503. On the bridge's strand only.
+// commands run at once; more are refused with 503.
+//
+// Commands never run late (api/mqtt/command_deadline.hpp): one that arrives after its deadline is
+// answered stale-command (408) and not run; one that changes something and carries no deadline (an
+// unsigned command without MQTT 5 message expiry or "not_after") is refused (422, field not_after).
+// A command is run and answered once: a second delivery of a (sender, id), or of a (sender, MQTT 5
+// correlation data) when it has no id, within freshness.redelivery_window (a QoS 1 redelivery after a
+// failover, a bridge's resend) is dropped unanswered and counted as "duplicate". A HALT is never
+// refused: not for its age, nor for the bound, nor as a duplicate. On the bridge's strand only.
 
 #include <chrono>
 #include <cstddef>
@@ -28,12 +36,14 @@
 #include <boost/asio/strand.hpp>
 #include <nlohmann/json.hpp>
 
+#include "api/calls/calls.hpp"
 #include "api/common/api_context.hpp"
 #include "api/common/auth.hpp"
 #include "api/common/problem.hpp"
 #include "api/mqtt/mqtt_client.hpp"
 #include "api/mqtt/mqtt_signature.hpp"
 #include "api/mqtt/mqtt_topics.hpp"
+#include "api/mqtt/replay_window.hpp"
 #include "gateway/config/config.hpp"
 
 namespace gw::api {
@@ -50,11 +60,17 @@ class mqtt_commands : public std::enable_shared_from_this<mqtt_commands> {
         std::chrono::milliseconds signature_window{30000};
         bool accept_bearer_tokens = false;
     };
-    // Signed commands remembered for replay checks at most (api/mqtt/mqtt_signature.hpp).
+    struct freshness {
+        std::chrono::milliseconds max_age{10000};  // a signed command's deadline: ts + max_age
+        std::chrono::milliseconds redelivery_window{600000};
+    };
+    // Signed commands remembered for replay checks at most (api/mqtt/mqtt_signature.hpp), and
+    // command ids for redelivery checks.
     static constexpr std::size_t max_remembered_signatures = 100000;
+    static constexpr std::size_t max_remembered_ids = 100000;
 
     mqtt_commands(std::shared_ptr<api_context> ctx, mqtt_topics topics, int response_qos, strand s,
-                  publish_fn publish, std::size_t max_payload_bytes, authentication auth,
+                  publish_fn publish, std::size_t max_payload_bytes, authentication auth, freshness fresh,
                   std::size_t max_in_flight = 64);
 
     // A message on one of the command topics.
@@ -68,13 +84,24 @@ class mqtt_commands : public std::enable_shared_from_this<mqtt_commands> {
         std::string correlation_data;
     };
     reply_target reply_for(const mqtt_message_in& in, const std::optional<std::string>& reply_to) const;
-    void run(mqtt_request& request, const auth_identity& who, const reply_target& to);
+    // Why `request` may not run now (stale, no deadline), answered; false when it may.
+    bool refused_as_late(const mqtt_request& request, const call& c, const mqtt_message_in& in,
+                         std::optional<std::int64_t> signed_ts_ms, const reply_target& to);
+    // Whether this delivery repeats one taken before (then dropped, counted).
+    bool is_redelivery(const mqtt_request& request, const auth_identity& who, const mqtt_message_in& in,
+                       const reply_target& to);
+    void run(call c, const mqtt_request& request, const auth_identity& who, const reply_target& to);
     void answer(const reply_target& to, std::string payload, std::string_view outcome);
     void answer_error(const reply_target& to, const nlohmann::json& id, problem p, std::string_view topic);
     void count(std::string_view outcome);
     void drop(std::string_view topic, std::string_view outcome, const std::string& why);
-    // The sender of a signed payload, and the command's JSON text; nullopt when dropped.
-    std::optional<std::pair<auth_identity, std::string>> verify_signed(const mqtt_message_in& in);
+    struct verified_command {
+        auth_identity sender;
+        std::string body;  // the command's JSON text
+        std::int64_t ts_ms = 0;
+    };
+    // The sender of a signed payload, and the command; nullopt when dropped.
+    std::optional<verified_command> verify_signed(const mqtt_message_in& in);
 
     std::shared_ptr<api_context> ctx_;
     mqtt_topics topics_;
@@ -83,7 +110,9 @@ class mqtt_commands : public std::enable_shared_from_this<mqtt_commands> {
     publish_fn publish_;
     std::size_t max_payload_bytes_;
     authentication auth_;
-    signature_replay_guard replays_;
+    replay_window replays_;
+    freshness freshness_;
+    replay_window delivered_;  // (sender, id) of commands taken
     std::size_t max_in_flight_;
     std::size_t in_flight_ = 0;
     std::uint64_t dropped_ = 0;

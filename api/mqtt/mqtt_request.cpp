@@ -64,6 +64,16 @@ boost::system::result<mqtt_request, mqtt_request_error> parse_mqtt_request(const
         reply_to = it->get<std::string>();
         msg.erase(it);
     }
+    std::optional<std::int64_t> not_after;
+    if (auto it = msg.find("not_after"); it != msg.end()) {
+        // Integers only: a float or a string would be a guess at the unit.
+        if (!it->is_number_integer() || it->get<std::int64_t>() < 0)
+            return invalid(id, reply_to, topic, "not_after",
+                           "\"not_after\" must be Unix milliseconds (an integer): the time after which the "
+                           "command must not run");
+        not_after = it->get<std::int64_t>();
+        msg.erase(it);
+    }
     // What the topic says may not be said again in the payload.
     const bool for_controller = target.kind == mqtt_command_kind::controller;
     for (const char* from_topic : {"op", "controller", "action"}) {
@@ -88,7 +98,13 @@ boost::system::result<mqtt_request, mqtt_request_error> parse_mqtt_request(const
         e.error.instance = std::string(topic);
         return mqtt_request_error{e.id.is_null() ? id : e.id, reply_to, std::move(e.error)};
     }
-    return mqtt_request{target, std::move(envelope.token), std::move(reply_to), std::move(*parsed), id};
+    return mqtt_request{target,
+                        std::move(envelope.token),
+                        std::move(reply_to),
+                        std::move(*parsed),
+                        id,
+                        given.is_string() || given.is_number_integer(),
+                        not_after};
 }
 
 std::string mqtt_request_id(const json& id) {

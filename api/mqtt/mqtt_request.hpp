@@ -4,7 +4,8 @@
 // The payload is the WebSocket message without "op" (and without "controller" / "action", which the
 // topic gives), plus the MQTT envelope fields "token" and "reply_to":
 //   <base>/controllers/sim1/cmd   {"id":"c7","operation":"move","args":{"axes":{"X":1000}},
-//                                  "lease":"l-...","token":"<bearer token>","reply_to":"me/replies"}
+//                                  "lease":"l-...","token":"<bearer token>","reply_to":"me/replies",
+//                                  "not_after":1796545200000}
 //   <base>/jobs/submit            {"id":"s1","args":{"controller":"sim1","type":"array","spec":{...}},
 //                                  "idempotency_key":"plate-7","dry_run":false,"token":"..."}
 //   <base>/jobs/cancel|pause|resume|next   {"id":"x","job":"j-...","lease":"l-...","token":"..."}
@@ -12,6 +13,8 @@
 // operation names, lease and idempotency keys are exactly those of REST and WebSocket. "id" is
 // optional here (MQTT 5 clients correlate by correlation data); without it the gateway names the
 // request "mqtt-<n>" and echoes that.
+// "not_after" (Unix milliseconds) is the time after which the command must not run
+// (api/mqtt/command_deadline.hpp).
 // Answers go to the MQTT 5 response topic, else to "reply_to" (3.1.1 clients); the response is the
 // WebSocket "result" or "error" message.
 //
@@ -23,6 +26,7 @@
 //   2. the caller authenticates the token (a failure is not answered either), then
 //      parse_mqtt_request reads the rest; its errors are answered.
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -44,6 +48,8 @@ struct mqtt_request {
     std::optional<std::string> reply_to;  // the payload's reply_to, already checked
     ws_client_message message;            // command_message or job_message
     nlohmann::json id;                    // the message id (given or generated)
+    bool id_given = false;                // the payload named it (so a redelivery can be known)
+    std::optional<std::int64_t> not_after_ms;
 };
 
 struct mqtt_request_error {

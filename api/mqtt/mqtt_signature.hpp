@@ -10,17 +10,14 @@
 // "key" names an entry of mqtt.commands.signing_keys (its role is the sender's role), "ts" is the
 // sender's clock in milliseconds since the Unix epoch, "nonce" 8-64 characters of [A-Za-z0-9_-] used
 // once. The gateway takes a command whose ts is within the window of its own clock and whose
-// (key, nonce) it has not seen within the window (signature_replay_guard); the topic is signed, so a
+// (key, nonce) it has not seen within the window (api/mqtt/replay_window.hpp); the topic is signed, so a
 // command cannot be replayed to another controller. The body is parsed only after all of that.
 
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
-#include <deque>
-#include <set>
 #include <string>
 #include <string_view>
-#include <utility>
 #include <vector>
 
 #include <boost/system/result.hpp>
@@ -51,28 +48,5 @@ std::string hmac_sha256_hex(const std::vector<std::uint8_t>& key, std::string_vi
 
 // Whether `sig` is the signature of `text` under `key`, compared in constant time.
 bool signature_matches(const std::vector<std::uint8_t>& key, std::string_view text, std::string_view sig);
-
-// Remembers the (key, nonce) pairs of accepted commands while their ts is within the window, so
-// that a captured command is refused when published again. Bounded: with max_entries remembered
-// and none expired, a new command is refused (the sender holds a key, so this is no anonymous cost).
-class signature_replay_guard {
-  public:
-    enum class verdict : std::uint8_t { fresh, stale, replayed, full };
-
-    signature_replay_guard(std::chrono::milliseconds window, std::size_t max_entries)
-        : window_(window), max_entries_(max_entries) {}
-
-    // `now_ms`: the gateway's clock, ms since the epoch. Remembers the pair when fresh.
-    verdict admit(const std::string& key, const std::string& nonce, std::int64_t ts_ms, std::int64_t now_ms);
-    std::size_t remembered() const { return seen_.size(); }
-
-  private:
-    void forget_before(std::int64_t cutoff_ms);
-
-    std::chrono::milliseconds window_;
-    std::size_t max_entries_;
-    std::set<std::pair<std::string, std::string>> seen_;
-    std::deque<std::pair<std::int64_t, std::pair<std::string, std::string>>> by_expiry_;  // admit order
-};
 
 }  // namespace gw::api

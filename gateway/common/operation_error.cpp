@@ -40,6 +40,8 @@ std::string_view to_string(operation_error_kind kind) {
             return "job_active";
         case operation_error_kind::unknown_recording:
             return "unknown_recording";
+        case operation_error_kind::stale_command:
+            return "stale_command";
         case operation_error_kind::internal:
             return "internal";
     }

@@ -28,6 +28,7 @@ enum class operation_error_kind : std::uint8_t {
     halted,               // a HALT stopped it: a job's command after a HALT it did not see (409)
     job_active,           // a job runs on (or holds) the controller; its lease holder alone may (409)
     unknown_recording,    // no recording with that id (404)
+    stale_command,        // an MQTT command that arrived after its deadline: not run (408)
     internal,             // a bug or an unexpected condition (500)
 };
 

@@ -549,9 +549,9 @@ void read_mqtt(const json& j, mqtt_config& out) {
                 std::chrono::seconds(read_uint(*v, t.path("retain_finished_s"), 0, 604800));
     }
     if (auto* cj = r.get("commands")) {
-        object_reader t(
-            *cj, "mqtt.commands",
-            {"enabled", "max_payload_bytes", "signing_keys", "signature_window_s", "accept_bearer_tokens"});
+        object_reader t(*cj, "mqtt.commands",
+                        {"enabled", "max_payload_bytes", "signing_keys", "signature_window_s",
+                         "accept_bearer_tokens", "max_age_s", "redelivery_window_s"});
         if (auto* v = t.get("enabled")) out.commands_enabled = read_bool(*v, t.path("enabled"));
         if (auto* v = t.get("max_payload_bytes"))
             out.command_max_payload_bytes =
@@ -563,6 +563,11 @@ void read_mqtt(const json& j, mqtt_config& out) {
                 std::chrono::seconds(read_uint(*v, t.path("signature_window_s"), 1, 600));
         if (auto* v = t.get("accept_bearer_tokens"))
             out.accept_bearer_tokens = read_bool(*v, t.path("accept_bearer_tokens"));
+        if (auto* v = t.get("max_age_s"))
+            out.command_max_age = std::chrono::seconds(read_uint(*v, t.path("max_age_s"), 1, 600));
+        if (auto* v = t.get("redelivery_window_s"))
+            out.command_redelivery_window =
+                std::chrono::seconds(read_uint(*v, t.path("redelivery_window_s"), 1, 86400));
     }
 }
 

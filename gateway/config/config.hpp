@@ -199,6 +199,10 @@ struct mqtt_config {
     // Commands are signed with one of these keys (HMAC-SHA256, a short window, no replays).
     std::vector<mqtt_signing_key> command_signing_keys;
     std::chrono::seconds command_signature_window{30};
+    // A signed command's deadline: its ts plus this (api/mqtt/command_deadline.hpp).
+    std::chrono::seconds command_max_age{10};
+    // A command's (sender, id) is remembered this long: a QoS 1 redelivery of it is not run again.
+    std::chrono::seconds command_redelivery_window{600};
     // Also take a bearer token of auth.tokens in a payload ("token"); only with TLS brokers, since
     // whoever reads the command topics could use the token on REST.
     bool accept_bearer_tokens = false;

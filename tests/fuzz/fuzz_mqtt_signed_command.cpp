@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "api/mqtt/mqtt_signature.hpp"
+#include "api/mqtt/replay_window.hpp"
 
 namespace {
 
@@ -44,7 +45,7 @@ void envelope(std::string_view payload) {
 void replays(std::string_view steps) {
     constexpr std::size_t bound = 8;
     constexpr std::int64_t window = 1000;
-    gw::api::signature_replay_guard guard(std::chrono::milliseconds(window), bound);
+    gw::api::replay_window guard(std::chrono::milliseconds(window), bound);
     std::int64_t now = 100'000;
     std::vector<std::pair<std::string, std::int64_t>> admitted;
     for (std::size_t i = 0; i + 1 < steps.size(); i += 2) {
@@ -54,7 +55,7 @@ void replays(std::string_view steps) {
         const auto ts = now + (static_cast<std::int64_t>(b >> 6) - 2) * 600;  // -1200..+600 ms
         const std::string nonce = "nonce-" + std::to_string(a & 0x0f) + "x";
         const auto verdict = guard.admit("k", nonce, ts, now);
-        using v = gw::api::signature_replay_guard::verdict;
+        using v = gw::api::replay_window::verdict;
         if (ts < now - window || ts > now + window) check(verdict == v::stale);
         if (verdict == v::fresh) {
             for (const auto& [n, t] : admitted)

@@ -33,6 +33,7 @@ TEST(problem, every_operation_error_kind_has_its_status_and_type) {
         {operation_error_kind::halted, 409, "https://asi-gateway.dev/problems/halted"},
         {operation_error_kind::job_active, 409, "https://asi-gateway.dev/problems/job-active"},
         {operation_error_kind::unknown_recording, 404, "https://asi-gateway.dev/problems/unknown-recording"},
+        {operation_error_kind::stale_command, 408, "https://asi-gateway.dev/problems/stale-command"},
         {operation_error_kind::internal, 500, "https://asi-gateway.dev/problems/internal"},
     };
     // internal is the last kind: a kind added without a row here fails this.

@@ -32,6 +32,9 @@ TEST(mqtt_config, defaults_are_off_and_safe) {
     // A broker's return is noticed within reconnect_max however long it was away (issue 12).
     EXPECT_EQ(m.reconnect_min, 500ms);
     EXPECT_EQ(m.reconnect_max, 2000ms);
+    // A signed move runs within 10 s of its signing or not at all; ids are remembered for 10 min.
+    EXPECT_EQ(m.command_max_age, 10s);
+    EXPECT_EQ(m.command_redelivery_window, 600s);
 }
 
 TEST(mqtt_config, every_key_is_read) {
@@ -44,7 +47,7 @@ TEST(mqtt_config, every_key_is_read) {
       "qos":{"status":2,"state":0,"telemetry":1,"jobs":2,"responses":0},
       "telemetry":{"position_max_hz":2.5,"reports_batch_ms":0},"reconnect":{"min_ms":100,"max_ms":2000},"tcp_nodelay":false,
       "jobs":{"queue_limit":7,"retain_finished_s":0},"commands":{"enabled":true,"max_payload_bytes":2048,
-      "signature_window_s":5,"signing_keys":[{"name":"scheduler","role":"operator",
+      "signature_window_s":5,"max_age_s":3,"redelivery_window_s":120,"signing_keys":[{"name":"scheduler","role":"operator",
       "key":"a1b2c3d4e5f60718293a4b5c6d7e8f90a1b2c3d4e5f60718293a4b5c6d7e8f91"}]}}})");
     ASSERT_TRUE(c) << c.error();
     const auto& m = c->mqtt;
@@ -72,6 +75,8 @@ TEST(mqtt_config, every_key_is_read) {
     EXPECT_EQ(m.reconnect_max, 2000ms);
     EXPECT_EQ(m.job_queue_limit, 7u);
     EXPECT_EQ(m.command_max_payload_bytes, 2048u);
+    EXPECT_EQ(m.command_max_age, 3s);
+    EXPECT_EQ(m.command_redelivery_window, 120s);
     EXPECT_EQ(m.retain_finished_jobs, 0s);
     EXPECT_TRUE(m.commands_enabled);
     EXPECT_EQ(m.command_signature_window, 5s);
@@ -151,6 +156,9 @@ TEST(mqtt_config, errors_name_the_key) {
          "mqtt.commands.signing_keys[1].name: duplicate name \"a\""},
         {R"({"mqtt":{"commands":{"signature_window_s":0}}})",
          "mqtt.commands.signature_window_s: must be an integer from 1"},
+        {R"({"mqtt":{"commands":{"max_age_s":0}}})", "mqtt.commands.max_age_s: must be an integer from 1"},
+        {R"({"mqtt":{"commands":{"redelivery_window_s":86401}}})",
+         "mqtt.commands.redelivery_window_s: must be an integer from 1"},
         {R"({"mqtt":{"commands":{"max_payload_bytes":100}}})",
          "mqtt.commands.max_payload_bytes: must be an integer from 1024"},
     };

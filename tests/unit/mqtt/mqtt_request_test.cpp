@@ -61,11 +61,27 @@ TEST(mqtt_request, id_is_optional_and_generated) {
     auto r = parse(sim1, R"({"operation":"halt"})");
     ASSERT_TRUE(r) << r.error().error.detail;
     EXPECT_EQ(r->id, "mqtt-7");
+    EXPECT_FALSE(r->id_given) << "a generated id cannot tell a redelivery";
     EXPECT_EQ(r->token, "");
     EXPECT_FALSE(r->reply_to);
     auto n = parse(sim1, R"({"id":42,"operation":"halt"})");
     ASSERT_TRUE(n);
     EXPECT_EQ(n->id, 42);
+    EXPECT_TRUE(n->id_given);
+}
+
+TEST(mqtt_request, not_after_is_taken_off_as_unix_milliseconds) {
+    auto r =
+        parse(sim1, R"({"id":"m","operation":"move","args":{"axes":{"X":1}},"not_after":1796545200123})");
+    ASSERT_TRUE(r) << r.error().error.detail;
+    EXPECT_EQ(r->not_after_ms, 1796545200123);
+    auto none = parse(sim1, R"({"id":"m","operation":"move","args":{"axes":{"X":1}}})");
+    ASSERT_TRUE(none);
+    EXPECT_FALSE(none->not_after_ms);
+    auto job =
+        parse(submit, R"({"id":"s","args":{"controller":"sim1","type":"array","spec":{}},"not_after":5})");
+    ASSERT_TRUE(job) << job.error().error.detail;
+    EXPECT_EQ(job->not_after_ms, 5);
 }
 
 TEST(mqtt_request, gcode_check) {
@@ -128,6 +144,11 @@ TEST(mqtt_request, malformed_payloads_are_refused_with_the_field) {
         {submit, R"({"id":"a","args":{},"dry_run":"yes"})", 422, "dry_run", "a", false},
         {cancel, R"({"id":"a","job":"bad id!"})", 422, "job", "a", false},
         {cancel, R"({"id":"a","job":"j-1","args":{}})", 422, "args", "a", false},
+        {sim1, R"({"id":"a","operation":"halt","not_after":"2026-12-06T10:00:00Z"})", 422, "not_after", "a",
+         false},
+        {sim1, R"({"id":"a","operation":"halt","not_after":1.5e12})", 422, "not_after", "a", false},
+        {sim1, R"({"id":"a","operation":"halt","not_after":-1,"reply_to":"me/r"})", 422, "not_after", "a",
+         true},
     };
     for (const auto& c : cases) {
         auto r = parse(c.target, c.payload);

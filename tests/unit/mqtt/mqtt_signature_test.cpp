@@ -1,5 +1,5 @@
 // Signed MQTT commands (api/mqtt/mqtt_signature.hpp): the HMAC against RFC 4231, the envelope's
-// reader, the signed text, and the replay guard's window and bound.
+// reader and the signed text.
 #include "api/mqtt/mqtt_signature.hpp"
 
 #include <string>
@@ -75,23 +75,6 @@ TEST(mqtt_signature, a_signed_payload_is_told_from_a_bearer_one) {
     EXPECT_FALSE(looks_signed(R"({"operation":"command","args":{"command":""sig""},"token":"t"})"));
     EXPECT_FALSE(looks_signed(R"([{"sig":1}])"));
     EXPECT_FALSE(looks_signed("not json"));
-}
-
-TEST(mqtt_signature, the_replay_guard_takes_a_nonce_once_within_the_window) {
-    using v = signature_replay_guard::verdict;
-    signature_replay_guard guard(std::chrono::seconds(30), 3);
-    const std::int64_t now = 1'000'000'000;
-    EXPECT_EQ(guard.admit("k", "n1", now, now), v::fresh);
-    EXPECT_EQ(guard.admit("k", "n1", now, now + 1000), v::replayed);
-    EXPECT_EQ(guard.admit("other", "n1", now, now), v::fresh);  // nonces are per key
-    EXPECT_EQ(guard.admit("k", "n2", now - 30'001, now), v::stale);
-    EXPECT_EQ(guard.admit("k", "n2", now + 30'001, now), v::stale);
-    EXPECT_EQ(guard.admit("k", "n3", now + 10'000, now), v::fresh);  // a clock a little ahead
-    EXPECT_EQ(guard.admit("k", "n4", now, now), v::full);            // three remembered, none expired
-    // Once n1's ts is out of the window, it is forgotten (and could not be fresh again anyway).
-    EXPECT_EQ(guard.admit("k", "n4", now + 31'000, now + 31'000), v::fresh);
-    EXPECT_EQ(guard.remembered(), 2u);  // n3 (expires at now + 40 s) and n4
-    EXPECT_EQ(guard.admit("k", "n1", now, now + 31'000), v::stale);
 }
 
 }  // namespace

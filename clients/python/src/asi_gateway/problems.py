@@ -254,6 +254,12 @@ class UnknownRecording(NotFound):
     problem_type = PROBLEM_BASE + "unknown-recording"
 
 
+class StaleCommand(Problem):
+    """408: an MQTT command that arrived after its deadline, not run (MQTT answers only)."""
+
+    problem_type = PROBLEM_BASE + "stale-command"
+
+
 class InvalidGcode(Problem):
     """422: a program error at `line` and `column` (`message` is the translator's)."""
 
