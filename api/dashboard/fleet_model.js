@@ -66,9 +66,9 @@ export class Fleet {
     const gw = this.gateway(t.gateway);
     if (!gw) return null;
     if (t.kind === "status") this.setStatus(gw, body);
-    else if (t.kind === "state") this.setState(gw, t.id, body?.data);
+    else if (t.kind === "state") this.setState(gw, t.id, body);
     else if (t.kind === "position") this.setPosition(gw, t.id, body?.data, body?.time);
-    else if (t.kind === "job") this.setJob(gw, t.id, body?.job);
+    else if (t.kind === "job") this.setJob(gw, t.id, body);
     return gw.id;
   }
 
@@ -117,11 +117,14 @@ export class Fleet {
     }
   }
 
-  setState(gw, id, s) {
-    if (!s) {  // cleared
+  // body: the hub's event (its data the controller's state), or null when the retained state was cleared.
+  setState(gw, id, body) {
+    if (!body) {
       gw.controllers.delete(id);
       return;
     }
+    const s = body.data;
+    if (typeof s !== "object" || s === null) return;
     const c = this.controller(gw, id);
     if (!c) return;
     c.state = s.state;
@@ -139,7 +142,10 @@ export class Fleet {
     c.positionTime = time || null;
   }
 
-  setJob(gw, id, job) {
+  // body: {type: "job", job: {...}}, or null when the retained state was cleared.
+  setJob(gw, id, body) {
+    const job = body?.job;
+    if (body && (typeof job !== "object" || job === null)) return;
     if (!job || !ACTIVE_JOB_STATES.has(job.state)) {  // cleared or ended: not running any more
       gw.jobs.delete(id);
       return;

@@ -39,10 +39,14 @@ export function gatewayPage(pattern, gateway) {
   return /^https?:\/\//.test(url) ? url : null;
 }
 
-// A broker URL the page can open: ws:// or wss:// only (MQTT.js would also try others it cannot use
-// in a browser).
-export function checkBrokerUrl(url) {
-  if (!/^wss?:\/\/[^/]+/.test(url)) return "the broker's address is a WebSocket URL: ws://host:port or wss://host:port/path";
+// What is wrong with the settings, or "": a broker URL the page can open (ws:// or wss:// only; MQTT.js
+// would also try others it cannot use in a browser), and a prefix of topic levels as mqtt.topic_prefix
+// allows them (a wildcard would subscribe to more than the fleet).
+export function checkSettings(s) {
+  if (!/^wss?:\/\/[^/]+/.test(s.url)) return "the broker's address is a WebSocket URL: ws://host:port or wss://host:port/path";
+  if (!/^[A-Za-z0-9_.-]+(\/[A-Za-z0-9_.-]+)*$/.test(s.prefix)) {
+    return "the topic prefix is one or more levels of letters, digits, '_', '.' or '-', separated by '/'";
+  }
   return "";
 }
 
@@ -77,7 +81,7 @@ export class FleetSettingsForm {
     this.root.addEventListener("submit", (ev) => {
       ev.preventDefault();
       const settings = this.read();
-      this.error.textContent = checkBrokerUrl(settings.url);
+      this.error.textContent = checkSettings(settings);
       if (this.error.textContent) return;
       saveSettings(settings);
       onConnect(settings);

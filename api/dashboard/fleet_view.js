@@ -8,7 +8,7 @@ import { el } from "./dom.js";
 import { FleetBroker } from "./fleet_broker.js";
 import { fleetCard } from "./fleet_card.js";
 import { Fleet, MAX_GATEWAYS } from "./fleet_model.js";
-import { checkBrokerUrl, FleetSettingsForm, gatewayPage, loadSettings } from "./fleet_settings.js";
+import { checkSettings, FleetSettingsForm, gatewayPage, loadSettings } from "./fleet_settings.js";
 
 // Positions come at up to mqtt.telemetry.position_max_hz per controller from every gateway: the
 // cards are rebuilt at most this often, each only when its gateway changed.
@@ -18,7 +18,7 @@ export function mount(container) {
   const view = new FleetView();
   container.append(view.root);
   const saved = loadSettings();
-  if (saved.url && !checkBrokerUrl(saved.url)) view.connect(saved);  // as it was left
+  if (saved.url && !checkSettings(saved)) view.connect(saved);  // as it was left
   return () => view.stop();
 }
 

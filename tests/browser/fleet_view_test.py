@@ -8,14 +8,15 @@ page, no anonymous access, a password file and an ACL: the gateways' account rea
 topic tree, the page's account `viewer` only reads it. lab2 runs a job submitted over REST (an array
 job that waits for `next`, so it stays running).
 
-Checks: a wrong password is shown as refused; with the viewer account the page, opened on lab1's own
-dashboard, lists all three gateways from their retained births, each with its controllers and their
-state, and the job running on lab2 (none on the others); a REST move on lab1 shows as a new position;
-the gateways' links follow the "Gateway pages" pattern; the settings are remembered in localStorage and
-the password only in sessionStorage; the page sent no PUBLISH packet to the broker (its WebSocket
-frames, read as MQTT packets); a signed move published over the viewer account does not reach the
-gateway (no command counted, nothing moved) while the same over the gateways' account does; lab3 stopped
-with SIGTERM shows offline ("shutdown"), lab2 killed (-9) shows offline ("connection lost", the Last
+Checks: a wildcard in the topic prefix is refused by the form; a wrong password is shown as refused;
+with the viewer account the page, opened on lab1's own dashboard, lists all three gateways from their
+retained births, each with its controllers and their state, and the job running on lab2 (none on the
+others); a REST move on lab1 shows as a new position; the gateways' links follow the "Gateway pages"
+pattern; the settings are remembered in localStorage and the password only in sessionStorage, and a
+reload connects again; the page sent no PUBLISH packet to the broker (its WebSocket frames, read as MQTT
+packets); a signed move published over the viewer account does not reach the gateway (no command
+counted, nothing moved) while the same over the gateways' account does; lab3 stopped with SIGTERM shows
+offline ("shutdown"), lab2 killed (-9) shows offline ("connection lost", the Last
 Will); no console errors. With --screenshot, writes the fleet view (lab3 offline) there.
 
 Run by ctest with Debian's /usr/bin/python3 (python3-websockets, python3-paho-mqtt). Skipped (exit 77)
@@ -131,6 +132,12 @@ async def test_refused(b, lab1, ws_url):
     await sign_in(b, lab1.port, "/fleet")
     await b.wait_for("the Fleet nav link, marked",
                      "!!document.querySelector('nav a[data-nav=fleet]')?.classList.contains('active')")
+    await set_value(b, "#fleet-url", ws_url)
+    await set_value(b, "#fleet-prefix", "asi/#")
+    await b.click("#fleet-connect")
+    error = await b.wait_for("the prefix refused", "document.getElementById('fleet-form-error').textContent")
+    check("topic prefix" in error, f"a wildcard in the prefix: {error!r}")
+    check(await b.evaluate("document.getElementById('fleet-status').dataset.state") == "idle", "not connected")
     await fill_form(b, ws_url, "viewer", "not-the-password")
     await b.wait_for("refused", "document.getElementById('fleet-status').dataset.state === 'refused'")
     text = await b.evaluate("document.getElementById('fleet-status').textContent")
@@ -181,13 +188,18 @@ async def test_position(b, lab1):
     await b.wait_for(f"lab1 sim1 X near {target}", f"Math.abs(parseFloat({shown}) - {target}) < 1")
 
 
-async def test_settings_kept(b):
+async def test_settings_kept(b, lab1):
     saved = json.loads(await b.evaluate("localStorage.getItem('asi-gateway.fleet')"))
     check(saved.get("username") == "viewer" and saved.get("prefix") == PREFIX and saved.get("pages") == PAGES
           and saved.get("url", "").startswith("ws://") and "password" not in saved,
           f"localStorage keeps the settings, not the password: {saved}")
     check(await b.evaluate("sessionStorage.getItem('asi-gateway.fleet.password')") == "viewer-password",
           "the password only for the session")
+    # A reload connects again as the page was left.
+    await b.navigate(f"http://127.0.0.1:{lab1.port}/#/fleet")
+    await b.wait_for("connected again", "document.getElementById('fleet-status')?.dataset.state === 'connected'")
+    await b.wait_for("the three gateways again",
+                     "document.querySelectorAll('[data-gateway][data-online=yes]').length === 3")
 
 
 async def test_page_publishes_nothing(b):
@@ -290,7 +302,7 @@ async def main_async(args, fx):
                      job.get("id")):
             await run("links to each gateway's page", test_links, b)
             await run("a REST move shows as a new position", test_position, b, lab1)
-            await run("settings kept, the password for the session only", test_settings_kept, b)
+            await run("settings kept (the password for the session only), connected again after a reload", test_settings_kept, b, lab1)
         await run("the viewer account cannot publish", asyncio.to_thread, test_viewer_cannot_publish, broker, lab3)
         await run("the page published nothing", test_page_publishes_nothing, b)
         await run("lab3 stopped (SIGTERM): offline, shutdown", test_shutdown_offline, b, lab3)

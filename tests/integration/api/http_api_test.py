@@ -220,7 +220,7 @@ DASHBOARD_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "
 MEDIA_TYPES = {".html": "text/html", ".js": "text/javascript", ".css": "text/css", ".svg": "image/svg+xml"}
 # The third-party modules, served from node_modules under these names (api/CMakeLists.txt).
 VENDOR_FILES = {"vendor/uplot.min.js": "text/javascript", "vendor/uplot.min.css": "text/css",
-                "vendor/js-yaml.min.js": "text/javascript"}
+                "vendor/js-yaml.min.js": "text/javascript", "vendor/mqtt.esm.js": "text/javascript"}
 
 
 def dashboard_files():
