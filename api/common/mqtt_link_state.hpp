@@ -12,26 +12,29 @@ namespace gw::api {
 
 class mqtt_link_state {
   public:
-    void connected(std::string broker) {
+    void connected(std::string broker, std::string protocol) {
         std::lock_guard lock(mutex_);
         broker_ = std::move(broker);
+        protocol_ = std::move(protocol);
         ++connects_;
     }
     void disconnected() {
         std::lock_guard lock(mutex_);
         broker_.clear();
     }
-    // {"connected", "broker" (null while disconnected), "connects"}
+    // {"connected", "broker" and "protocol" (null while disconnected), "connects"}
     nlohmann::json to_json() const {
         std::lock_guard lock(mutex_);
         return {{"connected", !broker_.empty()},
                 {"broker", broker_.empty() ? nlohmann::json(nullptr) : nlohmann::json(broker_)},
+                {"protocol", broker_.empty() ? nlohmann::json(nullptr) : nlohmann::json(protocol_)},
                 {"connects", connects_}};
     }
 
   private:
     mutable std::mutex mutex_;
-    std::string broker_;  // the broker connected to; empty while disconnected
+    std::string broker_;    // the broker connected to; empty while disconnected
+    std::string protocol_;  // "5" or "3.1.1": what the connection speaks
     std::uint64_t connects_ = 0;
 };
 

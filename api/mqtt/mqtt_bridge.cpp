@@ -235,14 +235,14 @@ void mqtt_bridge::show_link() {
     if (on.empty())
         ctx_->mqtt_link->disconnected();
     else
-        ctx_->mqtt_link->connected(on);
+        ctx_->mqtt_link->connected(on, protocol_name(client_->protocol()));
 }
 
 void mqtt_bridge::publish_birth() {
     mqtt_birth b;
     b.gateway = settings_.gateway_id;
     b.version = settings_.version;
-    b.protocol = settings_.config.protocol == mqtt_protocol::v5 ? "5" : "3.1.1";
+    b.protocol = protocol_name(client_->protocol());  // 3.1.1 after a broker refused 5
     b.prefix = settings_.config.topic_prefix;
     b.broker = client_->broker();
     b.commands = commands_ != nullptr;

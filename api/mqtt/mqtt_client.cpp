@@ -25,6 +25,10 @@ int paho_mqtt_version(mqtt_protocol p) {
     return p == mqtt_protocol::v5 ? MQTTVERSION_5 : MQTTVERSION_3_1_1;
 }
 
+const char* protocol_name(mqtt_protocol p) {
+    return p == mqtt_protocol::v5 ? "5" : "3.1.1";
+}
+
 namespace {
 
 bool uses_tls(const std::vector<std::string>& brokers) {
@@ -110,12 +114,19 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
       stop_timer_(strand_),
       resubscribe_timer_(strand_),
       backoff_(config.reconnect_min, config.reconnect_max, std::random_device{}()) {
-    const int version = paho_mqtt_version(config_.protocol);
+    use_protocol(config_.protocol);
+}
+
+void mqtt_client::use_protocol(mqtt_protocol protocol) {
+    protocol_ = protocol;
+    const int version = paho_mqtt_version(protocol);
     mqtt::create_options create(version);
     // Paho refuses a publish while this many wait in its queue ("No more messages can be buffered"),
     // connected or not; its default, 100, is below the bridge's own bound on messages in flight
     // (mqtt_bridge_settings::max_in_flight), so busy report streams lost whole batches to it.
     create.set_max_buffered_messages(max_buffered_messages);
+    // A Paho client speaks the version it was created for: another version needs another client.
+    if (cli_) cli_->disable_callbacks();
     try {
         cli_ = std::make_unique<mqtt::async_client>(config_.brokers.front(), client_id_, create, nullptr);
     } catch (const mqtt::exception& e) {
@@ -266,9 +277,29 @@ void mqtt_client::do_connect() {
     }
 }
 
+bool mqtt_client::refused_mqtt_5() const {
+    // MQTT 3.1.1 CONNACK 1 (what a 3.1.1-only broker answers a version it does not know), MQTT 5
+    // reason 0x84 (unsupported protocol version).
+    return protocol_ == mqtt_protocol::v5 && (failure_rc_ == 1 || failure_reason_ == 0x84);
+}
+
 void mqtt_client::on_connect_result(bool ok, const std::string& what) {
     connecting_ = false;
     if (stopping_) return;
+    if (!ok && refused_mqtt_5()) {
+        // Said once, loudly, and kept until a restart: every broker of a cluster is alike.
+        if (log_)
+            log_->warn(
+                "{} refused MQTT 5 (unacceptable protocol version); speaking MQTT 3.1.1 from now on "
+                "(set mqtt.protocol to \"3.1.1\" to start with it)",
+                brokers_tried());
+        const auto order = order_;
+        use_protocol(mqtt_protocol::v3_1_1);
+        install_callbacks();
+        order_ = order;
+        if (order_.size() > 1) options_->set_servers(std::make_shared<mqtt::string_collection>(order_));
+        return do_connect();
+    }
     if (!ok) {
         const auto wait = schedule_reconnect();
         // Attempts come every couple of seconds during an outage: the first failure and then one in 30
@@ -344,7 +375,7 @@ std::chrono::milliseconds mqtt_client::schedule_reconnect() {
 
 std::shared_ptr<const mqtt::message> mqtt_client::make_paho_message(const mqtt_message_out& m) const {
     auto msg = mqtt::make_message(m.topic, m.payload, m.qos, m.retained);
-    if (!m.correlation_data.empty() && config_.protocol == mqtt_protocol::v5)
+    if (!m.correlation_data.empty() && protocol_ == mqtt_protocol::v5)
         msg->set_properties(mqtt::properties{{mqtt::property::CORRELATION_DATA, m.correlation_data}});
     return msg;
 }
@@ -369,7 +400,7 @@ void mqtt_client::subscribe(const std::vector<std::string>& filters, int qos) {
         // Retain-as-published (MQTT 5): the retain flag arrives as the sender set it, even on live
         // messages, so that a retained command can be recognised (and refused) every time.
         mqtt::subscribe_options options;
-        if (config_.protocol == mqtt_protocol::v5) options.set_retain_as_published(true);
+        if (protocol_ == mqtt_protocol::v5) options.set_retain_as_published(true);
         for (const auto& f : filters)
             cli_->subscribe(f, qos, nullptr, *subscribe_listener_, options);
     } catch (const mqtt::exception& e) {

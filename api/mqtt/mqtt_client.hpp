@@ -86,6 +86,8 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::uint64_t connects() const { return connects_; }
     // The broker it is connected to (one of mqtt.brokers, as configured); empty while disconnected.
     const std::string& broker() const { return broker_; }
+    // mqtt.protocol, or 3.1.1 once a broker refused MQTT 5.
+    mqtt_protocol protocol() const { return protocol_; }
     // False (nothing sent) while disconnected or when Paho refuses it.
     bool publish(const mqtt_message_out& m);
     // Kept: made again after a refusal while connected (after resubscribe_delay, doubling up to 30 s).
@@ -101,7 +103,10 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     class listener;
     mqtt_client(strand executor, const mqtt_config& config, std::string client_id, mqtt_message_out will,
                 mqtt_client_handlers handlers, std::shared_ptr<spdlog::logger> log);
+    // A Paho client and connect options for `protocol` (the first, or after a broker refused MQTT 5).
+    void use_protocol(mqtt_protocol protocol);
     void install_callbacks();
+    bool refused_mqtt_5() const;  // the last connect failed for the protocol version
     void do_connect();
     // The brokers in the order the next attempts try them: from mqtt.brokers[first] on, wrapping.
     void try_brokers_from(std::size_t first);
@@ -119,6 +124,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
 
     strand strand_;
     mqtt_config config_;
+    mqtt_protocol protocol_ = mqtt_protocol::v5;
     std::string client_id_;
     mqtt_message_out will_;
     mqtt_client_handlers handlers_;
@@ -155,5 +161,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
 
 // Paho's MQTT version number for the config's protocol.
 int paho_mqtt_version(mqtt_protocol p);
+// "5" or "3.1.1", as the config, the birth and the health say it.
+const char* protocol_name(mqtt_protocol p);
 
 }  // namespace gw::api

@@ -123,9 +123,9 @@ def fail_over(fx, cluster, gw, contract, label):
     reply = f"clients/{label}/replies"
     watcher.subscribe(reply)
     answer = command(watcher, gw.topic("controllers", "sim2", "cmd"),
-                     {"id": 1, "operation": "here", "args": {"axes": {"Y": 0}}, "token": TOKENS["operator"],
-                      "reply_to": reply}, reply, v5=False)
-    check(answer["type"] == "result" and answer["id"] == 1, f"{label}: a command after the failover: {answer}")
+                     {"id": f"{label}-here", "operation": "here", "args": {"axes": {"Y": 0}},
+                      "token": TOKENS["operator"], "reply_to": reply}, reply, v5=False)
+    check(answer["type"] == "result" and answer["id"] == f"{label}-here", f"{label}: a command after the failover: {answer}")
     watcher.close()
     # Health, metrics and the log name the node it is on (NATS may have moved it on once more).
     after = health_mqtt(gw)
@@ -160,6 +160,36 @@ def fail_over(fx, cluster, gw, contract, label):
     return seconds
 
 
+def falls_back_to_3_1_1(fx, cluster, binary, contract):
+    """A gateway left at MQTT 5 (the default) on NATS, which speaks 3.1.1 only: it speaks 3.1.1 after
+    the first refusal, and says so in its log, its birth and its health."""
+    gw = Gateway(fx, binary, "gw-v5", cluster.broker_uris(), sims=1)
+    gw.config["mqtt"].pop("reconnect", None)
+    gw.config["mqtt"]["qos"] = {"responses": 0}
+    watcher = StampedClient(int(cluster.broker_uris()[1].rsplit(":", 1)[1]), "v5-watch")
+    try:
+        watcher.subscribe(gw.topic("status"))
+        gw.start()
+        _, birth = birth_after(watcher, gw, 0, contract)
+        check(birth["protocol"] == "3.1.1", f"the birth says what it speaks: {birth}")
+        h = wait_until("gw-v5 connected", lambda: (lambda m: m if m["connected"] else None)(health_mqtt(gw)))
+        check(h["protocol"] == "3.1.1", f"health: {h}")
+        log = open(gw.log_path).read()
+        check("refused MQTT 5" in log and "speaking MQTT 3.1.1" in log, f"the log says so: {gw.tail(10)}")
+        check(log.count("refused MQTT 5") == 1, "said once")
+        # And it takes commands over 3.1.1 (reply_to).
+        reply = "clients/v5/replies"
+        watcher.subscribe(reply)
+        ans = command(watcher, gw.topic("controllers", "sim1", "cmd"),
+                      {"id": "v5-halt", "operation": "halt", "reply_to": reply, "token": TOKENS["operator"]},
+                      reply, v5=False)
+        check(ans["type"] == "result", f"a command after the fallback: {ans}")
+    finally:
+        watcher.close()
+        gw.proc.terminate()
+        gw.proc.wait(timeout=10)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--gateway", required=True)
@@ -185,6 +215,8 @@ def main():
             check(broker_metric(gw).get(first["broker"]) == 1, f"metrics: {broker_metric(gw)}"),
             check(f"connected to {first['broker']}" in open(gw.log_path).read(), "log"),
         ))
+        fx.run("MQTT 5 refused by NATS: the gateway speaks 3.1.1 and says so",
+               lambda: falls_back_to_3_1_1(fx, cluster, args.gateway, contract))
         fx.run("kill -9 of its node: birth and states through another node at once",
                lambda: fail_over(fx, cluster, gw, contract, "first"))
         def second():
