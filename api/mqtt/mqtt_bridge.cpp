@@ -9,6 +9,7 @@
 
 #include "api/common/mqtt_link_state.hpp"
 #include "api/mqtt/mqtt_commands.hpp"
+#include "api/mqtt/retained_birth_check.hpp"
 #include "gateway/common/metrics.hpp"
 #include "gateway/controllers/controller_registry.hpp"
 #include "gateway/events/event_hub.hpp"
@@ -78,13 +79,30 @@ void mqtt_bridge::start() {
     };
     h.message = [weak](const mqtt_message_in& in) {
         auto self = weak.lock();
-        if (self && self->commands_ && !self->stopped_) self->commands_->handle(in);
+        if (!self || self->stopped_) return;
+        if (self->birth_check_ && self->birth_check_->on_message(in)) return;
+        if (self->commands_) self->commands_->handle(in);
     };
     h.publish_done = [weak] {
         if (auto self = weak.lock()) self->maybe_request_more();
     };
     const auto client_id = c.client_id.empty() ? "asi-gateway-" + settings_.gateway_id : c.client_id;
     client_ = mqtt_client::create(strand_, c, client_id, std::move(will), std::move(h), log_);
+    birth_check_ = std::make_unique<retained_birth_check>(
+        strand_, topics_.status(),
+        retained_birth_check::hooks{[weak](const std::string& topic) {
+                                        if (auto self = weak.lock()) self->client_->watch(topic, 0);
+                                    },
+                                    [weak](const std::string& topic) {
+                                        if (auto self = weak.lock()) self->client_->unwatch(topic);
+                                    },
+                                    [weak] {
+                                        if (auto self = weak.lock()) {
+                                            self->publish_birth();
+                                            self->publish_states();
+                                        }
+                                    }},
+        log_);
     if (c.commands_enabled && (!c.command_signing_keys.empty() || c.accept_bearer_tokens)) {
         commands_ = std::make_shared<mqtt_commands>(
             ctx_, topics_, c.qos.responses, strand_,
@@ -131,6 +149,7 @@ void mqtt_bridge::async_stop(std::function<void()> done) {
         self->stopped_ = true;
         self->housekeeping_.cancel();
         self->batch_timer_.cancel();
+        if (self->birth_check_) self->birth_check_->disconnected();
         if (self->subscriber_ != 0) self->ctx_->hub->remove_subscriber(self->subscriber_);
         self->subscriber_ = 0;
         if (!self->client_) {
@@ -195,10 +214,8 @@ void mqtt_bridge::on_connected() {
     // that sees the birth and sends a command at once finds the subscription in place.
     if (commands_) client_->subscribe(topics_.command_filters(), settings_.config.qos.responses);
     publish_birth();
-    for (auto& [id, c] : controllers_)
-        if (c.state)
-            send({topics_.controller(id, "state"), *c.state->message, settings_.config.qos.state, true, {}},
-                 "state");
+    publish_states();
+    birth_check_->connected();
     // Job state changes from while we were away, in order; then every tracked job again (retained).
     if (log_ && (!job_queue_.empty() || job_queue_dropped_ != 0))
         log_->info("mqtt: publishing {} job state changes queued while disconnected ({} older ones dropped)",
@@ -221,6 +238,7 @@ void mqtt_bridge::on_connected() {
 
 void mqtt_bridge::on_disconnected() {
     show_link();
+    birth_check_->disconnected();
     maybe_request_more();  // nothing is in flight any more: keep draining the hub
 }
 
@@ -249,7 +267,16 @@ void mqtt_bridge::publish_birth() {
     for (const auto& s : ctx_->registry.list())
         b.controllers.push_back(birth_controller(state_json(s)));
     b.time = std::chrono::system_clock::now();
-    send({topics_.status(), birth_payload(b), settings_.config.qos.status, true, {}}, "status");
+    auto payload = birth_payload(b);
+    birth_check_->birth_published(payload);
+    send({topics_.status(), std::move(payload), settings_.config.qos.status, true, {}}, "status");
+}
+
+void mqtt_bridge::publish_states() {
+    for (auto& [id, c] : controllers_)
+        if (c.state)
+            send({topics_.controller(id, "state"), *c.state->message, settings_.config.qos.state, true, {}},
+                 "state");
 }
 
 void mqtt_bridge::on_deliver(const std::vector<std::shared_ptr<const event>>& batch) {

@@ -53,6 +53,7 @@ class logger;
 namespace gw::api {
 
 class mqtt_commands;
+class retained_birth_check;
 
 struct mqtt_bridge_settings {
     mqtt_config config;
@@ -113,6 +114,7 @@ class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_
     void on_state(const std::string& id, const std::shared_ptr<const event>& e);
     void on_job(const std::string& id, const std::shared_ptr<const event>& e);
     void publish_birth();
+    void publish_states();  // every controller's newest state, retained
     void publish_job(const std::string& id, const tracked_job& job);
     void clear_job(const std::string& id);
     void flush_reports();
@@ -132,6 +134,7 @@ class mqtt_bridge final : public gw::event_sink, public std::enable_shared_from_
     mqtt_client::strand strand_;
     std::shared_ptr<mqtt_client> client_;
     std::shared_ptr<mqtt_commands> commands_;
+    std::unique_ptr<retained_birth_check> birth_check_;
     std::uint64_t subscriber_ = 0;
     bool awaiting_more_ = false;  // a batch was handled, request_more is due when in-flight drops
     bool stopped_ = false;

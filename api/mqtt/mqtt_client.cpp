@@ -408,6 +408,24 @@ void mqtt_client::subscribe(const std::vector<std::string>& filters, int qos) {
     }
 }
 
+void mqtt_client::watch(const std::string& filter, int qos) {
+    if (!connected_ || stopping_) return;
+    try {
+        cli_->subscribe(filter, qos);
+    } catch (const mqtt::exception& e) {
+        if (log_) log_->debug("subscribe to {} refused: {}", filter, e.what());
+    }
+}
+
+void mqtt_client::unwatch(const std::string& filter) {
+    if (!connected_ || stopping_) return;
+    try {
+        cli_->unsubscribe(filter);
+    } catch (const mqtt::exception& e) {
+        if (log_) log_->debug("unsubscribe from {} refused: {}", filter, e.what());
+    }
+}
+
 void mqtt_client::on_subscribe_refused(const std::string& what) {
     if (stopping_ || !connected_) return;  // a lost connection's: the next connect subscribes again
     // A broker may refuse for a while and then take it (a cluster electing the leader of the streams

@@ -94,6 +94,10 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     // The caller subscribes again after each connect.
     void subscribe(const std::vector<std::string>& filters, int qos);
     static constexpr std::chrono::milliseconds resubscribe_delay{1000};
+    // A subscription of its own, beside subscribe()'s and not made again after a reconnect (the
+    // retained birth check's); nothing while disconnected.
+    void watch(const std::string& filter, int qos);
+    void unwatch(const std::string& filter);
     // Stops reconnecting; if connected, publishes `last`, waits until it is delivered (QoS 1: the
     // broker acknowledged it) but at most `timeout`, and disconnects without waiting for anything
     // else. Calls `done` on the strand (at once when not connected).

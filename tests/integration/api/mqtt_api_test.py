@@ -1270,9 +1270,11 @@ def test_tls(fx, binary, contract):
 
 
 README_ACL = """
-# each gateway writes its own tree and answers, reads its own command topics
+# each gateway writes its own tree and answers, reads its own command topics and its birth (read
+# back after each connect)
 user gw-lab3
 topic write asi/lab3/#
+topic read asi/lab3/status
 topic read asi/lab3/controllers/+/cmd
 topic read asi/lab3/jobs/+
 topic read asi/lab3/gcode/+
@@ -1332,6 +1334,10 @@ def test_acl(fx, binary, readme_path):
         time.sleep(1)
         check(not sched.all(lambda t: t == "clients/scheduler/from-dashboard", start=mark),
               "a dashboard command must not reach the gateway")
+        # Through the ACL the gateway reads its retained birth back (2 s after the connect; an ACL
+        # that hid it would make it publish the birth again after 3 s more, and say so).
+        time.sleep(6)
+        check("the broker serves" not in open(gw.log_path).read(), f"the birth read back: {gw.tail(5)}")
         gw.proc.send_signal(signal.SIGTERM)
         gw.proc.wait(timeout=WAIT)
     finally:
