@@ -211,6 +211,7 @@ bool application::start() {
         api::mqtt_bridge_settings mqtt_settings;
         mqtt_settings.config = config.mqtt;
         mqtt_settings.gateway_id = api::resolve_gateway_id(config.mqtt.gateway_id, host_name());
+        mqtt_settings.public_url = config.http.public_url;
         mqtt_settings.log = get_logger("mqtt");
         mqtt_ = api::mqtt_bridge::create(http_->context(), std::move(mqtt_settings));
         try {

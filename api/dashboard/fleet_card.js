@@ -77,5 +77,5 @@ export function fleetCard(gw, page) {
               : el("p", { class: "meta" }, "none"),
             gw.jobsCapped ? el("p", { class: "meta" }, `only ${MAX_JOBS} jobs kept`) : null,
             page ? el("a", { class: "card-open", href: page, target: "_blank", rel: "noopener" }, "Open its dashboard →")
-              : el("p", { class: "meta fleet-no-page" }, "its page's address is not known (set “Gateway pages”)"));
+              : el("p", { class: "meta fleet-no-page" }, "its page's address is not known (set http.public_url on it, or “Gateway pages” here)"));
 }

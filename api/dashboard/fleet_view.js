@@ -22,6 +22,14 @@ export function mount(container) {
   return () => view.stop();
 }
 
+// The gateway's own word first (its birth's "url": http.public_url), else the pattern typed here. The
+// birth comes from the broker, so only an http(s) URL is taken (never a javascript: link).
+function pageOf(gw, pattern) {
+  const told = gw.birth?.url;
+  if (typeof told === "string" && /^https?:\/\/[^\s]+$/.test(told)) return told;
+  return gatewayPage(pattern, gw.id);
+}
+
 class FleetView {
   constructor() {
     this.fleet = new Fleet();
@@ -97,7 +105,7 @@ class FleetView {
         this.cards.delete(id);
         continue;
       }
-      const card = fleetCard(gw, gatewayPage(pages, id));
+      const card = fleetCard(gw, pageOf(gw, pages));
       if (old) old.replaceWith(card);
       else added = true;
       this.cards.set(id, card);

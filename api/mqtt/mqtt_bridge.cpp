@@ -263,6 +263,7 @@ void mqtt_bridge::publish_birth() {
     b.protocol = protocol_name(client_->protocol());  // 3.1.1 after a broker refused 5
     b.prefix = settings_.config.topic_prefix;
     b.broker = client_->broker();
+    b.url = settings_.public_url;
     b.commands = commands_ != nullptr;
     for (const auto& s : ctx_->registry.list())
         b.controllers.push_back(birth_controller(state_json(s)));

@@ -59,6 +59,7 @@ struct mqtt_bridge_settings {
     mqtt_config config;
     std::string gateway_id;           // resolved (resolve_gateway_id)
     std::string version;              // in the birth message; empty: the project version
+    std::string public_url;           // http.public_url, in the birth message
     std::size_t max_in_flight = 256;  // below mqtt_client::max_buffered_messages
     // Its subscription to the event hub: room for bursts (a second of 32 busy report streams), and
     // patience with a slow broker.

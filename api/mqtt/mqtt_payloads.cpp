@@ -32,6 +32,7 @@ std::string birth_payload(const mqtt_birth& b) {
     j["protocol"] = b.protocol;
     j["prefix"] = b.prefix;
     j["broker"] = b.broker;
+    j["url"] = b.url.empty() ? json(nullptr) : json(b.url);
     j["capabilities"] = capabilities(b.commands);
     j["controllers"] = b.controllers.is_array() ? b.controllers : json::array();
     j["time"] = format_timestamp(b.time);

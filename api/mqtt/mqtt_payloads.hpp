@@ -5,6 +5,7 @@
 //
 // status (retained):
 //   birth:   {"state":"online","gateway":"lab3","version":"0.1.0","protocol":"5","prefix":"asi",
+//             "broker":"tcp://broker.lab:1883","url":"https://lab3.example:8443/"|null,
 //             "capabilities":["state","position","reports","ttl","jobs","commands"],
 //             "controllers":[{"id":"sim1","state":"connected","build":"STD_XYZ","modules":[...]}],
 //             "time":"2026-11-30T08:00:00.000Z"}
@@ -38,6 +39,7 @@ struct mqtt_birth {
     std::string protocol;  // "5" or "3.1.1"
     std::string prefix;
     std::string broker;  // the broker it is connected to (one of mqtt.brokers)
+    std::string url;     // http.public_url: where people reach its page; "" when not configured
     bool commands = false;
     nlohmann::json controllers = nlohmann::json::array();  // birth_controller() entries
     std::chrono::system_clock::time_point time;

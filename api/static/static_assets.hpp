@@ -3,7 +3,7 @@
 // authorized like any other client's):
 //   GET|HEAD /                    index.html
 //   GET|HEAD /dashboard/<file>    the page's modules, style sheet and images; vendor/<file> for the
-//                                 third-party modules (uPlot, js-yaml)
+//                                 third-party modules (uPlot, js-yaml, MQTT.js)
 //   GET|HEAD /dashboard[/]        301 to /, where the page is
 // Content-Type by extension, gzip (built at build time) for clients that accept it, a strong ETag
 // per representation (the build-time SHA-256 of the content) answered with 304 on a matching

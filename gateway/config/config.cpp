@@ -172,9 +172,18 @@ void read_retention(const json& j, history_retention& out) {
 }
 
 void read_http(const json& j, http_config& out) {
-    object_reader r(
-        j, "http",
-        {"listen_address", "port", "limits", "allowed_origins", "allowed_hosts", "tls", "trusted_proxies"});
+    object_reader r(j, "http",
+                    {"listen_address", "port", "limits", "allowed_origins", "allowed_hosts", "tls",
+                     "trusted_proxies", "public_url"});
+    if (auto* v = r.get("public_url")) {
+        out.public_url = read_string(*v, r.path("public_url"));
+        const bool web = out.public_url.starts_with("http://") || out.public_url.starts_with("https://");
+        const bool plain = std::all_of(out.public_url.begin(), out.public_url.end(),
+                                       [](unsigned char ch) { return ch > 0x20 && ch < 0x7f; });
+        if (!web || !plain || out.public_url.size() > 512)
+            fail(r.path("public_url"),
+                 "must be an http:// or https:// URL of at most 512 printable characters without spaces");
+    }
     if (auto* v = r.get("trusted_proxies")) {
         const auto entries = read_string_list(*v, r.path("trusted_proxies"), [](std::string_view e) {
             auto one = trusted_proxies::parse({std::string(e)});

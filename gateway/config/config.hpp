@@ -64,6 +64,9 @@ struct http_config {
     http_tls_config tls;
     // Reverse proxies whose X-Forwarded-For names the client (gateway/config/trusted_proxies.hpp).
     trusted_proxies proxies;
+    // Where people reach this gateway's page ("https://lab3.example:8443/"), as the MQTT birth tells
+    // the fleet; empty: not told (the listen address is seldom what others can reach).
+    std::string public_url;
 };
 
 struct simulate_config {

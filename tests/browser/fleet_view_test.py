@@ -42,6 +42,7 @@ from gateway_fixture import TOKENS, check, free_port, http_request, wait_until  
 from mqtt_api_test import MOSQUITTO, PREFIX, Broker, Client, Gateway  # noqa: E402
 
 PAGES = "http://{gateway}.fleet.test:8080/"  # the "Gateway pages" pattern the test types in
+LAB3_URL = "https://lab3.public.test:8443/"  # lab3's own http.public_url, which its birth tells
 CARD = "document.querySelector(\"[data-gateway='{}']\")"
 GATEWAY_PASSWORD = "gateway-password"  # Client() and the gateways use <user>-password
 
@@ -174,7 +175,8 @@ async def test_fleet_listed(b, gws, ws_url, job):
 async def test_links(b):
     for name in ("lab1", "lab2", "lab3"):
         href = await b.evaluate(f"{card(name)}.querySelector('a.fleet-gateway-link').href")
-        check(href == PAGES.format(gateway=name), f"{name}'s page: {href}")
+        want = LAB3_URL if name == "lab3" else PAGES.format(gateway=name)
+        check(href == want, f"{name}'s page: {href} (wanted {want})")
     ctl = await b.evaluate(f"{card('lab1')}.querySelector(\"tr[data-controller='sim2'] a\").href")
     check(ctl == PAGES.format(gateway="lab1") + "#/controller/sim2", f"a controller's view on its gateway: {ctl}")
 
@@ -283,6 +285,8 @@ async def main_async(args, fx):
     gws = [Gateway(fx, args.gateway, name, [f"mqtt://127.0.0.1:{broker.port}"], sims=2,
                    mqtt_extra={"username": "gateway", "password": GATEWAY_PASSWORD})
            for name in ("lab1", "lab2", "lab3")]
+    # lab3 says where its page is (http.public_url, in its birth): the page links there, not to the pattern.
+    gws[2].config["http"]["public_url"] = LAB3_URL
     for gw in gws:
         gw.start()
     lab1, lab2, lab3 = gws

@@ -53,7 +53,7 @@ TEST(config, embedded_default_simulates_one_controller_of_each_preset) {
 
 TEST(config, reads_every_key) {
     auto c = parse_config(R"({
-      "http": {"listen_address": "0.0.0.0", "port": 9000,
+      "http": {"listen_address": "0.0.0.0", "port": 9000, "public_url": "https://lab3.example:8443/",
                "limits": {"max_header_bytes": 8192, "max_body_bytes": 4096, "read_timeout_ms": 5000,
                           "max_websocket_message_bytes": 2048, "max_connections": 10,
                           "header_timeout_ms": 1500, "max_connections_per_address": 4,
@@ -77,6 +77,7 @@ TEST(config, reads_every_key) {
     ASSERT_TRUE(c) << c.error();
     EXPECT_EQ(c->http.listen_address, "0.0.0.0");
     EXPECT_EQ(c->http.port, 9000);
+    EXPECT_EQ(c->http.public_url, "https://lab3.example:8443/");
     EXPECT_EQ(c->http.limits.max_header_bytes, 8192u);
     EXPECT_EQ(c->http.limits.max_body_bytes, 4096u);
     EXPECT_EQ(c->http.limits.read_timeout, 5000ms);
@@ -160,6 +161,12 @@ TEST(config, refuses_bad_values_naming_the_json_path) {
         {R"({"http": {"listen_address": "localhost"}})",
          "http.listen_address: must be an IPv4 or IPv6 address"},
         {R"({"http": {"listen_address": ""}})", "http.listen_address: must not be empty"},
+        {R"({"http": {"public_url": "lab3:8080"}})",
+         "http.public_url: must be an http:// or https:// URL of at most 512 printable characters without "
+         "spaces"},
+        {R"({"http": {"public_url": "http://lab 3/"}})",
+         "http.public_url: must be an http:// or https:// URL of at most 512 printable characters without "
+         "spaces"},
         {R"({"http": {"tls": {"cert_file": "c.pem"}}})",
          "http.tls: needs both cert_file and key_file (PEM files)"},
         {R"({"http": {"tls": {"cert_file": "c.pem", "key_file": ""}}})",

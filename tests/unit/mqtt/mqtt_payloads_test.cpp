@@ -47,8 +47,12 @@ TEST(mqtt_payloads, birth_lists_controllers_and_capabilities) {
     EXPECT_EQ(j["controllers"][1],
               json::parse(R"({"id":"sim2","state":"connecting","build":null,"modules":[]})"));
     EXPECT_EQ(j["time"], "1970-01-02T00:00:00.123Z");
+    EXPECT_TRUE(j["url"].is_null()) << "no http.public_url: null, not a guess from the listen address";
     b.commands = false;
-    EXPECT_EQ(json::parse(birth_payload(b))["capabilities"].size(), 5u);
+    b.url = "https://lab3.example:8443/";
+    const auto k = json::parse(birth_payload(b));
+    EXPECT_EQ(k["capabilities"].size(), 5u);
+    EXPECT_EQ(k["url"], "https://lab3.example:8443/");
 }
 
 TEST(mqtt_payloads, offline_with_and_without_time) {
