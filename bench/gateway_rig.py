@@ -49,12 +49,14 @@ class Http:
         self.timeout = timeout
         self.conn = None
 
-    def request(self, method, path, body=None):
+    def request(self, method, path, body=None, token=None):
         for attempt in range(3):
             try:
                 if self.conn is None:
                     self.conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=self.timeout)
                 headers = {"Content-Type": "application/json"} if body is not None else {}
+                if token:
+                    headers["Authorization"] = f"Bearer {token}"
                 self.conn.request(method, path, body=None if body is None else json.dumps(body), headers=headers)
                 r = self.conn.getresponse()
                 return r.status, r.read().decode()
