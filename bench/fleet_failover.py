@@ -33,7 +33,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "tests", "integration", "api"))
 from bench_broker import MOSQUITTO  # noqa: E402
 from bench_machine import publish_section  # noqa: E402
 from gateway_fixture import TOKENS, auth_tokens, signed_command, signing_keys_config  # noqa: E402
-from gateway_rig import Http, cpu_seconds, free_port, load_average, rss_mib, stop_process, wait_until  # noqa: E402
+from gateway_rig import Http, cpu_seconds, free_port, rss_mib, stop_process, wait_until  # noqa: E402
 from nats_cluster import NatsCluster  # noqa: E402
 
 import paho.mqtt.client as mqtt  # noqa: E402
@@ -323,7 +323,8 @@ def table(results):
     for r in results:
         label = "NATS 2.9, 3 nodes (kill -9 of one)" if r["kind"] == "nats" else \
             "mosquitto 2.0.11, 1 node (kill -9, restarted at once)"
-        rows.append(f"| {label} | {r['births']} | {r['births']} present | {r['cpu_mean']:.2f} % / {r['cpu_max']:.2f} % | "
+        rows.append(f"| {label} | {r['births']} | {r['births']} present | "
+                    f"{r['cpu_mean']:.2f} % / {r['cpu_max']:.2f} % | "
                     f"{r['rss_mean']:.1f} / {r['rss_max']:.1f} MiB | {r['broker_rss']:.0f} MiB | {r['affected']} | "
                     f"{r['back_min']:.2f} / {r['back_p50']:.2f} / {r['back_p99']:.2f} / {r['back_max']:.2f} s "
                     f"({r['back']} of {r['affected']}) | {r['busiest_100ms']} | {r['sent']} | {r['ran_once']} | "

@@ -38,7 +38,7 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "integration", "api"))
 import browser_checks  # noqa: E402
 from cdp import Browser, find_chromium  # noqa: E402
-from gateway_fixture import TOKENS, check, free_port, http_request, wait_until  # noqa: E402
+from gateway_fixture import TOKENS, axis_position, check, free_port, http_request, wait_until  # noqa: E402
 from mqtt_api_test import MOSQUITTO, PREFIX, Broker, Client, Gateway  # noqa: E402
 
 PAGES = "http://{gateway}.fleet.test:8080/"  # the "Gateway pages" pattern the test types in
@@ -54,12 +54,6 @@ def card(gw):
 def rest(port, method, path, body=None, token=TOKENS["operator"]):
     status, text = http_request(port, method, path, body, token=token)
     return status, (json.loads(text) if text and text.lstrip().startswith("{") else text)
-
-
-def position_x(gw, controller):
-    status, body = rest(gw.port, "GET", f"/api/v1/controllers/{controller}", token=TOKENS["viewer"])
-    check(status == 200, f"GET {controller} of {gw.name}: {status} {body}")
-    return next(a["position_um"] for a in body["axes"] if a["axis"] == "X")
 
 
 def commands_counted(gw):
@@ -213,7 +207,7 @@ async def test_page_publishes_nothing(b):
 def test_viewer_cannot_publish(broker, lab3):
     """A signed move (it would run, were it delivered) over the viewer account: the broker drops it."""
     topic = lab3.topic("controllers", "sim1", "cmd")
-    x0, counted0 = position_x(lab3, "sim1"), commands_counted(lab3)
+    x0, counted0 = axis_position(lab3.port, "sim1"), commands_counted(lab3)
     target = x0 + 3000.0
     move = {"operation": "move", "args": {"axes": {"X": target}, "wait": True}, "token": TOKENS["operator"]}
     viewer = Client(broker.port, "fleet-test-viewer", user="viewer")
@@ -223,14 +217,14 @@ def test_viewer_cannot_publish(broker, lab3):
         viewer.close()
     time.sleep(2)
     check(commands_counted(lab3) == counted0, "a command over the viewer account reached the gateway")
-    check(abs(position_x(lab3, "sim1") - x0) < 1, "the viewer's move ran")
+    check(abs(axis_position(lab3.port, "sim1") - x0) < 1, "the viewer's move ran")
     # The same over an account that may write: it runs, so the viewer's would have too.
     writer = Client(broker.port, "fleet-test-writer", user="gateway")
     try:
         writer.publish(topic, move)
     finally:
         writer.close()
-    wait_until("the writer's move ran", lambda: abs(position_x(lab3, "sim1") - target) < 1)
+    wait_until("the writer's move ran", lambda: abs(axis_position(lab3.port, "sim1") - target) < 1)
     check(commands_counted(lab3) > counted0, "the writer's command counted")
 
 
@@ -306,7 +300,8 @@ async def main_async(args, fx):
                      job.get("id")):
             await run("links to each gateway's page", test_links, b)
             await run("a REST move shows as a new position", test_position, b, lab1)
-            await run("settings kept (the password for the session only), connected again after a reload", test_settings_kept, b, lab1)
+            await run("settings kept (the password for the session only), connected again after a reload",
+                      test_settings_kept, b, lab1)
         await run("the viewer account cannot publish", asyncio.to_thread, test_viewer_cannot_publish, broker, lab3)
         await run("the page published nothing", test_page_publishes_nothing, b)
         await run("lab3 stopped (SIGTERM): offline, shutdown", test_shutdown_offline, b, lab3)

@@ -280,6 +280,13 @@ class Fixture:
         return 1 if self.failures else 0
 
 
+def axis_position(port, controller, axis="X"):
+    """An axis's position (um) in the controller's polled snapshot (GET /api/v1/controllers/{id})."""
+    status, body = http_request(port, "GET", f"/api/v1/controllers/{controller}", token=TOKENS["viewer"])
+    check(status == 200, f"GET {controller}: {status} {body}")
+    return next(a["position_um"] for a in json.loads(body)["axes"] if a["axis"] == axis)
+
+
 def run_main(main):
     """A test script's entry point: exits with main()'s code; a Failure while setting up exits 1."""
     try:

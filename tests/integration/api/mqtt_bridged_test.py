@@ -31,13 +31,17 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "support"))
-from gateway_fixture import (TOKENS, Failure, Fixture, check, http_request, run_main, signing_keys_config,  # noqa: E402
-                             wait_until)
+from gateway_fixture import (TOKENS, Failure, Fixture, check, run_main, signing_keys_config,  # noqa: E402
+                             axis_position, wait_until)
 from link_cutter import LinkCutter  # noqa: E402
 from mqtt_api_test import Broker, Client, Contract, Gateway, command, metric, payload_json  # noqa: E402
 
 MAX_AGE_S = 5
 REPLY = "clients/fleet/replies"
+
+
+def x_of(gw):
+    return axis_position(gw.port, "sim1")
 
 
 def bridge_lines(site, gateway, central_port, version):
@@ -48,12 +52,6 @@ def bridge_lines(site, gateway, central_port, version):
             f"bridge_protocol_version {version}", "cleansession false", f"remote_clientid bridge-{site}",
             f"topic asi/{gateway}/# both 1", "topic clients/# out 1", "restart_timeout 1 2",
             "keepalive_interval 10"]
-
-
-def x_of(gw):
-    status, body = http_request(gw.port, "GET", "/api/v1/controllers/sim1", token=TOKENS["viewer"])
-    check(status == 200, f"controller: {status} {body}")
-    return next(a["position_um"] for a in json.loads(body)["axes"] if a["axis"] == "X")
 
 
 def birth_of(gw, pred=lambda j: True):
@@ -131,8 +129,9 @@ def test_v5_bridge_cut(sites, central):
         c.subscribe(REPLY)
         start_x = x_of(gw)
         mark = c.mark()
-        cut_and_publish(site, central, c, [({"id": "cut5", "operation": "move", "reply_to": REPLY,
-                                              "args": {"axes": {"X": start_x + 1500}}, "token": TOKENS["operator"]}, 2)])
+        cut5 = {"id": "cut5", "operation": "move", "reply_to": REPLY, "args": {"axes": {"X": start_x + 1500}},
+                "token": TOKENS["operator"]}
+        cut_and_publish(site, central, c, [(cut5, 2)])
         # A barrier through the mended bridge (asked again until the bridge is back): answered, and
         # nothing came for the dropped command before it.
         tries = [0]

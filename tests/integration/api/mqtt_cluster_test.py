@@ -126,7 +126,8 @@ def fail_over(fx, cluster, gw, contract, label):
     answer = command(watcher, gw.topic("controllers", "sim2", "cmd"),
                      {"id": f"{label}-here", "operation": "here", "args": {"axes": {"Y": 0}},
                       "token": TOKENS["operator"], "reply_to": reply}, reply, v5=False)
-    check(answer["type"] == "result" and answer["id"] == f"{label}-here", f"{label}: a command after the failover: {answer}")
+    check(answer["type"] == "result" and answer["id"] == f"{label}-here",
+          f"{label}: a command after the failover: {answer}")
     watcher.close()
     # Health, metrics and the log name the node it is on (NATS may have moved it on once more).
     after = health_mqtt(gw)

@@ -23,7 +23,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from gateway_fixture import (TOKENS, Fixture, check, http_request, run_main, signed_command,  # noqa: E402
-                             signing_keys_config, wait_until)
+                             axis_position, signing_keys_config, wait_until)
 from mqtt_api_test import Broker, Client, Contract, Gateway, command, make_pki, metric, unanswered  # noqa: E402
 
 from paho.mqtt.packettypes import PacketTypes  # noqa: E402
@@ -33,14 +33,12 @@ MAX_AGE_S = 2
 REPLY = "clients/fresh/replies"
 
 
+def x_of(gw):
+    return axis_position(gw.port, "sim1")
+
+
 def now_ms():
     return int(time.time() * 1000)
-
-
-def x_of(gw):
-    status, body = http_request(gw.port, "GET", "/api/v1/controllers/sim1", token=TOKENS["viewer"])
-    check(status == 200, f"controller: {status} {body}")
-    return next(a["position_um"] for a in json.loads(body)["axes"] if a["axis"] == "X")
 
 
 def settled_x(gw):
