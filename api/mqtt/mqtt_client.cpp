@@ -356,10 +356,16 @@ void mqtt_client::on_lost(std::string cause) {
     const auto& all = config_.brokers;
     const auto at = std::find(all.begin(), all.end(), lost);
     try_brokers_from(at == all.end() ? 0 : static_cast<std::size_t>(at - all.begin()) + 1);
-    if (was)
-        do_connect();
-    else
+    if (!was) {
         schedule_reconnect();
+        return;
+    }
+    // Paho is still closing the lost connection for a moment: an attempt at once failed in it ("the
+    // connection failed before MQTT") and cost a backoff, while one a little later goes through.
+    retry_timer_.expires_after(after_loss_delay);
+    retry_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
+        if (auto self = weak.lock(); self && !ec) self->do_connect();
+    });
 }
 
 std::chrono::milliseconds mqtt_client::schedule_reconnect() {

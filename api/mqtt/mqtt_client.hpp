@@ -94,6 +94,8 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     // The caller subscribes again after each connect.
     void subscribe(const std::vector<std::string>& filters, int qos);
     static constexpr std::chrono::milliseconds resubscribe_delay{1000};
+    // The first attempt after a lost connection, to the next broker.
+    static constexpr std::chrono::milliseconds after_loss_delay{100};
     // A subscription of its own, beside subscribe()'s and not made again after a reconnect (the
     // retained birth check's); nothing while disconnected.
     void watch(const std::string& filter, int qos);
