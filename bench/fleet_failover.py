@@ -254,7 +254,14 @@ def run_setup(kind, args, tmp):
         # The watcher and the scheduler on a node that lives (NATS: the last one; the first dies).
         port = broker.mqtt_ports[-1] if nats else broker.port
         watcher = Watcher(port, "fleet-watcher")
-        wait_until("every birth at the watcher", lambda: len(watcher.births) >= len(fleet), timeout=300)
+        try:
+            wait_until("every birth at the watcher", lambda: len(watcher.births) >= len(fleet), timeout=120)
+        except RuntimeError:
+            missing = [g for g in fleet if g["name"] not in watcher.births]
+            for g in missing[:10]:
+                link = json.loads(Http(g["port"]).request("GET", "/api/v1/health")[1]).get("mqtt")
+                print(f"  {g['name']}: no birth at the watcher; its health says {link}", flush=True)
+            raise RuntimeError(f"{len(missing)} of {len(fleet)} births never reached the watcher")
         result["start_s"] = time.monotonic() - started
         result["births"] = len(watcher.births)
         # Idle: CPU over a window, memory at its end.

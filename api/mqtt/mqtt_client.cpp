@@ -113,7 +113,8 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
       retry_timer_(strand_),
       stop_timer_(strand_),
       resubscribe_timer_(strand_),
-      backoff_(config.reconnect_min, config.reconnect_max, std::random_device{}()) {
+      backoff_(config.reconnect_min, config.reconnect_max, std::random_device{}()),
+      jitter_(std::random_device{}()) {
     use_protocol(config_.protocol);
 }
 
@@ -351,7 +352,7 @@ void mqtt_client::on_lost(std::string cause) {
         if (handlers_.disconnected) handlers_.disconnected(cause);
     }
     if (connecting_) return;
-    // The next broker at once, the lost one last (a cluster's node died: another one has the
+    // The next broker first, the lost one last (a cluster's node died: another one has the
     // session); later attempts back off.
     const auto& all = config_.brokers;
     const auto at = std::find(all.begin(), all.end(), lost);
@@ -361,8 +362,10 @@ void mqtt_client::on_lost(std::string cause) {
         return;
     }
     // Paho is still closing the lost connection for a moment: an attempt at once failed in it ("the
-    // connection failed before MQTT") and cost a backoff, while one a little later goes through.
-    retry_timer_.expires_after(after_loss_delay);
+    // connection failed before MQTT") and cost a backoff, while one a little later goes through
+    // (after_loss_delay, with jitter).
+    std::uniform_int_distribution<long> wait(after_loss_delay.count(), 3 * after_loss_delay.count());
+    retry_timer_.expires_after(std::chrono::milliseconds(wait(jitter_)));
     retry_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
         if (auto self = weak.lock(); self && !ec) self->do_connect();
     });

@@ -19,6 +19,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -94,7 +95,9 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     // The caller subscribes again after each connect.
     void subscribe(const std::vector<std::string>& filters, int qos);
     static constexpr std::chrono::milliseconds resubscribe_delay{1000};
-    // The first attempt after a lost connection, to the next broker.
+    // The first attempt after a lost connection, to the next broker: after a wait drawn from
+    // [after_loss_delay, 3 * after_loss_delay], so that a fleet that lost its node at one instant
+    // does not come back in one burst.
     static constexpr std::chrono::milliseconds after_loss_delay{100};
     // A subscription of its own, beside subscribe()'s and not made again after a reconnect (the
     // retained birth check's); nothing while disconnected.
@@ -144,6 +147,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::vector<std::string> filters_;      // the last subscribe()'s, made again after a refusal
     int filters_qos_ = 0;
     reconnect_backoff backoff_;
+    std::minstd_rand jitter_;  // the wait after a loss
     bool connected_ = false;
     bool connecting_ = false;
     bool stopping_ = false;
