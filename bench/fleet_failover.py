@@ -279,10 +279,14 @@ def run_setup(kind, args, tmp):
         scheduler = Scheduler(port, names)
         scheduler.start()
         time.sleep(args.lead_s)
+        # The gateways on the node about to die, by their own word (a gateway whose first node was not
+        # ready at its start may be on another).
+        on = {g["name"]: json.loads(Http(g["port"]).request("GET", "/api/v1/health")[1])["mqtt"]["broker"]
+              for g in fleet}
         killed = time.time()
         if nats:
             dead_uri = uris[0]
-            affected = [g["name"] for g in fleet if g["first"] == dead_uri]
+            affected = [name for name, broker_uri in on.items() if broker_uri == dead_uri]
             broker.kill(0)
         else:
             affected = names

@@ -364,7 +364,7 @@ void mqtt_client::on_lost(std::string cause) {
     // Paho is still closing the lost connection for a moment: an attempt at once failed in it ("the
     // connection failed before MQTT") and cost a backoff, while one a little later goes through
     // (after_loss_delay, with jitter).
-    std::uniform_int_distribution<long> wait(after_loss_delay.count(), 3 * after_loss_delay.count());
+    std::uniform_int_distribution<long> wait(after_loss_delay.count(), 9 * after_loss_delay.count());
     retry_timer_.expires_after(std::chrono::milliseconds(wait(jitter_)));
     retry_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
         if (auto self = weak.lock(); self && !ec) self->do_connect();
