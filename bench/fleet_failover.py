@@ -244,7 +244,7 @@ def run_setup(kind, args, tmp):
     if nats:
         broker.start()
     uris = broker.broker_uris() if nats else broker.uris()
-    result = {"kind": kind}
+    result = {"kind": kind, "gateways": args.gateways}
     fleet = []
     watcher = scheduler = None
     try:
@@ -255,13 +255,14 @@ def run_setup(kind, args, tmp):
         port = broker.mqtt_ports[-1] if nats else broker.port
         watcher = Watcher(port, "fleet-watcher")
         try:
-            wait_until("every birth at the watcher", lambda: len(watcher.births) >= len(fleet), timeout=120)
+            wait_until("every birth at the watcher", lambda: len(watcher.births) >= len(fleet), timeout=60)
         except RuntimeError:
-            missing = [g for g in fleet if g["name"] not in watcher.births]
-            for g in missing[:10]:
-                link = json.loads(Http(g["port"]).request("GET", "/api/v1/health")[1]).get("mqtt")
-                print(f"  {g['name']}: no birth at the watcher; its health says {link}", flush=True)
-            raise RuntimeError(f"{len(missing)} of {len(fleet)} births never reached the watcher")
+            # Told and counted, and the run goes on: NATS 2.9 was seen to serve a retained message on
+            # the node it was published to and not on another.
+            for g in fleet:
+                if g["name"] not in watcher.births:
+                    link = json.loads(Http(g["port"]).request("GET", "/api/v1/health")[1]).get("mqtt")
+                    print(f"  {g['name']}: no retained birth at the watcher; its health says {link}", flush=True)
         result["start_s"] = time.monotonic() - started
         result["births"] = len(watcher.births)
         # Idle: CPU over a window, memory at its end.
@@ -357,7 +358,7 @@ def table(results):
     for r in results:
         label = "NATS 2.9, 3 nodes (kill -9 of one)" if r["kind"] == "nats" else \
             "mosquitto 2.0.11, 1 node (kill -9, restarted at once)"
-        rows.append(f"| {label} | {r['births']} | {r['births']} present | "
+        rows.append(f"| {label} | {r['gateways']} | {r['births']} present | "
                     f"{r['cpu_mean']:.2f} % / {r['cpu_max']:.2f} % | "
                     f"{r['rss_mean']:.1f} / {r['rss_max']:.1f} MiB | {r['broker_rss']:.0f} MiB | {r['affected']} | "
                     f"{r['back_min']:.2f} / {r['back_p50']:.2f} / {r['back_p99']:.2f} / {r['back_max']:.2f} s "

@@ -1,12 +1,12 @@
-"""MQTT failover on a clustered broker (issue 37, first point): a 3-node NATS JetStream cluster with
+"""MQTT failover on a clustered broker (issue 37): a 3-node NATS JetStream cluster with
 its MQTT front end (Debian's nats-server; MQTT 3.1.1, sessions and retained messages replicated on
 all three nodes) and the real asi-gateway given every node in mqtt.brokers, its reconnect settings
 left at their defaults.
 
 - The gateway tells which node it is connected to: in its log, GET /api/v1/health (mqtt.broker),
   /metrics (gw_mqtt_broker{broker=...} 1) and its birth ("broker").
-- kill -9 of that node: the gateway connects to another node at once (not after a backoff, and not
-  after trying the dead node first) and publishes its birth and every controller's state again; a
+- kill -9 of that node: the gateway connects to another node within a second (not after a backoff,
+  and not after trying the dead node first) and publishes its birth and every controller's state again; a
   watcher on the third node sees them, and says how long after the kill. The log, health, metrics
   and birth then name the node it is on, and every live node serves the birth naming it as the
   retained one (the gateway reads it back and publishes it again when a node does not).
