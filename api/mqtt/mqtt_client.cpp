@@ -246,8 +246,15 @@ void mqtt_client::try_brokers_from(std::size_t first) {
     order_.clear();
     for (std::size_t i = 0; i < all.size(); ++i)
         order_.push_back(all[(first + i) % all.size()]);
-    // One broker: the client's own URI. Several: Paho tries them in this order within one attempt.
-    if (all.size() > 1) options_->set_servers(std::make_shared<mqtt::string_collection>(order_));
+    untried_ = order_.size();
+    aim_at_front();
+}
+
+void mqtt_client::aim_at_front() {
+    // One broker per Paho attempt, this one: given several, Paho tries them in turn but may report
+    // the first as the one it connected to (seen on NATS, a dead node named after a fallback).
+    options_->set_servers(
+        std::make_shared<mqtt::string_collection>(std::vector<std::string>{order_.front()}));
 }
 
 std::string mqtt_client::brokers_tried() const {
@@ -295,13 +302,25 @@ void mqtt_client::on_connect_result(bool ok, const std::string& what) {
                 "(set mqtt.protocol to \"3.1.1\" to start with it)",
                 brokers_tried());
         const auto order = order_;
+        const auto untried = untried_;
         use_protocol(mqtt_protocol::v3_1_1);
         install_callbacks();
         order_ = order;
-        if (order_.size() > 1) options_->set_servers(std::make_shared<mqtt::string_collection>(order_));
+        untried_ = untried;
+        aim_at_front();
+        return do_connect();
+    }
+    if (!ok && --untried_ > 0) {
+        // The next broker of this round at once; a round that failed on every broker backs off.
+        std::rotate(order_.begin(), order_.begin() + 1, order_.end());
+        aim_at_front();
         return do_connect();
     }
     if (!ok) {
+        // After a whole round the list is back in its order: the next round starts where this one did.
+        std::rotate(order_.begin(), order_.begin() + 1, order_.end());
+        untried_ = order_.size();
+        aim_at_front();
         const auto wait = schedule_reconnect();
         // Attempts come every couple of seconds during an outage: the first failure and then one in 30
         // are warnings, the rest debug.
@@ -316,8 +335,9 @@ void mqtt_client::on_connect_result(bool ok, const std::string& what) {
     resubscribe_rounds_ = 0;
     backoff_.reset();
     if (config_.tcp_nodelay) disable_nagle_towards(broker_ports(config_.brokers));
-    // The broker that answered (Paho's client URI is only the first configured one).
-    broker_ = what.empty() ? order_.front() : what;
+    // The broker this attempt aimed at, its only one (Paho's report may name another).
+    (void)what;
+    broker_ = order_.front();
     if (log_) log_->info("connected to {} as {}", broker_, client_id_);
     if (handlers_.connected) handlers_.connected();
 }

@@ -120,6 +120,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     void do_connect();
     // The brokers in the order the next attempts try them: from mqtt.brokers[first] on, wrapping.
     void try_brokers_from(std::size_t first);
+    void aim_at_front();                // the next attempt goes to order_.front() alone
     std::string brokers_tried() const;  // for the log: "tcp://a:1883" or "any of tcp://a, tcp://b"
     void on_connect_result(bool ok, const std::string& what);
     // The warning for a failed connect, with a reason a person can act on (connect_failure.hpp); when
@@ -157,7 +158,8 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::size_t in_flight_ = 0;
     std::uint64_t connects_ = 0;
     std::string broker_;              // connected to; empty while disconnected
-    std::vector<std::string> order_;  // the brokers the next attempt tries, in order
+    std::vector<std::string> order_;  // the brokers of a round, the next attempt's first
+    std::size_t untried_ = 0;         // brokers of this round not tried yet
     int failure_rc_ = 0;              // of the last failed action (set by the listener, on the strand)
     int failure_reason_ = 0;          // MQTT 5 reason code of it, 0 if none
     std::unique_ptr<listener> connect_listener_;  // outlives cli_ (declared before it)
