@@ -25,7 +25,8 @@ bool names_the_page_folder(std::string_view path) {
 // whose host and port the person types in and cannot be known here.
 constexpr std::string_view content_security_policy =
     "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
-    "connect-src 'self' ws: wss:; object-src 'none'; base-uri 'none'; frame-ancestors 'none'; form-action 'self'";
+    "connect-src 'self' ws: wss:; object-src 'none'; base-uri 'none'; frame-ancestors 'none'; form-action "
+    "'self'";
 
 std::string_view content_type_of(std::string_view name) {
     auto ends = [&](std::string_view ext) { return name.ends_with(ext); };
