@@ -61,13 +61,10 @@ std::string describe(const mqtt::token& t) {
 class mqtt_client::listener final : public mqtt::iaction_listener {
   public:
     using callback = std::function<void(mqtt_client&, bool ok, std::string what)>;
-    // `connects`: the listener of connect actions; its success carries the broker that answered.
-    listener(std::weak_ptr<mqtt_client> owner, strand s, callback cb, bool connects = false)
-        : owner_(std::move(owner)), strand_(std::move(s)), cb_(std::move(cb)), connects_(connects) {}
+    listener(std::weak_ptr<mqtt_client> owner, strand s, callback cb)
+        : owner_(std::move(owner)), strand_(std::move(s)), cb_(std::move(cb)) {}
 
-    void on_success(const mqtt::token& t) override {
-        post(true, connects_ ? t.get_connect_response().get_server_uri() : std::string());
-    }
+    void on_success(const mqtt::token&) override { post(true, {}); }
     void on_failure(const mqtt::token& t) override {
         post(false, describe(t), t.get_return_code(),
              t.get_reason_code() == mqtt::SUCCESS ? 0 : int(t.get_reason_code()));
@@ -88,7 +85,6 @@ class mqtt_client::listener final : public mqtt::iaction_listener {
     std::weak_ptr<mqtt_client> owner_;
     strand strand_;
     callback cb_;
-    bool connects_ = false;
 };
 
 std::shared_ptr<mqtt_client> mqtt_client::create(strand executor, const mqtt_config& config,
@@ -97,7 +93,9 @@ std::shared_ptr<mqtt_client> mqtt_client::create(strand executor, const mqtt_con
                                                  std::shared_ptr<spdlog::logger> log) {
     std::shared_ptr<mqtt_client> c(new mqtt_client(std::move(executor), config, std::move(client_id),
                                                    std::move(will), std::move(handlers), std::move(log)));
-    c->install_callbacks();
+    c->make_listeners();
+    c->cli_ = c->make_paho_client();
+    c->fresh_client_ = true;
     return c;
 }
 
@@ -121,19 +119,6 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
 void mqtt_client::use_protocol(mqtt_protocol protocol) {
     protocol_ = protocol;
     const int version = paho_mqtt_version(protocol);
-    mqtt::create_options create(version);
-    // Paho refuses a publish while this many wait in its queue ("No more messages can be buffered"),
-    // connected or not; its default, 100, is below the bridge's own bound on messages in flight
-    // (mqtt_bridge_settings::max_in_flight), so busy report streams lost whole batches to it.
-    create.set_max_buffered_messages(max_buffered_messages);
-    // A Paho client speaks the version it was created for: another version needs another client.
-    if (cli_) cli_->disable_callbacks();
-    try {
-        cli_ = std::make_unique<mqtt::async_client>(config_.brokers.front(), client_id_, create, nullptr);
-    } catch (const mqtt::exception& e) {
-        throw std::runtime_error("mqtt: cannot create the client for " + config_.brokers.front() + ": " +
-                                 e.what());
-    }
     options_ = std::make_unique<mqtt::connect_options>();
     auto& o = *options_;
     o.set_mqtt_version(version);
@@ -170,6 +155,49 @@ void mqtt_client::use_protocol(mqtt_protocol protocol) {
     }
 }
 
+std::unique_ptr<mqtt::async_client> mqtt_client::make_paho_client() {
+    mqtt::create_options create(paho_mqtt_version(protocol_));
+    // Paho refuses a publish while this many wait in its queue ("No more messages can be buffered"),
+    // connected or not; its default, 100, is below the bridge's own bound on messages in flight
+    // (mqtt_bridge_settings::max_in_flight), so busy report streams lost whole batches to it.
+    create.set_max_buffered_messages(max_buffered_messages);
+    std::unique_ptr<mqtt::async_client> cli;
+    try {
+        cli = std::make_unique<mqtt::async_client>(config_.brokers.front(), client_id_, create, nullptr);
+    } catch (const mqtt::exception& e) {
+        throw std::runtime_error("mqtt: cannot create the client for " + config_.brokers.front() + ": " +
+                                 e.what());
+    }
+    install_callbacks(*cli);
+    return cli;
+}
+
+void mqtt_client::renew_paho_client() {
+    if (renewing_) return;
+    renewing_ = true;
+    auto old = std::move(cli_);
+    try {
+        old->disable_callbacks();
+    } catch (const std::exception&) {
+    }
+    // Destroying a Paho client waits (about 100 ms) for Paho's threads to stop: not on the strand.
+    auto renewed = [weak = weak_from_this(), s = strand_] {
+        net::post(s, [weak] {
+            auto self = weak.lock();
+            if (!self) return;
+            self->renewing_ = false;
+            self->cli_ = self->make_paho_client();
+            self->fresh_client_ = true;
+            if (self->connect_due_) self->do_connect();
+        });
+    };
+    if (!retirer_.post([old = std::move(old), renewed]() mutable {
+            old.reset();
+            renewed();
+        }))
+        renewed();  // never more than one waits; were it refused, the old client still goes in time
+}
+
 mqtt_client::~mqtt_client() {
     // Paho refuses (throws) while a connect is still in progress, e.g. a shutdown during an attempt:
     // a destructor must not throw, and the callbacks hold only weak references to this client.
@@ -179,11 +207,10 @@ mqtt_client::~mqtt_client() {
     }
 }
 
-void mqtt_client::install_callbacks() {
+void mqtt_client::make_listeners() {
     std::weak_ptr<mqtt_client> weak = weak_from_this();
     connect_listener_ = std::make_unique<listener>(
-        weak, strand_,
-        [](mqtt_client& c, bool ok, const std::string& what) { c.on_connect_result(ok, what); }, true);
+        weak, strand_, [](mqtt_client& c, bool ok, const std::string&) { c.on_connect_result(ok); });
     publish_listener_ =
         std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
             if (c.in_flight_ > 0) --c.in_flight_;
@@ -200,19 +227,23 @@ void mqtt_client::install_callbacks() {
     });
     disconnect_listener_ = std::make_unique<listener>(
         weak, strand_, [](mqtt_client& c, bool, const std::string&) { c.finish_stop(); });
+}
+
+void mqtt_client::install_callbacks(mqtt::async_client& cli) {
+    std::weak_ptr<mqtt_client> weak = weak_from_this();
     auto s = strand_;
-    cli_->set_connection_lost_handler([weak, s](const std::string& cause) {
+    cli.set_connection_lost_handler([weak, s](const std::string& cause) {
         net::post(s, [weak, cause] {
             if (auto self = weak.lock()) self->on_lost(cause.empty() ? "connection lost" : cause);
         });
     });
-    cli_->set_disconnected_handler([weak, s](const mqtt::properties&, mqtt::ReasonCode rc) {
+    cli.set_disconnected_handler([weak, s](const mqtt::properties&, mqtt::ReasonCode rc) {
         net::post(s, [weak, rc] {
             if (auto self = weak.lock())
                 self->on_lost("the broker disconnected us (reason " + std::to_string(int(rc)) + ")");
         });
     });
-    cli_->set_message_callback([weak, s](const mqtt::const_message_ptr& msg) {
+    cli.set_message_callback([weak, s](const mqtt::const_message_ptr& msg) {
         if (!msg) return;
         mqtt_message_in in;
         in.topic = msg->get_topic();
@@ -267,19 +298,20 @@ std::string mqtt_client::brokers_tried() const {
 
 void mqtt_client::do_connect() {
     if (stopping_ || connected_ || connecting_) return;
+    // One Paho client per attempt. Debian's Paho (1.3.12, upstream alike) notices a finished TCP
+    // connect only when its reading thread's poll times out: 1 s, except in the first poll of the
+    // threads a new client starts (10 ms). A client made again after every attempt connects in 0.1 s.
+    if (!fresh_client_) {
+        connect_due_ = true;
+        return renew_paho_client();
+    }
+    connect_due_ = false;
+    fresh_client_ = false;
     connecting_ = true;
     try {
         cli_->connect(*options_, nullptr, *connect_listener_);
     } catch (const mqtt::exception& e) {
         connecting_ = false;
-        if (e.get_return_code() == MQTTASYNC_COMMAND_IGNORED) {
-            // Paho is still closing the lost connection: asked again in a moment, not after a backoff.
-            retry_timer_.expires_after(std::chrono::milliseconds(50));
-            retry_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {
-                if (auto self = weak.lock(); self && !ec) self->do_connect();
-            });
-            return;
-        }
         if (log_) log_->warn("connect to {} refused at once: {}", brokers_tried(), e.what());
         schedule_reconnect();
     }
@@ -291,7 +323,7 @@ bool mqtt_client::refused_mqtt_5() const {
     return protocol_ == mqtt_protocol::v5 && (failure_rc_ == 1 || failure_reason_ == 0x84);
 }
 
-void mqtt_client::on_connect_result(bool ok, const std::string& what) {
+void mqtt_client::on_connect_result(bool ok) {
     connecting_ = false;
     if (stopping_) return;
     if (!ok && refused_mqtt_5()) {
@@ -303,8 +335,7 @@ void mqtt_client::on_connect_result(bool ok, const std::string& what) {
                 brokers_tried());
         const auto order = order_;
         const auto untried = untried_;
-        use_protocol(mqtt_protocol::v3_1_1);
-        install_callbacks();
+        use_protocol(mqtt_protocol::v3_1_1);  // the next client is made for it
         order_ = order;
         untried_ = untried;
         aim_at_front();
@@ -336,7 +367,6 @@ void mqtt_client::on_connect_result(bool ok, const std::string& what) {
     backoff_.reset();
     if (config_.tcp_nodelay) disable_nagle_towards(broker_ports(config_.brokers));
     // The broker this attempt aimed at, its only one (Paho's report may name another).
-    (void)what;
     broker_ = order_.front();
     if (log_) log_->info("connected to {} as {}", broker_, client_id_);
     if (handlers_.connected) handlers_.connected();
@@ -381,9 +411,9 @@ void mqtt_client::on_lost(std::string cause) {
         schedule_reconnect();
         return;
     }
-    // Paho is still closing the lost connection for a moment: an attempt at once failed in it ("the
-    // connection failed before MQTT") and cost a backoff, while one a little later goes through
-    // (after_loss_delay, with jitter).
+    // The attempt after a random wait (after_loss_delay), so that a fleet that lost its node at one
+    // instant does not come back in one burst; the used Paho client is replaced meanwhile.
+    renew_paho_client();
     std::uniform_int_distribution<long> wait(after_loss_delay.count(), 9 * after_loss_delay.count());
     retry_timer_.expires_after(std::chrono::milliseconds(wait(jitter_)));
     retry_timer_.async_wait([weak = weak_from_this()](boost::system::error_code ec) {

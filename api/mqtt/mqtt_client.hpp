@@ -29,6 +29,7 @@
 #include <spdlog/common.h>
 
 #include "api/mqtt/reconnect_backoff.hpp"
+#include "gateway/common/worker_thread.hpp"
 #include "gateway/config/config.hpp"
 
 namespace spdlog {
@@ -97,8 +98,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     static constexpr std::chrono::milliseconds resubscribe_delay{1000};
     // The first attempt after a lost connection, to the next broker: after a wait drawn from
     // [after_loss_delay, 9 * after_loss_delay], so that a fleet that lost its node at one instant
-    // does not come back in one burst (Debian's Paho adds about 1 s to every connect: the births are
-    // back 1.1 to 1.9 s after the loss).
+    // does not come back in one burst.
     static constexpr std::chrono::milliseconds after_loss_delay{100};
     // A subscription of its own, beside subscribe()'s and not made again after a reconnect (the
     // retained birth check's); nothing while disconnected.
@@ -113,16 +113,22 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     class listener;
     mqtt_client(strand executor, const mqtt_config& config, std::string client_id, mqtt_message_out will,
                 mqtt_client_handlers handlers, std::shared_ptr<spdlog::logger> log);
-    // A Paho client and connect options for `protocol` (the first, or after a broker refused MQTT 5).
+    // The connect options for `protocol` (the first, or after a broker refused MQTT 5); the clients
+    // made from then on speak it.
     void use_protocol(mqtt_protocol protocol);
-    void install_callbacks();
+    void make_listeners();
+    std::unique_ptr<mqtt::async_client> make_paho_client();  // for protocol_, its callbacks installed
+    void install_callbacks(mqtt::async_client& cli);
+    // The used client is destroyed on retirer_ and a new one made on the strand; do_connect() follows
+    // if an attempt is due.
+    void renew_paho_client();
     bool refused_mqtt_5() const;  // the last connect failed for the protocol version
     void do_connect();
     // The brokers in the order the next attempts try them: from mqtt.brokers[first] on, wrapping.
     void try_brokers_from(std::size_t first);
     void aim_at_front();                // the next attempt goes to order_.front() alone
     std::string brokers_tried() const;  // for the log: "tcp://a:1883" or "any of tcp://a, tcp://b"
-    void on_connect_result(bool ok, const std::string& what);
+    void on_connect_result(bool ok);
     // The warning for a failed connect, with a reason a person can act on (connect_failure.hpp); when
     // Paho gives none, after broker_probe has asked the broker itself (TCP, TLS handshake).
     void log_connect_failure(std::chrono::milliseconds wait, spdlog::level::level_enum level);
@@ -168,8 +174,14 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::unique_ptr<listener> disconnect_listener_;
     std::unique_ptr<listener> last_listener_;  // the message stop() publishes
     std::unique_ptr<mqtt::connect_options> options_;
-    std::unique_ptr<mqtt::async_client> cli_;
+    std::unique_ptr<mqtt::async_client> cli_;  // null while renewing_
+    bool fresh_client_ = false;                // cli_ has made no attempt yet
+    bool renewing_ = false;
+    bool connect_due_ = false;  // an attempt waits for the new client
     std::function<void()> stop_done_;
+    // Destroys used Paho clients. Last: destroyed first, it waits for a destruction under way, which
+    // may still call the listeners.
+    worker_thread retirer_{2};
 };
 
 // Paho's MQTT version number for the config's protocol.
