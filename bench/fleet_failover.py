@@ -176,6 +176,30 @@ def published(birth):
         return None
 
 
+def streams_led_again(cluster, since):
+    """Seconds from `since` (epoch) to the last "new stream leader" a live node logged for one of the
+    MQTT streams (sessions, messages, retained): NATS takes no MQTT connect and no retained message for
+    a stream without a leader. None when no MQTT stream needed a new leader."""
+    import datetime
+    last = None
+    for i, p in enumerate(cluster.nodes):
+        if p is None or p.poll() is not None:
+            continue
+        with open(cluster.log(i)) as f:
+            for line in f:
+                if "new stream leader for '$G > $MQTT_" not in line:
+                    continue
+                # "[pid] 2026/12/06 13:35:15.386334 [INF] ...", in the machine's local time
+                stamp = " ".join(line.split()[1:3])
+                try:
+                    at = datetime.datetime.strptime(stamp, "%Y/%m/%d %H:%M:%S.%f").timestamp()
+                except ValueError:
+                    continue
+                if at > since:
+                    last = max(last or 0.0, at - since)
+    return last
+
+
 def gateway_config(name, port, tmp, brokers, nats):
     return {
         "http": {"listen_address": "127.0.0.1", "port": port},
@@ -209,6 +233,16 @@ def start_fleet(binary, n, tmp, uris, nats):
         wait_until(f"{g['name']} ready", lambda g=g: Http(g["port"]).request("GET", "/api/v1/ready")[0] == 200,
                    timeout=120)
     return fleet
+
+
+def link_report(g):
+    """A gateway's own word on its broker link: health's mqtt, and what it published and dropped."""
+    report = json.loads(Http(g["port"]).request("GET", "/api/v1/health")[1]).get("mqtt")
+    status, text = Http(g["port"]).request("GET", "/api/v1/metrics", token=TOKENS["viewer"])
+    if status == 200:
+        report["counts"] = [line for line in text.splitlines()
+                            if line.startswith(("gw_mqtt_published_total", "gw_mqtt_dropped_total"))]
+    return report
 
 
 def pct(values, p):
@@ -261,8 +295,7 @@ def run_setup(kind, args, tmp):
             # the node it was published to and not on another.
             for g in fleet:
                 if g["name"] not in watcher.births:
-                    link = json.loads(Http(g["port"]).request("GET", "/api/v1/health")[1]).get("mqtt")
-                    print(f"  {g['name']}: no retained birth at the watcher; its health says {link}", flush=True)
+                    print(f"  {g['name']}: no retained birth at the watcher; it says {link_report(g)}", flush=True)
         result["start_s"] = time.monotonic() - started
         result["births"] = len(watcher.births)
         # Idle: CPU over a window, memory at its end.
@@ -297,12 +330,12 @@ def run_setup(kind, args, tmp):
         scheduler.stop_at = time.monotonic() + args.tail_s
         scheduler.join()
         time.sleep(5)  # the last answers
+        result["streams_led_s"] = streams_led_again(broker, killed) if nats else None
         backs = watcher.births_since(killed)
         back_s = sorted(backs[g] for g in affected if backs.get(g) is not None)
         missing = [g for g in affected if backs.get(g) is None]
         # A birth the watcher missed, or a gateway that did not come back: its own word on its link.
-        result["missing"] = {g["name"]: json.loads(Http(g["port"]).request("GET", "/api/v1/health")[1]).get("mqtt")
-                             for g in fleet if g["name"] in missing}
+        result["missing"] = {g["name"]: link_report(g) for g in fleet if g["name"] in missing}
         result.update(affected=len(affected), back=len(back_s), back_p50=pct(back_s, 50), back_p99=pct(back_s, 99),
                       back_max=back_s[-1] if back_s else float("nan"), back_min=back_s[0] if back_s else float("nan"))
         # The busiest 100 ms of reconnects: a fleet in lockstep lands most of itself in one.
@@ -352,17 +385,21 @@ def run_setup(kind, args, tmp):
 def table(results):
     head = ("| broker | gateways | births | idle CPU per gateway (mean / max) | RSS per gateway (mean / max) | "
             "broker RSS | on the dead node | birth published again after the kill (min / p50 / p99 / max) | "
-            "busiest 100 ms | commands sent | ran once | ran twice | not run (of which refused stale) | "
+            "busiest 100 ms | NATS's MQTT streams led again | commands sent | ran once | ran twice | "
+            "not run (of which refused stale) | "
             "answered twice | ran, answer lost |")
-    rows = [head, "|" + " --- |" * 15]
+    rows = [head, "|" + " --- |" * 16]
     for r in results:
         label = "NATS 2.9, 3 nodes (kill -9 of one)" if r["kind"] == "nats" else \
             "mosquitto 2.0.11, 1 node (kill -9, restarted at once)"
+        led = r.get("streams_led_s")
+        led = "n/a" if r["kind"] != "nats" else "no election" if led is None else f"{led:.2f} s after the kill"
         rows.append(f"| {label} | {r['gateways']} | {r['births']} present | "
                     f"{r['cpu_mean']:.2f} % / {r['cpu_max']:.2f} % | "
                     f"{r['rss_mean']:.1f} / {r['rss_max']:.1f} MiB | {r['broker_rss']:.0f} MiB | {r['affected']} | "
                     f"{r['back_min']:.2f} / {r['back_p50']:.2f} / {r['back_p99']:.2f} / {r['back_max']:.2f} s "
-                    f"({r['back']} of {r['affected']}) | {r['busiest_100ms']} | {r['sent']} | {r['ran_once']} | "
+                    f"({r['back']} of {r['affected']}) | {r['busiest_100ms']} | {led} | {r['sent']} | "
+                    f"{r['ran_once']} | "
                     f"{r['ran_twice']} | {r['not_run']} ({r['not_run_stale']}) | {r['answered_twice']} | "
                     f"{r['unanswered_but_ran']} |")
     return "\n".join(rows)
@@ -386,7 +423,7 @@ def main():
             r = run_setup(kind, args, tmp)
             print(json.dumps(r), flush=True)
             for g, link in r["missing"].items():
-                print(f"  {g}: no birth seen after the kill; its health says {link}")
+                print(f"  {g}: no birth seen after the kill; it says {link}")
             results.append(r)
     load_after = os.getloadavg()
     met = all(r["births"] == args.gateways and r["ran_twice"] == 0 and r["back"] == r["affected"] for r in results)

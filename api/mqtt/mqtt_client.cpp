@@ -61,8 +61,8 @@ std::string describe(const mqtt::token& t) {
 class mqtt_client::listener final : public mqtt::iaction_listener {
   public:
     using callback = std::function<void(mqtt_client&, bool ok, std::string what)>;
-    listener(std::weak_ptr<mqtt_client> owner, strand s, callback cb)
-        : owner_(std::move(owner)), strand_(std::move(s)), cb_(std::move(cb)) {}
+    listener(std::weak_ptr<mqtt_client> owner, strand s, std::uint64_t generation, callback cb)
+        : owner_(std::move(owner)), strand_(std::move(s)), generation_(generation), cb_(std::move(cb)) {}
 
     void on_success(const mqtt::token&) override { post(true, {}); }
     void on_failure(const mqtt::token& t) override {
@@ -72,8 +72,10 @@ class mqtt_client::listener final : public mqtt::iaction_listener {
 
   private:
     void post(bool ok, std::string what, int rc = 0, int reason = 0) {
-        net::post(strand_, [owner = owner_, cb = cb_, ok, what = std::move(what), rc, reason]() mutable {
-            if (auto self = owner.lock()) {
+        net::post(strand_, [owner = owner_, generation = generation_, cb = cb_, ok, what = std::move(what),
+                            rc, reason]() mutable {
+            // A retired client's late report (its actions failed as it was destroyed) is nobody's.
+            if (auto self = owner.lock(); self && self->generation_ == generation) {
                 if (!ok) {
                     self->failure_rc_ = rc;
                     self->failure_reason_ = reason;
@@ -84,7 +86,15 @@ class mqtt_client::listener final : public mqtt::iaction_listener {
     }
     std::weak_ptr<mqtt_client> owner_;
     strand strand_;
+    std::uint64_t generation_;
     callback cb_;
+};
+
+// One Paho client and the listeners of its actions, which outlive it (declared before it). `last`
+// hears of the message stop() publishes.
+struct mqtt_client::paho {
+    std::unique_ptr<listener> connect, publish, subscribe, disconnect, last;
+    std::unique_ptr<mqtt::async_client> client;
 };
 
 std::shared_ptr<mqtt_client> mqtt_client::create(strand executor, const mqtt_config& config,
@@ -93,8 +103,7 @@ std::shared_ptr<mqtt_client> mqtt_client::create(strand executor, const mqtt_con
                                                  std::shared_ptr<spdlog::logger> log) {
     std::shared_ptr<mqtt_client> c(new mqtt_client(std::move(executor), config, std::move(client_id),
                                                    std::move(will), std::move(handlers), std::move(log)));
-    c->make_listeners();
-    c->cli_ = c->make_paho_client();
+    c->paho_ = c->make_paho();
     c->fresh_client_ = true;
     return c;
 }
@@ -155,29 +164,32 @@ void mqtt_client::use_protocol(mqtt_protocol protocol) {
     }
 }
 
-std::unique_ptr<mqtt::async_client> mqtt_client::make_paho_client() {
+std::unique_ptr<mqtt_client::paho> mqtt_client::make_paho() {
     mqtt::create_options create(paho_mqtt_version(protocol_));
     // Paho refuses a publish while this many wait in its queue ("No more messages can be buffered"),
     // connected or not; its default, 100, is below the bridge's own bound on messages in flight
     // (mqtt_bridge_settings::max_in_flight), so busy report streams lost whole batches to it.
     create.set_max_buffered_messages(max_buffered_messages);
-    std::unique_ptr<mqtt::async_client> cli;
+    auto p = std::make_unique<paho>();
     try {
-        cli = std::make_unique<mqtt::async_client>(config_.brokers.front(), client_id_, create, nullptr);
+        p->client =
+            std::make_unique<mqtt::async_client>(config_.brokers.front(), client_id_, create, nullptr);
     } catch (const mqtt::exception& e) {
         throw std::runtime_error("mqtt: cannot create the client for " + config_.brokers.front() + ": " +
                                  e.what());
     }
-    install_callbacks(*cli);
-    return cli;
+    ++generation_;
+    make_listeners(*p);
+    install_callbacks(*p->client);
+    return p;
 }
 
 void mqtt_client::renew_paho_client() {
     if (renewing_) return;
     renewing_ = true;
-    auto old = std::move(cli_);
+    auto old = std::move(paho_);
     try {
-        old->disable_callbacks();
+        old->client->disable_callbacks();
     } catch (const std::exception&) {
     }
     // Destroying a Paho client waits (about 100 ms) for Paho's threads to stop: not on the strand.
@@ -186,7 +198,7 @@ void mqtt_client::renew_paho_client() {
             auto self = weak.lock();
             if (!self) return;
             self->renewing_ = false;
-            self->cli_ = self->make_paho_client();
+            self->paho_ = self->make_paho();
             self->fresh_client_ = true;
             if (self->connect_due_) self->do_connect();
         });
@@ -202,44 +214,46 @@ mqtt_client::~mqtt_client() {
     // Paho refuses (throws) while a connect is still in progress, e.g. a shutdown during an attempt:
     // a destructor must not throw, and the callbacks hold only weak references to this client.
     try {
-        if (cli_) cli_->disable_callbacks();
+        if (paho_) paho_->client->disable_callbacks();
     } catch (const std::exception&) {
     }
 }
 
-void mqtt_client::make_listeners() {
+void mqtt_client::make_listeners(paho& p) {
     std::weak_ptr<mqtt_client> weak = weak_from_this();
-    connect_listener_ = std::make_unique<listener>(
-        weak, strand_, [](mqtt_client& c, bool ok, const std::string&) { c.on_connect_result(ok); });
-    publish_listener_ =
-        std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
-            if (c.in_flight_ > 0) --c.in_flight_;
-            if (!ok && c.log_) c.log_->debug("publish failed: {}", what);
-            if (c.handlers_.publish_done) c.handlers_.publish_done();
-        });
-    subscribe_listener_ =
-        std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, const std::string& what) {
+    const auto g = generation_;
+    p.connect = std::make_unique<listener>(
+        weak, strand_, g, [](mqtt_client& c, bool ok, const std::string&) { c.on_connect_result(ok); });
+    p.publish = std::make_unique<listener>(weak, strand_, g, [](mqtt_client& c, bool ok, std::string what) {
+        if (c.in_flight_ > 0) --c.in_flight_;
+        if (!ok && c.log_) c.log_->debug("publish failed: {}", what);
+        if (c.handlers_.publish_done) c.handlers_.publish_done();
+    });
+    p.subscribe =
+        std::make_unique<listener>(weak, strand_, g, [](mqtt_client& c, bool ok, const std::string& what) {
             if (!ok) c.on_subscribe_refused(what);
         });
-    last_listener_ = std::make_unique<listener>(weak, strand_, [](mqtt_client& c, bool ok, std::string what) {
+    p.last = std::make_unique<listener>(weak, strand_, g, [](mqtt_client& c, bool ok, std::string what) {
         if (!ok && c.log_) c.log_->warn("the last message failed: {}", what);
         c.disconnect_now();
     });
-    disconnect_listener_ = std::make_unique<listener>(
-        weak, strand_, [](mqtt_client& c, bool, const std::string&) { c.finish_stop(); });
+    p.disconnect = std::make_unique<listener>(
+        weak, strand_, g, [](mqtt_client& c, bool, const std::string&) { c.finish_stop(); });
 }
 
 void mqtt_client::install_callbacks(mqtt::async_client& cli) {
     std::weak_ptr<mqtt_client> weak = weak_from_this();
     auto s = strand_;
-    cli.set_connection_lost_handler([weak, s](const std::string& cause) {
-        net::post(s, [weak, cause] {
-            if (auto self = weak.lock()) self->on_lost(cause.empty() ? "connection lost" : cause);
+    const auto g = generation_;
+    cli.set_connection_lost_handler([weak, s, g](const std::string& cause) {
+        net::post(s, [weak, g, cause] {
+            if (auto self = weak.lock(); self && self->generation_ == g)
+                self->on_lost(cause.empty() ? "connection lost" : cause);
         });
     });
-    cli.set_disconnected_handler([weak, s](const mqtt::properties&, mqtt::ReasonCode rc) {
-        net::post(s, [weak, rc] {
-            if (auto self = weak.lock())
+    cli.set_disconnected_handler([weak, s, g](const mqtt::properties&, mqtt::ReasonCode rc) {
+        net::post(s, [weak, g, rc] {
+            if (auto self = weak.lock(); self && self->generation_ == g)
                 self->on_lost("the broker disconnected us (reason " + std::to_string(int(rc)) + ")");
         });
     });
@@ -309,7 +323,7 @@ void mqtt_client::do_connect() {
     fresh_client_ = false;
     connecting_ = true;
     try {
-        cli_->connect(*options_, nullptr, *connect_listener_);
+        paho_->client->connect(*options_, nullptr, *paho_->connect);
     } catch (const mqtt::exception& e) {
         connecting_ = false;
         if (log_) log_->warn("connect to {} refused at once: {}", brokers_tried(), e.what());
@@ -442,7 +456,7 @@ std::shared_ptr<const mqtt::message> mqtt_client::make_paho_message(const mqtt_m
 bool mqtt_client::publish(const mqtt_message_out& m) {
     if (!connected_ || stopping_) return false;
     try {
-        cli_->publish(make_paho_message(m), nullptr, *publish_listener_);
+        paho_->client->publish(make_paho_message(m), nullptr, *paho_->publish);
         ++in_flight_;
         return true;
     } catch (const mqtt::exception& e) {
@@ -461,7 +475,7 @@ void mqtt_client::subscribe(const std::vector<std::string>& filters, int qos) {
         mqtt::subscribe_options options;
         if (protocol_ == mqtt_protocol::v5) options.set_retain_as_published(true);
         for (const auto& f : filters)
-            cli_->subscribe(f, qos, nullptr, *subscribe_listener_, options);
+            paho_->client->subscribe(f, qos, nullptr, *paho_->subscribe, options);
     } catch (const mqtt::exception& e) {
         if (log_) log_->warn("subscribe refused: {}", e.what());
     }
@@ -470,7 +484,7 @@ void mqtt_client::subscribe(const std::vector<std::string>& filters, int qos) {
 void mqtt_client::watch(const std::string& filter, int qos) {
     if (!connected_ || stopping_) return;
     try {
-        cli_->subscribe(filter, qos);
+        paho_->client->subscribe(filter, qos);
     } catch (const mqtt::exception& e) {
         if (log_) log_->debug("subscribe to {} refused: {}", filter, e.what());
     }
@@ -479,7 +493,7 @@ void mqtt_client::watch(const std::string& filter, int qos) {
 void mqtt_client::unwatch(const std::string& filter) {
     if (!connected_ || stopping_) return;
     try {
-        cli_->unsubscribe(filter);
+        paho_->client->unsubscribe(filter);
     } catch (const mqtt::exception& e) {
         if (log_) log_->debug("unsubscribe from {} refused: {}", filter, e.what());
     }
@@ -520,7 +534,7 @@ void mqtt_client::stop(const mqtt_message_out& last, std::chrono::milliseconds t
     // disconnect follows at once instead of waiting out Paho's disconnect timeout. The timer bounds
     // the wait for a broker that does not answer.
     try {
-        cli_->publish(make_paho_message(last), nullptr, *last_listener_);
+        paho_->client->publish(make_paho_message(last), nullptr, *paho_->last);
     } catch (const mqtt::exception& e) {
         if (log_) log_->debug("last message refused: {}", e.what());
         return disconnect_now();
@@ -541,7 +555,7 @@ void mqtt_client::disconnect_now() {
     stop_timer_.cancel();
     try {
         // Nothing else is worth waiting for: `last` is through (or given up on).
-        cli_->disconnect(0, nullptr, *disconnect_listener_);
+        paho_->client->disconnect(0, nullptr, *paho_->disconnect);
     } catch (const std::exception& e) {
         if (log_) log_->debug("disconnect: {}", e.what());
         return finish_stop();

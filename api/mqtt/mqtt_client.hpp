@@ -111,13 +111,15 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
 
   private:
     class listener;
+    struct paho;
     mqtt_client(strand executor, const mqtt_config& config, std::string client_id, mqtt_message_out will,
                 mqtt_client_handlers handlers, std::shared_ptr<spdlog::logger> log);
     // The connect options for `protocol` (the first, or after a broker refused MQTT 5); the clients
     // made from then on speak it.
     void use_protocol(mqtt_protocol protocol);
-    void make_listeners();
-    std::unique_ptr<mqtt::async_client> make_paho_client();  // for protocol_, its callbacks installed
+    // A Paho client for protocol_, of a new generation_, its listeners made and callbacks installed.
+    std::unique_ptr<paho> make_paho();
+    void make_listeners(paho& p);
     void install_callbacks(mqtt::async_client& cli);
     // The used client is destroyed on retirer_ and a new one made on the strand; do_connect() follows
     // if an attempt is due.
@@ -168,19 +170,15 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::size_t untried_ = 0;         // brokers of this round not tried yet
     int failure_rc_ = 0;              // of the last failed action (set by the listener, on the strand)
     int failure_reason_ = 0;          // MQTT 5 reason code of it, 0 if none
-    std::unique_ptr<listener> connect_listener_;  // outlives cli_ (declared before it)
-    std::unique_ptr<listener> publish_listener_;
-    std::unique_ptr<listener> subscribe_listener_;
-    std::unique_ptr<listener> disconnect_listener_;
-    std::unique_ptr<listener> last_listener_;  // the message stop() publishes
     std::unique_ptr<mqtt::connect_options> options_;
-    std::unique_ptr<mqtt::async_client> cli_;  // null while renewing_
-    bool fresh_client_ = false;                // cli_ has made no attempt yet
+    std::unique_ptr<paho> paho_;    // null while renewing_
+    std::uint64_t generation_ = 0;  // paho_'s: what an older client reports is ignored
+    bool fresh_client_ = false;     // paho_ has made no attempt yet
     bool renewing_ = false;
     bool connect_due_ = false;  // an attempt waits for the new client
     std::function<void()> stop_done_;
-    // Destroys used Paho clients. Last: destroyed first, it waits for a destruction under way, which
-    // may still call the listeners.
+    // Destroys used Paho clients (with their listeners, which post to the strand and hold this client
+    // weakly); its destructor waits for a destruction under way.
     worker_thread retirer_{2};
 };
 
