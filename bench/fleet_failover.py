@@ -7,7 +7,9 @@ For each broker set-up:
 - a scheduler sends a signed command (a relative move of 1 um, its own id, QoS 1, with reply_to) to
   every gateway every second, from `--lead-s` before the kill to `--tail-s` after it;
 - the kill: NATS, kill -9 of one node (the gateways are spread over the three nodes, each given them
-  all, its own first); mosquitto, kill -9 and an immediate restart (the only node);
+  all, its own first): the first, or with `--kill sessions-leader` the leader of NATS's MQTT session
+  stream, so that NATS must elect a new one before it takes a connect; mosquitto, kill -9 and an
+  immediate restart (the only node);
 - from the kill, per gateway that was on the dead node: when it published its birth again (the birth's
   own time, as a watcher received it: p50, p99, max, and the spread: how many in the busiest 100 ms,
   so a lockstep reconnect shows);
@@ -15,7 +17,8 @@ For each broker set-up:
   refused as stale), or more than once (never expected: the gateway takes a (sender, id) once).
 
 Debian's /usr/bin/python3 with python3-paho-mqtt; nats-server and mosquitto from Debian (bench/setup).
-  /usr/bin/python3 bench/fleet_failover.py [--gateways 100] [--brokers nats mosquitto] [--no-results]
+  /usr/bin/python3 bench/fleet_failover.py [--gateways 100] [--brokers nats mosquitto] \
+      [--kill first|sessions-leader] [--no-results]
 """
 
 import argparse
@@ -200,6 +203,21 @@ def streams_led_again(cluster, since):
     return last
 
 
+def sessions_leader(cluster):
+    """The node (0-based) that last logged itself the new leader of NATS's MQTT session stream."""
+    latest = (None, "")
+    for i in range(len(cluster.nodes)):
+        with open(cluster.log(i)) as f:
+            for line in f:
+                if "new stream leader for '$G > $MQTT_sess'" in line:
+                    stamp = " ".join(line.split()[1:3])
+                    if stamp > latest[1]:
+                        latest = (i, stamp)
+    if latest[0] is None:
+        raise RuntimeError("no node has said it leads $MQTT_sess")
+    return latest[0]
+
+
 def gateway_config(name, port, tmp, brokers, nats):
     return {
         "http": {"listen_address": "127.0.0.1", "port": port},
@@ -278,15 +296,17 @@ def run_setup(kind, args, tmp):
     if nats:
         broker.start()
     uris = broker.broker_uris() if nats else broker.uris()
-    result = {"kind": kind, "gateways": args.gateways}
+    result = {"kind": kind, "gateways": args.gateways,
+              "killed": "the sessions' leader" if args.kill == "sessions-leader" else "a node"}
     fleet = []
     watcher = scheduler = None
     try:
         started = time.monotonic()
         fleet = start_fleet(args.gateway, args.gateways, tmp, uris, nats)
         names = [g["name"] for g in fleet]
-        # The watcher and the scheduler on a node that lives (NATS: the last one; the first dies).
-        port = broker.mqtt_ports[-1] if nats else broker.port
+        # NATS: the node to kill, and the watcher and the scheduler on one that lives.
+        victim = (sessions_leader(broker) if args.kill == "sessions-leader" else 0) if nats else None
+        port = broker.mqtt_ports[2 if victim == 0 else 0] if nats else broker.port
         watcher = Watcher(port, "fleet-watcher")
         try:
             wait_until("every birth at the watcher", lambda: len(watcher.births) >= len(fleet), timeout=60)
@@ -319,9 +339,9 @@ def run_setup(kind, args, tmp):
               for g in fleet}
         killed = time.time()
         if nats:
-            dead_uri = uris[0]
+            dead_uri = uris[victim]
             affected = [name for name, broker_uri in on.items() if broker_uri == dead_uri]
-            broker.kill(0)
+            broker.kill(victim)
         else:
             affected = names
             broker.proc.send_signal(signal.SIGKILL)
@@ -390,7 +410,7 @@ def table(results):
             "answered twice | ran, answer lost |")
     rows = [head, "|" + " --- |" * 16]
     for r in results:
-        label = "NATS 2.9, 3 nodes (kill -9 of one)" if r["kind"] == "nats" else \
+        label = f"NATS 2.9, 3 nodes (kill -9 of {r['killed']})" if r["kind"] == "nats" else \
             "mosquitto 2.0.11, 1 node (kill -9, restarted at once)"
         led = r.get("streams_led_s")
         led = "n/a" if r["kind"] != "nats" else "no election" if led is None else f"{led:.2f} s after the kill"
@@ -414,6 +434,8 @@ def main():
     ap.add_argument("--lead-s", type=float, default=10)
     ap.add_argument("--tail-s", type=float, default=30)
     ap.add_argument("--no-results", action="store_true")
+    ap.add_argument("--kill", choices=["first", "sessions-leader"], default="first",
+                    help="NATS: kill the first node, or the leader of the MQTT session stream (an election)")
     args = ap.parse_args()
     load_before = os.getloadavg()
     results = []
