@@ -455,7 +455,7 @@ def main():
                "Goals: every birth present, every gateway on the dead node back, no command run twice "
                "(a command sent while its gateway had no broker is not run: QoS 0 subscriptions and clean "
                "sessions, by design; see the README).")
-    return publish_section("Fleet failover: 100 gateways on a 3-node NATS cluster and on one mosquitto",
+    return publish_section(f"Fleet failover: {args.gateways} gateways on a 3-node NATS cluster and on one mosquitto",
                            "bench/fleet_failover.py", details, load_before, load_after, table(results), met,
                            None if args.no_results else os.path.join(HERE, "RESULTS.md"))
 
