@@ -7,8 +7,10 @@ The same command (`W X`) goes to a simulated MS-2000 (ms2000-sim, preset plain, 
 * ser2net (chardelay false), the client writing "W X\\r" over raw TCP;
 * the gateway's shared TCP port, polling off and with the default polling (poll_ms 100,
   idle_poll_ms 500): the same raw TCP client;
-* a pty client on the simulator's own pseudo-terminal (what a program does without a gateway), and
-  the gateway's shared pty (polling off).
+* a pty client on the simulator's own pseudo-terminal (what a program does without a gateway), the
+  gateway's shared pty (polling off), and socat relaying a pty of its own to the simulator's, bytes
+  as they come and nothing checked: the least any program that shares a pty adds (a second
+  pseudo-terminal to cross, and one process's turn).
 
 The client is bench/roundtrip_client.c (built here with cc), --count round trips one after the other
 after 50 unmeasured ones; rounds are interleaved and the tables give the median over rounds. CPU per
@@ -32,7 +34,7 @@ sys.dont_write_bytecode = True
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_gateway import Gateway, free_port  # noqa: E402
 from bench_machine import publish_section  # noqa: E402
-from bench_sim import Sim  # noqa: E402
+from bench_sim import Sim, wait_for_path  # noqa: E402
 from roundtrip_vs_ser2net import FIELDS, Ser2net, build_client  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -57,14 +59,30 @@ def measure(client, mode, where, count, server_pid):
     return m
 
 
+class SocatRelay:
+    """socat between a pty of its own (at `link`) and the simulator's: raw, no line handling."""
+
+    def __init__(self, workdir, device):
+        self.link = os.path.join(workdir, "socat-pty")
+        self.proc = subprocess.Popen(["socat", f"PTY,link={self.link},rawer", f"{device},rawer"],
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        wait_for_path(self.link, self.proc, "socat")
+
+    def stop(self):
+        self.proc.terminate()
+        self.proc.wait(10)
+
+
 def run_pace(args, client, baud, tmp):
     """{target: [runs]} for one baud rate."""
     work = tempfile.mkdtemp(prefix=f"b{baud}-", dir=tmp)
     sims, servers = [], []
     try:
-        sims = {name: Sim(args.sim, work, name, baud) for name in ("s2n", "quiet", "polled", "direct")}
+        sims = {name: Sim(args.sim, work, name, baud) for name in ("s2n", "quiet", "polled", "direct", "relayed")}
         ser2net = Ser2net(work, sims["s2n"].link)
         servers.append(ser2net)
+        socat = SocatRelay(work, sims["relayed"].link)
+        servers.append(socat)
         shares = {}
         for label, sim, poll in (("polling off", sims["quiet"], 0), ("default polling", sims["polled"], None)):
             tcp = free_port()
@@ -83,6 +101,7 @@ def run_pace(args, client, baud, tmp):
         targets.append(("direct pty", "pty", sims["direct"].link, None))
         gw, _, pty = shares["polling off"]
         targets.append(("shared pty, polling off", "pty", pty, gw.proc.pid))
+        targets.append(("socat pty relay", "pty", socat.link, socat.proc.pid))
         runs = {}
         for r in range(args.rounds):
             for name, mode, where, pid in targets:
@@ -122,6 +141,8 @@ def table(results):
             elif name.startswith("shared pty"):
                 ratio50 = f"{p50 / direct50:.2f}x of direct (<= 1.1)"
                 verdicts.append(p50 / direct50 <= 1.1)
+            elif name.startswith("socat"):
+                ratio50 = f"{p50 / direct50:.2f}x of direct"
             cpu_text = "" if cpu != cpu else f"{cpu:.1f}"
             lines.append(f"| {baud} | {name} | {p50:.1f} | {med(rs, 'p90'):.1f} | {p99:.1f} | {cpu_text} | "
                          f"{ratio50} | {ratio99} |")
