@@ -131,19 +131,25 @@ void mqtt_client::use_protocol(mqtt_protocol protocol) {
     options_ = std::make_unique<mqtt::connect_options>();
     auto& o = *options_;
     o.set_mqtt_version(version);
-    // v5: clean start (no session kept by the broker); v3.1.1: clean session. Subscriptions are made
-    // again after every connect, so nothing is lost by starting clean.
+    // Without mqtt.session_expiry_s, a new session every time (v5: clean start; v3.1.1: clean
+    // session). With it, the broker keeps the session and the commands sent to it meanwhile.
+    // Subscriptions are made again after every connect either way.
+    const bool keep_session = config_.session_expiry.count() > 0;
     if (version == MQTTVERSION_5) {
         o.set_clean_session(false);
-        o.set_clean_start(true);
+        o.set_clean_start(!keep_session);
         // The broker drops what the gateway would only drop itself: a command payload over the cap
         // (plus room for its topic and properties) never crosses the network to it.
         const auto largest =
             static_cast<std::int32_t>(config_.command_max_payload_bytes + 65536);  // <= 64 MiB
-        o.set_properties(mqtt::properties{{mqtt::property::MAXIMUM_PACKET_SIZE, largest}});
+        mqtt::properties props{{mqtt::property::MAXIMUM_PACKET_SIZE, largest}};
+        if (keep_session)
+            props.add({mqtt::property::SESSION_EXPIRY_INTERVAL,
+                       static_cast<std::int32_t>(config_.session_expiry.count())});  // <= 7 days
+        o.set_properties(props);
     } else {
         o.set_clean_start(false);
-        o.set_clean_session(true);
+        o.set_clean_session(!keep_session);
     }
     o.set_keep_alive_interval(static_cast<int>(config_.keepalive.count()));
     o.set_connect_timeout(10);

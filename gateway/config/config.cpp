@@ -477,10 +477,10 @@ void check_broker_uri(const std::string& uri, const std::string& path) {
 }
 
 void read_mqtt(const json& j, mqtt_config& out) {
-    object_reader r(
-        j, "mqtt",
-        {"enabled", "brokers", "client_id", "username", "password", "tls", "keepalive_s", "topic_prefix",
-         "gateway_id", "protocol", "qos", "telemetry", "reconnect", "jobs", "commands", "tcp_nodelay"});
+    object_reader r(j, "mqtt",
+                    {"enabled", "brokers", "client_id", "username", "password", "tls", "keepalive_s",
+                     "topic_prefix", "gateway_id", "protocol", "qos", "telemetry", "reconnect", "jobs",
+                     "commands", "tcp_nodelay", "session_expiry_s"});
     if (auto* v = r.get("enabled")) out.enabled = read_bool(*v, r.path("enabled"));
     if (auto* v = r.get("tcp_nodelay")) out.tcp_nodelay = read_bool(*v, r.path("tcp_nodelay"));
     if (auto* v = r.get("brokers")) {
@@ -512,6 +512,8 @@ void read_mqtt(const json& j, mqtt_config& out) {
     }
     if (auto* v = r.get("keepalive_s"))
         out.keepalive = std::chrono::seconds(read_uint(*v, r.path("keepalive_s"), 5, 3600));
+    if (auto* v = r.get("session_expiry_s"))
+        out.session_expiry = std::chrono::seconds(read_uint(*v, r.path("session_expiry_s"), 0, 604800));
     if (auto* v = r.get("topic_prefix")) {
         out.topic_prefix = read_string(*v, r.path("topic_prefix"));
         if (!is_valid_mqtt_prefix(out.topic_prefix))

@@ -181,6 +181,11 @@ struct mqtt_config {
     std::string password;
     mqtt_tls_config tls;  // used for mqtts:// and ssl:// brokers
     std::chrono::seconds keepalive{30};
+    // 0: a new session on every connect. Above: the broker keeps the gateway's session this long
+    // while it is away, with the commands sent meanwhile to its QoS 1 subscriptions, and hands them
+    // over when it is back (their deadlines decide whether they run). MQTT 5: the session expiry
+    // interval; 3.1.1: clean_session false, kept as long as the broker keeps sessions.
+    std::chrono::seconds session_expiry{0};
     std::string topic_prefix = "asi";
     std::string gateway_id;  // empty: the host name (characters outside [A-Za-z0-9_.-] become '-')
     mqtt_protocol protocol = mqtt_protocol::v5;

@@ -9,6 +9,9 @@
   answered once; the second is counted as "duplicate". Over MQTT 3.1.1 (reply_to) as well.
 - Over TLS with bearer tokens (unsigned, so no ts): a move without a deadline is refused (422,
   field not_after); with MQTT 5 message expiry or "not_after" it runs; a read needs no deadline.
+- mqtt.session_expiry_s: the broker keeps the gateway's session while its link is cut
+  (tests/support/link_cutter.py); a command sent meanwhile runs once the gateway is back, and one
+  whose deadline passed meanwhile is answered stale-command, not run. Without it, neither arrives.
 
 Run by ctest (mqtt_freshness); by hand:
   /usr/bin/python3 tests/integration/api/mqtt_freshness_test.py --gateway build/gateway/asi-gateway \\
@@ -22,6 +25,8 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "support"))
+from link_cutter import LinkCutter  # noqa: E402
 from gateway_fixture import (TOKENS, Fixture, check, http_request, run_main, signed_command,  # noqa: E402
                              axis_position, signing_keys_config, wait_until)
 from mqtt_api_test import Broker, Client, Contract, Gateway, command, make_pki, metric, unanswered  # noqa: E402
@@ -204,6 +209,62 @@ def test_bearer_deadlines(fx, binary, contract):
         c.close()
 
 
+def sent_while_away(fx, binary, broker, contract, session_expiry_s):
+    """Two commands published while the gateway's link is cut: one in time after the link is back, one
+    whose deadline passes meanwhile. Returns their answers ({} for none) once the gateway is back."""
+    cutter = LinkCutter(broker.port)
+    name = f"gw-away-{session_expiry_s}"
+    gw = Gateway(fx, binary, name, [f"mqtt://127.0.0.1:{cutter.port}"], sims=1,
+                 mqtt_extra={"session_expiry_s": session_expiry_s, "reconnect": {"min_ms": 100, "max_ms": 300},
+                             "commands": {"enabled": True, "signing_keys": signing_keys_config(),
+                                          "max_age_s": 30}})
+    gw.start()
+    c = Client(broker.port, f"away-watch-{session_expiry_s}")
+    try:
+        c.subscribe(REPLY)
+        wait_until(f"{name} on its broker", lambda: metric(gw, "gw_mqtt_connected") == 1)
+        time.sleep(1)  # its command subscriptions
+        start = settled_x(gw)
+        cutter.cut()
+        wait_until(f"{name} lost its broker", lambda: metric(gw, "gw_mqtt_connected") == 0)
+        topic = gw.topic("controllers", "sim1", "cmd")
+        mark = c.mark()
+        in_time = os.urandom(8)
+        c.publish(topic, signed(gw, move(start + 300, "away-1")), response_topic=REPLY, correlation=in_time,
+                  sign=False)
+        too_late = os.urandom(8)
+        c.publish(topic, signed(gw, {**move(start + 900, "away-2"), "not_after": now_ms() + 1000}),
+                  response_topic=REPLY, correlation=too_late, sign=False)
+        time.sleep(2)  # past away-2's deadline
+        cutter.mend()
+        wait_until(f"{name} back", lambda: metric(gw, "gw_mqtt_connected") == 1)
+        time.sleep(3)  # what the broker kept is delivered at once; the move takes a moment
+        answers = {}
+        for _, p, _, props in c.all(lambda t: t == REPLY, mark):
+            corr = getattr(props, "CorrelationData", None)
+            if corr in (in_time, too_late):
+                answers["in_time" if corr == in_time else "too_late"] = json.loads(p)
+        return gw, start, answers
+    finally:
+        c.close()
+        cutter.close()
+
+
+def test_kept_session(fx, binary, broker, contract):
+    gw, start, answers = sent_while_away(fx, binary, broker, contract, 60)
+    check(answers.get("in_time", {}).get("type") == "result", f"the command in time ran when it was back: {answers}")
+    check(abs(settled_x(gw) - (start + 300)) < 1, f"it moved to {start + 300}: X={x_of(gw)}")
+    check_stale(answers.get("too_late", {"type": None}), "not_after", contract)
+    check(not audit_entries(gw, "mqtt.away-2"), "the stale one never ran")
+    check(len(audit_entries(gw, "mqtt.away-1")) == 1, "the one in time ran once")
+
+
+def test_clean_session(fx, binary, broker, contract):
+    gw, start, answers = sent_while_away(fx, binary, broker, contract, 0)
+    check(answers == {}, f"without a kept session the broker kept nothing for the gateway: {answers}")
+    check(abs(settled_x(gw) - start) < 1, "and nothing moved")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--gateway", required=True)
@@ -229,6 +290,10 @@ def main():
         fx.run("a redelivered command runs once, answered once", test_redelivery_runs_once, gw, c)
         fx.run("the same over MQTT 3.1.1", test_redelivery_v311, gw, broker)
         c.close()
+        fx.run("a kept session: what was sent while away runs when it is back, or is refused as late",
+               test_kept_session, fx, args.gateway, broker, contract)
+        fx.run("a clean session: nothing sent while away arrives", test_clean_session, fx, args.gateway, broker,
+               contract)
         fx.run("bearer tokens: a change needs a deadline", test_bearer_deadlines, fx, args.gateway, contract)
     except Exception as e:  # noqa: BLE001
         fx.failures.append(("setup", e))

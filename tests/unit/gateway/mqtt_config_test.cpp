@@ -43,7 +43,7 @@ TEST(mqtt_config, every_key_is_read) {
       "mqtt":{"enabled":true,"brokers":["mqtts://broker.lab:8883","ssl://[::1]:8884","tcp://b2"],
       "client_id":"gw-7","username":"u","password":"p",
       "tls":{"ca_file":"/etc/ca.pem","cert_file":"c.pem","key_file":"k.pem","verify":false},
-      "keepalive_s":12,"topic_prefix":"lab/asi","gateway_id":"pc-3.lab","protocol":"3.1.1",
+      "keepalive_s":12,"session_expiry_s":300,"topic_prefix":"lab/asi","gateway_id":"pc-3.lab","protocol":"3.1.1",
       "qos":{"status":2,"state":0,"telemetry":1,"jobs":2,"responses":0},
       "telemetry":{"position_max_hz":2.5,"reports_batch_ms":0},"reconnect":{"min_ms":100,"max_ms":2000},"tcp_nodelay":false,
       "jobs":{"queue_limit":7,"retain_finished_s":0},"commands":{"enabled":true,"max_payload_bytes":2048,
@@ -77,6 +77,7 @@ TEST(mqtt_config, every_key_is_read) {
     EXPECT_EQ(m.command_max_payload_bytes, 2048u);
     EXPECT_EQ(m.command_max_age, 3s);
     EXPECT_EQ(m.command_redelivery_window, 120s);
+    EXPECT_EQ(m.session_expiry, 300s);
     EXPECT_EQ(m.retain_finished_jobs, 0s);
     EXPECT_TRUE(m.commands_enabled);
     EXPECT_EQ(m.command_signature_window, 5s);
