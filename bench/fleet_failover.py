@@ -218,7 +218,9 @@ def sessions_leader(cluster):
     return latest[0]
 
 
-def gateway_config(name, port, tmp, brokers, nats):
+def gateway_config(name, port, tmp, brokers, nats, session_expiry_s=0):
+    # A kept session only queues commands for QoS 1 subscriptions: on NATS those are then QoS 1 too.
+    qos = {"responses": 0} if nats and not session_expiry_s else {}
     return {
         "http": {"listen_address": "127.0.0.1", "port": port},
         "storage": {"path": os.path.join(tmp, name)},
@@ -227,12 +229,12 @@ def gateway_config(name, port, tmp, brokers, nats):
         "mqtt": {"enabled": True, "brokers": brokers, "gateway_id": name, "topic_prefix": PREFIX,
                  "protocol": "3.1.1" if nats else "5",
                  "telemetry": {"position_max_hz": 1},
-                 "qos": {"responses": 0} if nats else {},
+                 "qos": qos, "session_expiry_s": session_expiry_s,
                  "commands": {"enabled": True, "signing_keys": signing_keys_config()}},
     }
 
 
-def start_fleet(binary, n, tmp, uris, nats):
+def start_fleet(binary, n, tmp, uris, nats, session_expiry_s=0):
     fleet = []
     for i in range(n):
         name = f"gw{i:03d}"
@@ -241,7 +243,7 @@ def start_fleet(binary, n, tmp, uris, nats):
         order = uris[i % len(uris):] + uris[:i % len(uris)]
         cfg = os.path.join(tmp, name + ".json")
         with open(cfg, "w") as f:
-            json.dump(gateway_config(name, port, tmp, order, nats), f)
+            json.dump(gateway_config(name, port, tmp, order, nats, session_expiry_s), f)
         log = open(os.path.join(tmp, name + ".log"), "w")
         proc = subprocess.Popen([binary, "--config", cfg, "--simulate", "2", "--sim-dir",
                                  os.path.join(tmp, name + "-sims")], stdout=log, stderr=subprocess.STDOUT)
@@ -297,12 +299,13 @@ def run_setup(kind, args, tmp):
         broker.start()
     uris = broker.broker_uris() if nats else broker.uris()
     result = {"kind": kind, "gateways": args.gateways,
-              "killed": "the sessions' leader" if args.kill == "sessions-leader" else "a node"}
+              "killed": "the sessions' leader" if args.kill == "sessions-leader" else "a node",
+              "sessions": f"kept {args.session_expiry_s} s" if args.session_expiry_s else "clean"}
     fleet = []
     watcher = scheduler = None
     try:
         started = time.monotonic()
-        fleet = start_fleet(args.gateway, args.gateways, tmp, uris, nats)
+        fleet = start_fleet(args.gateway, args.gateways, tmp, uris, nats, args.session_expiry_s)
         names = [g["name"] for g in fleet]
         # NATS: the node to kill, and the watcher and the scheduler on one that lives.
         victim = (sessions_leader(broker) if args.kill == "sessions-leader" else 0) if nats else None
@@ -410,7 +413,7 @@ def table(results):
             "answered twice | ran, answer lost |")
     rows = [head, "|" + " --- |" * 16]
     for r in results:
-        label = f"NATS 2.9, 3 nodes (kill -9 of {r['killed']})" if r["kind"] == "nats" else \
+        label = f"NATS 2.9, 3 nodes (kill -9 of {r['killed']}; sessions {r['sessions']})" if r["kind"] == "nats" else \
             "mosquitto 2.0.11, 1 node (kill -9, restarted at once)"
         led = r.get("streams_led_s")
         led = "n/a" if r["kind"] != "nats" else "no election" if led is None else f"{led:.2f} s after the kill"
@@ -434,6 +437,8 @@ def main():
     ap.add_argument("--lead-s", type=float, default=10)
     ap.add_argument("--tail-s", type=float, default=30)
     ap.add_argument("--no-results", action="store_true")
+    ap.add_argument("--session-expiry-s", type=int, default=0,
+                    help="the gateways' mqtt.session_expiry_s: the broker keeps their sessions (and QoS 1 commands)")
     ap.add_argument("--kill", choices=["first", "sessions-leader"], default="first",
                     help="NATS: kill the first node, or the leader of the MQTT session stream (an election)")
     args = ap.parse_args()
@@ -453,8 +458,10 @@ def main():
                f"and one scheduler (a signed relative move to every gateway every second, QoS 1, "
                f"{args.lead_s:.0f} s before the kill to {args.tail_s:.0f} s after); idle over {args.idle_s:.0f} s. "
                "Goals: every birth present, every gateway on the dead node back, no command run twice "
-               "(a command sent while its gateway had no broker is not run: QoS 0 subscriptions and clean "
-               "sessions, by design; see the README).")
+               + ("(sessions kept: the broker holds the commands sent while a gateway is away; on NATS the "
+                  "command subscriptions are QoS 1)." if args.session_expiry_s else
+                  "(a command sent while its gateway had no broker is not run: QoS 0 subscriptions and clean "
+                  "sessions, by design; see the README)."))
     return publish_section(f"Fleet failover: {args.gateways} gateways on a 3-node NATS cluster and on one mosquitto",
                            "bench/fleet_failover.py", details, load_before, load_after, table(results), met,
                            None if args.no_results else os.path.join(HERE, "RESULTS.md"))
