@@ -193,27 +193,38 @@ std::unique_ptr<mqtt_client::paho> mqtt_client::make_paho() {
 void mqtt_client::renew_paho_client() {
     if (renewing_) return;
     renewing_ = true;
+    auto renewed = [weak = weak_from_this(), s = strand_] {
+        net::post(s, [weak] {
+            if (auto self = weak.lock()) self->on_renewed();
+        });
+    };
     auto old = std::move(paho_);
+    if (!old) return renewed();  // the last attempt to make one failed
     try {
         old->client->disable_callbacks();
     } catch (const std::exception&) {
     }
     // Destroying a Paho client waits (about 100 ms) for Paho's threads to stop: not on the strand.
-    auto renewed = [weak = weak_from_this(), s = strand_] {
-        net::post(s, [weak] {
-            auto self = weak.lock();
-            if (!self) return;
-            self->renewing_ = false;
-            self->paho_ = self->make_paho();
-            self->fresh_client_ = true;
-            if (self->connect_due_) self->do_connect();
-        });
-    };
     if (!retirer_.post([old = std::move(old), renewed]() mutable {
             old.reset();
             renewed();
         }))
         renewed();  // never more than one waits; were it refused, the old client still goes in time
+}
+
+void mqtt_client::on_renewed() {
+    renewing_ = false;
+    if (stopping_) return;
+    try {
+        paho_ = make_paho();
+    } catch (const std::exception& e) {
+        // Paho took this client's settings before; should it refuse them now, the attempt is retried.
+        if (log_) log_->error("{}", e.what());
+        schedule_reconnect();
+        return;
+    }
+    fresh_client_ = true;
+    if (connect_due_) do_connect();
 }
 
 mqtt_client::~mqtt_client() {

@@ -124,6 +124,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     // The used client is destroyed on retirer_ and a new one made on the strand; do_connect() follows
     // if an attempt is due.
     void renew_paho_client();
+    void on_renewed();            // on the strand, the used client destroyed
     bool refused_mqtt_5() const;  // the last connect failed for the protocol version
     void do_connect();
     // The brokers in the order the next attempts try them: from mqtt.brokers[first] on, wrapping.
