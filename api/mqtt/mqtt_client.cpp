@@ -103,7 +103,10 @@ std::shared_ptr<mqtt_client> mqtt_client::create(strand executor, const mqtt_con
                                                  std::shared_ptr<spdlog::logger> log) {
     std::shared_ptr<mqtt_client> c(new mqtt_client(std::move(executor), config, std::move(client_id),
                                                    std::move(will), std::move(handlers), std::move(log)));
+    // The client first: Paho allocates the options' properties on its own heap, which a first client
+    // starts (and the last one's destruction ends).
     c->paho_ = c->make_paho();
+    c->make_options();
     c->fresh_client_ = true;
     return c;
 }
@@ -122,12 +125,12 @@ mqtt_client::mqtt_client(strand executor, const mqtt_config& config, std::string
       resubscribe_timer_(strand_),
       backoff_(config.reconnect_min, config.reconnect_max, std::random_device{}()),
       jitter_(std::random_device{}()) {
-    use_protocol(config_.protocol);
+    protocol_ = config_.protocol;
+    try_brokers_from(0);
 }
 
-void mqtt_client::use_protocol(mqtt_protocol protocol) {
-    protocol_ = protocol;
-    const int version = paho_mqtt_version(protocol);
+void mqtt_client::make_options() {
+    const int version = paho_mqtt_version(protocol_);
     options_ = std::make_unique<mqtt::connect_options>();
     auto& o = *options_;
     o.set_mqtt_version(version);
@@ -146,7 +149,7 @@ void mqtt_client::use_protocol(mqtt_protocol protocol) {
         if (keep_session)
             props.add({mqtt::property::SESSION_EXPIRY_INTERVAL,
                        static_cast<std::int32_t>(config_.session_expiry.count())});  // <= 7 days
-        o.set_properties(props);
+        o.set_properties(std::move(props));  // Paho C++ 1.2 leaks a copied property list
     } else {
         o.set_clean_start(false);
         o.set_clean_session(!keep_session);
@@ -154,7 +157,7 @@ void mqtt_client::use_protocol(mqtt_protocol protocol) {
     o.set_keep_alive_interval(static_cast<int>(config_.keepalive.count()));
     o.set_connect_timeout(10);
     o.set_automatic_reconnect(false);
-    try_brokers_from(0);
+    aim_at_front();
     if (!config_.username.empty()) o.set_user_name(config_.username);
     if (!config_.password.empty()) o.set_password(config_.password);
     mqtt::will_options w(will_.topic, will_.payload, will_.qos, will_.retained);
@@ -199,13 +202,17 @@ void mqtt_client::renew_paho_client() {
         });
     };
     auto old = std::move(paho_);
+    // The options go with it, freed before it: the last client's destruction ends Paho's heap, and a
+    // block Paho allocated before is not freed after (it is no longer in Paho's books).
+    auto old_options = std::move(options_);
     if (!old) return renewed();  // the last attempt to make one failed
     try {
         old->client->disable_callbacks();
     } catch (const std::exception&) {
     }
     // Destroying a Paho client waits (about 100 ms) for Paho's threads to stop: not on the strand.
-    if (!retirer_.post([old = std::move(old), renewed]() mutable {
+    if (!retirer_.post([old = std::move(old), old_options = std::move(old_options), renewed]() mutable {
+            old_options.reset();
             old.reset();
             renewed();
         }))
@@ -217,6 +224,7 @@ void mqtt_client::on_renewed() {
     if (stopping_) return;
     try {
         paho_ = make_paho();
+        make_options();
     } catch (const std::exception& e) {
         // Paho took this client's settings before; should it refuse them now, the attempt is retried.
         if (log_) log_->error("{}", e.what());
@@ -315,6 +323,7 @@ void mqtt_client::try_brokers_from(std::size_t first) {
 void mqtt_client::aim_at_front() {
     // One broker per Paho attempt, this one: given several, Paho tries them in turn but may report
     // the first as the one it connected to (seen on NATS, a dead node named after a fallback).
+    if (!options_) return;
     options_->set_servers(
         std::make_shared<mqtt::string_collection>(std::vector<std::string>{order_.front()}));
 }
@@ -364,12 +373,7 @@ void mqtt_client::on_connect_result(bool ok) {
                 "{} refused MQTT 5 (unacceptable protocol version); speaking MQTT 3.1.1 from now on "
                 "(set mqtt.protocol to \"3.1.1\" to start with it)",
                 brokers_tried());
-        const auto order = order_;
-        const auto untried = untried_;
-        use_protocol(mqtt_protocol::v3_1_1);  // the next client is made for it
-        order_ = order;
-        untried_ = untried;
-        aim_at_front();
+        protocol_ = mqtt_protocol::v3_1_1;  // the next client and its options are made for it
         return do_connect();
     }
     if (!ok && --untried_ > 0) {

@@ -114,9 +114,9 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     struct paho;
     mqtt_client(strand executor, const mqtt_config& config, std::string client_id, mqtt_message_out will,
                 mqtt_client_handlers handlers, std::shared_ptr<spdlog::logger> log);
-    // The connect options for `protocol` (the first, or after a broker refused MQTT 5); the clients
-    // made from then on speak it.
-    void use_protocol(mqtt_protocol protocol);
+    // The connect options for protocol_ (mqtt.protocol, or 3.1.1 after a broker refused MQTT 5), aimed
+    // at order_.front(); made again with every Paho client, after it.
+    void make_options();
     // A Paho client for protocol_, of a new generation_, its listeners made and callbacks installed.
     std::unique_ptr<paho> make_paho();
     void make_listeners(paho& p);
