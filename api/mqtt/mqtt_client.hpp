@@ -171,8 +171,9 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::size_t untried_ = 0;         // brokers of this round not tried yet
     int failure_rc_ = 0;              // of the last failed action (set by the listener, on the strand)
     int failure_reason_ = 0;          // MQTT 5 reason code of it, 0 if none
+    std::unique_ptr<paho> paho_;      // null while renewing_
+    // After paho_, so freed before it (Paho's heap ends with its last client; make_options()).
     std::unique_ptr<mqtt::connect_options> options_;
-    std::unique_ptr<paho> paho_;    // null while renewing_
     std::uint64_t generation_ = 0;  // paho_'s: what an older client reports is ignored
     bool fresh_client_ = false;     // paho_ has made no attempt yet
     bool renewing_ = false;
