@@ -8,8 +8,11 @@ For each broker set-up:
   every gateway every second, from `--lead-s` before the kill to `--tail-s` after it;
 - the kill: NATS, kill -9 of one node (the gateways are spread over the three nodes, each given them
   all, its own first): the first, or with `--kill sessions-leader` the leader of NATS's MQTT session
-  stream, so that NATS must elect a new one before it takes a connect; mosquitto, kill -9 and an
-  immediate restart (the only node);
+  stream, so that NATS must elect a new one before it takes a connect (`--kill messages-leader`: of
+  its message stream, which stores the QoS 1 commands); mosquitto, kill -9 and an immediate restart
+  (the only node);
+- with `--session-expiry-s N` the gateways keep their sessions and subscribe to commands at QoS 1,
+  and NATS runs with `ack_wait` 2 s (the README's advice);
 - from the kill, per gateway that was on the dead node: when it published its birth again (the birth's
   own time, as a watcher received it: p50, p99, max, and the spread: how many in the busiest 100 ms,
   so a lockstep reconnect shows);
@@ -18,7 +21,7 @@ For each broker set-up:
 
 Debian's /usr/bin/python3 with python3-paho-mqtt; nats-server and mosquitto from Debian (bench/setup).
   /usr/bin/python3 bench/fleet_failover.py [--gateways 100] [--brokers nats mosquitto] \
-      [--kill first|sessions-leader] [--no-results]
+      [--kill first|sessions-leader|messages-leader] [--session-expiry-s N] [--no-results]
 """
 
 import argparse
@@ -203,21 +206,6 @@ def streams_led_again(cluster, since):
     return last
 
 
-def sessions_leader(cluster):
-    """The node (0-based) that last logged itself the new leader of NATS's MQTT session stream."""
-    latest = (None, "")
-    for i in range(len(cluster.nodes)):
-        with open(cluster.log(i)) as f:
-            for line in f:
-                if "new stream leader for '$G > $MQTT_sess'" in line:
-                    stamp = " ".join(line.split()[1:3])
-                    if stamp > latest[1]:
-                        latest = (i, stamp)
-    if latest[0] is None:
-        raise RuntimeError("no node has said it leads $MQTT_sess")
-    return latest[0]
-
-
 def gateway_config(name, port, tmp, brokers, nats, session_expiry_s=0):
     # A kept session only queues commands for QoS 1 subscriptions: on NATS those are then QoS 1 too.
     qos = {"responses": 0} if nats and not session_expiry_s else {}
@@ -294,13 +282,18 @@ def audit_counts(g, ids_prefix):
 def run_setup(kind, args, tmp):
     nats = kind == "nats"
     procs = []
-    broker = NatsCluster(tmp, procs) if nats else Mosquitto(tmp)
+    # Kept sessions on NATS: its ack_wait short, as the README advises (what a session held while its
+    # gateway was away is handed over only when ack_wait runs out).
+    ack_wait = "2s" if args.session_expiry_s else None
+    broker = NatsCluster(tmp, procs, ack_wait=ack_wait) if nats else Mosquitto(tmp)
     if nats:
         broker.start()
     uris = broker.broker_uris() if nats else broker.uris()
     result = {"kind": kind, "gateways": args.gateways,
-              "killed": "the sessions' leader" if args.kill == "sessions-leader" else "a node",
-              "sessions": f"kept {args.session_expiry_s} s" if args.session_expiry_s else "clean"}
+              "killed": {"sessions-leader": "the sessions' leader", "messages-leader": "the messages' leader"}
+              .get(args.kill, "a node"),
+              "sessions": (f"kept {args.session_expiry_s} s" + (f", NATS ack_wait {ack_wait}" if nats else ""))
+              if args.session_expiry_s else "clean"}
     fleet = []
     watcher = scheduler = None
     try:
@@ -308,7 +301,8 @@ def run_setup(kind, args, tmp):
         fleet = start_fleet(args.gateway, args.gateways, tmp, uris, nats, args.session_expiry_s)
         names = [g["name"] for g in fleet]
         # NATS: the node to kill, and the watcher and the scheduler on one that lives.
-        victim = (sessions_leader(broker) if args.kill == "sessions-leader" else 0) if nats else None
+        leads = {"sessions-leader": "$MQTT_sess", "messages-leader": "$MQTT_msgs"}.get(args.kill)
+        victim = (broker.stream_leader(leads) if leads else 0) if nats else None
         port = broker.mqtt_ports[2 if victim == 0 else 0] if nats else broker.port
         watcher = Watcher(port, "fleet-watcher")
         try:
@@ -439,8 +433,8 @@ def main():
     ap.add_argument("--no-results", action="store_true")
     ap.add_argument("--session-expiry-s", type=int, default=0,
                     help="the gateways' mqtt.session_expiry_s: the broker keeps their sessions (and QoS 1 commands)")
-    ap.add_argument("--kill", choices=["first", "sessions-leader"], default="first",
-                    help="NATS: kill the first node, or the leader of the MQTT session stream (an election)")
+    ap.add_argument("--kill", choices=["first", "sessions-leader", "messages-leader"], default="first",
+                    help="NATS: kill the first node, or the leader of the MQTT session or message stream (an election)")
     args = ap.parse_args()
     load_before = os.getloadavg()
     results = []

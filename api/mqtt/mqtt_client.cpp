@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdint>
 #include <mqtt/async_client.h>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <utility>
@@ -64,21 +65,34 @@ class mqtt_client::listener final : public mqtt::iaction_listener {
     listener(std::weak_ptr<mqtt_client> owner, strand s, std::uint64_t generation, callback cb)
         : owner_(std::move(owner)), strand_(std::move(s)), generation_(generation), cb_(std::move(cb)) {}
 
-    void on_success(const mqtt::token&) override { post(true, {}); }
+    void on_success(const mqtt::token& t) override { post(true, {}, 0, 0, session_present(t)); }
     void on_failure(const mqtt::token& t) override {
         post(false, describe(t), t.get_return_code(),
              t.get_reason_code() == mqtt::SUCCESS ? 0 : int(t.get_reason_code()));
     }
 
   private:
-    void post(bool ok, std::string what, int rc = 0, int reason = 0) {
+    // A connect's CONNACK flag: whether the broker had kept this client's session (none for other actions).
+    static std::optional<bool> session_present(const mqtt::token& t) {
+        if (t.get_type() != mqtt::token::Type::CONNECT) return std::nullopt;
+        try {
+            return t.get_connect_response().is_session_present();
+        } catch (const mqtt::exception&) {
+            return false;
+        }
+    }
+
+    void post(bool ok, std::string what, int rc = 0, int reason = 0,
+              std::optional<bool> session_present = std::nullopt) {
         net::post(strand_, [owner = owner_, generation = generation_, cb = cb_, ok, what = std::move(what),
-                            rc, reason]() mutable {
+                            rc, reason, session_present]() mutable {
             // A retired client's late report (its actions failed as it was destroyed) is nobody's.
             if (auto self = owner.lock(); self && self->generation_ == generation) {
                 if (!ok) {
                     self->failure_rc_ = rc;
                     self->failure_reason_ = reason;
+                } else if (session_present) {
+                    self->session_present_ = *session_present;
                 }
                 cb(*self, ok, std::move(what));
             }
@@ -403,8 +417,20 @@ void mqtt_client::on_connect_result(bool ok) {
     if (config_.tcp_nodelay) disable_nagle_towards(broker_ports(config_.brokers));
     // The broker this attempt aimed at, its only one (Paho's report may name another).
     broker_ = order_.front();
-    if (log_) log_->info("connected to {} as {}", broker_, client_id_);
+    if (log_) log_connected();
     if (handlers_.connected) handlers_.connected();
+}
+
+void mqtt_client::log_connected() {
+    if (config_.session_expiry.count() == 0) return log_->info("connected to {} as {}", broker_, client_id_);
+    if (session_present_)
+        return log_->info("connected to {} as {}; the broker kept the session", broker_, client_id_);
+    // Expected after the first connect, or once the session expired; otherwise the broker lost it,
+    // with whatever it held for this gateway (commands sent while it was away).
+    log_->log(connects_ > 1 ? spdlog::level::warn : spdlog::level::info,
+              "connected to {} as {}; the broker had no session for it: a new one begins{}", broker_,
+              client_id_,
+              connects_ > 1 ? " (commands sent to the old one while the gateway was away are lost)" : "");
 }
 
 void mqtt_client::log_connect_failure(std::chrono::milliseconds wait, spdlog::level::level_enum level) {

@@ -132,6 +132,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     void aim_at_front();                // the next attempt goes to order_.front() alone
     std::string brokers_tried() const;  // for the log: "tcp://a:1883" or "any of tcp://a, tcp://b"
     void on_connect_result(bool ok);
+    void log_connected();  // names the broker, and with a kept session whether the broker had it
     // The warning for a failed connect, with a reason a person can act on (connect_failure.hpp); when
     // Paho gives none, after broker_probe has asked the broker itself (TCP, TLS handshake).
     void log_connect_failure(std::chrono::milliseconds wait, spdlog::level::level_enum level);
@@ -171,6 +172,7 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     std::size_t untried_ = 0;         // brokers of this round not tried yet
     int failure_rc_ = 0;              // of the last failed action (set by the listener, on the strand)
     int failure_reason_ = 0;          // MQTT 5 reason code of it, 0 if none
+    bool session_present_ = false;    // the last CONNACK's: the broker had kept the session
     std::unique_ptr<paho> paho_;      // null while renewing_
     // After paho_, so freed before it (Paho's heap ends with its last client; make_options()).
     std::unique_ptr<mqtt::connect_options> options_;

@@ -262,7 +262,8 @@ class Fixture:
             if p.poll() is None:
                 p.kill()
                 p.wait()
-        shutil.rmtree(self.tmp, ignore_errors=True)
+        if not os.environ.get("GW_KEEP_TMP"):
+            shutil.rmtree(self.tmp, ignore_errors=True)
 
     def stop_and_report(self, tail_lines=60):
         """The end of a test script: SIGTERM to the gateway (recorded as "SIGTERM exits 0"), the log's

@@ -257,6 +257,10 @@ def test_kept_session(fx, binary, broker, contract):
     check_stale(answers.get("too_late", {"type": None}), "not_after", contract)
     check(not audit_entries(gw, "mqtt.away-2"), "the stale one never ran")
     check(len(audit_entries(gw, "mqtt.away-1")) == 1, "the one in time ran once")
+    with open(gw.log_path) as f:
+        log = f.read()
+    check("the broker had no session for it: a new one begins" in log and "the broker kept the session" in log,
+          f"its log says the broker had no session at first, and kept it after the cut: {gw.tail(8)}")
 
 
 def test_clean_session(fx, binary, broker, contract):

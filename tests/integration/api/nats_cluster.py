@@ -44,8 +44,11 @@ def _accepting(port):
 
 
 class NatsCluster:
-    def __init__(self, tmp, procs, nodes=3, name="c1"):
+    def __init__(self, tmp, procs, nodes=3, name="c1", ack_wait=None):
         self.tmp = tmp
+        # NATS's mqtt.ack_wait (default 30 s): a QoS 1 message a client has not acknowledged is sent
+        # again after it, and what a kept session held while its client was away came only then.
+        self.ack_wait = ack_wait
         self.procs = procs  # the fixture's list: whatever is left running is stopped at clean-up
         self.name = name
         ports = _free_ports(3 * nodes)
@@ -64,12 +67,13 @@ class NatsCluster:
         return os.path.join(self.tmp, f"nats-n{i + 1}.log")
 
     def _write_config(self, i):
+        ack_wait = f', ack_wait: "{self.ack_wait}"' if self.ack_wait else ""
         routes = ", ".join(f"nats-route://127.0.0.1:{p}" for j, p in enumerate(self.route_ports) if j != i)
         text = f"""server_name: n{i + 1}
 listen: 127.0.0.1:{self.client_ports[i]}
 jetstream {{ store_dir: "{os.path.join(self.tmp, f'nats-n{i + 1}')}" }}
 cluster {{ name: {self.name}, listen: 127.0.0.1:{self.route_ports[i]}, routes: [{routes}] }}
-mqtt {{ listen: 127.0.0.1:{self.mqtt_ports[i]}, stream_replicas: {len(self.nodes)} }}
+mqtt {{ listen: 127.0.0.1:{self.mqtt_ports[i]}, stream_replicas: {len(self.nodes)}{ack_wait} }}
 """
         with open(self.conf(i), "w") as f:
             f.write(text)
@@ -86,9 +90,16 @@ mqtt {{ listen: 127.0.0.1:{self.mqtt_ports[i]}, stream_replicas: {len(self.nodes
         self.procs.append(self.nodes[i])
 
     def start(self, timeout=60.0):
+        deadline = time.monotonic() + timeout
+        # One after the other, each once it takes routes: nodes that dial each other at the same
+        # instant make duplicate routes, and NATS 2.9 was once seen to leave a node without its
+        # JetStream meta leader after resolving them.
         for i in range(len(self.nodes)):
             self.start_node(i)
-        deadline = time.monotonic() + timeout
+            while not _accepting(self.route_ports[i]) and time.monotonic() < deadline:
+                if self.nodes[i].poll() is not None:
+                    raise RuntimeError(f"nats-server n{i + 1} exited: {self.tail(i)}")
+                time.sleep(0.02)
         while time.monotonic() < deadline:
             if all(_accepting(p) for p in self.mqtt_ports) and self.jetstream_ready():
                 return
@@ -96,7 +107,8 @@ mqtt {{ listen: 127.0.0.1:{self.mqtt_ports[i]}, stream_replicas: {len(self.nodes
                 if p.poll() is not None:
                     raise RuntimeError(f"nats-server n{i + 1} exited: {self.tail(i)}")
             time.sleep(0.2)
-        raise RuntimeError("the NATS cluster did not come up: " + " | ".join(self.tail(i) for i in range(len(self.nodes))))
+        tails = " | ".join(self.tail(i) for i in range(len(self.nodes)))
+        raise RuntimeError("the NATS cluster did not come up: " + tails)
 
     def jetstream_ready(self):
         """Every node's log says JetStream has a meta leader (MQTT needs its streams)."""
@@ -106,7 +118,8 @@ mqtt {{ listen: 127.0.0.1:{self.mqtt_ports[i]}, stream_replicas: {len(self.nodes
                     text = f.read()
             except OSError:
                 return False
-            if "JetStream cluster new metadata leader" not in text and "Self is new JetStream cluster metadata leader" not in text:
+            if ("JetStream cluster new metadata leader" not in text
+                    and "Self is new JetStream cluster metadata leader" not in text):
                 return False
         return True
 
@@ -119,6 +132,20 @@ mqtt {{ listen: 127.0.0.1:{self.mqtt_ports[i]}, stream_replicas: {len(self.nodes
         # Its last start's part of the log: the routes to the others, and a JetStream meta leader known.
         text = text[text.rfind("Starting nats-server"):]
         return text.count("Route connection created") >= len(self.nodes) - 1 and "metadata leader" in text
+
+    def stream_leader(self, stream):
+        """The node (0-based) that last logged itself the new leader of `stream` (e.g. "$MQTT_msgs")."""
+        latest = (None, "")
+        for i in range(len(self.nodes)):
+            with open(self.log(i)) as f:
+                for line in f:
+                    if f"new stream leader for '$G > {stream}'" in line:
+                        stamp = " ".join(line.split()[1:3])
+                        if stamp > latest[1]:
+                            latest = (i, stamp)
+        if latest[0] is None:
+            raise RuntimeError(f"no node has said it leads {stream}")
+        return latest[0]
 
     def kill(self, i):
         """SIGKILL node i (0-based): no goodbye to its clients or its routes."""
