@@ -310,6 +310,7 @@ def kept_session(fx, cluster, binary):
         with open(gw.log_path) as f:
             log = f.read()[log_mark:]
         check("the broker kept the session" in log, f"the gateway says the broker kept its session: {gw.tail(5)}")
+        check(health_mqtt(gw)["session"] == "kept", f"and its health: {health_mqtt(gw)}")
 
         # 2. Its node dies while the way to the others is cut.
         start = axis_position(gw.port, "sim1")
@@ -364,7 +365,7 @@ def main():
             return h if h["connected"] else None
         first = wait_until("connected to a node", connected)
         fx.run("the gateway names the node it is on (health, metrics, log)", lambda: (
-            check(first["broker"] in cluster.broker_uris(), f"health: {first}"),
+            check(first["broker"] in cluster.broker_uris() and first["session"] == "clean", f"health: {first}"),
             check(broker_metric(gw).get(first["broker"]) == 1, f"metrics: {broker_metric(gw)}"),
             check(f"connected to {first['broker']}" in open(gw.log_path).read(), "log"),
         ))

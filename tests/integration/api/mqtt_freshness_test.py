@@ -209,6 +209,12 @@ def test_bearer_deadlines(fx, binary, contract):
         c.close()
 
 
+def health_session(gw):
+    status, body = http_request(gw.port, "GET", "/api/v1/health", token=None)
+    check(status == 200, f"health: {status} {body}")
+    return json.loads(body)["mqtt"]["session"]
+
+
 def sent_while_away(fx, binary, broker, contract, session_expiry_s):
     """Two commands published while the gateway's link is cut: one in time after the link is back, one
     whose deadline passes meanwhile. Returns their answers ({} for none) once the gateway is back."""
@@ -244,14 +250,14 @@ def sent_while_away(fx, binary, broker, contract, session_expiry_s):
             corr = getattr(props, "CorrelationData", None)
             if corr in (in_time, too_late):
                 answers["in_time" if corr == in_time else "too_late"] = json.loads(p)
-        return gw, start, answers
+        return gw, start, answers, health_session(gw)
     finally:
         c.close()
         cutter.close()
 
 
 def test_kept_session(fx, binary, broker, contract):
-    gw, start, answers = sent_while_away(fx, binary, broker, contract, 60)
+    gw, start, answers, session = sent_while_away(fx, binary, broker, contract, 60)
     check(answers.get("in_time", {}).get("type") == "result", f"the command in time ran when it was back: {answers}")
     check(abs(settled_x(gw) - (start + 300)) < 1, f"it moved to {start + 300}: X={x_of(gw)}")
     check_stale(answers.get("too_late", {"type": None}), "not_after", contract)
@@ -261,11 +267,13 @@ def test_kept_session(fx, binary, broker, contract):
         log = f.read()
     check("the broker had no session for it: a new one begins" in log and "the broker kept the session" in log,
           f"its log says the broker had no session at first, and kept it after the cut: {gw.tail(8)}")
+    check(session == "kept", f"health says so: {session}")
 
 
 def test_clean_session(fx, binary, broker, contract):
-    gw, start, answers = sent_while_away(fx, binary, broker, contract, 0)
+    gw, start, answers, session = sent_while_away(fx, binary, broker, contract, 0)
     check(answers == {}, f"without a kept session the broker kept nothing for the gateway: {answers}")
+    check(session == "clean", f"health: {session}")
     check(abs(settled_x(gw) - start) < 1, "and nothing moved")
 
 
