@@ -268,7 +268,7 @@ def kept_session(fx, cluster, binary):
     reply = "clients/kept/replies"
 
     def connected():
-        return not gw.proc.poll() and health_mqtt(gw)["connected"]
+        return gw.proc.poll() is None and health_mqtt(gw)["connected"]
 
     def send_while_away(cid, x):
         wait_until(f"gw-kept lost its broker ({cid})", lambda: not connected(), timeout=30)
