@@ -9,6 +9,8 @@ replicated on all three nodes (`stream_replicas 3`), so that they survive one no
     cluster.start()                      # waits until every MQTT listener accepts and JetStream is up
     brokers = cluster.broker_uris()      # ["tcp://127.0.0.1:P1", ...] for mqtt.brokers
     cluster.kill(1)                      # SIGKILL node 1
+    cluster.stream_leader("$MQTT_msgs")  # the node that leads NATS's MQTT message stream
+    NatsCluster(tmp, procs, ack_wait="2s")  # NATS's mqtt ack_wait (the README's advice for kept sessions)
 """
 
 import os
