@@ -253,10 +253,7 @@ void mqtt_bridge::show_link() {
     if (on.empty())
         ctx_->mqtt_link->disconnected();
     else
-        ctx_->mqtt_link->connected(on, protocol_name(client_->protocol()),
-                                   settings_.config.session_expiry.count() == 0 ? "clean"
-                                   : client_->session_present()                 ? "kept"
-                                                                                : "new");
+        ctx_->mqtt_link->connected(on, protocol_name(client_->protocol()), client_->session());
 }
 
 void mqtt_bridge::publish_birth() {

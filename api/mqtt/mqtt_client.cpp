@@ -8,6 +8,7 @@
 #include <optional>
 #include <random>
 #include <stdexcept>
+#include <string_view>
 #include <utility>
 
 #include <boost/asio/post.hpp>
@@ -422,8 +423,9 @@ void mqtt_client::on_connect_result(bool ok) {
 }
 
 void mqtt_client::log_connected() {
-    if (config_.session_expiry.count() == 0) return log_->info("connected to {} as {}", broker_, client_id_);
-    if (session_present_)
+    const std::string_view session = this->session();
+    if (session == "clean") return log_->info("connected to {} as {}", broker_, client_id_);
+    if (session == "kept")
         return log_->info("connected to {} as {}; the broker kept the session", broker_, client_id_);
     // Expected after the first connect, or once the session expired; otherwise the broker lost it,
     // with whatever it held for this gateway (commands sent while it was away).

@@ -90,8 +90,12 @@ class mqtt_client : public std::enable_shared_from_this<mqtt_client> {
     const std::string& broker() const { return broker_; }
     // mqtt.protocol, or 3.1.1 once a broker refused MQTT 5.
     mqtt_protocol protocol() const { return protocol_; }
-    // With mqtt.session_expiry_s: whether the broker had kept the session at the last connect.
-    bool session_present() const { return session_present_; }
+    // The session of the last connect: "clean" (mqtt.session_expiry_s 0: a new one every time), "kept"
+    // (the broker had kept it) or "new" (it had not).
+    const char* session() const {
+        if (config_.session_expiry.count() == 0) return "clean";
+        return session_present_ ? "kept" : "new";
+    }
     // False (nothing sent) while disconnected or when Paho refuses it.
     bool publish(const mqtt_message_out& m);
     // Kept: made again after a refusal while connected (after resubscribe_delay, doubling up to 30 s).

@@ -40,6 +40,7 @@ from link_cutter import LinkCutter  # noqa: E402
 from gateway_fixture import (TOKENS, Fixture, axis_position, check, http_request, run_main,  # noqa: E402
                              signed_if_token, wait_until)
 from mqtt_api_test import Client, Contract, Gateway, command, payload_json  # noqa: E402
+from mqtt_freshness_test import audit_entries  # noqa: E402
 from nats_cluster import NatsCluster  # noqa: E402
 
 # Time from a node's death to the birth on another one. NATS itself needs a few seconds after the
@@ -217,12 +218,6 @@ def falls_back_to_3_1_1(fx, cluster, binary, contract):
         watcher.close()
         gw.proc.terminate()
         gw.proc.wait(timeout=10)
-
-
-def audit_entries(gw, request_id):
-    status, body = http_request(gw.port, "GET", "/api/v1/audit?controller=sim1&limit=500", token=TOKENS["admin"])
-    check(status == 200, f"audit: {status} {body}")
-    return [e for e in json.loads(body)["entries"] if e["request_id"] == request_id]
 
 
 def publish_until_acknowledged(client, topic, payload):
