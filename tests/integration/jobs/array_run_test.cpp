@@ -284,7 +284,8 @@ TEST_F(array_run_test, a_crash_of_a_pulsing_run_gets_ttl_y0_under_the_recovery_i
     };
     // HALT first. Waited for whole: TTL Y=0 is traced a round trip after the HALT.
     const std::vector<std::string> expected{"\\\\\\r", "TTL Y=0\\r"};
-    ASSERT_TRUE(wait_until([&] { return recovery() == expected; }, 10s)) << testing::PrintToString(recovery());
+    ASSERT_TRUE(wait_until([&] { return recovery() == expected; }, 10s))
+        << testing::PrintToString(recovery());
     EXPECT_TRUE(wait_until([&] { return sim_state("sim1")["ttl"]["out0_mode"] == 0; }, 10s));
     // The crashed manager's run may still see its last move end (a test process cannot kill -9 a
     // coroutine): wait until the stage has stood still for 300 ms, as job_interruption_test does.
