@@ -192,8 +192,12 @@ TEST_F(controller_sim_test, a_guarded_command_never_follows_a_halt_its_caller_di
     auto [ec, reply] = test::await_command(guarded(ms2000::where("X"), seen), 30s);
     EXPECT_FALSE(ec) << "no HALT since: the guarded command goes through";
 
-    // Queued behind a slow one (WHERE in flight), then a HALT: the queued moves are dropped.
+    // Queued behind a slow one (WHERE in flight), then a HALT: the queued moves are dropped. The next
+    // reply is held back 300 ms, so that the moves are still queued when the HALT comes, however slowly
+    // this thread runs (a loaded machine once let both moves reach the wire first). Whatever takes the
+    // held reply (the WHERE or a poll before it), the link stays busy until the HALT is submitted.
     const double start_um = simulated_x_um();
+    c.sim->delay_next_reply(300ms);
     auto first = guarded(ms2000::where("X"), seen);
     auto second = guarded(move_to(start_um + 30000), seen);
     auto third = guarded(move_to(start_um + 40000), seen);
