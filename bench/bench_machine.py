@@ -24,16 +24,16 @@ def machine_line():
     return f"{model}, {os.cpu_count()} cores, Debian {debian}, {platform.machine()}"
 
 
-def publish_section(title, script, details, load_before, load_after, text, met, results_path):
+def publish_section(title, script, details, load_before, load_after, text, met, results_path, verdict=None):
     """Prints a RESULTS.md section (title with the run's time, machine and load, the details line,
-    the tables, the verdict) and appends it to `results_path` when given. Returns the exit code:
-    0 when the goals were met."""
+    the tables, the verdict: "Goals met." or not, or `verdict` for a measurement without goals) and
+    appends it to `results_path` when given. Returns the exit code: 0 when the goals were met."""
     import datetime
 
     when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     section = (f"## {title} ({script}, run of {when})\n\n"
                f"{machine_line()}; load average {load_before[0]:.1f} before, {load_after[0]:.1f} after. "
-               f"{details}\n\n{text}\n\nGoals {'met' if met else 'NOT met'}.\n")
+               f"{details}\n\n{text}\n\n{verdict or ('Goals met.' if met else 'Goals NOT met.')}\n")
     print()
     print(section)
     if results_path:
