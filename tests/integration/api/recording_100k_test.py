@@ -16,8 +16,8 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gateway_fixture import (TOKENS, Fixture, auth_tokens, check, free_port, run_main, vm_kib,  # noqa: E402
-                             wait_until)
+from gateway_fixture import (TOKENS, Failure, Fixture, auth_tokens, check, free_port, run_main,  # noqa: E402
+                             vm_kib, wait_until)
 from recordings_api_test import call, download, move_x  # noqa: E402
 import recordings_api_test  # noqa: E402
 from http_api_test import Contract  # noqa: E402
@@ -44,10 +44,16 @@ def test_100k(fx, port, sim):
                    lambda: json.loads(sim.control("state"))["ttl_edges"] - edges >= PER_TRAIN,
                    timeout=PER_TRAIN / RATE_HZ * 3 + 60)  # real seconds: enough at any scale
 
+        seen = {}
+
         def stored():
             _, body = call(port, "GET", f"/api/v1/recordings/{rid}", token=TOKENS["viewer"])
+            seen.update(frames=body["frames"], losses=body["losses"])
             return body if body["frames"] >= (t + 1) * PER_TRAIN else None
-        wait_until(f"{(t + 1) * PER_TRAIN} frames stored", stored)
+        try:
+            wait_until(f"{(t + 1) * PER_TRAIN} frames stored", stored)
+        except Failure as e:
+            raise Failure(f"{e}; the recording had {seen}, the simulator {sim.control('state')}") from e
     status, done = call(port, "POST", f"/api/v1/recordings/{rid}/stop")
     total = TRAINS * PER_TRAIN
     check(done["frames"] == total and done["losses"] == 0, f"every frame, none lost: {done}")
