@@ -115,6 +115,9 @@ class job_execution final : public job_context, public std::enable_shared_from_t
     void next();
     // The hub of the host is gone (the manager was destroyed): stop quietly.
     void abandon();
+    // The HALT count the run's commands are checked against from now on: read again once what an
+    // earlier run owed the controller was put back (its HALT comes before this run, not during it).
+    void rebase_halts(std::uint64_t halts_seen) { halts_seen_ = halts_seen; }
 
     bool cancelled() const { return cancelled_; }
     bool abandoned() const { return abandoned_; }

@@ -122,7 +122,14 @@ void lane_scheduler::dispatch(const std::string& controller) {
     if (!next) return;
     auto job = states_->find(*next);
     if (job->plan) return launch(job);
-    // Recovered after a restart: plans are not stored, so it is planned again first.
+    // Recovered after a restart: plans are not stored, so it is planned again first, from the
+    // controller's build and limits. While the controller is away it waits at the front of its queue
+    // (controller_came_up dispatches again).
+    if (!controller_connected(controller)) {
+        requeue_holder(*job);
+        states_->set_held_wait(*job, job_wait::controller);
+        return;
+    }
     lanes_.set_planning(controller, true);
     plan_again(job, [self = shared_from_this(), job, controller](const operation_result<void>& planned) {
         self->lanes_.set_planning(controller, false);
@@ -182,6 +189,12 @@ void lane_scheduler::launch(const std::shared_ptr<live_job>& job) {
         strand_,
         [self = shared_from_this(), job, exec]() -> net::awaitable<void> {
             co_await self->recovery_->put_back_before_run(job);
+            // A run that was going when the gateway went down is owed a HALT before anything else; the
+            // put-back sent it, or waited for the recovery that did, and it stops nothing of this run.
+            // A client's HALT meanwhile latched the controller before it was counted: then the run
+            // keeps the count it was launched with, and its first command is refused.
+            const auto halts_now = self->registry_.halts_accepted(job->record.controller);
+            if (!self->halt_latched(job->record.controller)) exec->rebase_halts(halts_now);
             if (job->plan->record)
                 co_await run_recorded(self->recorder_, *exec);
             else
@@ -295,8 +308,11 @@ void lane_scheduler::show_halt_waits(const std::string& controller) {
 // Controller events.
 
 void lane_scheduler::controller_came_up(const std::string& controller) {
-    net::post(strand_,
-              [self = shared_from_this(), controller] { self->recovery_->controller_came_up(controller); });
+    net::post(strand_, [self = shared_from_this(), controller] {
+        // What a crashed run owes it first (its HALT), then the job that waited for it.
+        self->recovery_->controller_came_up(controller);
+        self->dispatch(controller);
+    });
 }
 
 void lane_scheduler::controller_snapshot_changed(const devices::controller_snapshot& s) {

@@ -108,6 +108,40 @@ TEST_P(manager_restart_queued_test, queued_jobs_are_kept_and_started_again_only_
 
 INSTANTIATE_TEST_SUITE_P(on_off, manager_restart_queued_test, ::testing::Bool());
 
+// The crashed run is owed a HALT before anything else reaches its controller. When the controller is
+// away over the restart, the queued job that starts when it is back sends that HALT itself, before its
+// own commands (put_back_before_run): the HALT belongs to the crashed run and must not stop this one.
+TEST_F(manager_recovery_test, a_queued_job_started_after_a_restart_is_not_stopped_by_the_crashed_runs_halt) {
+    restart_queued_ = true;
+    auto s = add_sim("sim3", "planar", 2);
+    start();
+    auto a = submit("sim3", job_type::planar_correction, far_corner_points(5000));
+    auto b = submit("sim3", job_type::planar_correction, {{"action", "clear"}});
+    ASSERT_TRUE(a && b);
+    ASSERT_TRUE(wait_state(a->job.id, job_state::running));
+    s->unplug();
+    const auto before_restart = observer_->locked([&] { return observer_->traces.size(); });
+    restart_manager();
+    ASSERT_TRUE(wait_state(a->job.id, job_state::interrupted));
+    s->replug();
+    ASSERT_TRUE(wait_state(b->job.id, job_state::succeeded));
+    EXPECT_EQ(commands_of(b->job.id), std::vector<std::string>{"CCB Z=7"});
+    // The crashed run's HALT went out before b's command (under the put-back's or the recovery's id).
+    const auto wire = observer_->locked([&] {
+        std::vector<std::string> out;  // wire text without CR, since the restart
+        for (auto t = observer_->traces.begin() + before_restart; t != observer_->traces.end(); ++t) {
+            auto w = t->wire;
+            if (w.ends_with("\\r")) w.resize(w.size() - 2);
+            out.push_back(w);
+        }
+        return out;
+    });
+    const auto halt = std::find(wire.begin(), wire.end(), "\\\\");
+    const auto clear = std::find(wire.begin(), wire.end(), "CCB Z=7");
+    ASSERT_NE(halt, wire.end()) << testing::PrintToString(wire);
+    EXPECT_LT(halt, clear) << testing::PrintToString(wire);
+}
+
 TEST_F(manager_recovery_test, an_unplugged_controller_pauses_the_job_and_resume_finishes_it_after_replug) {
     auto s = add_sim("sim3", "planar", 2);
     start();
