@@ -46,6 +46,7 @@ void paced_writer::enqueue(std::string bytes, clock::time_point not_before) {
         dropped_bytes_ += bytes.size();
         return;
     }
+    if (not_before == clock::time_point{}) not_before = clock::now();
     queue_.push_back({std::move(bytes), 0, not_before});
     pump();
 }
@@ -54,8 +55,9 @@ void paced_writer::pump() {
     if (busy_ || queue_.empty() || !stream_.is_open()) return;
     auto& e = queue_.front();
     const auto n = std::min(chunk_bytes_, e.bytes.size() - e.offset);
-    // The last byte of the chunk reaches the client when the line has carried all n bytes.
-    const auto start = std::max({clock::now(), line_free_, e.not_before});
+    // The last byte of the chunk reaches the client when the line has carried all n bytes. The line
+    // is free when its schedule says so, not when the last write completed (see the header).
+    const auto start = std::max(line_free_, e.not_before);
     const auto deliver_at = start + byte_time_ * static_cast<long>(n);
     busy_ = true;
     const auto gen = generation_;

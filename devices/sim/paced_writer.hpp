@@ -3,6 +3,10 @@
 // simulator's time scale. Every entry may carry an earliest time (a delayed reply, a report frame
 // scheduled after the transmit delay); entries leave strictly in order. One write in flight, on the
 // owner's strand; never blocks.
+// The line keeps its own schedule: each chunk is due when the line has carried the bytes before it,
+// not when the last write happened to complete. A timer that fires late on a loaded machine delays
+// bytes but does not push every later byte back: the writer catches up, as the controller's UART,
+// which does not wait for the host, would have sent them by then.
 
 #include <chrono>
 #include <cstddef>
@@ -29,6 +33,9 @@ class paced_writer : public std::enable_shared_from_this<paced_writer> {
     // Bytes beyond max_queued_bytes are dropped (nobody is reading the port: a real UART would
     // send them into the void) and counted in dropped_bytes().
     static constexpr std::size_t max_queued_bytes = 64 * 1024;
+    // An entry with no earliest time starts when it is enqueued or when the line is free, whichever
+    // is later. One whose earliest time is already past (a frame made late because the strand was
+    // held up) is due at that time, so it goes out at once: the line catches up.
     void enqueue(std::string bytes, clock::time_point not_before = clock::time_point{});
     std::uint64_t dropped_bytes() const { return dropped_bytes_; }
     std::uint64_t bytes_written() const { return bytes_written_; }

@@ -87,7 +87,11 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
         auto j = model_.state(sim_now());
         j["port"] = {{"link", link_},         {"device", main_device_},  {"plugged", !unplugged_},
                      {"bytes_in", bytes_in_}, {"bytes_out", bytes_out_}, {"bytes_dropped", main_dropped_}};
-        if (!report_link_.empty()) j["report_port"] = {{"link", report_link_}, {"device", report_device_}};
+        // bytes_dropped: report bytes the port did not take (nobody reading it); a frame the line was
+        // still busy for is error 87 in the model's reports_dropped instead.
+        if (!report_link_.empty())
+            j["report_port"] = {
+                {"link", report_link_}, {"device", report_device_}, {"bytes_dropped", report_dropped_}};
         j["time_scale"] = config_.time_scale;
         j["baud"] = config_.baud;
         // The model's state may quote bytes a client sent: never throw on them.
@@ -105,7 +109,11 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
             std::lock_guard lock(mutex_);
             frame = model_.ttl_pulse(at ? *at : sim_now());
         }
-        if (frame) report_writer_->enqueue(std::move(frame->bytes), real_time(frame->at));
+        if (frame) {
+            report_writer_->enqueue(std::move(frame->bytes), real_time(frame->at));
+            std::lock_guard lock(mutex_);
+            report_dropped_ = report_writer_->dropped_bytes();
+        }
         schedule_events();
     }
 
@@ -333,6 +341,7 @@ class simulator_impl : public std::enable_shared_from_this<simulator_impl> {
     std::uint64_t bytes_in_ = 0;
     std::uint64_t bytes_out_ = 0;
     std::uint64_t main_dropped_ = 0;
+    std::uint64_t report_dropped_ = 0;
     std::uint64_t rng_ = 0x9E3779B97F4A7C15ull;
 };
 
