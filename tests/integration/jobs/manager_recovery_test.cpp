@@ -127,18 +127,23 @@ TEST_F(manager_recovery_test, a_queued_job_started_after_a_restart_is_not_stoppe
     ASSERT_TRUE(wait_state(b->job.id, job_state::succeeded));
     EXPECT_EQ(commands_of(b->job.id), std::vector<std::string>{"CCB Z=7"});
     // The crashed run's HALT went out before b's command (under the put-back's or the recovery's id).
+    // Traces are kept as commands end: a's command cut off by the unplug may be among those since the
+    // restart, so b's is found by its request id.
     const auto wire = observer_->locked([&] {
-        std::vector<std::string> out;  // wire text without CR, since the restart
+        std::vector<std::pair<std::string, std::string>> out;  // {request id, wire text without CR}
         for (auto t = observer_->traces.begin() + before_restart; t != observer_->traces.end(); ++t) {
             auto w = t->wire;
             if (w.ends_with("\\r")) w.resize(w.size() - 2);
-            out.push_back(w);
+            out.emplace_back(t->request_id, w);
         }
         return out;
     });
-    const auto halt = std::find(wire.begin(), wire.end(), "\\\\");
-    const auto clear = std::find(wire.begin(), wire.end(), "CCB Z=7");
+    const auto halt =
+        std::find_if(wire.begin(), wire.end(), [](const auto& t) { return t.second == "\\\\"; });
+    const auto clear =
+        std::find_if(wire.begin(), wire.end(), [&](const auto& t) { return t.first == "job-" + b->job.id; });
     ASSERT_NE(halt, wire.end()) << testing::PrintToString(wire);
+    ASSERT_NE(clear, wire.end()) << testing::PrintToString(wire);
     EXPECT_LT(halt, clear) << testing::PrintToString(wire);
 }
 
