@@ -9,7 +9,7 @@
 
 namespace gw::devices::sim {
 
-paced_writer::paced_writer(boost::asio::any_io_executor executor, unsigned baud, double time_scale)
+paced_writer::paced_writer(const boost::asio::any_io_executor& executor, unsigned baud, double time_scale)
     : executor_(executor), stream_(executor), timer_(executor) {
     const double scale = time_scale > 0 ? time_scale : 1.0;
     const double byte_seconds = 10.0 / std::max(baud, 1u) / scale;

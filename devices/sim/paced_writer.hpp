@@ -25,14 +25,14 @@ class paced_writer : public std::enable_shared_from_this<paced_writer> {
     using clock = std::chrono::steady_clock;
 
     // `executor` must be the owner's strand.
-    paced_writer(boost::asio::any_io_executor executor, unsigned baud, double time_scale);
+    paced_writer(const boost::asio::any_io_executor& executor, unsigned baud, double time_scale);
 
     void attach(int master_fd);  // takes a dup of the descriptor
     void detach();               // closes it, drops queued bytes, cancels the timer
 
     // Bytes beyond max_queued_bytes are dropped (nobody is reading the port: a real UART would
     // send them into the void) and counted in dropped_bytes().
-    static constexpr std::size_t max_queued_bytes = 64 * 1024;
+    static constexpr std::size_t max_queued_bytes = std::size_t{64} * 1024;
     // An entry with no earliest time starts when it is enqueued or when the line is free, whichever
     // is later. One whose earliest time is already past (a frame made late because the strand was
     // held up) is due at that time, so it goes out at once: the line catches up.
